@@ -1,0 +1,24 @@
+//! The [`Brdf`] trait.
+
+use glam::{Vec2, Vec3};
+
+/// One importance sample of a BRDF.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BrdfSample {
+    /// Sampled incident direction (local frame, unit).
+    pub wi: Vec3,
+    /// f(wo, wi), RGB, without cosine.
+    pub f: Vec3,
+    /// Solid-angle pdf of `wi`.
+    pub pdf: f32,
+}
+
+/// A reflectance model in the local shading frame (see the crate docs).
+pub trait Brdf: Send + Sync + std::fmt::Debug {
+    /// f(wo, wi) in sr⁻¹, RGB, without cosine; zero when either is below the horizon.
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
+    /// Draws wi with density roughly ∝ f · cos from the uniform `u` ∈ [0,1)².
+    fn sample(&self, wo: Vec3, u: Vec2) -> Option<BrdfSample>;
+    /// Solid-angle density of [`Brdf::sample`] producing `wi`.
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+}

@@ -1,0 +1,21 @@
+//! The image stage of relight: a perspective camera, a tiled parallel
+//! software rasterizer (the runtime of every real-time technique), a BVH for
+//! ray casting (visibility, ambient occlusion) and the Monte Carlo
+//! ground-truth renderer that judges every `relight verify`.
+//!
+//! **Architecture invariant:** no file IO; images leave through
+//! `relight-assets`.
+
+pub mod bvh;
+pub mod camera;
+pub mod image;
+pub mod progress;
+pub mod raster;
+pub mod reference;
+pub mod sampling;
+pub mod scene;
+
+pub use camera::Camera;
+pub use image::Image;
+pub use progress::{Cancelled, NoProgress, Progress};
+pub use scene::{Object, Scene};
