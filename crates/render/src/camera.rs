@@ -18,14 +18,14 @@ impl Camera {
     /// `view_from_world` (right-handed, looking down −Z).
     #[must_use]
     pub fn view_from_world(&self) -> Mat4 {
-        Mat4::look_at_rh(self.eye, self.target, self.up)
+        glam::camera::rh::view::look_at_mat4(self.eye, self.target, self.up)
     }
 
-    /// `clip_from_world` with near/far planes `near`, `far`.
+    /// `clip_from_world` with near/far planes `near`, `far` (NDC z in [0, 1], y up).
     #[must_use]
     pub fn clip_from_world(&self, near: f32, far: f32) -> Mat4 {
         let aspect = self.width as f32 / self.height as f32;
-        Mat4::perspective_rh(self.vfov_deg.to_radians(), aspect, near, far) * self.view_from_world()
+        glam::camera::rh::proj::directx::perspective(self.vfov_deg.to_radians(), aspect, near, far) * self.view_from_world()
     }
 
     /// World-space ray (origin, unit direction) through the image point
