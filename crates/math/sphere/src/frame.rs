@@ -8,8 +8,11 @@ use glam::Vec3;
 /// `from_local` maps back (`world_from_local`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
+    /// Tangent (local +X).
     pub x: Vec3,
+    /// Bitangent (local +Y), `z × x`.
     pub y: Vec3,
+    /// Normal (local +Z).
     pub z: Vec3,
 }
 
@@ -35,7 +38,11 @@ impl Frame {
     pub fn from_normal_tangent(n: Vec3, t: Vec3) -> Self {
         let x = (t - n * n.dot(t)).try_normalize();
         match x {
-            Some(x) => Self { x, y: n.cross(x), z: n },
+            Some(x) => Self {
+                x,
+                y: n.cross(x),
+                z: n,
+            },
             None => Self::from_z(n),
         }
     }

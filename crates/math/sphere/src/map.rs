@@ -1,7 +1,29 @@
 //! [`EnvMap`]: RGB radiance (or any spherical RGB function) stored on a [`Param`].
+//!
+//! # Operations
+//!
+//! | operation | definition |
+//! |---|---|
+//! | [`EnvMap::eval`] | `L(d) = Σ_k w_k L_{t_k}` with the seam-aware bilinear footprint [`Param::bilinear`] |
+//! | [`EnvMap::integral`] | `∫ L dω ≈ Σ_i L_i Ω_i` with the exact texel solid angles `Ω_i` |
+//! | [`EnvMap::resample`] | `L'_j = Σ_s Ω_{j,s} L(d_{j,s}) / Σ_s Ω_{j,s}` over `ss²` uv cells `s` of target texel `j` |
+//! | [`EnvMap::rotated`] | the same with `L(R⁻¹ d_{j,s})` (`R = world_from_old`) |
+//!
+//! # Why resampling weights by exact cell solid angles
+//!
+//! A target texel is the *mean* of the radiance over its solid angle. Splitting
+//! it into `ss × ss` equal uv cells and weighting each cell's bilinear lookup by
+//! the cell's exact solid angle (not by the texel-centre Jacobian, and not one
+//! point sample per texel) makes the estimate converge to that mean as `ss`
+//! grows, keeps constants exactly constant (the weights are normalised), and
+//! preserves `∫ L dω` up to the bilinear filtering of the source. Choose `ss` so
+//! that a cell is no larger than a source texel (e.g. `ss = ⌈2 · source
+//! resolution / target resolution⌉`); the cost is `ss²` lookups per target
+//! texel, parallel over target rows.
 
 use crate::param::Param;
-use glam::Vec3;
+use glam::{DVec2, DVec3, Vec3};
+use rayon::prelude::*;
 
 /// An RGB function on the sphere, one linear `Vec3` per texel of `param`.
 ///
@@ -9,22 +31,27 @@ use glam::Vec3;
 /// W·sr⁻¹·m⁻² up to a constant).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvMap {
+    /// The texel layout.
     pub param: Param,
     /// `param.len()` texels in texel order.
     pub texels: Vec<Vec3>,
 }
 
 impl EnvMap {
-    /// A map from texels; `None` when the count does not match `param`.
+    /// A map from texels; `None` when the count does not match `param` or
+    /// `param` is invalid ([`Param::validate`]: a zero size).
     #[must_use]
     pub fn try_new(param: Param, texels: Vec<Vec3>) -> Option<Self> {
-        (texels.len() == param.len()).then_some(Self { param, texels })
+        (param.validate().is_ok() && texels.len() == param.len()).then_some(Self { param, texels })
     }
 
     /// The map with every texel `f(direction)`.
     #[must_use]
     pub fn from_fn(param: Param, f: impl Fn(Vec3) -> Vec3 + Sync) -> Self {
-        let texels = (0..param.len()).map(|i| f(param.dir_from_texel(i))).collect();
+        let texels = (0..param.len())
+            .into_par_iter()
+            .map(|i| f(param.dir_from_texel(i)))
+            .collect();
         Self { param, texels }
     }
 
@@ -32,28 +59,114 @@ impl EnvMap {
     #[must_use]
     pub fn eval(&self, d: Vec3) -> Vec3 {
         let b = self.param.bilinear(d);
-        (0..4).map(|k| self.texels[b.texels[k] as usize] * b.weights[k]).sum()
+        (0..4)
+            .map(|k| self.texels[b.texels[k] as usize] * b.weights[k])
+            .sum()
     }
 
     /// Area-correct resampling onto another parameterization: each target
     /// texel is the solid-angle-weighted mean of `supersample²` bilinear
     /// lookups spread over the target texel.
+    ///
+    /// The target texel is split into `supersample × supersample` equal uv
+    /// cells; each cell contributes the bilinear lookup at its centre weighted
+    /// by the cell's *exact* solid angle ([`Param::uv_rect_solid_angle`]). A
+    /// constant map therefore stays exactly constant and `∫ L dω` is preserved
+    /// up to the filtering error. `supersample = 0` is treated as 1. Parallel
+    /// over target rows (rayon).
     #[must_use]
     pub fn resample(&self, target: Param, supersample: usize) -> EnvMap {
-        let _ = (target, supersample);
-        todo!()
+        self.resample_with(target, supersample, |d| d)
+    }
+
+    /// ∫ L dω per channel (sum of texel × exact solid angle), f64.
+    #[must_use]
+    pub fn integral_f64(&self) -> DVec3 {
+        self.texels
+            .iter()
+            .enumerate()
+            .map(|(i, t)| t.as_dvec3() * self.param.texel_solid_angle(i))
+            .sum()
     }
 
     /// ∫ L dω per channel (sum of texel × exact solid angle).
     #[must_use]
     pub fn integral(&self) -> Vec3 {
-        todo!()
+        self.integral_f64().as_vec3()
     }
 
     /// The map rotated: `out(d) = self(rot⁻¹ d)` (a rotation `world_from_old` of the lighting).
+    ///
+    /// Same parameterization as `self`, resampled area-correctly like
+    /// [`EnvMap::resample`]. `world_from_old` must be a rotation (orthonormal).
     #[must_use]
     pub fn rotated(&self, world_from_old: glam::Mat3, supersample: usize) -> EnvMap {
-        let _ = (world_from_old, supersample);
-        todo!()
+        let old_from_world = world_from_old.as_dmat3().transpose();
+        self.resample_with(self.param, supersample, move |d| old_from_world * d)
+    }
+
+    /// Bilinear lookup in f64 (weights renormalised).
+    #[must_use]
+    pub fn eval_f64(&self, d: DVec3) -> DVec3 {
+        let b = self.param.bilinear_f64(d);
+        let mut acc = DVec3::ZERO;
+        let mut wsum = 0.0;
+        for k in 0..4 {
+            acc += self.texels[b.texels[k]].as_dvec3() * b.weights[k];
+            wsum += b.weights[k];
+        }
+        acc / wsum
+    }
+
+    /// Resampling core: target texel = solid-angle-weighted mean over
+    /// `ss²` cells of `self` looked up at `src_from_target(d)`.
+    fn resample_with(
+        &self,
+        target: Param,
+        supersample: usize,
+        src_from_target: impl Fn(DVec3) -> DVec3 + Sync,
+    ) -> EnvMap {
+        let ss = supersample.max(1);
+        let w = target.width();
+        let mut texels = vec![Vec3::ZERO; target.len()];
+        texels
+            .par_chunks_mut(w.max(1))
+            .enumerate()
+            .for_each(|(row, out)| {
+                for (col, o) in out.iter_mut().enumerate() {
+                    let i = row * w + col;
+                    let (lo, hi) = target.texel_uv_rect(i);
+                    let step = (hi - lo) / ss as f64;
+                    let mut acc = DVec3::ZERO;
+                    let mut wsum = 0.0;
+                    for sy in 0..ss {
+                        for sx in 0..ss {
+                            let a = lo + step * DVec2::new(sx as f64, sy as f64);
+                            let b = lo + step * DVec2::new((sx + 1) as f64, (sy + 1) as f64);
+                            let omega = if ss == 1 {
+                                target.texel_solid_angle(i)
+                            } else {
+                                target.uv_rect_solid_angle(a, b)
+                            };
+                            let d = src_from_target(target.dir_from_uv(0.5 * (a + b)));
+                            let bl = self.param.bilinear_f64(d);
+                            for k in 0..4 {
+                                let wk = omega * bl.weights[k];
+                                acc += self.texels[bl.texels[k]].as_dvec3() * wk;
+                                wsum += wk;
+                            }
+                        }
+                    }
+                    *o = if wsum > 0.0 {
+                        (acc / wsum).as_vec3()
+                    } else {
+                        Vec3::ZERO
+                    };
+                }
+            });
+        EnvMap {
+            param: target,
+            texels,
+        }
     }
 }
