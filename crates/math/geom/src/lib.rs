@@ -1,8 +1,19 @@
-//! Triangle meshes: the data every renderer and baker of relight consumes,
-//! their validation and repair, smooth normals, tangents, subdivision and the
-//! procedural shapes of the embedded default scene.
+//! relight-geom: triangle meshes — the data every renderer and baker of
+//! relight consumes — with their validation and repair, smooth normals,
+//! tangents, affine edits, Loop subdivision and the procedural shapes of the
+//! embedded default scene.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`mesh`] | [`Mesh`], [`Mesh::validate_and_repair`] and its [`RepairReport`], normals, tangents, bounds, transforms, merge, topology counts |
+//! | [`subdivide`] | Loop subdivision, [`Mesh::subdivide_to_vertices`] for benchmark meshes |
+//! | [`shapes`] | uv sphere, icosphere, torus, detailed displaced sphere, plane, quad |
 //!
 //! **Architecture invariant:** no IO here; loaders live in `relight-assets`.
+//! The pure core cannot fail: repair returns a report, not a `Result`.
 
 pub mod mesh;
-pub use mesh::{Mesh, RepairReport};
+pub mod shapes;
+pub mod subdivide;
+
+pub use mesh::{Aabb, Mesh, MeshError, RepairReport};

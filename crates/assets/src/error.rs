@@ -1,0 +1,143 @@
+//! [`AssetError`] and [`LoadReport`].
+
+use relight_geom::RepairReport;
+use std::path::{Path, PathBuf};
+
+/// Why a file could not be read or written. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum AssetError {
+    #[error("{}: file not found", path.display())]
+    Missing { path: PathBuf },
+    #[error("{}: cannot read: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: cannot write: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: truncated file: {detail}", path.display())]
+    Truncated { path: PathBuf, detail: String },
+    #[error("{}: corrupt file: {detail}", path.display())]
+    Corrupt { path: PathBuf, detail: String },
+    #[error("{}: unsupported: {what}", path.display())]
+    Unsupported { path: PathBuf, what: String },
+    #[error("{}: unknown file type (extension `{ext}`); expected {expected}", path.display())]
+    UnknownFormat {
+        path: PathBuf,
+        ext: String,
+        expected: &'static str,
+    },
+    #[error("{}: bad dimensions: {detail}", path.display())]
+    BadDimensions { path: PathBuf, detail: String },
+    #[error("{}: {count} non-finite (NaN or infinite) value(s); fix or re-export the file", path.display())]
+    NonFinite { path: PathBuf, count: usize },
+    #[error("{}: mesh has no valid triangles ({detail})", path.display())]
+    EmptyMesh { path: PathBuf, detail: String },
+}
+
+impl AssetError {
+    pub(crate) fn from_io(path: &Path, e: std::io::Error) -> Self {
+        match e.kind() {
+            std::io::ErrorKind::NotFound => Self::Missing {
+                path: path.to_path_buf(),
+            },
+            std::io::ErrorKind::UnexpectedEof => Self::Truncated {
+                path: path.to_path_buf(),
+                detail: e.to_string(),
+            },
+            _ => Self::Io {
+                path: path.to_path_buf(),
+                source: e,
+            },
+        }
+    }
+    pub(crate) fn corrupt(path: &Path, detail: impl Into<String>) -> Self {
+        Self::Corrupt {
+            path: path.to_path_buf(),
+            detail: detail.into(),
+        }
+    }
+    pub(crate) fn truncated(path: &Path, detail: impl Into<String>) -> Self {
+        Self::Truncated {
+            path: path.to_path_buf(),
+            detail: detail.into(),
+        }
+    }
+    pub(crate) fn unsupported(path: &Path, what: impl Into<String>) -> Self {
+        Self::Unsupported {
+            path: path.to_path_buf(),
+            what: what.into(),
+        }
+    }
+    pub(crate) fn bad_dims(path: &Path, detail: impl Into<String>) -> Self {
+        Self::BadDimensions {
+            path: path.to_path_buf(),
+            detail: detail.into(),
+        }
+    }
+    /// The file the error is about.
+    #[must_use]
+    pub fn path(&self) -> &Path {
+        match self {
+            Self::Missing { path }
+            | Self::Io { path, .. }
+            | Self::Write { path, .. }
+            | Self::Truncated { path, .. }
+            | Self::Corrupt { path, .. }
+            | Self::Unsupported { path, .. }
+            | Self::UnknownFormat { path, .. }
+            | Self::BadDimensions { path, .. }
+            | Self::NonFinite { path, .. }
+            | Self::EmptyMesh { path, .. } => path,
+        }
+    }
+}
+
+/// Soft problems met while loading, returned next to the data (the library
+/// never prints). `warnings` holds one line per problem, ready to show.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LoadReport {
+    /// Human-readable warnings, each naming the file.
+    pub warnings: Vec<String>,
+    /// Pixels with at least one negative channel that were clamped to 0.
+    pub negative_pixels_clamped: usize,
+    /// What mesh validation repaired (meshes only).
+    pub repair: Option<RepairReport>,
+}
+
+impl LoadReport {
+    pub(crate) fn merge(&mut self, other: LoadReport) {
+        self.warnings.extend(other.warnings);
+        self.negative_pixels_clamped += other.negative_pixels_clamped;
+        if other.repair.is_some() {
+            self.repair = other.repair;
+        }
+    }
+}
+
+/// Runs a third-party decoder, turning a panic into [`AssetError::Corrupt`].
+pub(crate) fn guard<T>(
+    path: &Path,
+    what: &str,
+    f: impl FnOnce() -> Result<T, AssetError>,
+) -> Result<T, AssetError> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(r) => r,
+        Err(p) => {
+            let msg = p
+                .downcast_ref::<&str>()
+                .map(|s| (*s).to_string())
+                .or_else(|| p.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(AssetError::corrupt(
+                path,
+                format!("{what} decoder failed: {msg}"),
+            ))
+        }
+    }
+}
