@@ -25,7 +25,8 @@ impl Camera {
     #[must_use]
     pub fn clip_from_world(&self, near: f32, far: f32) -> Mat4 {
         let aspect = self.width as f32 / self.height as f32;
-        glam::camera::rh::proj::directx::perspective(self.vfov_deg.to_radians(), aspect, near, far) * self.view_from_world()
+        glam::camera::rh::proj::directx::perspective(self.vfov_deg.to_radians(), aspect, near, far)
+            * self.view_from_world()
     }
 
     /// World-space ray (origin, unit direction) through the image point

@@ -14,7 +14,11 @@ impl Image {
     /// A black image.
     #[must_use]
     pub fn new(width: usize, height: usize) -> Self {
-        Self { width, height, pixels: vec![Vec3::ZERO; width * height] }
+        Self {
+            width,
+            height,
+            pixels: vec![Vec3::ZERO; width * height],
+        }
     }
 
     /// Pixel at column `x`, row `y`.
@@ -38,6 +42,10 @@ impl Image {
             num += f64::from((*a - *b).length_squared());
             den += f64::from(b.length_squared());
         }
-        if den == 0.0 { if num == 0.0 { 0.0 } else { f64::INFINITY } } else { (num / den).sqrt() }
+        if den == 0.0 {
+            if num == 0.0 { 0.0 } else { f64::INFINITY }
+        } else {
+            (num / den).sqrt()
+        }
     }
 }

@@ -18,4 +18,16 @@ pub mod scene;
 pub use camera::Camera;
 pub use image::Image;
 pub use progress::{Cancelled, NoProgress, Progress};
+pub use raster::{
+    Background, CullMode, DrawCall, Fragment, GBuffer, RasterBenchRow, RasterError, RasterOptions,
+    RasterStats, Rasterizer, VertexAttributes, bench_raster,
+};
 pub use scene::{Object, Scene};
+
+pub use bvh::{Hit, SceneBvh, ShadingPoint, ambient_occlusion, vertex_ambient_occlusion};
+pub use reference::{
+    EnvLight, NormalOverride, RadianceEstimate, ReferenceBenchRow, ReferenceError, ReferenceImage,
+    ReferenceOptions, bench_reference, reference_radiance_at, render_reference,
+    render_reference_with,
+};
+pub use sampling::{EnvFilter, EnvSampler, Rng};

@@ -29,7 +29,11 @@ pub trait Progress: Sync {
     fn is_cancelled(&self) -> bool;
     /// `Err(Cancelled)` once the user asked to stop.
     fn check(&self) -> Result<(), Cancelled> {
-        if self.is_cancelled() { Err(Cancelled) } else { Ok(()) }
+        if self.is_cancelled() {
+            Err(Cancelled)
+        } else {
+            Ok(())
+        }
     }
 }
 
