@@ -1,0 +1,373 @@
+//! `bench_sh`: single-threaded timings of every SH operation (f32), for
+//! `relight bench sh`.
+//!
+//! Each figure is the minimum over several batches of the mean time per call
+//! within a batch (`std::time::Instant`, inputs and outputs through
+//! `std::hint::black_box`, inputs cycled over a set of random rotations /
+//! vectors so nothing is hoisted). `ns_build` is the per-rotation setup
+//! (matrix construction for Ivanic–Ruedenberg, the ZYZ decomposition for the
+//! others; 0 where none), `ns_apply` the application to one coefficient vector,
+//! `ns_total` both together in one loop (what a per-pixel rotation costs).
+
+use crate::basis::eval_sh_into;
+use crate::product::{ExpMethod, ShExp, TripleProduct, log_sh};
+use crate::project::LatLongProjector;
+use crate::rotation::{
+    EulerZyz, IvanicRuedenberg, Rot3, ShRotation, ZyzRotation, rotate_z, rotate_zonal,
+};
+use crate::taylor::{TaylorOrder, TaylorRotation};
+use std::hint::black_box;
+use std::time::Instant;
+
+/// One benchmark row (flat, serialisable).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ShBenchRow {
+    /// `ivanic_ruedenberg`, `zyz`, `taylor1`, `taylor15`, `taylor2`, `z`, `zonal`,
+    /// `eval`, `eval_recurrence`, `product`, `square`, `exp_ps*4`, `exp_hyb`, `log`, `project_latlong`.
+    pub method: String,
+    /// Number of bands n (n² coefficients).
+    pub order: usize,
+    /// Construction per rotation (ns), 0 where none.
+    pub ns_build: f64,
+    /// One application / evaluation (ns).
+    pub ns_apply: f64,
+    /// Build + apply measured together (ns).
+    pub ns_total: f64,
+    /// Free-form remark (sizes, µs for projection).
+    pub note: String,
+}
+
+fn time_ns(reps: usize, batches: usize, mut f: impl FnMut(usize)) -> f64 {
+    // Short batches (≈ reps/50 calls), many of them, minimum taken: on a shared
+    // machine the minimum of short batches is the uncontended cost.
+    let per = (reps / 50).max(1);
+    let mut best = f64::INFINITY;
+    let mut i = 0usize;
+    for _ in 0..batches * 50 {
+        let t = Instant::now();
+        for _ in 0..per {
+            f(i);
+            i = i.wrapping_add(1);
+        }
+        best = best.min(t.elapsed().as_nanos() as f64 / per as f64);
+    }
+    best
+}
+
+fn rng(seed: u64) -> impl FnMut() -> f32 {
+    let mut s = seed.wrapping_mul(0x9E3779B97F4A7C15) | 1;
+    move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        ((s >> 40) as f32 / (1u64 << 24) as f32) - 0.5
+    }
+}
+
+const SET: usize = 64;
+
+fn rotations(small_beta: bool) -> Vec<Rot3<f32>> {
+    let mut r = rng(5);
+    (0..SET)
+        .map(|_| {
+            let (a, b, g) = (r() * 6.0, r() + 0.5, r() * 6.0);
+            let b = if small_beta { b * 0.4 } else { b * 2.5 };
+            Rot3::from_euler_zyz(&EulerZyz::from_angles(a, b, g))
+        })
+        .collect()
+}
+
+fn vectors(n: usize) -> Vec<Vec<f32>> {
+    let mut r = rng(9);
+    (0..SET)
+        .map(|_| (0..n * n).map(|_| r()).collect())
+        .collect()
+}
+
+fn row(
+    method: &str,
+    order: usize,
+    ns_build: f64,
+    ns_apply: f64,
+    ns_total: f64,
+    note: String,
+) -> ShBenchRow {
+    ShBenchRow {
+        method: method.to_string(),
+        order,
+        ns_build,
+        ns_apply,
+        ns_total,
+        note,
+    }
+}
+
+/// Runs all benchmarks. `quick` cuts repetitions ~50× (a smoke test, noisy).
+#[must_use]
+pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
+    let (reps, batches) = if quick { (200, 2) } else { (20_000, 5) };
+    let mut rows = Vec::new();
+    let rots = rotations(false);
+    let small = rotations(true);
+    for n in 2..=10 {
+        let nn = n * n;
+        let vs = vectors(n);
+        let mut dst = vec![0.0f32; nn];
+        let mut scratch = vec![0.0f32; nn];
+
+        // Ivanic–Ruedenberg.
+        let plan = IvanicRuedenberg::<f32>::new(n).expect("order");
+        let mut m = ShRotation::identity(n).expect("order");
+        let b = time_ns(reps, batches, |i| {
+            plan.build(black_box(&rots[i % SET]), &mut m)
+        });
+        black_box(&m);
+        let a = time_ns(reps, batches, |i| {
+            m.apply(black_box(&vs[i % SET]), &mut dst);
+            black_box(&dst);
+        });
+        let t = time_ns(reps, batches, |i| {
+            plan.build(black_box(&rots[i % SET]), &mut m);
+            m.apply(black_box(&vs[i % SET]), &mut dst);
+            black_box(&dst);
+        });
+        rows.push(row("ivanic_ruedenberg", n, b, a, t, String::new()));
+
+        // ZYZ ("ZXZXZ").
+        let zyz = ZyzRotation::<f32>::new(n).expect("order");
+        let eul: Vec<EulerZyz<f32>> = rots.iter().map(|r| r.euler_zyz()).collect();
+        let b = time_ns(reps, batches, |i| {
+            black_box(black_box(&rots[i % SET]).euler_zyz());
+        });
+        let a = time_ns(reps, batches, |i| {
+            zyz.apply_euler(
+                black_box(&eul[i % SET]),
+                black_box(&vs[i % SET]),
+                &mut dst,
+                &mut scratch,
+            );
+            black_box(&dst);
+        });
+        let t = time_ns(reps, batches, |i| {
+            zyz.apply(
+                black_box(&rots[i % SET]),
+                black_box(&vs[i % SET]),
+                &mut dst,
+                &mut scratch,
+            );
+            black_box(&dst);
+        });
+        rows.push(row(
+            "zyz",
+            n,
+            b,
+            a,
+            t,
+            format!("{} non-zeros per fixed X matrix", zyz.x_nonzeros()),
+        ));
+
+        // Taylor (β ≤ 0.4 rad, always the Taylor path).
+        let eul_s: Vec<EulerZyz<f32>> = small.iter().map(|r| r.euler_zyz()).collect();
+        for (name, kind) in [
+            ("taylor1", TaylorOrder::First),
+            ("taylor15", TaylorOrder::OneAndHalf),
+            ("taylor2", TaylorOrder::Second),
+        ] {
+            let tr = TaylorRotation::<f32>::new(n, kind, std::f32::consts::PI).expect("order");
+            let b = time_ns(reps, batches, |i| {
+                black_box(black_box(&small[i % SET]).euler_zyz());
+            });
+            let a = time_ns(reps, batches, |i| {
+                tr.apply_euler(
+                    black_box(&eul_s[i % SET]),
+                    black_box(&vs[i % SET]),
+                    &mut dst,
+                    &mut scratch,
+                );
+                black_box(&dst);
+            });
+            let t = time_ns(reps, batches, |i| {
+                tr.apply(
+                    black_box(&small[i % SET]),
+                    black_box(&vs[i % SET]),
+                    &mut dst,
+                    &mut scratch,
+                );
+                black_box(&dst);
+            });
+            rows.push(row(name, n, b, a, t, "β ≤ 0.4 rad".into()));
+        }
+
+        // Z rotation and zonal rotation.
+        let cs: Vec<(f32, f32)> = (0..SET).map(|i| (i as f32 * 0.1).sin_cos()).collect();
+        let a = time_ns(reps, batches, |i| {
+            let (s, c) = cs[i % SET];
+            rotate_z(
+                n,
+                black_box(c),
+                black_box(s),
+                black_box(&vs[i % SET]),
+                &mut dst,
+            );
+            black_box(&dst);
+        });
+        rows.push(row("z", n, 0.0, a, a, "cos α, sin α given".into()));
+        let dirs: Vec<[f32; 3]> = rots.iter().map(|r| r.apply([0.0, 0.0, 1.0])).collect();
+        let a = time_ns(reps, batches, |i| {
+            rotate_zonal(
+                n,
+                black_box(&vs[i % SET][..n]),
+                black_box(dirs[i % SET]),
+                &mut dst,
+            );
+            black_box(&dst);
+        });
+        rows.push(row("zonal", n, 0.0, a, a, String::new()));
+
+        // Evaluation.
+        let a = time_ns(reps, batches, |i| {
+            eval_sh_into(n, black_box(dirs[i % SET]), &mut dst);
+            black_box(&dst);
+        });
+        rows.push(row(
+            "eval",
+            n,
+            0.0,
+            a,
+            a,
+            if n <= 8 {
+                "generated".into()
+            } else {
+                "recurrence".into()
+            },
+        ));
+        let a = time_ns(reps, batches, |i| {
+            crate::basis::eval_sh_recurrence_into(n, black_box(dirs[i % SET]), &mut dst);
+            black_box(&dst);
+        });
+        rows.push(row("eval_recurrence", n, 0.0, a, a, String::new()));
+    }
+    // Products, exp, log.
+    for n in 3..=8 {
+        let nn = n * n;
+        let vs = vectors(n);
+        let mut dst = vec![0.0f32; nn];
+        let tp = TripleProduct::<f32>::new(n).expect("order");
+        let r = if n >= 7 { reps / 4 } else { reps };
+        let mut scratch = vec![0.0f32; tp.scratch_len()];
+        let a = time_ns(r, batches, |i| {
+            tp.product_with(
+                black_box(&vs[i % SET]),
+                black_box(&vs[(i + 1) % SET]),
+                &mut dst,
+                &mut scratch,
+            );
+            black_box(&dst);
+        });
+        rows.push(row(
+            "product",
+            n,
+            0.0,
+            a,
+            a,
+            "pair products + output-major Γ".into(),
+        ));
+        let a = time_ns(r, batches, |i| {
+            tp.product(
+                black_box(&vs[i % SET]),
+                black_box(&vs[(i + 1) % SET]),
+                &mut dst,
+            );
+            black_box(&dst);
+        });
+        rows.push(row(
+            "product_triples",
+            n,
+            0.0,
+            a,
+            a,
+            format!("{} stored Γ entries", tp.nonzeros_stored()),
+        ));
+        let a = time_ns(r, batches, |i| {
+            tp.square_with(black_box(&vs[i % SET]), &mut dst, &mut scratch);
+            black_box(&dst);
+        });
+        rows.push(row("square", n, 0.0, a, a, String::new()));
+        let mut ex = ShExp::<f32>::new(n).expect("order");
+        for (name, m) in [
+            ("exp_ps*4", ExpMethod::PsStar(4)),
+            ("exp_hyb", ExpMethod::Hyb),
+        ] {
+            let a = time_ns(r / 4 + 1, batches, |i| {
+                ex.exp(m, black_box(&vs[i % SET]), &mut dst);
+                black_box(&dst);
+            });
+            rows.push(row(name, n, 0.0, a, a, String::new()));
+        }
+        let tp64 = TripleProduct::<f64>::new(n).expect("order");
+        let g: Vec<Vec<f64>> = vs
+            .iter()
+            .map(|v| {
+                let mut g: Vec<f64> = v.iter().map(|&x| 0.2 * x as f64).collect();
+                g[0] += 3.0;
+                g
+            })
+            .collect();
+        let lr = if quick { 5 } else { 200 };
+        let a = time_ns(lr, batches.min(3), |i| {
+            black_box(log_sh(&tp64, black_box(&g[i % SET]), 0.02).ok());
+        });
+        rows.push(row("log", n, 0.0, a, a, "f64, eigen-analysis".into()));
+    }
+    // Projection of a 256×128 RGB lat-long map.
+    let (w, h) = (256usize, 128usize);
+    let param = relight_sphere::Param::LatLong {
+        width: w,
+        height: h,
+    };
+    let mut r = rng(3);
+    let texels: Vec<glam::Vec3> = (0..w * h)
+        .map(|_| glam::Vec3::new(r(), r(), r()) + 0.5)
+        .collect();
+    for n in [3, 6, 10] {
+        let pr = LatLongProjector::new(param, n).expect("order");
+        let pr_reps = if quick { 3 } else { 200 };
+        let a = time_ns(pr_reps, batches, |_| {
+            black_box(pr.project(black_box(&texels)).ok());
+        });
+        let t = time_ns(pr_reps.div_ceil(4), batches, |_| {
+            let pr = LatLongProjector::new(param, n).expect("order");
+            black_box(pr.project(black_box(&texels)).ok());
+        });
+        rows.push(row(
+            "project_latlong",
+            n,
+            t - a,
+            a,
+            t,
+            format!(
+                "256x128 RGB: {:.1} µs (with projector build {:.1} µs)",
+                a / 1000.0,
+                t / 1000.0
+            ),
+        ));
+    }
+    rows
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn bench_quick_smoke() {
+        let rows = super::bench_sh(true);
+        assert!(
+            rows.iter()
+                .all(|r| r.ns_apply.is_finite() && r.ns_apply > 0.0)
+        );
+        assert!(rows.iter().any(|r| r.method == "taylor15" && r.order == 6));
+        assert!(
+            rows.iter()
+                .any(|r| r.method == "project_latlong" && r.order == 10)
+        );
+    }
+}

@@ -1,0 +1,568 @@
+//! Křivánek et al.'s Taylor approximation of the SH Y rotation (2006).
+//!
+//! `R = R_z(α) R_y(β) R_z(γ)`; the Z rotations are exact and O(n²)
+//! ([`crate::rotation::rotate_z`]); the Y rotation is replaced by its Taylor
+//! expansion at β = 0 (paper §3):
+//!
+//! `R_y(β) ≈ I + β R_y'(0) + β²/2 R_y''(0)`.
+//!
+//! * **1st order**: `I + β R'`. `R'` is antisymmetric with non-zeros only on the
+//!   sub- and super-diagonal of each band block (Figure 2), so only the
+//!   sub-diagonal is stored.
+//! * **1.5th order** (`shRotYdiff15`): adds only the *diagonal* of `β²/2 R''`.
+//! * **2nd order**: the full `R''`, non-zero on the main diagonal and the
+//!   diagonals two away from it.
+//!
+//! Cost `5n²` multiplications for the 1.5th order Y step (§3.1), O(n²) in total.
+//! The derivative matrices are computed as in Appendix A: the Ivanic–Ruedenberg
+//! recurrence carried out on truncated Taylor jets `(f, f', f'')` with the
+//! product rule `(fg)'' = f''g + 2f'g' + fg''`, starting from band 1 of
+//! `R_y(β)` (`cos β → (1, 0, −1)`, `sin β → (0, 1, 0)`). They are tested against
+//! finite differences of the exact rotation.
+//!
+//! The approximation is only valid for small β; [`TaylorRotation`] switches to
+//! the exact ZYZ rotation above `β_lim` (§4.2; the paper's radiance cache uses
+//! `β_lim = 1.25 a` for its allowed error `a`).
+//!
+//! The vectors are stored flat over the whole coefficient vector (entries that
+//! would couple different bands are zero), so the apply loops are single
+//! contiguous sweeps that vectorise.
+
+use crate::rotation::{EulerZyz, Rot3, ZyzRotation, rotate_z, rotate_z_in_place};
+use crate::{MAX_ORDER, Real, ShError, check_order};
+
+/// Which Taylor expansion to use for the Y rotation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub enum TaylorOrder {
+    /// `I + β R'`.
+    First,
+    /// `I + β R' + β²/2 diag(R'')` — the paper's `shRotYdiff15`.
+    OneAndHalf,
+    /// `I + β R' + β²/2 R''`.
+    Second,
+}
+
+/// `(f, f', f'')` at β = 0.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Jet([f64; 3]);
+
+impl Jet {
+    const ZERO: Jet = Jet([0.0; 3]);
+    fn c(v: f64) -> Self {
+        Jet([v, 0.0, 0.0])
+    }
+    fn mul(self, o: Jet) -> Jet {
+        let (a, b) = (self.0, o.0);
+        Jet([
+            a[0] * b[0],
+            a[1] * b[0] + a[0] * b[1],
+            a[2] * b[0] + 2.0 * a[1] * b[1] + a[0] * b[2],
+        ])
+    }
+    fn add(self, o: Jet) -> Jet {
+        Jet([self.0[0] + o.0[0], self.0[1] + o.0[1], self.0[2] + o.0[2]])
+    }
+    fn sub(self, o: Jet) -> Jet {
+        Jet([self.0[0] - o.0[0], self.0[1] - o.0[1], self.0[2] - o.0[2]])
+    }
+    fn scale(self, s: f64) -> Jet {
+        Jet([self.0[0] * s, self.0[1] * s, self.0[2] * s])
+    }
+}
+
+/// The Y-rotation derivative matrices `R_y'(0)`, `R_y''(0)` in block-diagonal
+/// storage ([`crate::rotation::block_offset`]), f64, by the jet recurrence.
+/// Returns `(first, second)`.
+#[must_use]
+pub fn y_rotation_derivatives(order: usize) -> (Vec<f64>, Vec<f64>) {
+    use crate::rotation::{block_len, block_offset};
+    let n = order;
+    let mut b = vec![Jet::ZERO; block_len(n)];
+    b[0] = Jet::c(1.0);
+    if n > 1 {
+        // Band 1 of R_y(β) in (y, z, x) order without CS signs:
+        // R = [[c,0,s],[0,1,0],[−s,0,c]] → r1[i][j] = R[p(i)][p(j)], p = (1, 2, 0).
+        let (c, s) = (Jet([1.0, 0.0, -1.0]), Jet([0.0, 1.0, 0.0]));
+        let r = [
+            [c, Jet::ZERO, s],
+            [Jet::ZERO, Jet::c(1.0), Jet::ZERO],
+            [s.scale(-1.0), Jet::ZERO, c],
+        ];
+        let p = [1usize, 2, 0];
+        for i in 0..3 {
+            for j in 0..3 {
+                b[1 + i * 3 + j] = r[p[i]][p[j]];
+            }
+        }
+    }
+    let uvw = crate::rotation::ivanic_ruedenberg_uvw(n);
+    let r1: [Jet; 9] = if n > 1 {
+        b[1..10].try_into().unwrap()
+    } else {
+        [Jet::ZERO; 9]
+    };
+    let r1 = |i: isize, j: isize| r1[((i + 1) * 3 + (j + 1)) as usize];
+    for l in 2..n {
+        let li = l as isize;
+        let (head, tail) = b.split_at_mut(block_offset(l));
+        let prev = &head[block_offset(l - 1)..];
+        let lp = li - 1;
+        let wp = (2 * l - 1) as isize;
+        let pv = |a: isize, c: isize| prev[((a + lp) * wp + (c + lp)) as usize];
+        let p = |i: isize, a: isize, c: isize| -> Jet {
+            if c == li {
+                r1(i, 1).mul(pv(a, lp)).sub(r1(i, -1).mul(pv(a, -lp)))
+            } else if c == -li {
+                r1(i, 1).mul(pv(a, -lp)).add(r1(i, -1).mul(pv(a, lp)))
+            } else {
+                r1(i, 0).mul(pv(a, c))
+            }
+        };
+        let w = 2 * l + 1;
+        for m in -li..=li {
+            for nn in -li..=li {
+                let k = (m + li) as usize * w + (nn + li) as usize;
+                let [u, v, ww] = uvw[block_offset(l) + k];
+                let mut acc = Jet::ZERO;
+                if m.abs() < li {
+                    acc = acc.add(p(0, m, nn).scale(u));
+                }
+                let vv = if m == 0 {
+                    p(1, 1, nn).add(p(-1, -1, nn))
+                } else if m == 1 {
+                    p(1, 0, nn).scale(std::f64::consts::SQRT_2)
+                } else if m == -1 {
+                    p(-1, 0, nn).scale(std::f64::consts::SQRT_2)
+                } else if m > 0 {
+                    p(1, m - 1, nn).sub(p(-1, -m + 1, nn))
+                } else {
+                    p(1, m + 1, nn).add(p(-1, -m - 1, nn))
+                };
+                acc = acc.add(vv.scale(v));
+                if m != 0 && m.abs() < li - 1 {
+                    let wv = if m > 0 {
+                        p(1, m + 1, nn).add(p(-1, -m - 1, nn))
+                    } else {
+                        p(1, m - 1, nn).sub(p(-1, -m + 1, nn))
+                    };
+                    acc = acc.add(wv.scale(ww));
+                }
+                tail[k] = acc;
+            }
+        }
+    }
+    // Condon–Shortley signs (−1)^{m₁+m₂}.
+    for l in 1..n {
+        let w = 2 * l + 1;
+        let o = block_offset(l);
+        for i in 0..w {
+            for j in ((i + 1) % 2..w).step_by(2) {
+                b[o + i * w + j] = b[o + i * w + j].scale(-1.0);
+            }
+        }
+    }
+    (
+        b.iter().map(|j| j.0[1]).collect(),
+        b.iter().map(|j| j.0[2]).collect(),
+    )
+}
+
+/// The Taylor-expanded Y rotation for one order: the stored diagonals of
+/// `R_y'(0)` and `R_y''(0)` over the flat coefficient vector.
+#[derive(Clone, Debug)]
+pub struct TaylorY<T> {
+    order: usize,
+    /// `sub[i] = R'[i][i−1]` (0 at band starts), length `n² + 1` (last = 0).
+    sub: Vec<T>,
+    /// `½ R''[i][i]`.
+    half_diag2: Vec<T>,
+    /// `½ R''[i][i−2]` (0 across bands), length `n²`.
+    half_sub2: Vec<T>,
+    /// `½ R''[i][i+2]`, length `n²`.
+    half_sup2: Vec<T>,
+}
+
+impl<T: Real> TaylorY<T> {
+    /// Derivative matrices for `order` bands.
+    pub fn new(order: usize) -> Result<Self, ShError> {
+        check_order("order", order, MAX_ORDER)?;
+        let (d1, d2) = y_rotation_derivatives(order);
+        let nn = order * order;
+        let mut sub = vec![T::ZERO; nn + 1];
+        let mut half_diag2 = vec![T::ZERO; nn];
+        let mut half_sub2 = vec![T::ZERO; nn];
+        let mut half_sup2 = vec![T::ZERO; nn];
+        for l in 0..order {
+            let w = 2 * l + 1;
+            let o = crate::rotation::block_offset(l);
+            for i in 0..w {
+                let g = l * l + i;
+                if i >= 1 {
+                    sub[g] = T::from_f64(d1[o + i * w + i - 1]);
+                }
+                half_diag2[g] = T::from_f64(0.5 * d2[o + i * w + i]);
+                if i >= 2 {
+                    half_sub2[g] = T::from_f64(0.5 * d2[o + i * w + i - 2]);
+                }
+                if i + 2 < w {
+                    half_sup2[g] = T::from_f64(0.5 * d2[o + i * w + i + 2]);
+                }
+            }
+        }
+        Ok(Self {
+            order,
+            sub,
+            half_diag2,
+            half_sub2,
+            half_sup2,
+        })
+    }
+
+    /// Number of bands.
+    #[must_use]
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// `dst ≈ R_y(β) src` with the chosen expansion (β in radians). Orders ≤ 8
+    /// run fully unrolled code.
+    ///
+    /// # Panics
+    /// If `src` or `dst` is shorter than `order²`.
+    #[inline]
+    pub fn apply(&self, kind: TaylorOrder, beta: T, src: &[T], dst: &mut [T]) {
+        match self.order {
+            1 => dst[0] = src[0],
+            2 => self.apply_fixed::<4>(kind, beta, src, dst),
+            3 => self.apply_fixed::<9>(kind, beta, src, dst),
+            4 => self.apply_fixed::<16>(kind, beta, src, dst),
+            5 => self.apply_fixed::<25>(kind, beta, src, dst),
+            6 => self.apply_fixed::<36>(kind, beta, src, dst),
+            7 => self.apply_fixed::<49>(kind, beta, src, dst),
+            8 => self.apply_fixed::<64>(kind, beta, src, dst),
+            n => self.apply_dyn(n * n, kind, beta, src, dst),
+        }
+    }
+
+    #[inline(always)]
+    fn apply_fixed<const NN: usize>(&self, kind: TaylorOrder, beta: T, src: &[T], dst: &mut [T]) {
+        self.apply_dyn(NN, kind, beta, src, dst);
+    }
+
+    #[inline(always)]
+    fn apply_dyn(&self, nn: usize, kind: TaylorOrder, beta: T, src: &[T], dst: &mut [T]) {
+        let (src, dst) = (&src[..nn], &mut dst[..nn]);
+        let sub = &self.sub[..nn + 1];
+        let bb = beta * beta;
+        match kind {
+            TaylorOrder::First => {
+                dst[0] = src[0];
+                for i in 1..nn - 1 {
+                    dst[i] = src[i] + beta * (sub[i] * src[i - 1] - sub[i + 1] * src[i + 1]);
+                }
+                dst[nn - 1] = src[nn - 1] + beta * sub[nn - 1] * src[nn - 2];
+            }
+            TaylorOrder::OneAndHalf => {
+                let d2 = &self.half_diag2[..nn];
+                dst[0] = src[0];
+                for i in 1..nn - 1 {
+                    dst[i] = src[i] * (T::ONE + bb * d2[i])
+                        + beta * (sub[i] * src[i - 1] - sub[i + 1] * src[i + 1]);
+                }
+                dst[nn - 1] =
+                    src[nn - 1] * (T::ONE + bb * d2[nn - 1]) + beta * sub[nn - 1] * src[nn - 2];
+            }
+            TaylorOrder::Second => {
+                let (d2, s2, p2) = (
+                    &self.half_diag2[..nn],
+                    &self.half_sub2[..nn],
+                    &self.half_sup2[..nn],
+                );
+                dst[0] =
+                    src[0] * (T::ONE + bb * d2[0]) - beta * sub[1] * src[1] + bb * p2[0] * src[2];
+                dst[1] = src[1] * (T::ONE + bb * d2[1])
+                    + beta * (sub[1] * src[0] - sub[2] * src[2])
+                    + bb * p2[1] * src[3];
+                for i in 2..nn - 2 {
+                    dst[i] = src[i] * (T::ONE + bb * d2[i])
+                        + beta * (sub[i] * src[i - 1] - sub[i + 1] * src[i + 1])
+                        + bb * (s2[i] * src[i - 2] + p2[i] * src[i + 2]);
+                }
+                for i in (nn - 2).max(2)..nn {
+                    let mut v = src[i] * (T::ONE + bb * d2[i])
+                        + beta * sub[i] * src[i - 1]
+                        + bb * s2[i] * src[i - 2];
+                    if i + 1 < nn {
+                        v -= beta * sub[i + 1] * src[i + 1];
+                    }
+                    dst[i] = v;
+                }
+            }
+        }
+    }
+}
+
+/// `atan2(y, x)` for `y ≥ 0` (β from its sine and cosine) by a degree-11
+/// minimax polynomial: absolute error < 2e-6 rad.
+#[inline]
+#[must_use]
+pub fn fast_atan2_upper<T: Real>(y: T, x: T) -> T {
+    let ax = x.abs();
+    let (num, den, swap) = if y > ax {
+        (ax, y, true)
+    } else {
+        (y, ax, false)
+    };
+    let t = if den > T::ZERO { num / den } else { T::ZERO };
+    let t2 = t * t;
+    let c = |v: f64| T::from_f64(v);
+    let p = t
+        * (c(0.999_866_0)
+            + t2 * (c(-0.330_299_5)
+                + t2 * (c(0.180_141_0) + t2 * (c(-0.085_133_0) + t2 * (c(0.020_835_1))))));
+    let a = if swap {
+        c(std::f64::consts::FRAC_PI_2) - p
+    } else {
+        p
+    };
+    if x < T::ZERO {
+        c(std::f64::consts::PI) - a
+    } else {
+        a
+    }
+}
+
+/// A full rotation with the Taylor-expanded Y step: `R_z(α) R̃_y(β) R_z(γ)`,
+/// switching to the exact ZYZ rotation when `β > beta_lim` (§4.2).
+#[derive(Clone, Debug)]
+pub struct TaylorRotation<T> {
+    pub kind: TaylorOrder,
+    /// Largest β (radians) handled by the Taylor expansion.
+    pub beta_lim: T,
+    taylor: TaylorY<T>,
+    exact: ZyzRotation<T>,
+}
+
+impl<T: Real> TaylorRotation<T> {
+    /// Plan for `order` bands. `beta_lim` in radians (use `T::from_f64(f64::INFINITY)`
+    /// to never switch).
+    pub fn new(order: usize, kind: TaylorOrder, beta_lim: T) -> Result<Self, ShError> {
+        if beta_lim.to_f64().is_nan() || beta_lim < T::ZERO {
+            return Err(ShError::InvalidParameter {
+                what: "beta_lim",
+                why: "must be ≥ 0 radians".into(),
+            });
+        }
+        Ok(Self {
+            kind,
+            beta_lim,
+            taylor: TaylorY::new(order)?,
+            exact: ZyzRotation::new(order)?,
+        })
+    }
+
+    /// The underlying Y step.
+    #[must_use]
+    pub fn taylor_y(&self) -> &TaylorY<T> {
+        &self.taylor
+    }
+
+    /// Applies the rotation given by Euler angles; `scratch` needs `order²` entries.
+    /// Returns `true` when the Taylor path was used, `false` when β exceeded the limit.
+    #[inline]
+    pub fn apply_euler(
+        &self,
+        e: &EulerZyz<T>,
+        src: &[T],
+        dst: &mut [T],
+        scratch: &mut [T],
+    ) -> bool {
+        let beta = fast_atan2_upper(e.sin_beta, e.cos_beta);
+        if beta > self.beta_lim {
+            self.exact.apply_euler(e, src, dst, scratch);
+            return false;
+        }
+        let n = self.taylor.order;
+        rotate_z(n, e.cos_gamma, e.sin_gamma, src, scratch);
+        self.taylor.apply(self.kind, beta, scratch, dst);
+        rotate_z_in_place(n, e.cos_alpha, e.sin_alpha, dst);
+        true
+    }
+
+    /// Decomposes `rot` (ZYZ) and applies it; see [`apply_euler`](Self::apply_euler).
+    #[inline]
+    pub fn apply(&self, rot: &Rot3<T>, src: &[T], dst: &mut [T], scratch: &mut [T]) -> bool {
+        self.apply_euler(&rot.euler_zyz(), src, dst, scratch)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rotation::tests::rand_vec;
+    use crate::rotation::{ShRotation, block_offset};
+
+    fn ry(order: usize, beta: f64) -> ShRotation<f64> {
+        ShRotation::from_rotation(
+            order,
+            &Rot3::from_axis_angle([0.0, 1.0, 0.0], beta).unwrap(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let order = 9;
+        let (d1, d2) = y_rotation_derivatives(order);
+        let h = 1e-4;
+        let (p, m, z) = (ry(order, h), ry(order, -h), ry(order, 0.0));
+        for k in 0..d1.len() {
+            let fd1 = (p.blocks()[k] - m.blocks()[k]) / (2.0 * h);
+            let fd2 = (p.blocks()[k] - 2.0 * z.blocks()[k] + m.blocks()[k]) / (h * h);
+            assert!(
+                (fd1 - d1[k]).abs() < 1e-6,
+                "R' entry {k}: jet {} vs FD {fd1}",
+                d1[k]
+            );
+            assert!(
+                (fd2 - d2[k]).abs() < 1e-4,
+                "R'' entry {k}: jet {} vs FD {fd2}",
+                d2[k]
+            );
+        }
+        // Sparsity of Figure 2: R' only on the ±1 diagonals, R'' on 0 and ±2.
+        for l in 0..order {
+            let w = 2 * l + 1;
+            for i in 0..w {
+                for j in 0..w {
+                    let k = block_offset(l) + i * w + j;
+                    let di = i as isize - j as isize;
+                    if di.abs() != 1 {
+                        assert!(d1[k].abs() < 1e-12, "R' ({l},{i},{j}) = {}", d1[k]);
+                    }
+                    if di != 0 && di.abs() != 2 {
+                        assert!(d2[k].abs() < 1e-12, "R'' ({l},{i},{j}) = {}", d2[k]);
+                    }
+                }
+                // antisymmetry of R'
+                if i + 1 < w {
+                    let (a, b) = (
+                        d1[block_offset(l) + i * w + i + 1],
+                        d1[block_offset(l) + (i + 1) * w + i],
+                    );
+                    assert!((a + b).abs() < 1e-12);
+                }
+            }
+        }
+    }
+
+    /// Largest singular value of the error matrix `R_y(β) − R̃_y(β)` (Figure 3, top row).
+    fn max_error(order: usize, kind: TaylorOrder, beta: f64) -> f64 {
+        let t = TaylorY::<f64>::new(order).unwrap();
+        let exact = ry(order, beta);
+        let nn = order * order;
+        let mut e = nalgebra::DMatrix::<f64>::zeros(nn, nn);
+        let mut col = vec![0.0; nn];
+        let mut out = vec![0.0; nn];
+        let mut ex = vec![0.0; nn];
+        for j in 0..nn {
+            col.fill(0.0);
+            col[j] = 1.0;
+            t.apply(kind, beta, &col, &mut out);
+            exact.apply(&col, &mut ex);
+            for i in 0..nn {
+                e[(i, j)] = ex[i] - out[i];
+            }
+        }
+        e.singular_values().max()
+    }
+
+    #[test]
+    fn taylor_error_shape_of_figure_3() {
+        for order in [5, 8] {
+            let b = 0.05;
+            let e1 = [
+                max_error(order, TaylorOrder::First, b),
+                max_error(order, TaylorOrder::First, 2.0 * b),
+            ];
+            let e15 = [
+                max_error(order, TaylorOrder::OneAndHalf, b),
+                max_error(order, TaylorOrder::OneAndHalf, 2.0 * b),
+            ];
+            let e2 = [
+                max_error(order, TaylorOrder::Second, b),
+                max_error(order, TaylorOrder::Second, 2.0 * b),
+            ];
+            // Ordering: 2nd < 1.5th < 1st, errors grow with β.
+            assert!(
+                e2[0] < e15[0] && e15[0] < e1[0],
+                "order {order}: e1 {e1:?} e15 {e15:?} e2 {e2:?}"
+            );
+            // Growth rates: 1st order error ∝ β², 2nd order ∝ β³.
+            let r1 = e1[1] / e1[0];
+            let r2 = e2[1] / e2[0];
+            assert!(
+                (r1 - 4.0).abs() < 0.4,
+                "order {order}: 1st-order error ratio {r1} (expect ≈4)"
+            );
+            assert!(
+                (r2 - 8.0).abs() < 0.8,
+                "order {order}: 2nd-order error ratio {r2} (expect ≈8)"
+            );
+            // Higher SH order → larger error (Figure 3 left vs right).
+            if order == 8 {
+                assert!(
+                    max_error(8, TaylorOrder::OneAndHalf, 0.2)
+                        > max_error(5, TaylorOrder::OneAndHalf, 0.2)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn full_taylor_rotation_and_switch() {
+        let order = 6;
+        let f = rand_vec(1, order * order);
+        let e = EulerZyz::from_angles(0.7f64, 0.05, -1.2);
+        let rot = Rot3::from_euler_zyz(&e);
+        let exact = ShRotation::from_rotation(order, &rot).unwrap();
+        let mut want = vec![0.0; order * order];
+        exact.apply(&f, &mut want);
+        let norm = f.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let mut out = vec![0.0; order * order];
+        let mut scratch = vec![0.0; order * order];
+        for (kind, tol) in [
+            (TaylorOrder::First, 0.05),
+            (TaylorOrder::OneAndHalf, 0.02),
+            (TaylorOrder::Second, 0.002),
+        ] {
+            let t = TaylorRotation::new(order, kind, 0.3).unwrap();
+            assert!(t.apply(&rot, &f, &mut out, &mut scratch));
+            let err = out
+                .iter()
+                .zip(&want)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>()
+                .sqrt()
+                / norm;
+            assert!(err < tol, "{kind:?}: relative error {err}");
+        }
+        // Above β_lim the exact path is taken.
+        let big = Rot3::from_euler_zyz(&EulerZyz::from_angles(0.7f64, 0.9, -1.2));
+        let exact = ShRotation::from_rotation(order, &big).unwrap();
+        exact.apply(&f, &mut want);
+        let t = TaylorRotation::new(order, TaylorOrder::OneAndHalf, 0.3).unwrap();
+        assert!(!t.apply(&big, &f, &mut out, &mut scratch));
+        assert!(out.iter().zip(&want).all(|(a, b)| (a - b).abs() < 1e-12));
+        assert!(TaylorRotation::<f32>::new(order, TaylorOrder::First, -1.0).is_err());
+    }
+
+    #[test]
+    fn fast_atan2_accuracy() {
+        for k in 0..=1000 {
+            let b = std::f64::consts::PI * k as f64 / 1000.0;
+            let got = fast_atan2_upper(b.sin(), b.cos());
+            assert!((got - b).abs() < 2e-5, "β {b}: {got}");
+        }
+    }
+}
