@@ -1,1 +1,52 @@
-//! relight-wavelet
+//! relight-wavelet: all-frequency environment-map rendering with Haar
+//! wavelets on octahedral maps and precomputed wavelet rotation matrices
+//! (Wang, Ng, Luebke, Humphreys, "Efficient Wavelet Rotation for Environment
+//! Map Rendering", EGSR 2006 — "wavelet-rotation-2006").
+//!
+//! # Pipeline
+//! ```text
+//!  bake (once)                     lighting change                 view change
+//!  ───────────                     ───────────────                 ───────────
+//!  rotation matrices 𝐑_k  ──┐      L → octahedral n×n → Haar →     per vertex: BRDF slice 𝐅(ω_o)
+//!  (rotation.rs)            ├──►   top-k 𝐋 → L̃_k = 𝐑_k 𝐋 for  ──►  · bilinear(L̃ of 4 normals)
+//!  BRDF slices 𝐅(ω_o)  ─────┘      every sampled normal k           × AO → Gouraud raster
+//!  (brdf_bake.rs)                  (lighting.rs, rotation.rs)       (render.rs)
+//! ```
+//! B(n, ω_o) = 𝐅_r(ω_o) · (𝐑_(n) 𝐋) (paper Eq. 7). The solid angle of every
+//! target texel is folded into the BRDF slices, so the wavelet dot product is
+//! a quadrature of the reflection integral (Eq. 1).
+//!
+//! # Entry points (what the CLI calls)
+//! * `relight bake rotation`: [`RotationParams::new`] → [`bake_rotation`] →
+//!   [`RotationMatrices::save`]; [`RotationMatrices::load_expect`] memory-maps it back.
+//! * `relight bake brdf`: [`BrdfBakeParams::new`] → [`bake_brdf`] → [`BrdfBake::save`].
+//! * `relight render --method wavelet`: [`bake_or_load_rotation`] and
+//!   [`bake_or_load_brdf`] (cache keyed by every parameter, [`default_cache_dir`]),
+//!   [`WaveletRenderer::new`], [`WaveletRenderer::set_lighting`] with
+//!   [`light_rotation`]`(yaw, pitch, roll)`, [`WaveletRenderer::render`].
+//! * `relight verify wavelet`: [`verify_wavelet`] (image error vs the reference
+//!   renderer) and [`verify_rotation`] (Figure 7); `relight bench wavelet`:
+//!   [`bench_wavelet`].
+//!
+//! Modules: [`octa`] (maps, normal grid, frame rule), [`rotation`] (matrices,
+//! bake, file), [`brdf_bake`] (BRDF slices, file), [`lighting`] (source
+//! lighting), [`render`] (runtime), [`study`] (verify + bench rows),
+//! [`format`] (bake container).
+
+pub mod brdf_bake;
+pub mod error;
+pub mod format;
+pub mod lighting;
+pub mod octa;
+pub mod render;
+pub mod rotation;
+pub mod study;
+
+pub use brdf_bake::{BrdfBake, BrdfBakeParams, bake_brdf};
+pub use error::WaveletError;
+pub use render::{LightingStats, WaveletRenderer, light_rotation};
+pub use rotation::{RotationMatrices, RotationParams, bake_rotation};
+pub use study::{
+    BenchOptions, BenchRow, RotationRow, VerifyOptions, VerifyRow, bake_or_load_brdf,
+    bake_or_load_rotation, bench_wavelet, default_cache_dir, verify_rotation, verify_wavelet,
+};

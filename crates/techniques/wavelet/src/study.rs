@@ -1,0 +1,775 @@
+//! Accuracy (`relight verify wavelet`) and speed (`relight bench wavelet`)
+//! studies, reproducing wavelet-rotation-2006 Tables 1–4 and Figure 7, plus
+//! the bake cache (`bake_or_load_*`) and the synthetic lightings used by the
+//! tests.
+//!
+//! * [`verify_wavelet`]: relative RMS image error of the wavelet renderer
+//!   against the reference renderer (no visibility, AO off, same BRDF) over
+//!   the object pixels, for the caller's scenes and a set of configurations
+//!   varied one parameter at a time around the paper's default
+//!   (N = 64², ntess = 32², ntrunc = 1, 256 terms).
+//! * [`verify_rotation`]: Figure 7 — local lighting from the rotation
+//!   matrices vs direct (supersampled) resampling of the global lighting in
+//!   the local frame, relative RMS over the target texels.
+//! * [`bench_wavelet`]: bake time, size, sparsity, non-zeros per row and
+//!   lighting-change time (Tables 1–2, both storage layouts), and view-change
+//!   time for 30 K–120 K vertices (Table 4).
+
+use crate::brdf_bake::{BrdfBake, BrdfBakeParams, bake_brdf};
+use crate::error::{WaveletError, io};
+use crate::lighting::{haar_rgb, sample_octahedral};
+use crate::octa::{grid_normal, hemi_density, hemi_dir_from_uv, shading_frame, shading_frame_f64};
+use crate::render::WaveletRenderer;
+use crate::rotation::{RotationMatrices, RotationParams, bake_rotation};
+use glam::{DVec3, Vec3, Vec3A};
+use relight_brdf::{Brdf, BrdfSpec};
+use relight_geom::Mesh;
+use relight_haar::{Ranking, top_k_rgb, try_inverse_2d};
+use relight_render::reference::{ReferenceOptions, render_reference};
+use relight_render::{NoProgress, Object, Progress, Scene};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Default bake cache: `$RELIGHT_CACHE`, else `$XDG_CACHE_HOME/relight/wavelet`,
+/// else `$HOME/.cache/relight/wavelet`, else `./relight-cache/wavelet`.
+#[must_use]
+pub fn default_cache_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("RELIGHT_CACHE") {
+        return PathBuf::from(d).join("wavelet");
+    }
+    if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
+        return PathBuf::from(d).join("relight/wavelet");
+    }
+    if let Some(h) = std::env::var_os("HOME") {
+        return PathBuf::from(h).join(".cache/relight/wavelet");
+    }
+    PathBuf::from("relight-cache/wavelet")
+}
+
+/// Loads the rotation matrices for `params` from `cache_dir` (file name keyed
+/// by every parameter and the format version), or bakes and stores them.
+/// A stale or corrupted cache file is re-baked and replaced.
+///
+/// # Errors
+/// Bad parameters, cancellation, or an unwritable cache directory.
+pub fn bake_or_load_rotation(
+    params: &RotationParams,
+    cache_dir: &Path,
+    progress: &dyn Progress,
+) -> Result<Arc<RotationMatrices>, WaveletError> {
+    params.validate()?;
+    let path = cache_dir.join(params.cache_file_name());
+    if path.exists()
+        && let Ok(m) = RotationMatrices::load_expect(&path, params)
+    {
+        return Ok(Arc::new(m));
+    }
+    let m = bake_rotation(params, progress)?;
+    std::fs::create_dir_all(cache_dir).map_err(io(cache_dir))?;
+    m.save(&path)?;
+    Ok(Arc::new(m))
+}
+
+/// [`bake_or_load_rotation`] for BRDF slices (`params.key` names the BRDF).
+///
+/// # Errors
+/// Bad parameters, cancellation, or an unwritable cache directory.
+pub fn bake_or_load_brdf(
+    params: &BrdfBakeParams,
+    brdf: &dyn Brdf,
+    cache_dir: &Path,
+    progress: &dyn Progress,
+) -> Result<Arc<BrdfBake>, WaveletError> {
+    params.validate()?;
+    let path = cache_dir.join(params.cache_file_name());
+    if path.exists()
+        && let Ok(b) = BrdfBake::load_expect(&path, params)
+    {
+        return Ok(Arc::new(b));
+    }
+    let b = bake_brdf(params, brdf, progress)?;
+    std::fs::create_dir_all(cache_dir).map_err(io(cache_dir))?;
+    b.save(&path)?;
+    Ok(Arc::new(b))
+}
+
+/// A smooth sky (blue gradient, bright warm lobe, dark ground) as a function
+/// of the world direction (+Y up); used by tests.
+pub fn smooth_sky() -> impl Fn(Vec3) -> Vec3 + Sync + Copy {
+    |d: Vec3| {
+        let sun = Vec3::new(0.4, 0.8, 0.3).normalize();
+        let lobe = (d.dot(sun).max(0.0)).powi(8) * 3.0;
+        let sky = if d.y > 0.0 {
+            Vec3::new(0.3, 0.5, 0.9) * (0.5 + 0.5 * d.y)
+        } else {
+            Vec3::splat(0.15) * (1.0 + d.y)
+        };
+        sky + Vec3::new(1.0, 0.9, 0.7) * lobe
+    }
+}
+
+/// A sky with a small sun (angular radius 3°, radiance 500) — all-frequency lighting.
+pub fn sun_sky() -> impl Fn(Vec3) -> Vec3 + Sync + Copy {
+    |d: Vec3| {
+        let sun = Vec3::new(0.5, 0.7, 0.4).normalize();
+        let disk = if d.dot(sun) > 3.0f32.to_radians().cos() {
+            500.0
+        } else {
+            0.0
+        };
+        let sky = if d.y > 0.0 {
+            Vec3::new(0.3, 0.5, 0.9) * (0.5 + 0.5 * d.y)
+        } else {
+            Vec3::splat(0.2)
+        };
+        sky + Vec3::new(1.0, 0.95, 0.85) * disk
+    }
+}
+
+/// Reflected radiance `∫ f(ω_o, ω) L(ω) cos θ dω` at a surface with normal
+/// `n` seen from `wo` (world, unit), by `q × q` midpoint quadrature of the
+/// hemi-octahedral map with the exact area element (second way to compute
+/// what the wavelet pipeline computes).
+#[must_use]
+pub fn direct_radiance(
+    l: &dyn Fn(Vec3) -> Vec3,
+    brdf: &dyn Brdf,
+    n: Vec3,
+    wo: Vec3,
+    q: usize,
+) -> Vec3 {
+    let fr = shading_frame(n);
+    let wl = fr.to_local(wo);
+    let mut acc = DVec3::ZERO;
+    for i in 0..q * q {
+        let (c, r) = (i % q, i / q);
+        let (u, v) = ((c as f64 + 0.5) / q as f64, (r as f64 + 0.5) / q as f64);
+        let wi = hemi_dir_from_uv(u, v).as_vec3();
+        let dw = hemi_density(u, v) / (q * q) as f64;
+        let li = l(fr.from_local(wi));
+        acc += (brdf.eval(wl, wi) * li * wi.z).as_dvec3() * dw;
+    }
+    acc.as_vec3()
+}
+
+/// A UV sphere (`stacks × slices` quads) with exact normals.
+#[must_use]
+pub fn uv_sphere(center: Vec3, radius: f32, stacks: u32, slices: u32) -> Mesh {
+    let mut m = Mesh::default();
+    for i in 0..=stacks {
+        let th = std::f32::consts::PI * i as f32 / stacks as f32;
+        for j in 0..=slices {
+            let ph = 2.0 * std::f32::consts::PI * j as f32 / slices as f32;
+            let n = Vec3::new(th.sin() * ph.cos(), th.cos(), -th.sin() * ph.sin());
+            m.positions.push(center + n * radius);
+            m.normals.push(n);
+        }
+    }
+    let w = slices + 1;
+    for i in 0..stacks {
+        for j in 0..slices {
+            let (a, b, c, d) = (
+                i * w + j,
+                i * w + j + 1,
+                (i + 1) * w + j,
+                (i + 1) * w + j + 1,
+            );
+            if i != 0 {
+                m.indices.push([a, c, b]);
+            }
+            if i != stacks - 1 {
+                m.indices.push([b, c, d]);
+            }
+        }
+    }
+    m
+}
+
+/// One accuracy row (`relight verify wavelet`).
+#[derive(Clone, Debug, Serialize)]
+pub struct VerifyRow {
+    /// Scene name.
+    pub scene: String,
+    /// BRDF spec.
+    pub brdf: String,
+    /// Source side n (N = n²).
+    pub n: usize,
+    /// Normal tessellation side.
+    pub ntess: usize,
+    /// Truncation threshold.
+    pub ntrunc: u16,
+    /// Lighting terms.
+    pub terms: usize,
+    /// Relative RMS image error vs the reference over object pixels.
+    pub rel_rms_error: f64,
+    /// The reference's own relative standard error (noise floor).
+    pub reference_noise: f64,
+    /// Lighting change time, ms.
+    pub light_change_ms: f64,
+    /// View change (vertex shading) time, ms.
+    pub view_change_ms: f64,
+    /// Relative RMS error of the same computation evaluated per pixel
+    /// (interpolated normals) instead of per vertex + Gouraud.
+    pub per_pixel_rel_rms_error: f64,
+}
+
+/// Configurations and settings of [`verify_wavelet`].
+#[derive(Clone, Debug)]
+pub struct VerifyOptions {
+    /// `(n, ntess, ntrunc, terms)` to evaluate.
+    pub configs: Vec<(usize, usize, u16, usize)>,
+    /// BRDF specs applied to every object; `scene` keeps each object's own material.
+    pub brdfs: Vec<String>,
+    /// Reference samples per pixel.
+    pub spp: u32,
+    /// BRDF view grid side and terms per slice.
+    pub views: usize,
+    /// Terms per BRDF slice.
+    pub brdf_terms: usize,
+    /// Bake cache (None: bake in memory, no files).
+    pub cache_dir: Option<PathBuf>,
+}
+
+impl VerifyOptions {
+    /// The paper's studies, one parameter varied at a time around
+    /// N = 64², ntess = 32², ntrunc = 1, 256 terms (Tables 1, 3; Figure 7 terms).
+    #[must_use]
+    pub fn full() -> Self {
+        let mut configs = vec![(64, 32, 1, 256)];
+        for t in [16, 128] {
+            configs.push((64, 32, t, 256));
+        }
+        for s in [8, 16] {
+            configs.push((64, s, 1, 256));
+        }
+        configs.push((32, 32, 1, 256));
+        for k in [128, 2048] {
+            configs.push((64, 32, 1, k));
+        }
+        Self {
+            configs,
+            brdfs: vec!["scene".into(), "ggx:0.1".into(), "lambert".into()],
+            spp: 1024,
+            views: 64,
+            brdf_terms: 128,
+            cache_dir: Some(default_cache_dir()),
+        }
+    }
+    /// A smoke run: N = 32², ntess = 16², one BRDF, few samples.
+    #[must_use]
+    pub fn quick() -> Self {
+        Self {
+            configs: vec![(32, 16, 1, 256), (64, 32, 1, 256)],
+            brdfs: vec!["scene".into()],
+            spp: 128,
+            views: 32,
+            brdf_terms: 128,
+            cache_dir: Some(default_cache_dir()),
+        }
+    }
+}
+
+fn rot_for(
+    p: &RotationParams,
+    cache: Option<&Path>,
+    progress: &dyn Progress,
+) -> Result<Arc<RotationMatrices>, WaveletError> {
+    match cache {
+        Some(d) => bake_or_load_rotation(p, d, progress),
+        None => Ok(Arc::new(bake_rotation(p, progress)?)),
+    }
+}
+
+fn brdf_for(
+    p: &BrdfBakeParams,
+    brdf: &dyn Brdf,
+    cache: Option<&Path>,
+    progress: &dyn Progress,
+) -> Result<Arc<BrdfBake>, WaveletError> {
+    match cache {
+        Some(d) => bake_or_load_brdf(p, brdf, d, progress),
+        None => Ok(Arc::new(bake_brdf(p, brdf, progress)?)),
+    }
+}
+
+/// Relative RMS image error of the wavelet renderer against the reference
+/// renderer (visibility off, same BRDF, AO off) over object pixels, for every
+/// `(name, scene)` × BRDF × configuration.
+///
+/// # Errors
+/// Bad BRDF specs or parameters, cancellation, cache IO.
+pub fn verify_wavelet(
+    scenes: &[(String, Scene)],
+    opts: &VerifyOptions,
+    progress: &dyn Progress,
+) -> Result<Vec<VerifyRow>, WaveletError> {
+    let mut rows = Vec::new();
+    let cache = opts.cache_dir.as_deref();
+    for (name, scene) in scenes {
+        for spec in &opts.brdfs {
+            // `scene`: every object keeps its own material (baked per object,
+            // keyed by the model's Debug description); else one spec for all.
+            let mut sc = scene.clone();
+            if spec != "scene" {
+                let parsed: BrdfSpec = spec
+                    .parse()
+                    .map_err(|e| crate::error::bad("brdf", spec, format!("{e}")))?;
+                let brdf = parsed.build();
+                for o in &mut sc.objects {
+                    o.brdf = brdf.clone();
+                }
+            }
+            let ropts = ReferenceOptions {
+                spp: opts.spp,
+                visibility: false,
+                ..ReferenceOptions::default()
+            };
+            let reference =
+                render_reference(&sc, &ropts, progress).map_err(|_| WaveletError::Cancelled)?;
+            for &(n, ntess, ntrunc, terms) in &opts.configs {
+                progress.check()?;
+                let rp = RotationParams::new(n, ntess, ntrunc);
+                let rot = rot_for(&rp, cache, progress)?;
+                let mut bakes = Vec::with_capacity(sc.objects.len());
+                for o in &sc.objects {
+                    let key = if spec == "scene" {
+                        format!("{:?}", o.brdf)
+                    } else {
+                        spec.clone()
+                    };
+                    let bp = BrdfBakeParams::new(
+                        &key,
+                        rp.m,
+                        opts.views,
+                        opts.brdf_terms.min(rp.target_len()),
+                    );
+                    bakes.push(brdf_for(&bp, o.brdf.as_ref(), cache, progress)?);
+                }
+                let mut r = WaveletRenderer::new(rot, terms.min(rp.source_len()))?;
+                let t0 = Instant::now();
+                r.set_lighting(&sc.env, glam::Mat3::IDENTITY)?;
+                let light_ms = t0.elapsed().as_secs_f64() * 1e3;
+                let refs: Vec<&BrdfBake> = bakes.iter().map(AsRef::as_ref).collect();
+                let t1 = Instant::now();
+                let (img, mask) = r.render_with_mask(&sc, &refs, &sc.camera, None)?;
+                let view_ms = t1.elapsed().as_secs_f64() * 1e3;
+                let (pimg, pmask) = r.render_per_pixel(&sc, &refs, &sc.camera)?;
+                rows.push(VerifyRow {
+                    scene: name.clone(),
+                    brdf: spec.clone(),
+                    n,
+                    ntess,
+                    ntrunc,
+                    terms,
+                    rel_rms_error: img.relative_rms_error(&reference.image, Some(&mask)),
+                    reference_noise: reference.relative_std_error,
+                    light_change_ms: light_ms,
+                    view_change_ms: view_ms,
+                    per_pixel_rel_rms_error: pimg
+                        .relative_rms_error(&reference.image, Some(&pmask)),
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// One Figure 7 row: rotated lighting error.
+#[derive(Clone, Debug, Serialize)]
+pub struct RotationRow {
+    /// Lighting name.
+    pub lighting: String,
+    /// Source side n.
+    pub n: usize,
+    /// Lighting terms (`0`: the m × m target map approximated directly with 128 terms, "Ref128").
+    pub terms: usize,
+    /// Mean over the normals of the relative RMS error over target texels.
+    pub rel_rms_error: f64,
+}
+
+/// Figure 7: for `normals` sampled normals of an `ntess = 8` bake at source
+/// side `n`, the local lighting `𝐑 𝐋` (lighting approximated with 128, 256,
+/// 2048 terms) against direct resampling of `light` in the local frame
+/// (16 × 16 samples per target texel); plus the 128-term approximation of the
+/// direct result itself (`terms = 0`).
+///
+/// # Errors
+/// Bad parameters.
+pub fn verify_rotation(
+    name: &str,
+    light: &(dyn Fn(Vec3) -> Vec3 + Sync),
+    n: usize,
+    progress: &dyn Progress,
+) -> Result<Vec<RotationRow>, WaveletError> {
+    let p = RotationParams::new(n, 8, 1);
+    let rot = bake_rotation(&p, progress)?;
+    let coeffs = haar_rgb(&sample_octahedral(n, 4, light), n);
+    let (m, mm) = (p.m, p.target_len());
+    let picks = [3usize, 17, 30, 41, 58];
+    let direct: Vec<Vec<[f32; 3]>> = picks
+        .iter()
+        .map(|&k| direct_local(light, &shading_frame_f64(grid_normal(k, p.ntess)), m, 16))
+        .collect();
+    let mut rows = Vec::new();
+    for terms in [0usize, 128, 256, 2048] {
+        let mut err = 0.0;
+        for (pi, &k) in picks.iter().enumerate() {
+            let got = if terms == 0 {
+                let c = haar_rgb(&direct[pi], m);
+                let t = top_k_rgb(&c, m, 128, Ranking::Magnitude).to_dense(mm);
+                inverse_rgb(&t, m)
+            } else {
+                let l = top_k_rgb(&coeffs, n, terms, Ranking::Magnitude);
+                let mut local = vec![Vec3A::ZERO; p.normals() * mm];
+                rot.local_lighting(&l, &mut local)?;
+                let c: Vec<[f32; 3]> = local[k * mm..(k + 1) * mm]
+                    .iter()
+                    .map(|v| v.to_array())
+                    .collect();
+                inverse_rgb(&c, m)
+            };
+            err += rel_rms(&got, &direct[pi]);
+        }
+        rows.push(RotationRow {
+            lighting: name.into(),
+            n,
+            terms,
+            rel_rms_error: err / picks.len() as f64,
+        });
+    }
+    Ok(rows)
+}
+
+fn direct_local(
+    f: &(dyn Fn(Vec3) -> Vec3 + Sync),
+    frame: &[DVec3; 3],
+    m: usize,
+    ss: usize,
+) -> Vec<[f32; 3]> {
+    (0..m * m)
+        .map(|t| {
+            let (c, r) = (t % m, t / m);
+            let (mut acc, mut ws) = (DVec3::ZERO, 0.0);
+            for sy in 0..ss {
+                for sx in 0..ss {
+                    let u = (c as f64 + (sx as f64 + 0.5) / ss as f64) / m as f64;
+                    let v = (r as f64 + (sy as f64 + 0.5) / ss as f64) / m as f64;
+                    let l = hemi_dir_from_uv(u, v);
+                    let w = frame[0] * l.x + frame[1] * l.y + frame[2] * l.z;
+                    let dw = hemi_density(u, v);
+                    acc += f(w.as_vec3()).as_dvec3() * dw;
+                    ws += dw;
+                }
+            }
+            (acc / ws).as_vec3().to_array()
+        })
+        .collect()
+}
+
+fn inverse_rgb(coeffs: &[[f32; 3]], m: usize) -> Vec<[f32; 3]> {
+    let mut out = coeffs.to_vec();
+    for c in 0..3 {
+        let mut ch: Vec<f32> = coeffs.iter().map(|v| v[c]).collect();
+        let _ = try_inverse_2d(&mut ch, m);
+        for (o, v) in out.iter_mut().zip(ch) {
+            o[c] = v;
+        }
+    }
+    out
+}
+
+fn rel_rms(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for (x, y) in a.iter().zip(b) {
+        for c in 0..3 {
+            num += f64::from(x[c] - y[c]).powi(2);
+            den += f64::from(y[c]).powi(2);
+        }
+    }
+    if den == 0.0 { 0.0 } else { (num / den).sqrt() }
+}
+
+/// One benchmark row (`relight bench wavelet`); fields that do not apply are `null`.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchRow {
+    /// `bake` (Tables 1–2) or `view` (Table 4).
+    pub kind: String,
+    /// Source side n.
+    pub n: usize,
+    /// Normal tessellation side.
+    pub ntess: usize,
+    /// Truncation threshold.
+    pub ntrunc: u16,
+    /// Matrix storage layout of `light_change_ms`: `csc` (ours) or `csr` (paper).
+    pub layout: String,
+    /// Bake time, s (wall clock).
+    pub bake_s: Option<f64>,
+    /// Bake CPU time summed over threads, s (robust to a busy machine).
+    pub bake_cpu_s: Option<f64>,
+    /// Stored matrix size, MB (10⁶ bytes).
+    pub size_mb: Option<f64>,
+    /// Fraction of non-zero matrix entries.
+    pub sparsity: Option<f64>,
+    /// Mean non-zeros per matrix row.
+    pub nnz_per_row: Option<f64>,
+    /// Lighting terms of `light_change_ms`.
+    pub terms: Option<usize>,
+    /// Lighting change (project + rotate), ms, median of repetitions (wall clock).
+    pub light_change_ms: Option<f64>,
+    /// Lighting change CPU time summed over threads, ms per change (mean).
+    pub light_change_cpu_ms: Option<f64>,
+    /// Vertices shaded.
+    pub vertices: Option<usize>,
+    /// View change (per-vertex shading), ms, median (wall clock).
+    pub view_change_ms: Option<f64>,
+    /// View change CPU time summed over threads, ms per change (mean).
+    pub view_change_cpu_ms: Option<f64>,
+}
+
+/// What [`bench_wavelet`] measures.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// `(n, ntess, ntrunc)` bakes.
+    pub bakes: Vec<(usize, usize, u16)>,
+    /// Lighting terms for the lighting-change timing.
+    pub terms: usize,
+    /// Vertex counts for the view-change timing (meshes from `meshes` or UV spheres).
+    pub vertices: Vec<usize>,
+    /// Repetitions (median reported).
+    pub reps: usize,
+    /// Measure the paper's CSR layout too.
+    pub csr: bool,
+}
+
+impl BenchOptions {
+    /// Tables 1, 2 and 4: N ∈ {32², 64², 128²} at ntess = 32², ntrunc = 1;
+    /// ntrunc ∈ {16, 128} at N = 64²; 30 K–120 K vertices.
+    #[must_use]
+    pub fn full() -> Self {
+        Self {
+            bakes: vec![
+                (32, 32, 1),
+                (64, 32, 1),
+                (64, 32, 16),
+                (64, 32, 128),
+                (128, 32, 1),
+            ],
+            terms: 256,
+            vertices: vec![30_000, 50_000, 100_000, 120_000],
+            reps: 20,
+            csr: true,
+        }
+    }
+    /// A smoke run.
+    #[must_use]
+    pub fn quick() -> Self {
+        Self {
+            bakes: vec![(32, 16, 1)],
+            terms: 256,
+            vertices: vec![30_000],
+            reps: 10,
+            csr: true,
+        }
+    }
+}
+
+/// CPU time of this process (all threads, user + system) in seconds, from
+/// `/proc/self/stat` (Linux; 10 ms ticks). `None` elsewhere. Benchmarks report
+/// it beside wall time because the build machine is shared: CPU time does not
+/// grow when other processes take the cores.
+#[must_use]
+pub fn process_cpu_seconds() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let rest = &s[s.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ut: f64 = f.get(11)?.parse().ok()?;
+    let st: f64 = f.get(12)?.parse().ok()?;
+    Some((ut + st) / 100.0)
+}
+
+fn cpu_ms_per(reps: usize, start: Option<f64>) -> Option<f64> {
+    Some((process_cpu_seconds()? - start?) * 1e3 / reps.max(1) as f64)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Runs the benchmark. `meshes` supplies `(vertices, mesh)` for the view-change
+/// rows (e.g. the bunny subdivided to 30 K–120 K vertices); missing counts use
+/// a UV sphere with about that many vertices. Bakes are not cached (timed).
+///
+/// # Errors
+/// Bad parameters or cancellation.
+pub fn bench_wavelet(
+    opts: &BenchOptions,
+    meshes: &[(usize, Arc<Mesh>)],
+    progress: &dyn Progress,
+) -> Result<Vec<BenchRow>, WaveletError> {
+    let mut rows = Vec::new();
+    let light = sun_sky();
+    let mut view_rot: Option<Arc<RotationMatrices>> = None;
+    for &(n, ntess, ntrunc) in &opts.bakes {
+        let p = RotationParams::new(n, ntess, ntrunc);
+        let c0 = process_cpu_seconds();
+        let t0 = Instant::now();
+        let rot = Arc::new(bake_rotation(&p, progress)?);
+        let bake_s = t0.elapsed().as_secs_f64();
+        let bake_cpu_s = cpu_ms_per(1, c0).map(|ms| ms / 1e3);
+        let mut r = WaveletRenderer::new(rot.clone(), opts.terms.min(p.source_len()))?;
+        let mut times = Vec::new();
+        let c1 = process_cpu_seconds();
+        for i in 0..opts.reps.max(1) {
+            let rotm = crate::render::light_rotation(10.0 * i as f32, 0.0, 0.0);
+            let t = Instant::now();
+            r.set_lighting_fn(|d| light(rotm.transpose() * d))?;
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+        let light_cpu = cpu_ms_per(opts.reps.max(1), c1);
+        let base = BenchRow {
+            kind: "bake".into(),
+            n,
+            ntess,
+            ntrunc,
+            layout: "csc".into(),
+            bake_s: Some(bake_s),
+            bake_cpu_s,
+            size_mb: Some(rot.size_bytes() as f64 / 1e6),
+            sparsity: Some(rot.sparsity()),
+            nnz_per_row: Some(rot.nnz_per_row()),
+            terms: Some(opts.terms),
+            light_change_ms: Some(median(times)),
+            light_change_cpu_ms: light_cpu,
+            vertices: None,
+            view_change_ms: None,
+            view_change_cpu_ms: None,
+        };
+        if opts.csr {
+            let csr = rot.to_csr();
+            let l = r.lighting().clone();
+            let mut out = vec![Vec3A::ZERO; p.normals() * p.target_len()];
+            let reps = opts.reps.max(1);
+            let mut t = Vec::new();
+            let c2 = process_cpu_seconds();
+            for _ in 0..reps {
+                let t0 = Instant::now();
+                csr.local_lighting(&l, &mut out);
+                t.push(t0.elapsed().as_secs_f64() * 1e3);
+            }
+            let csr_cpu = cpu_ms_per(reps, c2);
+            let c3 = process_cpu_seconds();
+            let csc_rot: Vec<f64> = (0..reps)
+                .map(|_| {
+                    let t0 = Instant::now();
+                    let _ = rot.local_lighting(&l, &mut out);
+                    t0.elapsed().as_secs_f64() * 1e3
+                })
+                .collect();
+            let csc_cpu = cpu_ms_per(reps, c3);
+            rows.push(BenchRow {
+                layout: "csc (rotate only)".into(),
+                light_change_ms: Some(median(csc_rot)),
+                light_change_cpu_ms: csc_cpu,
+                ..base.clone()
+            });
+            rows.push(BenchRow {
+                layout: "csr (rotate only)".into(),
+                light_change_ms: Some(median(t)),
+                light_change_cpu_ms: csr_cpu,
+                ..base.clone()
+            });
+        }
+        rows.push(base);
+        if n == 64 && ntess == 32 && ntrunc == 1 {
+            view_rot = Some(rot);
+        }
+    }
+    let rot = match view_rot {
+        Some(r) => r,
+        None => Arc::new(bake_rotation(&RotationParams::new(64, 32, 1), progress)?),
+    };
+    let p = *rot.params();
+    let brdf = "ggx:0.1"
+        .parse::<BrdfSpec>()
+        .map_err(|e| crate::error::bad("brdf", "ggx:0.1", e.to_string()))?
+        .build();
+    let bb = bake_brdf(
+        &BrdfBakeParams::new("ggx:0.1", p.m, 64, 128),
+        brdf.as_ref(),
+        progress,
+    )?;
+    let mut r = WaveletRenderer::new(rot, opts.terms.min(p.source_len()))?;
+    r.set_lighting_fn(light)?;
+    for &nv in &opts.vertices {
+        let mesh = meshes
+            .iter()
+            .find(|m| m.0 == nv)
+            .map(|m| m.1.clone())
+            .unwrap_or_else(|| {
+                let s = ((nv as f64 / 2.0).sqrt()).round() as u32;
+                Arc::new(uv_sphere(Vec3::ZERO, 1.0, s.max(2), (2 * s).max(3)))
+            });
+        let mut out = vec![Vec3::ZERO; mesh.positions.len()];
+        let mut times = Vec::new();
+        let c0 = process_cpu_seconds();
+        for i in 0..opts.reps.max(1) {
+            let eye = Vec3::new(3.0 * (i as f32).cos(), 1.0, 3.0 * (i as f32).sin());
+            let t0 = Instant::now();
+            r.shade_vertices(&mesh.positions, &mesh.normals, &bb, eye, None, &mut out)?;
+            times.push(t0.elapsed().as_secs_f64() * 1e3);
+        }
+        rows.push(BenchRow {
+            kind: "view".into(),
+            n: p.n,
+            ntess: p.ntess,
+            ntrunc: p.ntrunc,
+            layout: "csc".into(),
+            bake_s: None,
+            bake_cpu_s: None,
+            size_mb: None,
+            sparsity: None,
+            nnz_per_row: None,
+            terms: Some(bb.params.terms),
+            light_change_ms: None,
+            light_change_cpu_ms: None,
+            vertices: Some(mesh.positions.len()),
+            view_change_cpu_ms: cpu_ms_per(opts.reps.max(1), c0),
+            view_change_ms: Some(median(times)),
+        });
+    }
+    let _ = NoProgress;
+    Ok(rows)
+}
+
+/// A small default test scene: a unit sphere seen from the front under
+/// `sun_sky()` sampled on a lat-long map, for `verify` when the caller has
+/// none (the CLI passes relight-scene's default scene instead).
+#[must_use]
+pub fn sphere_scene(brdf: Arc<dyn Brdf>, width: usize, height: usize) -> Scene {
+    let sky = sun_sky();
+    let env = relight_sphere::EnvMap::from_fn(
+        relight_sphere::Param::LatLong {
+            width: 512,
+            height: 256,
+        },
+        sky,
+    );
+    Scene {
+        objects: vec![Object {
+            mesh: Arc::new(uv_sphere(Vec3::ZERO, 1.0, 64, 128)),
+            brdf,
+        }],
+        env,
+        camera: relight_render::Camera {
+            eye: Vec3::new(0.0, 0.6, 3.2),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 45.0,
+            width,
+            height,
+        },
+    }
+}
