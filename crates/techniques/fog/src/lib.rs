@@ -1,1 +1,89 @@
-//! relight-fog
+//! Analytic single-scattering fog (Sun, Ramamoorthi, Narasimhan & Nayar
+//! 2005; Sun 2008, chapter 3): glows around point lights, dimmed and
+//! widened highlights and brightened shadows in a homogeneous medium, as
+//! easy to use as OpenGL fog (one coefficient β) and evaluated in real time
+//! on the CPU rasterizer.
+//!
+//! # Pipeline
+//! 1. [`special`]: exact special functions F, Fᵏ, G_n (adaptive quadrature)
+//!    and the scaled tail H̃ that the tables store (why: no cancellation).
+//! 2. [`table`]: [`FogTables`] — 2D tables with bilinear/nearest lookup.
+//! 3. [`model`]: the per-pixel complete model L = e^{−T_vp} L_p + L_a
+//!    (eq. 3.29) for any number of isotropic point lights, phase functions
+//!    as polynomials in cos α.
+//! 4. [`render`]: [`render_fog`] on relight-render's rasterizer, plus
+//!    classic OpenGL fog for comparison.
+//! 5. [`psf`]: the airlight point-spread function (eq. 3.30–3.32), its zonal
+//!    SH coefficients and the convolutions of environment maps and BRDFs
+//!    (eq. 3.34–3.37).
+//! 6. [`volumetric`]: the Monte Carlo ground truth (single and multiple
+//!    scattering, surfaces, shadow rays through the medium).
+//! 7. [`verify`] and [`bench`]: `relight verify fog` / `relight bench fog`.
+//!
+//! # Citation
+//! B. Sun, "Mathematical Models for Real-Time Rendering", PhD thesis,
+//! Columbia University 2008, chapter 3 (equation numbers in the docs refer
+//! to it).
+
+pub mod bench;
+pub mod model;
+pub mod psf;
+pub mod quad;
+pub mod render;
+pub mod special;
+pub mod table;
+pub mod verify;
+pub mod volumetric;
+
+pub use bench::{BenchRow, bench_fog};
+pub use model::{FogMaterial, FogModel, Phase, PointLight};
+pub use render::{FogMode, FogObject, FogSettings, render_fog};
+pub use table::{FogTables, Interp, Table2, TableImage};
+pub use verify::{VerifyRow, verify_fog};
+
+/// Errors of the fog crate: bad input, named.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum FogError {
+    #[error("table size {size} is too small: need at least 2 samples per axis")]
+    TableSize { size: usize },
+    #[error("scattering coefficient β = {beta} is invalid: need a finite β ≥ 0")]
+    Beta { beta: f32 },
+    #[error("light {index}: intensity {intensity:?} is invalid: need finite components ≥ 0")]
+    Intensity { index: usize, intensity: [f32; 3] },
+    #[error("light {index}: position {position:?} is not finite")]
+    LightPosition { index: usize, position: [f32; 3] },
+    #[error(
+        "light {index} at {position:?} lies inside closed geometry (object {object}); move it outside the mesh"
+    )]
+    LightInsideGeometry {
+        index: usize,
+        position: [f32; 3],
+        object: usize,
+    },
+    #[error("{what} = {value} is invalid: distances must be finite and > 0")]
+    Distance { what: &'static str, value: f64 },
+    #[error(
+        "no G table for Phong exponent {n}: build the tables with FogTables::build_with(size, degree, &[{n}])"
+    )]
+    MissingPhongTable { n: u32 },
+    #[error("Phong exponent {n} is invalid: need 1..=4096")]
+    PhongExponent { n: u32 },
+    #[error(
+        "phase polynomial degree {degree} exceeds the tabulated degree {max} (or the phase is empty)"
+    )]
+    PhaseDegree { degree: u32, max: u32 },
+    #[error("Henyey–Greenstein asymmetry g = {g} is invalid: need −1 < g < 1")]
+    Asymmetry { g: f32 },
+    #[error("object {object}: material index invalid or mesh has no triangles")]
+    Object { object: usize },
+    #[error("rasterizer: {0}")]
+    Raster(#[from] relight_render::raster::RasterError),
+    #[error("cancelled")]
+    Cancelled,
+}
+
+impl From<relight_render::Cancelled> for FogError {
+    fn from(_: relight_render::Cancelled) -> Self {
+        Self::Cancelled
+    }
+}

@@ -1,0 +1,660 @@
+//! The complete analytic single-scattering model evaluated per pixel and
+//! per point light: airlight L_a (Sun 2008, eq. 3.16/3.17), surface radiance
+//! L_p for Lambertian and Phong surfaces including the scattered light
+//! arriving at the surface (eq. 3.20–3.28), and L = e^{−T_vp} L_p + L_a
+//! (eq. 3.29), mirroring the fragment shader of the paper's Figure 3.13.
+//!
+//! # Units and frames
+//! World units for distances, β in 1/world-unit (extinction = scattering,
+//! single-scattering albedo 1), point-light radiant intensity I₀ per RGB
+//! channel (radiance = I₀ / distance² · …). Directions are world-space unit
+//! vectors; `dir` points from the eye into the scene.
+//!
+//! # Evaluation (per pixel × light: one `exp`, two fast `atan2`, square
+//! roots and 3–4 table lookups; where the two airlight tails below would
+//! cancel — L∞(p) e^{−T_vp} > [`CANCELLATION_RATIO`] L∞(eye), a short view
+//! segment far from the light — the segment integral of eq. 3.5 is instead
+//! taken by 6-point Gauss–Legendre in the equiangular variable)
+//! * u = β h with h = |(l − e) × d|, the distance of the light from the view
+//!   ray — the same for the eye and for the surface point, so
+//!   L_a = L∞(eye) − e^{−T_vp} L∞(p) (see [`crate::special`]), where
+//!   L∞(x) = β I₀ e^{−T_xs} N(u, v) R(w(u), v) / (2π h), v = γ_x/2 from
+//!   tan v = sin γ / (1 + cos γ) (accurate 1 + cos γ near γ = π).
+//! * Surface: I₀ k_d [e^{−T_sp} cos θ_s / D_sp² + β e^{−T_sp} G̃₀(T_sp, cos θ_s) / (2π D_sp)]
+//!   and the same with k_s, cosⁿθ′_s (θ′_s from the reflected view direction)
+//!   and G̃_n (β²/T_sp = β/D_sp avoids the 0/0 at β → 0).
+//!
+//! # Documented limits (instead of NaN/Inf)
+//! * Looking straight at a light (γ → 0 with the light in front) the
+//!   single-scattering airlight diverges like 1/γ; h is clamped to
+//!   ≥ [`MIN_ANGLE`] · D so the glow peaks at a finite value.
+//! * Distances are clamped to ≥ [`MIN_DISTANCE`] (a light on a surface or at
+//!   the eye); T > G_T_MAX is clamped in the G tables.
+//! * Tiny negative airlight from interpolation is clamped to 0.
+
+use crate::FogError;
+use crate::table::{FogTables, Interp, Table2};
+use glam::Vec3;
+use std::f32::consts::{FRAC_PI_2, PI};
+
+/// Smallest angle (radians) between the view ray and a light used by the
+/// airlight (see the module docs).
+pub const MIN_ANGLE: f32 = 1e-4;
+/// Where L∞(p) e^{−T_vp} exceeds this fraction of L∞(eye), the airlight is
+/// integrated over the view segment directly (6-point Gauss–Legendre on
+/// eq. 3.5) instead of as a difference of nearly equal tails.
+pub const CANCELLATION_RATIO: f32 = 0.5;
+/// Smallest distance (world units) used anywhere in the model.
+pub const MIN_DISTANCE: f32 = 1e-6;
+
+/// An isotropic point light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointLight {
+    /// World-space position.
+    pub position: Vec3,
+    /// Radiant intensity I₀ per RGB channel (≥ 0).
+    pub intensity: Vec3,
+}
+
+impl PointLight {
+    #[must_use]
+    pub fn new(position: Vec3, intensity: Vec3) -> Self {
+        Self {
+            position,
+            intensity,
+        }
+    }
+}
+
+/// Particle phase function k(α) as a polynomial in cos α (eq. 3.18).
+///
+/// Stored as `w[k]` = 4π W_k, so the isotropic phase 1/(4π) is `[1]` and the
+/// weights multiply the tables Rᵏ directly.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Phase {
+    pub w: Vec<f32>,
+}
+
+impl Default for Phase {
+    fn default() -> Self {
+        Self::isotropic()
+    }
+}
+
+impl Phase {
+    /// k(α) = 1/(4π).
+    #[must_use]
+    pub fn isotropic() -> Self {
+        Self { w: vec![1.0] }
+    }
+
+    /// Rayleigh-like k(α) = 3/(16π) (1 + cos²α) (exact, degree 2).
+    #[must_use]
+    pub fn rayleigh() -> Self {
+        Self {
+            w: vec![0.75, 0.0, 0.75],
+        }
+    }
+
+    /// Henyey–Greenstein with asymmetry `g` ∈ (−1, 1), least-squares fitted
+    /// on cos α ∈ [−1, 1] by a polynomial of `degree` (the fit keeps the
+    /// normalisation ∫k dω = 1 exactly, since the constant is orthogonal to
+    /// the rest of the Legendre basis).
+    pub fn henyey_greenstein(g: f32, degree: u32) -> Result<Self, FogError> {
+        if !(g.is_finite() && g.abs() < 1.0) {
+            return Err(FogError::Asymmetry { g });
+        }
+        let g = f64::from(g);
+        let (x, wq) = crate::quad::gauss_legendre(256);
+        // Legendre projection c_l = (2l+1)/2 ∫ f P_l.
+        let deg = degree as usize;
+        let hg = |c: f64| (1.0 - g * g) / (1.0 + g * g - 2.0 * g * c).powf(1.5); // 4π·p_HG
+        let mut leg = vec![0.0f64; deg + 1];
+        for (xi, wi) in x.iter().zip(&wq) {
+            let f = hg(*xi);
+            let (mut p0, mut p1) = (1.0, *xi);
+            for (l, c) in leg.iter_mut().enumerate() {
+                let pl = if l == 0 { p0 } else { p1 };
+                *c += (2 * l + 1) as f64 / 2.0 * wi * f * pl;
+                if l >= 1 {
+                    let p2 = ((2 * l + 1) as f64 * xi * p1 - l as f64 * p0) / (l + 1) as f64;
+                    p0 = p1;
+                    p1 = p2;
+                }
+            }
+        }
+        // Legendre → monomial coefficients via the recurrence on coefficient vectors.
+        let mut mono = vec![0.0f64; deg + 1];
+        let mut pm1 = vec![0.0f64; deg + 2];
+        let mut p = vec![0.0f64; deg + 2];
+        pm1[0] = 1.0;
+        if deg >= 1 {
+            p[1] = 1.0;
+        }
+        for (l, c) in leg.iter().enumerate() {
+            let cur = if l == 0 { &pm1 } else { &p };
+            for k in 0..=deg {
+                mono[k] += c * cur[k];
+            }
+            if l >= 1 && l < deg {
+                let mut next = vec![0.0f64; deg + 2];
+                for k in 0..=deg {
+                    if k < deg + 1 {
+                        next[k + 1] += (2 * l + 1) as f64 * p[k] / (l + 1) as f64;
+                    }
+                    next[k] -= l as f64 * pm1[k] / (l + 1) as f64;
+                }
+                pm1 = std::mem::replace(&mut p, next);
+            }
+        }
+        Ok(Self {
+            w: mono.iter().map(|&c| c as f32).collect(),
+        })
+    }
+
+    /// k(α) for `cos_alpha` (1/sr).
+    #[inline]
+    #[must_use]
+    pub fn eval(&self, cos_alpha: f32) -> f32 {
+        let mut s = 0.0;
+        for &c in self.w.iter().rev() {
+            s = s * cos_alpha + c;
+        }
+        s / (4.0 * PI)
+    }
+
+    /// Polynomial degree.
+    #[must_use]
+    pub fn degree(&self) -> u32 {
+        self.w.len().saturating_sub(1) as u32
+    }
+}
+
+/// Surface reflectance of the analytic model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FogMaterial {
+    /// Diffuse albedo ρ_d; the Lambertian BRDF is k_d = ρ_d / π.
+    pub albedo: Vec3,
+    /// Phong coefficient k_s of the reparameterised lobe k_s cosⁿθ′ (§3.4.2):
+    /// reflected radiance = ∫ L_i k_s max(0, ω_i·r)ⁿ dω_i, r the mirrored
+    /// view direction. Zero for a purely Lambertian surface.
+    pub ks: Vec3,
+    /// Phong exponent n (≥ 1; ignored when `ks` is zero).
+    pub n: u32,
+}
+
+impl FogMaterial {
+    /// A Lambertian surface of albedo `albedo`.
+    #[must_use]
+    pub fn lambert(albedo: Vec3) -> Self {
+        Self {
+            albedo,
+            ks: Vec3::ZERO,
+            n: 1,
+        }
+    }
+
+    /// Lambertian plus a Phong lobe.
+    #[must_use]
+    pub fn phong(albedo: Vec3, ks: Vec3, n: u32) -> Self {
+        Self { albedo, ks, n }
+    }
+}
+
+/// First-quadrant atan2(y, x) for y, x ≥ 0 (not both 0): minimax
+/// polynomial, |error| < 1e-5 rad.
+#[inline]
+#[must_use]
+pub fn atan2_pos(y: f32, x: f32) -> f32 {
+    let (a, swap) = if y <= x {
+        (y / x.max(1e-30), false)
+    } else {
+        (x / y, true)
+    };
+    let s = a * a;
+    let r = a
+        * (0.999_977_26
+            + s * (-0.332_623_47
+                + s * (0.193_543_46
+                    + s * (-0.116_432_87 + s * (0.052_653_32 + s * -0.011_721_2)))));
+    if swap { FRAC_PI_2 - r } else { r }
+}
+
+/// A light with the per-frame constants of one eye position.
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedLight {
+    pub position: Vec3,
+    pub intensity: Vec3,
+    /// l − e.
+    pub to_light: Vec3,
+    /// D_sv (clamped to ≥ MIN_DISTANCE).
+    pub d_sv: f32,
+    /// e^{−β D_sv}.
+    pub exp_t_sv: f32,
+}
+
+/// The tables, medium and interpolation of one frame, ready to evaluate.
+#[derive(Clone, Copy, Debug)]
+pub struct FogModel<'a> {
+    pub beta: f32,
+    pub interp: Interp,
+    tails: &'a [Table2],
+    phase: &'a [f32],
+    g_lambert: Option<&'a Table2>,
+    tables: &'a FogTables,
+}
+
+impl<'a> FogModel<'a> {
+    /// Checks β (finite, ≥ 0) and that the tables cover `phase`. Without a
+    /// Lambert G table (`build_parts` with no lobes) the scattered surface
+    /// term is omitted.
+    pub fn new(
+        tables: &'a FogTables,
+        beta: f32,
+        phase: &'a Phase,
+        interp: Interp,
+    ) -> Result<Self, FogError> {
+        if !(beta.is_finite() && beta >= 0.0) {
+            return Err(FogError::Beta { beta });
+        }
+        let max = tables.tail.len().saturating_sub(1) as u32;
+        if phase.degree() > max || phase.w.is_empty() {
+            return Err(FogError::PhaseDegree {
+                degree: phase.degree(),
+                max,
+            });
+        }
+        let g_lambert = tables.g_table(1);
+        Ok(Self {
+            beta,
+            interp,
+            tails: &tables.tail[..phase.w.len()],
+            phase: &phase.w,
+            g_lambert,
+            tables,
+        })
+    }
+
+    /// The G table for a material's Phong exponent (error if not built).
+    pub fn g_table(&self, n: u32) -> Result<&'a Table2, FogError> {
+        self.tables
+            .g_table(n)
+            .ok_or(FogError::MissingPhongTable { n })
+    }
+
+    /// Per-frame light constants for the eye at `eye`. Errors on negative or
+    /// non-finite intensity or position.
+    pub fn prepare_lights(
+        &self,
+        eye: Vec3,
+        lights: &[PointLight],
+    ) -> Result<Vec<PreparedLight>, FogError> {
+        lights
+            .iter()
+            .enumerate()
+            .map(|(index, l)| {
+                if !(l.intensity.is_finite() && l.intensity.min_element() >= 0.0) {
+                    return Err(FogError::Intensity {
+                        index,
+                        intensity: l.intensity.to_array(),
+                    });
+                }
+                if !l.position.is_finite() {
+                    return Err(FogError::LightPosition {
+                        index,
+                        position: l.position.to_array(),
+                    });
+                }
+                let to_light = l.position - eye;
+                let d_sv = to_light.length().max(MIN_DISTANCE);
+                Ok(PreparedLight {
+                    position: l.position,
+                    intensity: l.intensity,
+                    to_light,
+                    d_sv,
+                    exp_t_sv: (-self.beta * d_sv).exp(),
+                })
+            })
+            .collect()
+    }
+
+    /// Phase-weighted Σ_k w_k Rᵏ(w, v).
+    #[inline]
+    fn tail_sum(&self, w: f32, v: f32) -> f32 {
+        if self.phase.len() == 1 {
+            return self.phase[0] * self.tails[0].lookup(self.interp, w, v);
+        }
+        let mut s = 0.0;
+        for (c, t) in self.phase.iter().zip(self.tails) {
+            s += c * t.lookup(self.interp, w, v);
+        }
+        s
+    }
+
+    /// Airlight to infinity per unit intensity, without e^{−T}:
+    /// β N R / (2π h) for a light at distance `d` whose offset along the ray
+    /// is `along` and perpendicular distance `h` (already clamped).
+    #[inline]
+    fn l_inf_kernel(&self, d: f32, along: f32, h: f32) -> f32 {
+        let s = (h / d).min(1.0);
+        let c = (along / d).clamp(-1.0, 1.0);
+        let opc = if c >= 0.0 { 1.0 + c } else { s * s / (1.0 - c) };
+        let cos2v = 0.5 * opc;
+        let cosv = cos2v.sqrt();
+        let v = atan2_pos(s, opc);
+        let u = self.beta * h;
+        let w = u / (1.0 + u);
+        let n = cos2v / (cosv + u) * self.tables.corner(u * s / opc.max(1e-30));
+        self.beta * n * self.tail_sum(w, v) / (2.0 * PI * h)
+    }
+
+    /// Airlight L_a (eq. 3.16, per unit intensity) along the ray from the
+    /// eye in unit direction `dir`, ending at `hit` = (surface point,
+    /// D_vp, e^{−T_vp}) or at infinity (eq. 3.17).
+    #[inline]
+    #[must_use]
+    pub fn airlight(&self, light: &PreparedLight, dir: Vec3, hit: Option<(Vec3, f32, f32)>) -> f32 {
+        let along = light.to_light.dot(dir);
+        let h_raw = light.to_light.cross(dir).length();
+        match hit {
+            None => {
+                let h = h_raw.max(MIN_ANGLE * light.d_sv).max(MIN_DISTANCE);
+                light.exp_t_sv * self.l_inf_kernel(light.d_sv, along, h)
+            }
+            Some((p, _d_vp, exp_t_vp)) => {
+                let lp = light.position - p;
+                let d_sp = lp.length().max(MIN_DISTANCE);
+                let exp_t_sp = (-self.beta * d_sp).exp();
+                self.airlight_split(
+                    light,
+                    along,
+                    h_raw,
+                    lp.dot(dir),
+                    d_sp,
+                    exp_t_vp * exp_t_sp,
+                    _d_vp,
+                )
+            }
+        }
+    }
+
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn airlight_split(
+        &self,
+        light: &PreparedLight,
+        along: f32,
+        h_raw: f32,
+        along_p: f32,
+        d_sp: f32,
+        exp_vp_sp: f32,
+        d_vp: f32,
+    ) -> f32 {
+        let h = h_raw
+            .max(MIN_ANGLE * light.d_sv.min(d_sp))
+            .max(MIN_DISTANCE);
+        let a = light.exp_t_sv * self.l_inf_kernel(light.d_sv, along, h);
+        let b = exp_vp_sp * self.l_inf_kernel(d_sp, along_p, h);
+        if b > CANCELLATION_RATIO * a {
+            // The two tails nearly cancel (a short view segment far from the
+            // light): integrate eq. 3.5 over the segment directly instead.
+            return self.segment_gauss(along, h, d_vp);
+        }
+        (a - b).max(0.0)
+    }
+
+    /// Eq. 3.5 (with the polynomial phase) over [0, d_vp] per unit
+    /// intensity, in the equiangular variable θ = atan((t − Δ)/h) (Δ the
+    /// light's offset along the ray): dt/d² = dθ/h, so the integrand
+    /// e^{−β(t + d)} k(−sin θ) is smooth and 6-point Gauss–Legendre suffices.
+    #[inline]
+    fn segment_gauss(&self, along: f32, h: f32, d_vp: f32) -> f32 {
+        const X: [f32; 6] = [
+            -0.932_469_5,
+            -0.661_209_4,
+            -0.238_619_2,
+            0.238_619_2,
+            0.661_209_4,
+            0.932_469_5,
+        ];
+        const W: [f32; 6] = [
+            0.171_324_5,
+            0.360_761_6,
+            0.467_913_9,
+            0.467_913_9,
+            0.360_761_6,
+            0.171_324_5,
+        ];
+        let th0 = (-along / h).atan();
+        let th1 = ((d_vp - along) / h).atan();
+        let (mid, half) = (0.5 * (th0 + th1), 0.5 * (th1 - th0));
+        let mut s = 0.0;
+        for (x, w) in X.iter().zip(W) {
+            let th = mid + half * x;
+            let (sn, cs) = th.sin_cos();
+            let t = along + h * sn / cs.max(1e-30);
+            let d = h / cs.max(1e-30);
+            let c = -sn;
+            let mut k = 0.0;
+            for &pw in self.phase.iter().rev() {
+                k = k * c + pw;
+            }
+            s += w * k * (-self.beta * (t + d)).exp();
+        }
+        (self.beta / (4.0 * PI) * half * s / h).max(0.0)
+    }
+
+    /// Complete model (eq. 3.29) for one pixel and one light: radiance
+    /// reaching the eye along `dir` (unit), with the visible surface point
+    /// `p`, its unit normal `n` (either side; flipped toward the viewer),
+    /// distance `d_vp` = |p − eye| and e^{−T_vp} = `exp_t_vp`, material `m` and its G
+    /// table `g_phong` (`None` when `m.ks` is zero).
+    #[inline]
+    #[must_use]
+    #[allow(clippy::too_many_arguments)]
+    pub fn shade_surface(
+        &self,
+        light: &PreparedLight,
+        dir: Vec3,
+        p: Vec3,
+        n: Vec3,
+        d_vp: f32,
+        exp_t_vp: f32,
+        m: &FogMaterial,
+        g_phong: Option<&Table2>,
+    ) -> Vec3 {
+        let lp = light.position - p;
+        let d_sp = lp.length().max(MIN_DISTANCE);
+        let t_sp = self.beta * d_sp;
+        let exp_t_sp = (-t_sp).exp();
+        let l_hat = lp / d_sp;
+        let along = light.to_light.dot(dir);
+        let h_raw = light.to_light.cross(dir).length();
+        let air = self.airlight_split(
+            light,
+            along,
+            h_raw,
+            lp.dot(dir),
+            d_sp,
+            exp_t_vp * exp_t_sp,
+            d_vp,
+        );
+
+        let n = if n.dot(dir) > 0.0 { -n } else { n };
+        let w_t = t_sp / (1.0 + t_sp);
+        let direct = exp_t_sp / (d_sp * d_sp);
+        let scat = self.beta * exp_t_sp / (2.0 * PI * d_sp);
+        let mu = n.dot(l_hat);
+        let g0 = self
+            .g_lambert
+            .map_or(0.0, |g| g.lookup(self.interp, w_t, mu));
+        let diffuse = (direct * mu.max(0.0) + scat * g0) * (1.0 / PI);
+        let mut lp_rad = m.albedo * diffuse;
+        if let Some(gt) = g_phong {
+            let r = dir - 2.0 * dir.dot(n) * n;
+            let mu_r = r.dot(l_hat);
+            let gn = gt.lookup(self.interp, w_t, mu_r);
+            let lobe = if mu > 0.0 {
+                mu_r.max(0.0).powi(m.n as i32)
+            } else {
+                0.0
+            };
+            lp_rad += m.ks * (direct * lobe + scat * gn);
+        }
+        light.intensity * (exp_t_vp * lp_rad + Vec3::splat(air))
+    }
+
+    /// Complete model summed over `lights` for one pixel: surface hit
+    /// `Some((p, n, material, g_phong))` or background (`None`).
+    #[inline]
+    #[must_use]
+    pub fn shade_pixel(
+        &self,
+        eye: Vec3,
+        dir: Vec3,
+        lights: &[PreparedLight],
+        hit: Option<(Vec3, Vec3, &FogMaterial, Option<&Table2>)>,
+    ) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        match hit {
+            None => {
+                for l in lights {
+                    sum += l.intensity * self.airlight(l, dir, None);
+                }
+            }
+            Some((p, n, m, g)) => {
+                let d_vp = (p - eye).length();
+                let exp_t_vp = (-self.beta * d_vp).exp();
+                for l in lights {
+                    sum += self.shade_surface(l, dir, p, n, d_vp, exp_t_vp, m, g);
+                }
+            }
+        }
+        sum
+    }
+}
+
+/// The classic OpenGL exponential fog (GL_EXP) for comparison: the surface
+/// shaded without a medium (Lambert + Phong under inverse-square point
+/// lights, same [`FogMaterial`]), blended with a constant fog colour:
+/// f = e^{−β D_vp}, C = f C_surface + (1 − f) C_fog; background = C_fog.
+#[must_use]
+pub fn opengl_fog_pixel(
+    eye: Vec3,
+    dir: Vec3,
+    lights: &[PointLight],
+    beta: f32,
+    fog_color: Vec3,
+    hit: Option<(Vec3, Vec3, &FogMaterial)>,
+) -> Vec3 {
+    let Some((p, n, m)) = hit else {
+        return fog_color;
+    };
+    let n = if n.dot(dir) > 0.0 { -n } else { n };
+    let mut c = Vec3::ZERO;
+    for l in lights {
+        let lp = l.position - p;
+        let d = lp.length().max(MIN_DISTANCE);
+        let lh = lp / d;
+        let mu = n.dot(lh);
+        if mu <= 0.0 {
+            continue;
+        }
+        let r = dir - 2.0 * dir.dot(n) * n;
+        let spec = if m.ks == Vec3::ZERO {
+            Vec3::ZERO
+        } else {
+            m.ks * r.dot(lh).max(0.0).powi(m.n as i32)
+        };
+        c += l.intensity / (d * d) * (m.albedo / PI * mu + spec);
+    }
+    let f = (-beta.max(0.0) * (p - eye).length()).exp();
+    f * c + (1.0 - f) * fog_color
+}
+
+/// Scalar airlight through the model for the canonical geometry of eq. 3.5
+/// (eye at the origin looking down +z, light at D_sv (sin γ, 0, cos γ),
+/// surface at D_vp or none when infinite) — used by `verify_fog`.
+#[must_use]
+pub fn airlight_model(model: &FogModel, i0: f32, d_sv: f32, d_vp: f32, gamma: f32) -> f32 {
+    let light = PointLight::new(
+        Vec3::new(gamma.sin(), 0.0, gamma.cos()) * d_sv,
+        Vec3::splat(i0),
+    );
+    let Ok(pl) = model.prepare_lights(Vec3::ZERO, &[light]) else {
+        return 0.0;
+    };
+    let hit = d_vp
+        .is_finite()
+        .then(|| (Vec3::Z * d_vp, d_vp, (-model.beta * d_vp).exp()));
+    i0 * model.airlight(&pl[0], Vec3::Z, hit)
+}
+
+/// Airlight with the paper's own table of F (eq. 3.16, u clamped to the F
+/// table's range): A₀ [F(A₁, v₂) − F(A₁, γ/2)] — for the comparison rows of
+/// `verify_fog`.
+#[must_use]
+pub fn airlight_paper_f(
+    tables: &FogTables,
+    interp: Interp,
+    beta: f64,
+    i0: f64,
+    d_sv: f64,
+    d_vp: f64,
+    gamma: f64,
+) -> f64 {
+    let t_sv = beta * d_sv;
+    let (s, c) = gamma.sin_cos();
+    let a1 = (t_sv * s).max(1e-12);
+    let a0 = beta * beta * i0 * (-t_sv * c).exp() / (2.0 * std::f64::consts::PI * a1);
+    let v2 = if d_vp.is_finite() {
+        std::f64::consts::FRAC_PI_4 + 0.5 * ((beta * d_vp - t_sv * c) / a1).atan()
+    } else {
+        std::f64::consts::FRAC_PI_2
+    };
+    let f = |v: f64| f64::from(tables.f.lookup(interp, a1 as f32, v as f32));
+    a0 * (f(v2) - f(0.5 * gamma))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn atan2_pos_is_accurate() {
+        for i in 0..=100 {
+            for j in 0..=100 {
+                let (y, x) = (i as f32 / 10.0, j as f32 / 10.0 + 1e-3);
+                let e = (atan2_pos(y, x) - y.atan2(x)).abs();
+                assert!(e < 2e-5, "atan2({y},{x}) err {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn phase_fits() {
+        let r = Phase::rayleigh();
+        assert!((r.eval(1.0) - 3.0 / (8.0 * PI)).abs() < 1e-6);
+        let hg = Phase::henyey_greenstein(0.3, 6).unwrap();
+        // Normalisation preserved: ∫ k dω = 2π ∫ k(x) dx = 1.
+        let m = 2000;
+        let integral: f32 = (0..m)
+            .map(|i| hg.eval(-1.0 + 2.0 * (i as f32 + 0.5) / m as f32))
+            .sum::<f32>()
+            * 2.0
+            / m as f32
+            * 2.0
+            * PI;
+        assert!((integral - 1.0).abs() < 1e-3, "∫HG fit = {integral}");
+        let exact = |c: f32| (1.0 - 0.09) / (4.0 * PI * (1.09 - 0.6 * c).powf(1.5));
+        for &c in &[-1.0f32, 0.0, 0.5, 1.0] {
+            assert!(
+                (hg.eval(c) - exact(c)).abs() < 0.05 * exact(c) + 2e-3,
+                "HG fit at {c}: {} vs {}",
+                hg.eval(c),
+                exact(c)
+            );
+        }
+        assert!(Phase::henyey_greenstein(1.0, 3).is_err());
+    }
+}
