@@ -1,0 +1,373 @@
+//! Precomputation: SH coefficients of BRDF × cosine for every outgoing polar
+//! angle (Kautz, Sloan & Snyder 2002, §3; Křivánek et al. 2006 §4.1).
+//!
+//! # What is tabulated
+//! In the canonical local frame (normal +Z, `ω_o = (sin θ_o, 0, cos θ_o)` in
+//! the xz-plane), for `θ_o` on a grid,
+//!
+//! `B_{l,m}(θ_o) = ∫_{H²} f(ω_o, ω_i) cos θ_i y_{l,m}(ω_i) dω_i`  (per RGB channel).
+//!
+//! For an **isotropic** BRDF `f(R_z ω_o, R_z ω_i) = f(ω_o, ω_i)`, so the
+//! transfer vector for any other outgoing direction with the same θ_o and
+//! azimuth φ_o is the exact Z rotation `R_z(φ_o) B(θ_o)` (O(n²),
+//! `relight_sh::rotation::rotate_z`): one polar-angle grid is the whole table.
+//! In the canonical frame the integrand is even in `ω_i.y`, so every `m < 0`
+//! coefficient vanishes exactly; they are stored as zeros.
+//!
+//! # Quadrature
+//! Gauss–Legendre in `μ = cos θ_i ∈ [0, 1]` ([`BakeOptions::mu_nodes`]) ×
+//! uniform midpoint rule in φ ∈ [0, π] (doubled by the y-symmetry;
+//! [`BakeOptions::phi_nodes`]). The horizon clamp is the end of the μ
+//! interval, so the cosine kink costs nothing. Defaults resolve GGX/Phong
+//! lobes down to α ≈ 0.1 (exponent ≈ 200) to well under the SH truncation error.
+//!
+//! # Layout
+//! `coeffs[(j · 3 + c) · n² + i]` for polar sample `j`, channel `c ∈ {r,g,b}`,
+//! SH index `i = l(l+1)+m`. Polar samples sit at cell centres
+//! `θ_j = (j + ½)/N · π/2`; lookups interpolate linearly in θ_o and clamp at
+//! both ends. Truncating a table of order `n` to its first `k²` coefficients is
+//! exactly the order-`k` table (orthonormal projection).
+
+use crate::{MAX_SHADING_ORDER, ShLightError, check_shading_order};
+use glam::Vec3;
+use rayon::prelude::*;
+use relight_brdf::Brdf;
+use relight_render::Progress;
+use relight_sh::quadrature::gauss_legendre;
+use std::f64::consts::PI;
+
+/// Resolution of the bake.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct BakeOptions {
+    /// Polar-angle samples of `θ_o` over `[0, π/2]` (≥ 2).
+    pub theta_samples: usize,
+    /// Gauss–Legendre nodes in `cos θ_i` (≥ 4).
+    pub mu_nodes: usize,
+    /// Azimuth nodes over `[0, π]` (≥ 4).
+    pub phi_nodes: usize,
+}
+
+impl Default for BakeOptions {
+    fn default() -> Self {
+        Self {
+            theta_samples: 64,
+            mu_nodes: 96,
+            phi_nodes: 96,
+        }
+    }
+}
+
+impl BakeOptions {
+    fn validate(&self) -> Result<(), ShLightError> {
+        let bad = |what, why: &str| {
+            Err(ShLightError::InvalidParameter {
+                what,
+                why: why.into(),
+            })
+        };
+        if self.theta_samples < 2 {
+            return bad("theta_samples", "need at least 2 polar samples");
+        }
+        if self.mu_nodes < 4 || self.phi_nodes < 4 {
+            return bad(
+                "mu_nodes/phi_nodes",
+                "need at least 4 quadrature nodes each",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The baked transfer table of one BRDF (see the module docs for the layout).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BrdfShTable {
+    order: usize,
+    theta_samples: usize,
+    coeffs: Vec<f32>,
+}
+
+/// Relative change of `f` under rotations about the normal, over fixed probe
+/// pairs (0 for an isotropic BRDF).
+#[must_use]
+pub fn anisotropy(brdf: &dyn Brdf) -> f32 {
+    let dir = |t: f32, p: f32| Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+    let mut worst = 0.0f32;
+    for (k, &(to, po, ti, pi)) in [
+        (0.4f32, 0.3f32, 0.5f32, 2.9f32),
+        (1.0, 1.1, 0.9, 4.0),
+        (0.7, 2.0, 0.3, 5.5),
+        (1.2, 0.0, 1.1, 3.3),
+        (0.2, 4.0, 1.3, 0.7),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let psi = 0.7 + k as f32;
+        let a = brdf.eval(dir(to, po), dir(ti, pi));
+        let b = brdf.eval(dir(to, po + psi), dir(ti, pi + psi));
+        let scale = a.max_element().max(b.max_element());
+        if scale > 1e-6 {
+            worst = worst.max((a - b).abs().max_element() / scale);
+        }
+    }
+    worst
+}
+
+impl BrdfShTable {
+    /// Bakes `brdf` to `order` bands.
+    ///
+    /// # Errors
+    /// Order out of `1..=`[`MAX_SHADING_ORDER`], bad options, an anisotropic
+    /// BRDF ([`ShLightError::Anisotropic`], `object` = `object_index`), a BRDF
+    /// producing NaN, or cancellation.
+    pub fn bake(
+        brdf: &dyn Brdf,
+        order: usize,
+        opts: &BakeOptions,
+        object_index: usize,
+        progress: &dyn Progress,
+    ) -> Result<Self, ShLightError> {
+        check_shading_order(order)?;
+        opts.validate()?;
+        let deviation = anisotropy(brdf);
+        if deviation > 2e-2 {
+            return Err(ShLightError::Anisotropic {
+                object: object_index,
+                deviation,
+            });
+        }
+        let nn = order * order;
+        // Indices with m ≥ 0 (the only non-zero ones in the canonical frame).
+        let idx: Vec<usize> = (0..order)
+            .flat_map(|l| (0..=l).map(move |m| l * l + l + m))
+            .collect();
+        // Quadrature points: directions, weights × cos θ_i, and y_i (m ≥ 0).
+        let (gx, gw) = gauss_legendre(opts.mu_nodes);
+        let mut dirs = Vec::with_capacity(opts.mu_nodes * opts.phi_nodes);
+        let mut wts = Vec::with_capacity(dirs.capacity());
+        let dphi = PI / opts.phi_nodes as f64;
+        for (x, w) in gx.iter().zip(&gw) {
+            let mu = 0.5 * (x + 1.0);
+            let s = (1.0 - mu * mu).max(0.0).sqrt();
+            for k in 0..opts.phi_nodes {
+                let phi = (k as f64 + 0.5) * dphi;
+                dirs.push([s * phi.cos(), s * phi.sin(), mu]);
+                // ½ w (μ-interval), 2 dφ (φ over [0, π] doubled by symmetry), × cos θ_i.
+                wts.push(w * dphi * mu);
+            }
+        }
+        let np = dirs.len();
+        let ni = idx.len();
+        let mut ytab = vec![0.0f32; np * ni];
+        {
+            let mut y = vec![0.0f64; nn];
+            for (p, d) in dirs.iter().enumerate() {
+                relight_sh::eval_sh_into(order, *d, &mut y);
+                for (k, &i) in idx.iter().enumerate() {
+                    ytab[p * ni + k] = y[i] as f32;
+                }
+            }
+        }
+        let nt = opts.theta_samples;
+        progress.start("sh bake", nt as u64);
+        let rows: Result<Vec<Vec<f32>>, ShLightError> = (0..nt)
+            .into_par_iter()
+            .map(|j| {
+                progress.check()?;
+                let theta = (j as f64 + 0.5) / nt as f64 * 0.5 * PI;
+                let wo = Vec3::new(theta.sin() as f32, 0.0, theta.cos() as f32);
+                let mut acc = vec![0.0f64; 3 * ni];
+                for p in 0..np {
+                    let d = dirs[p];
+                    let f = brdf.eval(wo, Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32));
+                    if f == Vec3::ZERO {
+                        continue;
+                    }
+                    let w = wts[p];
+                    let (r, g, b) = (f64::from(f.x) * w, f64::from(f.y) * w, f64::from(f.z) * w);
+                    let yrow = &ytab[p * ni..(p + 1) * ni];
+                    for (k, &y) in yrow.iter().enumerate() {
+                        let y = f64::from(y);
+                        acc[k] += r * y;
+                        acc[ni + k] += g * y;
+                        acc[2 * ni + k] += b * y;
+                    }
+                }
+                let mut row = vec![0.0f32; 3 * nn];
+                for c in 0..3 {
+                    for (k, &i) in idx.iter().enumerate() {
+                        row[c * nn + i] = acc[c * ni + k] as f32;
+                    }
+                }
+                progress.inc(1);
+                Ok(row)
+            })
+            .collect();
+        progress.finish();
+        let coeffs: Vec<f32> = rows?.concat();
+        relight_sh::check_finite(
+            "baked BRDF coefficients (the BRDF returned NaN/inf)",
+            &coeffs,
+        )?;
+        Ok(Self {
+            order,
+            theta_samples: nt,
+            coeffs,
+        })
+    }
+
+    /// Number of bands.
+    #[must_use]
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// Polar samples.
+    #[must_use]
+    pub fn theta_samples(&self) -> usize {
+        self.theta_samples
+    }
+
+    /// The raw table (layout in the module docs).
+    #[must_use]
+    pub fn coeffs(&self) -> &[f32] {
+        &self.coeffs
+    }
+
+    /// Transfer coefficients for an outgoing direction with `cos θ_o`
+    /// in the canonical frame (azimuth 0), truncated to `order ≤ self.order()`
+    /// bands: `out[c · order² + i]`. Zero when `cos θ_o ≤ 0` (the view is
+    /// below the shading horizon: the BRDF vanishes). Allocation-free.
+    ///
+    /// # Panics
+    /// If `order > self.order()` or `out.len() < 3 order²`.
+    #[inline]
+    pub fn lookup(&self, cos_theta_o: f32, order: usize, out: &mut [f32]) {
+        assert!(
+            order <= self.order && order <= MAX_SHADING_ORDER,
+            "lookup order {order} above the baked {}",
+            self.order
+        );
+        let k = order * order;
+        let out = &mut out[..3 * k];
+        // Also catches NaN.
+        if cos_theta_o.is_nan() || cos_theta_o <= 0.0 {
+            out.fill(0.0);
+            return;
+        }
+        let theta = cos_theta_o.min(1.0).acos();
+        let nt = self.theta_samples;
+        let t = (theta / std::f32::consts::FRAC_PI_2 * nt as f32 - 0.5).clamp(0.0, (nt - 1) as f32);
+        let j0 = (t as usize).min(nt - 2);
+        let a = t - j0 as f32;
+        let nn = self.order * self.order;
+        let r0 = &self.coeffs[j0 * 3 * nn..(j0 + 1) * 3 * nn];
+        let r1 = &self.coeffs[(j0 + 1) * 3 * nn..(j0 + 2) * 3 * nn];
+        for c in 0..3 {
+            let (s0, s1) = (&r0[c * nn..c * nn + k], &r1[c * nn..c * nn + k]);
+            for ((o, x), y) in out[c * k..(c + 1) * k].iter_mut().zip(s0).zip(s1) {
+                *o = x + a * (y - x);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use relight_brdf::{Ggx, Lambert, Ward};
+    use relight_render::NoProgress;
+    use relight_sh::quadrature::SphereQuadrature;
+
+    /// Lambert: B = ρ/π · clamped-cosine zonal coefficients, independent of θ_o.
+    #[test]
+    fn lambert_bake_is_the_clamped_cosine() {
+        let b = Lambert::new(Vec3::new(0.8, 0.5, 0.2)).unwrap();
+        let t = BrdfShTable::bake(
+            &b,
+            5,
+            &BakeOptions {
+                theta_samples: 4,
+                ..Default::default()
+            },
+            0,
+            &NoProgress,
+        )
+        .unwrap();
+        let mut out = vec![0.0; 75];
+        t.lookup(0.3, 5, &mut out);
+        for l in 0..5 {
+            let want = relight_sh::convolve::clamped_cosine_a_hat(l)
+                / (4.0 * PI / (2 * l + 1) as f64).sqrt()
+                / PI;
+            let got = out[l * l + l] as f64 / 0.8;
+            assert!(
+                (got - want).abs() < 1e-5,
+                "l={l}: bake {got} vs Â_l/… {want}"
+            );
+            for m in 1..=l {
+                assert!(out[l * l + l + m].abs() < 1e-6 && out[l * l + l - m] == 0.0);
+            }
+        }
+    }
+
+    /// GGX: the bake matches brute-force product quadrature over the full sphere.
+    #[test]
+    fn ggx_bake_matches_independent_quadrature() {
+        let b = Ggx::isotropic(0.3, Vec3::ONE).unwrap();
+        let order = 6;
+        let t = BrdfShTable::bake(
+            &b,
+            order,
+            &BakeOptions {
+                theta_samples: 3,
+                mu_nodes: 64,
+                phi_nodes: 64,
+            },
+            0,
+            &NoProgress,
+        )
+        .unwrap();
+        let theta = (1.0 + 0.5) / 3.0 * 0.5 * PI; // sample j = 1, no interpolation
+        let wo = Vec3::new(theta.sin() as f32, 0.0, theta.cos() as f32);
+        let q = SphereQuadrature::new(300, 600);
+        let want = relight_sh::project::project_fn(order, &q, |d| {
+            if d.z <= 0.0 {
+                0.0
+            } else {
+                f64::from(b.eval(wo, d.as_vec3()).x) * d.z
+            }
+        });
+        let mut out = vec![0.0; 3 * order * order];
+        t.lookup(theta.cos() as f32, order, &mut out);
+        for i in 0..order * order {
+            assert!(
+                (f64::from(out[i]) - want[i]).abs() < 2e-3 * want[0].abs(),
+                "i={i}: bake {} vs quadrature {}",
+                out[i],
+                want[i]
+            );
+        }
+    }
+
+    #[test]
+    fn anisotropic_and_bad_orders_are_refused() {
+        let w = Ward::new(0.05, 0.4, Vec3::ONE).unwrap();
+        assert!(matches!(
+            BrdfShTable::bake(&w, 3, &BakeOptions::default(), 2, &NoProgress),
+            Err(ShLightError::Anisotropic { object: 2, .. })
+        ));
+        let l = Lambert::new(Vec3::ONE).unwrap();
+        assert!(BrdfShTable::bake(&l, 0, &BakeOptions::default(), 0, &NoProgress).is_err());
+        assert!(
+            BrdfShTable::bake(
+                &l,
+                MAX_SHADING_ORDER + 1,
+                &BakeOptions::default(),
+                0,
+                &NoProgress
+            )
+            .is_err()
+        );
+    }
+}

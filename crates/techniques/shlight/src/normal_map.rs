@@ -1,0 +1,183 @@
+//! Tangent-space normal maps: storage, bilinear wrap sampling, and the
+//! perturbed world normal.
+//!
+//! # Convention
+//! * Texel `(x, y)` (row 0 at the top of the image) holds a unit vector in
+//!   tangent space `(t, b, n)`: +X along the tangent, +Y along the bitangent
+//!   (OpenGL "green up"), +Z out of the surface — the `shared/data/normalmaps`
+//!   convention. PNG colours `c ∈ [0, 1]³` decode as `2c − 1`
+//!   ([`NormalMap::from_rgb`]).
+//! * uv → texel: `x = u·W − ½`, `y = v·H − ½` (v runs down the image, the
+//!   glTF convention), bilinear, wrapping in both directions.
+//! * World normal: `n' = normalize(x·T + y·B + z·N)` with `N` the unit
+//!   interpolated vertex normal, `T` the interpolated tangent made orthogonal
+//!   to `N` (Gram–Schmidt) and `B = w (N × T)`, `w` = the tangent's handedness.
+//!   Both the SH renderer and the normal-mapped reference of `verify` call
+//!   [`NormalMap::perturb`], so they shade the same normals.
+
+use crate::ShLightError;
+use glam::{Vec2, Vec3, Vec4};
+
+/// A decoded tangent-space normal map: `width × height` unit vectors, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NormalMap {
+    pub width: usize,
+    pub height: usize,
+    /// Unit tangent-space normals (z > 0 after decoding; see the module docs).
+    pub texels: Vec<Vec3>,
+}
+
+impl NormalMap {
+    /// From tangent-space vectors in `[−1, 1]³` (normalised here).
+    ///
+    /// # Errors
+    /// Size mismatch, zero size, non-finite or zero-length texels.
+    pub fn from_vectors(width: usize, height: usize, v: &[Vec3]) -> Result<Self, ShLightError> {
+        if width == 0 || height == 0 {
+            return Err(ShLightError::NormalMap(format!(
+                "size {width}×{height} is empty"
+            )));
+        }
+        if v.len() != width * height {
+            return Err(ShLightError::NormalMap(format!(
+                "{} texels given for a {width}×{height} map ({} expected)",
+                v.len(),
+                width * height
+            )));
+        }
+        let mut texels = Vec::with_capacity(v.len());
+        for (i, t) in v.iter().enumerate() {
+            let Some(n) = t.try_normalize() else {
+                return Err(ShLightError::NormalMap(format!(
+                    "texel ({}, {}) = {t} is not a direction (zero or not finite)",
+                    i % width,
+                    i / width
+                )));
+            };
+            texels.push(n);
+        }
+        Ok(Self {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    /// From decoded PNG colours in `[0, 1]³` (linear, no sRGB curve): `2c − 1`.
+    ///
+    /// # Errors
+    /// As [`NormalMap::from_vectors`].
+    pub fn from_rgb(width: usize, height: usize, rgb: &[Vec3]) -> Result<Self, ShLightError> {
+        let v: Vec<Vec3> = rgb.iter().map(|c| *c * 2.0 - Vec3::ONE).collect();
+        Self::from_vectors(width, height, &v)
+    }
+
+    /// A procedural bump map (for tests and `verify` without a file): a
+    /// `cells × cells` grid of spherical-cap bumps, each tilting the normal by
+    /// up to `max_tilt` radians at its rim. `size` texels square.
+    #[must_use]
+    pub fn bumps(size: usize, cells: usize, max_tilt: f32) -> Self {
+        let size = size.max(1);
+        let cells = cells.max(1) as f32;
+        let texels = (0..size * size)
+            .map(|i| {
+                let (x, y) = ((i % size) as f32 + 0.5, (i / size) as f32 + 0.5);
+                let u = (x / size as f32 * cells).fract() * 2.0 - 1.0;
+                let v = (y / size as f32 * cells).fract() * 2.0 - 1.0;
+                let r = (u * u + v * v).sqrt();
+                if r >= 1.0 {
+                    return Vec3::Z;
+                }
+                // Tilt grows linearly with the radius; direction = outward.
+                let tilt = max_tilt * r;
+                let (s, c) = tilt.sin_cos();
+                let dir = if r > 0.0 {
+                    Vec2::new(u, -v) / r
+                } else {
+                    Vec2::ZERO
+                };
+                Vec3::new(dir.x * s, dir.y * s, c)
+            })
+            .collect();
+        Self {
+            width: size,
+            height: size,
+            texels,
+        }
+    }
+
+    /// Bilinear sample at `uv` with wrap-around, renormalised (tangent space).
+    #[inline]
+    #[must_use]
+    pub fn sample(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let fx = uv.x * w - 0.5;
+        let fy = uv.y * h - 0.5;
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let wrap = |v: f32, n: usize| -> usize {
+            let n_i = n as i64;
+            let i = if v.is_finite() { v as i64 } else { 0 };
+            (((i % n_i) + n_i) % n_i) as usize
+        };
+        let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
+        let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
+        let t = |x: usize, y: usize| self.texels[y * self.width + x];
+        let v = (t(xa, ya) * (1.0 - tx) + t(xb, ya) * tx) * (1.0 - ty)
+            + (t(xa, yb) * (1.0 - tx) + t(xb, yb) * tx) * ty;
+        v.normalize_or(Vec3::Z)
+    }
+
+    /// The perturbed world normal at a surface point with unit normal `n`,
+    /// interpolated tangent `tangent` (xyz, w = handedness) and `uv`.
+    #[inline]
+    #[must_use]
+    pub fn perturb(&self, n: Vec3, tangent: Vec4, uv: Vec2) -> Vec3 {
+        let t = (tangent.truncate() - n * n.dot(tangent.truncate()))
+            .normalize_or(n.any_orthonormal_vector());
+        let w = if tangent.w < 0.0 { -1.0 } else { 1.0 };
+        let b = n.cross(t) * w;
+        let m = self.sample(uv);
+        (t * m.x + b * m.y + n * m.z).normalize_or(n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flat_map_leaves_normal_unchanged_and_bad_input_errors() {
+        let m = NormalMap::from_rgb(2, 2, &[Vec3::new(0.5, 0.5, 1.0); 4]).unwrap();
+        let n = Vec3::new(0.3, 0.4, -0.5).normalize();
+        let p = m.perturb(n, Vec3::X.extend(1.0), Vec2::new(0.37, 0.91));
+        assert!((p - n).length() < 1e-6, "{p} vs {n}");
+        assert!(NormalMap::from_vectors(2, 2, &[Vec3::Z; 3]).is_err());
+        assert!(NormalMap::from_vectors(1, 1, &[Vec3::ZERO]).is_err());
+        assert!(NormalMap::from_vectors(0, 1, &[]).is_err());
+    }
+
+    #[test]
+    fn bilinear_wraps() {
+        let v = vec![Vec3::X, Vec3::Y];
+        let m = NormalMap::from_vectors(2, 1, &v).unwrap();
+        // u = 0 lies half-way between texel 1 (wrapped) and texel 0.
+        let s = m.sample(Vec2::new(0.0, 0.5));
+        assert!(
+            (s - Vec3::new(1.0, 1.0, 0.0).normalize()).length() < 1e-6,
+            "{s}"
+        );
+        assert!((m.sample(Vec2::new(1.25, 0.5)) - Vec3::X).length() < 1e-6);
+    }
+
+    #[test]
+    fn bumps_tilt_is_bounded() {
+        let m = NormalMap::bumps(64, 4, 0.6);
+        let max = m
+            .texels
+            .iter()
+            .map(|t| t.z.clamp(-1.0, 1.0).acos())
+            .fold(0.0f32, f32::max);
+        assert!(max <= 0.6 + 1e-5 && max > 0.5, "max tilt {max}");
+    }
+}
