@@ -1,1 +1,28 @@
-fn main() {}
+//! `relight`: the command-line face of the relight library.
+//!
+//! Thin glue (ripgrep style): parse and validate flags, call the library
+//! crates, print, map the outcome to an exit code (0 success, 1 error,
+//! 130 cancelled). Every message on stderr starts with `relight:`.
+
+mod args;
+mod commands;
+mod progress;
+mod table;
+
+use clap::Parser;
+
+fn main() {
+    let cli = args::Cli::parse();
+    progress::install_ctrlc();
+    match commands::run(cli) {
+        Ok(()) => {}
+        Err(err) => {
+            if err.downcast_ref::<relight_render::Cancelled>().is_some() {
+                eprintln!("relight: cancelled; no output was written");
+                std::process::exit(130);
+            }
+            eprintln!("relight: {err:#}");
+            std::process::exit(1);
+        }
+    }
+}

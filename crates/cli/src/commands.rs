@@ -1,0 +1,856 @@
+//! One function per subcommand: validate flags, call the library, report.
+
+use crate::args::{
+    BakeCommand, BenchArgs, Cli, Command, ConvertArgs, DemoArgs, FogCommand, Method, ParamKind,
+    RenderArgs, ShCommand, Suite, VerifyArgs,
+};
+use crate::progress::Bar;
+use crate::table::print_rows;
+use anyhow::{Context, Result, anyhow, bail, ensure};
+use glam::Vec3;
+use relight_assets::{ToneMap, write_exr, write_png};
+use relight_brdf::BrdfSpec;
+use relight_render::reference::{ReferenceOptions, render_reference};
+use relight_render::{Image, Scene};
+use relight_sphere::Param;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+pub fn run(cli: Cli) -> Result<()> {
+    let bar = Bar::new(cli.quiet);
+    match cli.command {
+        Command::Demo(a) => demo(a, &bar),
+        Command::Render(a) => render(a, &bar),
+        Command::Info { files } => info(&files),
+        Command::Convert(a) => convert(a),
+        Command::Sh(c) => sh(c),
+        Command::Bake(c) => bake(c, &bar),
+        Command::Fog(c) => fog(c),
+        Command::Bench(a) => bench(a),
+        Command::Verify(a) => verify(a, &bar),
+    }
+}
+
+/// Parses `WIDTHxHEIGHT`.
+pub fn parse_size(s: &str, flag: &str) -> Result<(usize, usize)> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| anyhow!("{flag} {s}: expected WIDTHxHEIGHT, e.g. 960x540"))?;
+    let w: usize = w
+        .trim()
+        .parse()
+        .map_err(|_| anyhow!("{flag} {s}: width `{w}` is not a positive integer"))?;
+    let h: usize = h
+        .trim()
+        .parse()
+        .map_err(|_| anyhow!("{flag} {s}: height `{h}` is not a positive integer"))?;
+    ensure!(
+        (1..=16384).contains(&w) && (1..=16384).contains(&h),
+        "{flag} {s}: each side must be 1…16384 pixels"
+    );
+    Ok((w, h))
+}
+
+/// Parses a comma-separated list of exactly `n` finite floats.
+pub fn parse_floats(s: &str, n: usize, flag: &str) -> Result<Vec<f32>> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse::<f32>()
+                .map_err(|_| anyhow!("{flag} {s}: `{x}` is not a number"))
+        })
+        .collect::<Result<_>>()?;
+    ensure!(
+        v.len() == n,
+        "{flag} {s}: expected {n} comma-separated numbers, got {}",
+        v.len()
+    );
+    ensure!(
+        v.iter().all(|x| x.is_finite()),
+        "{flag} {s}: values must be finite"
+    );
+    Ok(v)
+}
+
+/// Writes `image` as a tone-mapped PNG at `out` and a linear EXR beside it
+/// (or the other way round when `out` ends in `.exr`); returns both paths.
+pub fn write_outputs(image: &Image, out: &Path) -> Result<(PathBuf, PathBuf)> {
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let (png, exr) = match ext.as_str() {
+        "png" => (out.to_path_buf(), out.with_extension("exr")),
+        "exr" => (out.with_extension("png"), out.to_path_buf()),
+        _ => bail!(
+            "--out {}: the output must end in .png or .exr",
+            out.display()
+        ),
+    };
+    ensure!(
+        image.pixels.iter().all(|p| p.is_finite()),
+        "internal error: the rendered image has non-finite pixels; nothing written"
+    );
+    write_png(
+        &png,
+        image.width,
+        image.height,
+        &image.pixels,
+        ToneMap::default(),
+    )
+    .with_context(|| format!("writing {}", png.display()))?;
+    write_exr(&exr, image.width, image.height, &image.pixels)
+        .with_context(|| format!("writing {}", exr.display()))?;
+    Ok((png, exr))
+}
+
+fn warn_all(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("relight: warning: {w}");
+    }
+}
+
+fn demo(a: DemoArgs, bar: &Bar) -> Result<()> {
+    let (w, h) = parse_size(&a.size, "--size")?;
+    ensure!(a.spp >= 1, "--spp must be at least 1 (got {})", a.spp);
+    let start = Instant::now();
+    let scene = relight_scene::default_scene(w, h);
+    let image = render_scene(
+        &scene,
+        a.method,
+        &RenderSettings {
+            spp: a.spp,
+            ..RenderSettings::default()
+        },
+        bar,
+    )?;
+    let (png, exr) = write_outputs(&image, &a.out)?;
+    println!(
+        "relight demo: {w}×{h}, method {:?}, wrote {} and {} in {:.2} s",
+        a.method,
+        png.display(),
+        exr.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// Method-independent settings of one render.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub spp: u32,
+    pub seed: u64,
+    pub visibility: bool,
+    /// SH bands and per-pixel rotation (`--method sh`).
+    pub order: usize,
+    pub rotation: String,
+    pub normal_map: Option<PathBuf>,
+    /// Wavelet parameters (`--method wavelet`).
+    pub n: usize,
+    pub ntess: usize,
+    pub terms: usize,
+    pub cache: Option<PathBuf>,
+    /// Fog parameters (`--method fog`).
+    pub beta: Option<f32>,
+    pub lights: Vec<String>,
+    pub fog: String,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            spp: 64,
+            seed: 1,
+            visibility: false,
+            order: 6,
+            rotation: "exact".into(),
+            normal_map: None,
+            n: 64,
+            ntess: 32,
+            terms: 256,
+            cache: None,
+            beta: None,
+            lights: Vec::new(),
+            fog: "analytic".into(),
+        }
+    }
+}
+
+/// Loads a tangent-space normal map (PNG, decoded linearly).
+fn load_normal_map(path: &Path) -> Result<relight_shlight::NormalMap> {
+    let (img, report) =
+        relight_assets::read_image_with(path, relight_assets::ColorEncoding::Linear)?;
+    warn_all(&report.warnings);
+    relight_shlight::NormalMap::from_rgb(img.width, img.height, &img.pixels)
+        .map_err(|e| anyhow!("{}: {e}", path.display()))
+}
+
+/// Renders `scene` with `method`.
+pub fn render_scene(scene: &Scene, method: Method, s: &RenderSettings, bar: &Bar) -> Result<Image> {
+    match method {
+        Method::Reference => {
+            let opts = ReferenceOptions {
+                spp: s.spp,
+                pass_spp: s.spp.min(8),
+                seed: s.seed,
+                visibility: s.visibility,
+                ..ReferenceOptions::default()
+            };
+            let r = render_reference(scene, &opts, bar)?;
+            eprintln!(
+                "relight: reference: {} spp, {:.2e} rays/s, relative standard error {:.4}",
+                r.spp,
+                r.rays as f64 / r.seconds.max(1e-9),
+                r.relative_std_error
+            );
+            Ok(r.image)
+        }
+        Method::Sh => {
+            let rotation: relight_shlight::ShRotationMethod = s
+                .rotation
+                .parse()
+                .map_err(|e| anyhow!("--rotation {}: {e}", s.rotation))?;
+            let renderer = relight_shlight::ShRenderer::new(s.order, rotation)
+                .map_err(|e| anyhow!("--order: {e}"))?;
+            let nm = s.normal_map.as_deref().map(load_normal_map).transpose()?;
+            Ok(renderer.render(scene, nm.as_ref(), bar)?.image)
+        }
+        Method::Wavelet => render_wavelet(scene, s, bar),
+        Method::Fog => render_fog(scene, s),
+    }
+}
+
+fn render_wavelet(scene: &Scene, s: &RenderSettings, bar: &Bar) -> Result<Image> {
+    let cache = s
+        .cache
+        .clone()
+        .unwrap_or_else(relight_wavelet::default_cache_dir);
+    let params = relight_wavelet::RotationParams::new(s.n, s.ntess, 1);
+    params.validate().map_err(|e| anyhow!("--n/--ntess: {e}"))?;
+    let t = Instant::now();
+    let rot = relight_wavelet::bake_or_load_rotation(&params, &cache, bar)?;
+    let mut bakes = Vec::new();
+    for o in &scene.objects {
+        let key = format!("{:?}", o.brdf);
+        let p = relight_wavelet::BrdfBakeParams::new(&key, params.m, 64, 128);
+        bakes.push(relight_wavelet::bake_or_load_brdf(
+            &p,
+            o.brdf.as_ref(),
+            &cache,
+            bar,
+        )?);
+    }
+    eprintln!(
+        "relight: wavelet data ready in {:.2} s (cache {})",
+        t.elapsed().as_secs_f64(),
+        cache.display()
+    );
+    let mut renderer = relight_wavelet::WaveletRenderer::new(rot, s.terms)?;
+    let t = Instant::now();
+    renderer.set_lighting(&scene.env, glam::Mat3::IDENTITY)?;
+    let light_ms = t.elapsed().as_secs_f64() * 1e3;
+    let t = Instant::now();
+    let refs: Vec<&relight_wavelet::BrdfBake> = bakes.iter().map(|b| b.as_ref()).collect();
+    let image = renderer.render(scene, &refs, &scene.camera, None)?;
+    eprintln!(
+        "relight: wavelet: lighting change {light_ms:.1} ms, view change + raster {:.1} ms",
+        t.elapsed().as_secs_f64() * 1e3
+    );
+    Ok(image)
+}
+
+fn render_fog(scene: &Scene, s: &RenderSettings) -> Result<Image> {
+    let beta = s.beta.unwrap_or(0.04);
+    ensure!(
+        beta.is_finite() && beta >= 0.0,
+        "--beta must be a finite number ≥ 0 (got {beta})"
+    );
+    let mut lights = Vec::new();
+    for l in &s.lights {
+        let v = parse_floats(l, 4, "--light")?;
+        ensure!(v[3] >= 0.0, "--light {l}: intensity must be ≥ 0");
+        lights.push(relight_fog::PointLight::new(
+            Vec3::new(v[0], v[1], v[2]),
+            Vec3::splat(v[3]),
+        ));
+    }
+    if lights.is_empty() {
+        lights.push(relight_fog::PointLight::new(
+            Vec3::new(-1.5, 2.2, 1.5),
+            Vec3::splat(8.0),
+        ));
+        lights.push(relight_fog::PointLight::new(
+            Vec3::new(1.8, 1.6, 1.2),
+            Vec3::new(6.0, 4.5, 3.0),
+        ));
+    }
+    let tables = relight_fog::FogTables::build(64)?;
+    let mut settings = relight_fog::FogSettings::new(&tables, beta);
+    settings.mode = match s.fog.as_str() {
+        "analytic" => relight_fog::FogMode::Analytic,
+        "opengl" => relight_fog::FogMode::OpenGl {
+            fog_color: Vec3::splat(0.5),
+        },
+        other => bail!("--fog {other}: expected `analytic` or `opengl`"),
+    };
+    let objects: Vec<relight_fog::FogObject> = scene
+        .objects
+        .iter()
+        .map(|o| {
+            // Fog shading uses the paper's Lambert/Phong surfaces: take the
+            // colour of the object's BRDF straight down the normal.
+            let albedo = o.brdf.eval(Vec3::Z, Vec3::Z) * std::f32::consts::PI;
+            relight_fog::FogObject {
+                mesh: &o.mesh,
+                material: relight_fog::FogMaterial::lambert(albedo.min(Vec3::ONE)),
+            }
+        })
+        .collect();
+    Ok(relight_fog::render_fog(
+        &objects,
+        &scene.camera,
+        &lights,
+        &settings,
+    )?)
+}
+
+fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
+    let start = Instant::now();
+    let size = a
+        .size
+        .as_deref()
+        .map(|s| parse_size(s, "--size"))
+        .transpose()?;
+    let mut method = a.method;
+    let mut spp = a.spp;
+    let mut scene = if let Some(path) = &a.scene {
+        let loaded = relight_scene::load_scene_file(path, size)?;
+        warn_all(&loaded.warnings);
+        if let Some(r) = &loaded.file.render {
+            if method.is_none() {
+                if let Some(m) = &r.method {
+                    method =
+                        Some(<Method as clap::ValueEnum>::from_str(m, true).map_err(|_| {
+                            anyhow!("{}: unknown render method `{m}`", path.display())
+                        })?);
+                }
+            }
+            spp = spp.or(r.spp);
+        }
+        loaded.scene
+    } else {
+        ensure!(
+            !a.mesh.is_empty(),
+            "give a scene file or at least one --mesh (a file, or sphere/torus/knot)"
+        );
+        let (w, h) = size.unwrap_or((960, 540));
+        let env_spec = a.env.clone().unwrap_or_else(|| "studio".into());
+        let (env, warnings) = relight_scene::load_environment(&env_spec)?;
+        warn_all(&warnings);
+        let brdf_spec = a.brdf.as_deref().unwrap_or("lambert");
+        let brdf = brdf_spec
+            .parse::<BrdfSpec>()
+            .map_err(|e| anyhow!("--brdf {brdf_spec}: {e}"))?
+            .build();
+        let mut objects = Vec::new();
+        for m in &a.mesh {
+            let (mesh, warnings) = relight_scene::load_mesh(m)?;
+            warn_all(
+                &warnings
+                    .iter()
+                    .map(|w| format!("{m}: {w}"))
+                    .collect::<Vec<_>>(),
+            );
+            objects.push(relight_render::Object {
+                mesh: std::sync::Arc::new(mesh),
+                brdf: brdf.clone(),
+            });
+        }
+        let camera = relight_scene::framing_camera(&objects, w, h, 40.0);
+        Scene {
+            objects,
+            env,
+            camera,
+        }
+    };
+    if let Some(spec) = &a.brdf {
+        if a.scene.is_some() {
+            let brdf = spec
+                .parse::<BrdfSpec>()
+                .map_err(|e| anyhow!("--brdf {spec}: {e}"))?
+                .build();
+            scene = relight_scene::with_brdf(&scene, &brdf);
+        }
+    }
+    if let Some(env) = &a.env {
+        if a.scene.is_some() {
+            let (e, warnings) = relight_scene::load_environment(env)?;
+            warn_all(&warnings);
+            scene.env = e;
+        }
+    }
+    if let Some(c) = &a.camera {
+        let v = parse_floats(c, c.split(',').count().clamp(6, 7), "--camera")?;
+        scene.camera.eye = Vec3::new(v[0], v[1], v[2]);
+        scene.camera.target = Vec3::new(v[3], v[4], v[5]);
+        if let Some(fov) = v.get(6) {
+            ensure!(
+                *fov > 0.0 && *fov < 180.0,
+                "--camera: field of view must be in (0, 180) degrees, got {fov}"
+            );
+            scene.camera.vfov_deg = *fov;
+        }
+    }
+    if let Some(r) = &a.light_rotate {
+        let v = parse_floats(r, 3, "--light-rotate")?;
+        scene.env = scene.env.rotated(
+            relight_scene::rotation_from_yaw_pitch_roll([v[0], v[1], v[2]]),
+            2,
+        );
+    }
+    let spp = spp.unwrap_or(64);
+    ensure!(spp >= 1, "--spp must be at least 1 (got {spp})");
+    let method = method.unwrap_or(Method::Reference);
+    let settings = RenderSettings {
+        spp,
+        seed: a.seed,
+        visibility: a.visibility,
+        order: a.order,
+        rotation: a.rotation.clone(),
+        normal_map: a.normal_map.clone(),
+        n: a.n,
+        ntess: a.ntess,
+        terms: a.terms,
+        cache: a.cache.clone(),
+        beta: a.beta,
+        lights: a.light.clone(),
+        fog: a.fog.clone(),
+    };
+    let image = render_scene(&scene, method, &settings, bar)?;
+    let (png, exr) = write_outputs(&image, &a.out)?;
+    println!(
+        "relight render: {}×{}, method {method:?}, wrote {} and {} in {:.2} s",
+        image.width,
+        image.height,
+        png.display(),
+        exr.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn info(files: &[PathBuf]) -> Result<()> {
+    let mut failed = 0;
+    for f in files {
+        match relight_assets::describe(f) {
+            Ok(info) => println!("{info}"),
+            Err(e) => {
+                eprintln!("relight: {e}");
+                failed += 1;
+            }
+        }
+    }
+    ensure!(
+        failed == 0,
+        "{failed} of {} files could not be read",
+        files.len()
+    );
+    Ok(())
+}
+
+fn convert(a: ConvertArgs) -> Result<()> {
+    let (env, report) = relight_assets::load_env_map(&a.input)?;
+    warn_all(&report.warnings);
+    ensure!(
+        (1..=16).contains(&a.supersample),
+        "--supersample must be 1…16 (got {})",
+        a.supersample
+    );
+    let size = a.size.unwrap_or(match env.param {
+        Param::LatLong { height, .. } => height,
+        Param::Cube { n } | Param::Octahedral { n } | Param::HemiOctahedral { n } => n,
+    });
+    ensure!(
+        (1..=8192).contains(&size),
+        "--size must be 1…8192 (got {size})"
+    );
+    let target = match a.to {
+        ParamKind::Latlong => Param::LatLong {
+            width: 2 * size,
+            height: size,
+        },
+        ParamKind::Cube => Param::Cube { n: size },
+        ParamKind::Octahedral => Param::Octahedral { n: size },
+        ParamKind::HemiOctahedral => Param::HemiOctahedral { n: size },
+    };
+    let out = env.resample(target, a.supersample);
+    relight_assets::write_env_map(&a.output, &out, ToneMap::default())
+        .with_context(|| format!("writing {}", a.output.display()))?;
+    println!(
+        "relight convert: {} ({}×{}) → {} ({}×{}, {:?})",
+        a.input.display(),
+        env.param.width(),
+        env.param.height(),
+        a.output.display(),
+        target.width(),
+        target.height(),
+        a.to
+    );
+    Ok(())
+}
+
+fn parse_window(w: &str) -> Result<relight_sh::project::Window> {
+    use relight_sh::project::Window;
+    let (name, arg) = w.split_once(':').map_or((w, None), |(n, a)| (n, Some(a)));
+    let value = |default: f64| -> Result<f64> {
+        arg.map_or(Ok(default), |a| {
+            a.parse::<f64>()
+                .map_err(|_| anyhow!("--window {w}: `{a}` is not a number"))
+        })
+    };
+    Ok(match name {
+        "none" => Window::None,
+        "hanning" => Window::Hanning { width: value(8.0)? },
+        "lanczos" => Window::Lanczos { width: value(8.0)? },
+        "sloan" => Window::Sloan {
+            lambda: value(0.001)?,
+        },
+        _ => {
+            bail!("--window {w}: expected none, hanning[:WIDTH], lanczos[:WIDTH] or sloan[:LAMBDA]")
+        }
+    })
+}
+
+fn sh(c: ShCommand) -> Result<()> {
+    match c {
+        ShCommand::Project {
+            file,
+            order,
+            window,
+            json,
+            out,
+        } => {
+            ensure!(
+                (1..=30).contains(&order),
+                "--order must be 1…30 bands (got {order})"
+            );
+            let (env, report) = relight_assets::load_env_map(&file)?;
+            warn_all(&report.warnings);
+            let w = parse_window(&window)?;
+            let coeffs = relight_shlight::project_env(&env, order, w)?;
+            let doc = serde_json::json!({
+                "file": file.display().to_string(),
+                "convention": relight_sh::CONVENTION,
+                "order": order,
+                "window": w.describe(),
+                "coefficients": coeffs,
+            });
+            if let Some(out) = &out {
+                relight_assets::write_atomic(out, serde_json::to_string_pretty(&doc)?.as_bytes())?;
+                eprintln!("relight: wrote {}", out.display());
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&doc)?);
+            } else {
+                println!(
+                    "{}: {order} bands ({} coefficients per channel), window {}",
+                    file.display(),
+                    order * order,
+                    w.describe()
+                );
+                println!("convention: {}", relight_sh::CONVENTION);
+                println!("{:>4} {:>4} {:>14} {:>14} {:>14}", "l", "m", "R", "G", "B");
+                for l in 0..order as i64 {
+                    for m in -l..=l {
+                        let i = (l * (l + 1) + m) as usize;
+                        println!(
+                            "{l:>4} {m:>4} {:>14.6e} {:>14.6e} {:>14.6e}",
+                            coeffs.channels[0][i], coeffs.channels[1][i], coeffs.channels[2][i]
+                        );
+                    }
+                }
+            }
+            Ok(())
+        }
+        ShCommand::Irradiance { file, out, json } => {
+            let (env, report) = relight_assets::load_env_map(&file)?;
+            warn_all(&report.warnings);
+            let (coeffs, map) = relight_shlight::irradiance_map(
+                &env,
+                Param::LatLong {
+                    width: 256,
+                    height: 128,
+                },
+            )?;
+            let img = Image {
+                width: map.param.width(),
+                height: map.param.height(),
+                pixels: map.texels,
+            };
+            let (png, exr) = write_outputs(&img, &out)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&coeffs)?);
+            } else {
+                println!(
+                    "{}: irradiance E(n), 9 coefficients per channel ({})",
+                    file.display(),
+                    relight_sh::CONVENTION
+                );
+                for i in 0..9 {
+                    println!(
+                        "{i:>2} {:>14.6e} {:>14.6e} {:>14.6e}",
+                        coeffs.channels[0][i], coeffs.channels[1][i], coeffs.channels[2][i]
+                    );
+                }
+            }
+            eprintln!("relight: wrote {} and {}", png.display(), exr.display());
+            Ok(())
+        }
+    }
+}
+
+fn bake(c: BakeCommand, bar: &Bar) -> Result<()> {
+    let t = Instant::now();
+    match c {
+        BakeCommand::Rotation {
+            n,
+            ntess,
+            ntrunc,
+            m,
+            out,
+        } => {
+            let mut p = relight_wavelet::RotationParams::new(n, ntess, ntrunc);
+            if let Some(m) = m {
+                p.m = m;
+            }
+            p.validate()?;
+            let rot = relight_wavelet::bake_rotation(&p, bar)?;
+            rot.save(&out)?;
+            println!(
+                "relight bake rotation: n={n} ntess={ntess} ntrunc={ntrunc} m={}: {:.1} nnz/row, {:.1} MB, wrote {} in {:.1} s",
+                p.m,
+                rot.nnz_per_row(),
+                rot.size_bytes() as f64 / 1e6,
+                out.display(),
+                t.elapsed().as_secs_f64()
+            );
+        }
+        BakeCommand::Brdf {
+            brdf,
+            m,
+            views,
+            terms,
+            out,
+        } => {
+            let spec = brdf
+                .parse::<BrdfSpec>()
+                .map_err(|e| anyhow!("--brdf {brdf}: {e}"))?;
+            let b = spec.build();
+            let p = relight_wavelet::BrdfBakeParams::new(&spec.to_string(), m, views, terms);
+            let bake = relight_wavelet::bake_brdf(&p, b.as_ref(), bar)?;
+            bake.save(&out)?;
+            println!(
+                "relight bake brdf: {spec} m={m} views={views}² terms={terms}: L2 energy kept {:.4}, wrote {} in {:.1} s",
+                bake.energy_fraction,
+                out.display(),
+                t.elapsed().as_secs_f64()
+            );
+        }
+    }
+    Ok(())
+}
+
+fn fog(c: FogCommand) -> Result<()> {
+    match c {
+        FogCommand::Tables { size, out } => {
+            ensure!(size >= 2, "--size must be at least 2 (got {size})");
+            let t = Instant::now();
+            let tables = relight_fog::FogTables::build(size)?;
+            let stem = out.with_extension("");
+            for img in tables.images() {
+                let path = PathBuf::from(format!("{}-{}.exr", stem.display(), img.name));
+                write_exr(&path, img.width, img.height, &img.pixels)?;
+                println!("wrote {} ({}×{})", path.display(), img.width, img.height);
+            }
+            println!(
+                "relight fog tables: size {size}, built in {:.2} s",
+                t.elapsed().as_secs_f64()
+            );
+            Ok(())
+        }
+    }
+}
+
+fn bench(a: BenchArgs) -> Result<()> {
+    match a.suite {
+        Suite::Raster => {
+            let rows = if a.quick {
+                relight_render::raster::bench_raster(100_000, 640, 360, 3)
+            } else {
+                relight_render::raster::bench_raster(1_000_000, 1920, 1080, 10)
+            };
+            print_rows("relight bench raster", &rows, a.json)
+        }
+        Suite::Reference => {
+            let rows = if a.quick {
+                relight_render::reference::bench_reference(160, 90, 4)
+            } else {
+                relight_render::reference::bench_reference(640, 360, 16)
+            };
+            print_rows("relight bench reference", &rows, a.json)
+        }
+        Suite::Sh => {
+            print_rows(
+                "relight bench sh (single thread, f32, ns)",
+                &relight_sh::bench_sh(a.quick),
+                a.json,
+            )?;
+            let (w, h, orders): (usize, usize, &[usize]) = if a.quick {
+                (320, 180, &[3, 6])
+            } else {
+                (1280, 720, &[3, 6, 10])
+            };
+            let scene = relight_scene::default_scene(w, h);
+            let rows = relight_shlight::bench_sh_render(
+                &scene,
+                None,
+                w,
+                h,
+                orders,
+                &[relight_shlight::ShRotationMethod::Exact],
+                if a.quick { 1 } else { 3 },
+            )?;
+            print_rows("relight bench sh: SH shading frame time", &rows, a.json)
+        }
+        Suite::Wavelet => {
+            let opts = if a.quick {
+                relight_wavelet::BenchOptions::quick()
+            } else {
+                relight_wavelet::BenchOptions::full()
+            };
+            let bunny = data_dir().join("mesh/bunny.obj");
+            let mut meshes = Vec::new();
+            if bunny.exists() {
+                let (mesh, _) = relight_assets::load_mesh(&bunny)?;
+                for &target in &opts.vertices {
+                    let (m, _) = mesh.subdivide_to_vertices(target, 6);
+                    meshes.push((target, std::sync::Arc::new(m)));
+                }
+            } else {
+                eprintln!(
+                    "relight: {} not found; view-change rows use UV spheres",
+                    bunny.display()
+                );
+            }
+            let rows = relight_wavelet::bench_wavelet(&opts, &meshes, &Bar::new(true))?;
+            print_rows("relight bench wavelet", &rows, a.json)
+        }
+        Suite::Fog => print_rows(
+            "relight bench fog",
+            &relight_fog::bench_fog(a.quick),
+            a.json,
+        ),
+    }
+}
+
+/// `../shared/data` beside the working directory, or `$RELIGHT_DATA`.
+fn data_dir() -> PathBuf {
+    std::env::var_os("RELIGHT_DATA").map_or_else(|| PathBuf::from("../shared/data"), PathBuf::from)
+}
+
+fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
+    match a.suite {
+        Suite::Sh => {
+            let opts = relight_shlight::VerifyOptions::new(a.quick);
+            let default = relight_scene::default_scene(opts.width, opts.height);
+            let mut scenes = vec![("default".to_string(), default.clone())];
+            let park = data_dir().join("hdri/park.exr");
+            if park.exists() {
+                let (env, _) = relight_assets::load_env_map(&park)?;
+                let ggx = "ggx:0.3"
+                    .parse::<BrdfSpec>()
+                    .map_err(|e| anyhow!("{e}"))?
+                    .build();
+                let mut s = relight_scene::with_brdf(&default, &ggx);
+                s.env = env;
+                scenes.push(("park-ggx0.3".to_string(), s));
+            } else {
+                eprintln!(
+                    "relight: {} not found; verifying the default scene only",
+                    park.display()
+                );
+            }
+            let nm_path = data_dir().join("normalmaps/0000.png");
+            let nm = if nm_path.exists() {
+                Some(load_normal_map(&nm_path)?)
+            } else {
+                None
+            };
+            let vs: Vec<relight_shlight::VerifyScene> = scenes
+                .iter()
+                .map(|(n, s)| relight_shlight::VerifyScene { name: n, scene: s })
+                .collect();
+            let rows =
+                relight_shlight::verify_sh(&vs, nm.as_ref().map(|m| ("0000.png", m)), &opts, bar)?;
+            print_rows(
+                "relight verify sh: relative RMS error vs the reference renderer",
+                &rows,
+                a.json,
+            )
+        }
+        Suite::Wavelet => {
+            let opts = if a.quick {
+                relight_wavelet::VerifyOptions::quick()
+            } else {
+                relight_wavelet::VerifyOptions::full()
+            };
+            let (w, h) = if a.quick { (160, 90) } else { (320, 180) };
+            let default = relight_scene::default_scene(w, h);
+            let mut scenes = vec![("default".to_string(), default.clone())];
+            if !a.quick {
+                for name in ["park", "sky", "studio"] {
+                    let p = data_dir().join(format!("hdri/{name}.exr"));
+                    if p.exists() {
+                        let (env, _) = relight_assets::load_env_map(&p)?;
+                        let mut s = default.clone();
+                        s.env = env;
+                        scenes.push((name.to_string(), s));
+                    }
+                }
+            }
+            let rows = relight_wavelet::verify_wavelet(&scenes, &opts, bar)?;
+            print_rows(
+                "relight verify wavelet: relative RMS error vs the reference renderer",
+                &rows,
+                a.json,
+            )?;
+            let light = |d: Vec3| relight_scene::studio_radiance(d);
+            let rows = relight_wavelet::verify_rotation(
+                "studio",
+                &light,
+                if a.quick { 32 } else { 64 },
+                bar,
+            )?;
+            print_rows(
+                "relight verify wavelet: rotated lighting (Figure 7)",
+                &rows,
+                a.json,
+            )
+        }
+        Suite::Fog => print_rows(
+            "relight verify fog",
+            &relight_fog::verify_fog(a.quick),
+            a.json,
+        ),
+        Suite::Raster | Suite::Reference => {
+            let rows = relight_brdf::verify::verify_brdfs(if a.quick { 20_000 } else { 200_000 });
+            print_rows(
+                "relight verify: BRDF sampling used by the reference renderer",
+                &rows,
+                a.json,
+            )
+        }
+    }
+}
