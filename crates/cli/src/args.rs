@@ -21,7 +21,7 @@ pub enum Command {
     /// Render the embedded default scene (no files needed) with the best method available.
     Demo(DemoArgs),
     /// Render a scene file, or a mesh under an environment map.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Describe files: environment maps, images and meshes, with statistics.
     Info {
         /// Files to describe.

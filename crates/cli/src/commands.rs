@@ -20,7 +20,7 @@ pub fn run(cli: Cli) -> Result<()> {
     let bar = Bar::new(cli.quiet);
     match cli.command {
         Command::Demo(a) => demo(a, &bar),
-        Command::Render(a) => render(a, &bar),
+        Command::Render(a) => render(*a, &bar),
         Command::Info { files } => info(&files),
         Command::Convert(a) => convert(a),
         Command::Sh(c) => sh(c),
@@ -325,19 +325,33 @@ fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
         .transpose()?;
     let mut method = a.method;
     let mut spp = a.spp;
+    let mut beta = a.beta;
+    let mut lights = a.light.clone();
     let mut scene = if let Some(path) = &a.scene {
         let loaded = relight_scene::load_scene_file(path, size)?;
         warn_all(&loaded.warnings);
         if let Some(r) = &loaded.file.render {
-            if method.is_none() {
-                if let Some(m) = &r.method {
-                    method =
-                        Some(<Method as clap::ValueEnum>::from_str(m, true).map_err(|_| {
-                            anyhow!("{}: unknown render method `{m}`", path.display())
-                        })?);
-                }
+            if let (None, Some(m)) = (method, &r.method) {
+                method = Some(
+                    <Method as clap::ValueEnum>::from_str(m, true)
+                        .map_err(|_| anyhow!("{}: unknown render method `{m}`", path.display()))?,
+                );
             }
             spp = spp.or(r.spp);
+        }
+        if let (None, Some(f)) = (beta, &loaded.file.fog) {
+            beta = Some(f.beta);
+        }
+        if lights.is_empty() {
+            lights = loaded
+                .file
+                .lights
+                .iter()
+                .map(|l| {
+                    let p = l.position;
+                    format!("{},{},{},{}", p[0], p[1], p[2], l.intensity)
+                })
+                .collect();
         }
         loaded.scene
     } else {
@@ -375,8 +389,8 @@ fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
             camera,
         }
     };
-    if let Some(spec) = &a.brdf {
-        if a.scene.is_some() {
+    if let (Some(spec), Some(_)) = (&a.brdf, &a.scene) {
+        {
             let brdf = spec
                 .parse::<BrdfSpec>()
                 .map_err(|e| anyhow!("--brdf {spec}: {e}"))?
@@ -384,8 +398,8 @@ fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
             scene = relight_scene::with_brdf(&scene, &brdf);
         }
     }
-    if let Some(env) = &a.env {
-        if a.scene.is_some() {
+    if let (Some(env), Some(_)) = (&a.env, &a.scene) {
+        {
             let (e, warnings) = relight_scene::load_environment(env)?;
             warn_all(&warnings);
             scene.env = e;
@@ -424,8 +438,8 @@ fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
         ntess: a.ntess,
         terms: a.terms,
         cache: a.cache.clone(),
-        beta: a.beta,
-        lights: a.light.clone(),
+        beta,
+        lights,
         fog: a.fog.clone(),
     };
     let image = render_scene(&scene, method, &settings, bar)?;

@@ -1,0 +1,159 @@
+//! End-to-end tests of the `relight` binary: the fresh-machine demo, scene
+//! files, and bad input (one-line error, non-zero exit, never a panic).
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn relight(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_relight"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run relight")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("relight-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn assert_clean_error(out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "expected failure, got success; stderr: {err}"
+    );
+    assert_eq!(out.status.code(), Some(1), "exit code; stderr: {err}");
+    assert!(!err.contains("panicked"), "panic: {err}");
+    assert!(
+        err.starts_with("relight: "),
+        "stderr should start with `relight: `: {err}"
+    );
+    assert!(
+        err.contains(needle),
+        "stderr should mention `{needle}`: {err}"
+    );
+}
+
+#[test]
+fn demo_writes_a_non_black_png_and_exr() {
+    let png = tmp("demo.png");
+    let out = relight(&[
+        "-q",
+        "demo",
+        "--size",
+        "96x54",
+        "--spp",
+        "4",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (img, _) =
+        relight_assets::read_image(&png.with_extension("exr")).expect("demo.exr readable");
+    assert_eq!((img.width, img.height), (96, 54));
+    let mean: f32 =
+        img.pixels.iter().map(|p| p.x + p.y + p.z).sum::<f32>() / (3.0 * img.pixels.len() as f32);
+    assert!(
+        mean > 0.05 && mean.is_finite(),
+        "demo image mean {mean} looks black or broken"
+    );
+    assert!(
+        std::fs::metadata(&png).unwrap().len() > 1000,
+        "png too small"
+    );
+}
+
+#[test]
+fn scene_file_renders() {
+    let png = tmp("scene.png");
+    let out = relight(&[
+        "-q",
+        "render",
+        "../../examples/studio-spheres.toml",
+        "--size",
+        "64x36",
+        "--spp",
+        "2",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(png.exists());
+}
+
+#[test]
+fn bad_flags_give_one_line_errors() {
+    let out_path = tmp("bad.png");
+    let o = out_path.to_str().unwrap();
+    assert_clean_error(
+        &relight(&["render", "--mesh", "sphere", "--spp", "0", "--out", o]),
+        "--spp",
+    );
+    assert_clean_error(
+        &relight(&["render", "--mesh", "sphere", "--size", "-3x2", "--out", o]),
+        "--size",
+    );
+    assert_clean_error(
+        &relight(&["render", "--mesh", "sphere", "--brdf", "glossy", "--out", o]),
+        "unknown BRDF",
+    );
+    assert_clean_error(
+        &relight(&["render", "--mesh", "no-such-mesh.obj", "--out", o]),
+        "no-such-mesh.obj",
+    );
+    assert_clean_error(
+        &relight(&[
+            "render",
+            "--mesh",
+            "sphere",
+            "--env",
+            "missing.exr",
+            "--out",
+            o,
+        ]),
+        "missing.exr",
+    );
+    assert_clean_error(
+        &relight(&[
+            "render", "--mesh", "sphere", "--method", "sh", "--order", "0", "--out", o,
+        ]),
+        "order",
+    );
+    assert_clean_error(
+        &relight(&[
+            "render", "--mesh", "sphere", "--method", "fog", "--beta", "-1", "--out", o,
+        ]),
+        "--beta",
+    );
+    assert_clean_error(
+        &relight(&["bake", "rotation", "--n", "48", "--out", o]),
+        "power of two",
+    );
+    assert_clean_error(&relight(&["info", "no-such-file.exr"]), "no-such-file.exr");
+    assert!(!out_path.exists(), "no output may be written on error");
+}
+
+#[test]
+fn corrupt_scene_file_is_rejected_with_its_name() {
+    let path = tmp("broken.toml");
+    std::fs::write(&path, "[[object]\nbuiltin = ").unwrap();
+    assert_clean_error(
+        &relight(&[
+            "render",
+            path.to_str().unwrap(),
+            "--out",
+            tmp("x.png").to_str().unwrap(),
+        ]),
+        "broken.toml",
+    );
+}
