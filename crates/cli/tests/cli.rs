@@ -100,7 +100,7 @@ fn bad_flags_give_one_line_errors() {
         "--spp",
     );
     assert_clean_error(
-        &relight(&["render", "--mesh", "sphere", "--size", "-3x2", "--out", o]),
+        &relight(&["render", "--mesh", "sphere", "--size", "0x2", "--out", o]),
         "--size",
     );
     assert_clean_error(

@@ -68,8 +68,7 @@
 //! # Cost
 //!
 //! 1 M triangles (a torus, back faces culled) at 1920×1080 on this 2-core
-//! machine: see [`bench_raster`] (`examples/raster_bench.rs` prints it with
-//! the CPU time of each pass).
+//! machine: see [`bench_raster`] (`relight bench raster` prints it).
 
 use crate::{Camera, Image};
 use glam::{Mat4, Vec3, Vec4};
@@ -2158,14 +2157,5 @@ mod tests {
             msg.contains("draw call 1") && msg.contains("vertex 9"),
             "{msg}"
         );
-    }
-
-    /// `CARGO_TARGET_DIR=… cargo test --release -p relight-render raster::tests::bench -- --ignored --nocapture`
-    #[test]
-    #[ignore = "benchmark"]
-    fn bench() {
-        for row in bench_raster(1_000_000, 1920, 1080, 10) {
-            eprintln!("{row:?}");
-        }
     }
 }

@@ -46,7 +46,7 @@ use crate::sampling::{EnvFilter, EnvSampler, Rng, luminance, power_heuristic};
 use crate::{Camera, Cancelled, Image, NoProgress, Object, Progress, Scene};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use relight_brdf::{Brdf, BrdfSample};
+use relight_brdf::{Brdf, BrdfSample, Lambert};
 use relight_geom::Mesh;
 use relight_sphere::{EnvMap, Frame, Param};
 use serde::Serialize;
@@ -527,42 +527,6 @@ pub struct ReferenceBenchRow {
     pub bvh_build_ms: f64,
 }
 
-/// A white Lambert BRDF (albedo `albedo`), private to the built-in scenes so
-/// that the renderer can benchmark without the BRDF library.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Lambert {
-    pub albedo: Vec3,
-}
-
-impl Brdf for Lambert {
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if wo.z > 0.0 && wi.z > 0.0 {
-            self.albedo * std::f32::consts::FRAC_1_PI
-        } else {
-            Vec3::ZERO
-        }
-    }
-    fn sample(&self, wo: Vec3, u: Vec2) -> Option<BrdfSample> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let wi = crate::sampling::sample_cosine_hemisphere(u);
-        let pdf = crate::sampling::cosine_hemisphere_pdf(wi.z);
-        (pdf > 0.0).then(|| BrdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-        })
-    }
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z > 0.0 {
-            crate::sampling::cosine_hemisphere_pdf(wi.z)
-        } else {
-            0.0
-        }
-    }
-}
-
 /// A closed UV sphere with outward winding, vertex normals and uvs.
 pub(crate) fn uv_sphere(center: Vec3, radius: f32, stacks: u32, slices: u32) -> Mesh {
     let mut m = Mesh::default();
@@ -643,9 +607,7 @@ pub(crate) fn sun_sky(width: usize, sun_dir: Vec3, sun_radius_deg: f32, sun: f32
 /// floor under a sky with a sun, seen at `width × height`.
 #[must_use]
 fn bench_scene(width: usize, height: usize) -> Scene {
-    let brdf: Arc<dyn Brdf> = Arc::new(Lambert {
-        albedo: Vec3::splat(0.8),
-    });
+    let brdf: Arc<dyn Brdf> = Arc::new(Lambert::new(Vec3::splat(0.8)).expect("albedo in [0, 1]"));
     Scene {
         objects: vec![
             Object {
@@ -726,9 +688,7 @@ mod tests {
         Scene {
             objects: vec![Object {
                 mesh: Arc::new(uv_sphere(Vec3::ZERO, 1.0, 48, 96)),
-                brdf: Arc::new(Lambert {
-                    albedo: Vec3::splat(albedo),
-                }),
+                brdf: Arc::new(Lambert::new(Vec3::splat(albedo)).expect("albedo in [0, 1]")),
             }],
             env,
             camera: Camera {
@@ -1057,9 +1017,7 @@ mod tests {
             (-sun + 0.3 * Vec3::Y).normalize(),
         ];
         normals.push(Vec3::new(0.3, -0.2, 0.9).normalize());
-        let brdf = Lambert {
-            albedo: Vec3::splat(albedo),
-        };
+        let brdf = Lambert::new(Vec3::splat(albedo)).expect("albedo in [0, 1]");
         for (k, n) in normals.into_iter().enumerate() {
             let q = lambert_quadrature(&scene.env, n, albedo);
             let est = reference_radiance_at(n, n, n, &brdf, &light, None, 65536, 100 + k as u64);
@@ -1134,18 +1092,5 @@ mod tests {
             assert!(r.rays >= (16 * 12) as u64 && r.rays_per_s > 0.0, "{r:?}");
         }
         assert!(rows[1].rays > rows[0].rays, "shadow rays counted");
-    }
-}
-
-/// `cargo test --release -p relight-render -- --ignored reference_throughput --nocapture`
-/// prints the throughput rows (a measurement, not a timed test).
-#[cfg(test)]
-mod bench {
-    #[test]
-    #[ignore = "benchmark: run in --release with --nocapture"]
-    fn reference_throughput() {
-        for row in super::bench_reference(320, 240, 16) {
-            eprintln!("{row:?}");
-        }
     }
 }
