@@ -131,7 +131,14 @@ fn bad_flags_give_one_line_errors() {
     );
     assert_clean_error(
         &relight(&[
-            "render", "--mesh", "sphere", "--method", "fog", "--beta", "-1", "--out", o,
+            "render",
+            "--mesh",
+            "sphere",
+            "--method",
+            "fog",
+            "--beta=-1",
+            "--out",
+            o,
         ]),
         "--beta",
     );
