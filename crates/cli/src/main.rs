@@ -17,7 +17,7 @@ fn main() {
     match commands::run(cli) {
         Ok(()) => {}
         Err(err) => {
-            if err.downcast_ref::<relight_render::Cancelled>().is_some() {
+            if progress::cancelled() || err.downcast_ref::<relight_render::Cancelled>().is_some() {
                 eprintln!("relight: cancelled; no output was written");
                 std::process::exit(130);
             }
