@@ -120,6 +120,15 @@ impl LoadReport {
     }
 }
 
+/// The file extension of `path`, lower-cased ("" when there is none), which
+/// names the format of every file relight reads.
+pub(crate) fn lowercase_extension(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase()
+}
+
 /// Runs a third-party decoder, turning a panic into [`AssetError::Corrupt`].
 pub(crate) fn guard<T>(
     path: &Path,

@@ -150,11 +150,7 @@ const IMAGE_EXTS: &str = ".exr, .hdr, .pic, .png, .jpg or .jpeg";
 impl ImageFormat {
     /// The format named by the file extension.
     pub fn from_path(path: &Path) -> Result<Self, AssetError> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .unwrap_or("")
-            .to_ascii_lowercase();
+        let ext = crate::error::lowercase_extension(path);
         Ok(match ext.as_str() {
             "exr" => Self::Exr,
             "hdr" | "pic" | "rgbe" => Self::Hdr,

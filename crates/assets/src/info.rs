@@ -71,11 +71,7 @@ const LUMA: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
 /// Describes an image, environment map, mesh or MERL file (by extension).
 pub fn describe(path: &Path) -> Result<FileInfo, AssetError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
+    let ext = crate::error::lowercase_extension(path);
     if ext == "binary" {
         let bytes = crate::read_merl_bytes(path)?;
         let d = |k: usize| {

@@ -45,11 +45,7 @@ const MESH_EXTS: &str = ".obj, .ply, .gltf or .glb";
 impl MeshFormat {
     /// The format named by the file extension.
     pub fn from_path(path: &Path) -> Result<Self, AssetError> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .unwrap_or("")
-            .to_ascii_lowercase();
+        let ext = crate::error::lowercase_extension(path);
         Ok(match ext.as_str() {
             "obj" => Self::Obj,
             "ply" => Self::Ply,

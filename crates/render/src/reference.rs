@@ -44,7 +44,7 @@
 use crate::bvh::{Hit, SceneBvh, ShadingPoint, offset_ray_origin};
 use crate::sampling::{EnvFilter, EnvSampler, Rng, luminance, power_heuristic};
 use crate::{Camera, Cancelled, Image, NoProgress, Object, Progress, Scene};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use relight_brdf::{Brdf, BrdfSample, Lambert};
 use relight_geom::Mesh;
@@ -527,40 +527,11 @@ pub struct ReferenceBenchRow {
     pub bvh_build_ms: f64,
 }
 
-/// A closed UV sphere with outward winding, vertex normals and uvs.
+/// A closed UV sphere about `center` ([`relight_geom::shapes::uv_sphere`]
+/// moved there), for the benchmark scenes and the tests.
 pub(crate) fn uv_sphere(center: Vec3, radius: f32, stacks: u32, slices: u32) -> Mesh {
-    let mut m = Mesh::default();
-    for i in 0..=stacks {
-        let theta = std::f32::consts::PI * i as f32 / stacks as f32;
-        for j in 0..=slices {
-            let phi = 2.0 * std::f32::consts::PI * j as f32 / slices as f32;
-            let n = Vec3::new(
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                -theta.sin() * phi.sin(),
-            );
-            m.positions.push(center + n * radius);
-            m.normals.push(n);
-            m.uvs.push(Vec2::new(
-                j as f32 / slices as f32,
-                i as f32 / stacks as f32,
-            ));
-        }
-    }
-    let w = slices + 1;
-    for i in 0..stacks {
-        for j in 0..slices {
-            let a = i * w + j;
-            let b = a + w;
-            if i != 0 {
-                m.indices.push([a, b, a + 1]);
-            }
-            if i != stacks - 1 {
-                m.indices.push([a + 1, b, b + 1]);
-            }
-        }
-    }
-    m
+    relight_geom::shapes::uv_sphere(radius, slices as usize, stacks as usize)
+        .transformed(glam::Affine3A::from_translation(center))
 }
 
 /// A square floor at height `y`, facing +Y.

@@ -136,73 +136,12 @@ impl Rng {
 // Warps
 // ---------------------------------------------------------------------------
 
-/// Concentric map of the unit square onto the unit disk (Shirley & Chiu 1997).
-#[inline]
-#[must_use]
-pub fn sample_uniform_disk_concentric(u: Vec2) -> Vec2 {
-    let o = 2.0 * u - Vec2::ONE;
-    if o.x == 0.0 && o.y == 0.0 {
-        return Vec2::ZERO;
-    }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
-    } else {
-        (
-            o.y,
-            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
-        )
-    };
-    let (s, c) = theta.sin_cos();
-    Vec2::new(r * c, r * s)
-}
-
-/// Cosine-weighted direction on the hemisphere z ≥ 0 (Malley's method on the
-/// concentric disk); density [`cosine_hemisphere_pdf`].
-#[inline]
-#[must_use]
-pub fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = sample_uniform_disk_concentric(u);
-    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
-    Vec3::new(d.x, d.y, z)
-}
-
-/// Density of [`sample_cosine_hemisphere`]: cos θ / π per steradian (0 below the horizon).
-#[inline]
-#[must_use]
-pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    cos_theta.max(0.0) * FRAC_1_PI
-}
-
-/// Inverse of [`sample_cosine_hemisphere`] (for round-trip tests).
-#[must_use]
-pub fn invert_cosine_hemisphere_sample(w: Vec3) -> Vec2 {
-    let p = Vec2::new(w.x, w.y);
-    // Invert the concentric map.
-    let r = p.length();
-    if r == 0.0 {
-        return Vec2::splat(0.5);
-    }
-    let mut phi = p.y.atan2(p.x);
-    if phi < -std::f32::consts::FRAC_PI_4 {
-        phi += 2.0 * PI;
-    }
-    let o = if phi < std::f32::consts::FRAC_PI_4 {
-        Vec2::new(r, r * phi / std::f32::consts::FRAC_PI_4)
-    } else if phi < 3.0 * std::f32::consts::FRAC_PI_4 {
-        Vec2::new(
-            r * (std::f32::consts::FRAC_PI_2 - phi) / std::f32::consts::FRAC_PI_4,
-            r,
-        )
-    } else if phi < 5.0 * std::f32::consts::FRAC_PI_4 {
-        Vec2::new(-r, -r * (phi - PI) / std::f32::consts::FRAC_PI_4)
-    } else {
-        Vec2::new(
-            -r * (3.0 * std::f32::consts::FRAC_PI_2 - phi) / std::f32::consts::FRAC_PI_4,
-            -r,
-        )
-    };
-    (o + Vec2::ONE) * 0.5
-}
+// The disk and cosine-hemisphere warps are the BRDF crate's (one copy of each
+// warp in the workspace); re-exported so renderer code has one `sampling` module.
+pub use relight_brdf::sampling::{
+    cosine_hemisphere_pdf, invert_cosine_hemisphere_sample, sample_cosine_hemisphere,
+    sample_uniform_disk_concentric,
+};
 
 /// Uniform direction on the unit sphere; density [`uniform_sphere_pdf`].
 #[inline]
@@ -615,7 +554,13 @@ impl EnvSampler {
             return 0.0;
         }
         let uv = self.param.uv_from_dir(wi.as_dvec3());
-        let p = self.texels.discrete_pmf(self.texel_from_uv(uv));
+        self.density(uv, self.texel_from_uv(uv))
+    }
+
+    /// Solid-angle density at map coordinates `uv` inside `texel`:
+    /// p_texel / (A_texel · J(uv)) (see the module docs).
+    fn density(&self, uv: DVec2, texel: usize) -> f32 {
+        let p = self.texels.discrete_pmf(texel);
         if p <= 0.0 {
             return 0.0;
         }
@@ -649,23 +594,10 @@ impl EnvSampler {
             EnvFilter::Nearest => env.texels[i],
             EnvFilter::Bilinear => env.eval(d),
         };
-        let p = if self.is_black() {
-            0.0
-        } else {
-            self.texels.discrete_pmf(i)
-        };
-        if p <= 0.0 {
+        if self.is_black() {
             return (l, 0.0);
         }
-        let j = self.jacobian(uv);
-        (
-            l,
-            if j <= 0.0 {
-                0.0
-            } else {
-                (p * (self.width * self.height) as f64 / j) as f32
-            },
-        )
+        (l, self.density(uv, i))
     }
 
     /// Radiance of a sample drawn by [`EnvSampler::sample`] (its texel is known).

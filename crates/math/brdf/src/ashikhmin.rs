@@ -159,12 +159,7 @@ impl Brdf for AshikhminShirley {
             }
             wi
         };
-        let pdf = self.pdf(wo, wi);
-        (pdf > 0.0).then(|| BrdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-        })
+        BrdfSample::at(self, wo, wi)
     }
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !both_above(wo, wi) {

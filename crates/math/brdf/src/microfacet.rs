@@ -174,12 +174,7 @@ impl Brdf for Ggx {
         }
         let h = sample_ggx_vndf(wo, self.alpha_x, self.alpha_y, u);
         let wi = reflect_about_half(wo, h)?;
-        let pdf = self.pdf(wo, wi);
-        (pdf > 0.0).then(|| BrdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-        })
+        BrdfSample::at(self, wo, wi)
     }
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !both_above(wo, wi) {

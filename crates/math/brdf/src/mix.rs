@@ -80,12 +80,7 @@ impl Brdf for Mix {
             if x < *w || k == last {
                 let ux = (x / w).clamp(0.0, 1.0 - f32::EPSILON);
                 let s = l.sample(wo, Vec2::new(ux, u.y))?;
-                let pdf = self.pdf(wo, s.wi);
-                return (pdf > 0.0).then(|| BrdfSample {
-                    wi: s.wi,
-                    f: self.eval(wo, s.wi),
-                    pdf,
-                });
+                return BrdfSample::at(self, wo, s.wi);
             }
             x -= w;
         }

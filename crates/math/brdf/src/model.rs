@@ -13,6 +13,23 @@ pub struct BrdfSample {
     pub pdf: f32,
 }
 
+impl BrdfSample {
+    /// The sample of `brdf` at a direction `wi` already drawn by some
+    /// strategy: f(wo, wi) and the model's full [`Brdf::pdf`] (so mixtures and
+    /// one-sided strategies report the density of the whole sampler). `None`
+    /// where that density is zero.
+    #[inline]
+    #[must_use]
+    pub fn at<B: Brdf + ?Sized>(brdf: &B, wo: Vec3, wi: Vec3) -> Option<Self> {
+        let pdf = brdf.pdf(wo, wi);
+        (pdf > 0.0).then(|| Self {
+            wi,
+            f: brdf.eval(wo, wi),
+            pdf,
+        })
+    }
+}
+
 /// A reflectance model in the local shading frame (see the crate docs).
 pub trait Brdf: Send + Sync + std::fmt::Debug {
     /// f(wo, wi) in sr⁻¹, RGB, without cosine; zero when either is below the horizon.

@@ -103,12 +103,7 @@ impl Brdf for Ward {
             return None;
         }
         let wi = reflect_about_half(wo, sample_ward_half(self.alpha_x, self.alpha_y, u))?;
-        let pdf = self.pdf(wo, wi);
-        (pdf > 0.0).then(|| BrdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-        })
+        BrdfSample::at(self, wo, wi)
     }
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !both_above(wo, wi) {
