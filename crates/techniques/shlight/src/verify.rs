@@ -97,6 +97,10 @@ pub struct ShVerifyRow {
     pub normal_map: String,
     /// Relative RMS error against the reference (object pixels).
     pub rel_rms_error: f64,
+    /// Relative RMS difference from the exact per-pixel rotation at the same
+    /// order and normal map (0 for the rows without a normal map): the error
+    /// the rotation method itself adds.
+    pub rel_rms_vs_exact: f64,
     /// The reference's own relative standard error on the same pixels.
     pub reference_rel_std_error: f64,
     pub reference_spp: u32,
@@ -169,6 +173,17 @@ pub fn verify_sh(
         let bumped = render_reference_with(&scene, &bvh, &light, &ropts, Some(&perturb), progress)?;
         for &order in &opts.orders {
             progress.check()?;
+            // The per-pixel exact rotation at this order: the best any rotation
+            // method can do with n bands, so `rel_rms_vs_exact` isolates the
+            // error of the rotation from that of the band limit.
+            let exact_nm = prepared.shade(
+                &scene,
+                order,
+                ShRotationMethod::Exact,
+                Some(nm),
+                f32::INFINITY,
+                false,
+            )?;
             let mut push = |rotation: String,
                             with_nm: bool,
                             method: ShRotationMethod|
@@ -196,6 +211,12 @@ pub fn verify_sh(
                     rel_rms_error: img
                         .image
                         .relative_rms_error(&reference.image, Some(&img.mask)),
+                    rel_rms_vs_exact: if with_nm {
+                        img.image
+                            .relative_rms_error(&exact_nm.image, Some(&img.mask))
+                    } else {
+                        0.0
+                    },
                     reference_rel_std_error: masked_std_error(reference, &img.mask),
                     reference_spp: reference.spp,
                     pixels: img.mask.iter().filter(|&&m| m).count(),

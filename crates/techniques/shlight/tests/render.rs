@@ -266,6 +266,29 @@ fn verify_quick_smoke() {
             r.rel_rms_error.is_finite() && r.rel_rms_error > 0.0 && r.pixels > 100,
             "{r:?}"
         );
+        // Against the exact per-pixel rotation: zero for exact itself (and for
+        // the rows without a normal map), and the `none` baseline is the worst.
+        match r.rotation.as_str() {
+            "exact" | "any" => assert!(r.rel_rms_vs_exact == 0.0, "{r:?}"),
+            _ => assert!(r.rel_rms_vs_exact.is_finite(), "{r:?}"),
+        }
+    }
+    for order in [3, 5] {
+        let vs = |m: &str| {
+            rows.iter()
+                .find(|r| r.order == order && r.rotation == m)
+                .map(|r| r.rel_rms_vs_exact)
+                .unwrap()
+        };
+        assert!(vs("zyz") < 1e-4, "zyz vs exact at order {order}: {}", vs("zyz"));
+        for taylor in ["taylor1", "taylor15", "taylor2"] {
+            assert!(
+                vs(taylor) < vs("none"),
+                "{taylor} ({}) not closer to exact than `none` ({}) at order {order}",
+                vs(taylor),
+                vs("none")
+            );
+        }
     }
 }
 
