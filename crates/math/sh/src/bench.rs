@@ -37,6 +37,16 @@ pub struct ShBenchRow {
     pub note: String,
 }
 
+/// Which f32 rotation kernel runs at order `n` on this CPU (`min`: the
+/// smallest order of the method's vectorised kernel).
+fn kernel_note(n: usize, min: usize) -> &'static str {
+    if (min..=crate::simd::SIMD_MAX_ORDER).contains(&n) && crate::simd::available() {
+        "AVX-512 kernel"
+    } else {
+        "portable code"
+    }
+}
+
 fn time_ns(reps: usize, batches: usize, mut f: impl FnMut(usize)) -> f64 {
     // Short batches (≈ reps/50 calls), many of them, minimum taken: on a shared
     // machine the minimum of short batches is the uncontended cost.
@@ -163,7 +173,11 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
             b,
             a,
             t,
-            format!("{} non-zeros per fixed X matrix", zyz.x_nonzeros()),
+            format!(
+                "{} non-zeros per fixed X matrix; {}",
+                zyz.x_nonzeros(),
+                kernel_note(n, crate::simd::SIMD_MIN_ORDER_ZYZ)
+            ),
         ));
 
         // Taylor (β ≤ 0.4 rad, always the Taylor path).
@@ -195,7 +209,14 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
                 );
                 black_box(&dst);
             });
-            rows.push(row(name, n, b, a, t, "β ≤ 0.4 rad".into()));
+            rows.push(row(
+                name,
+                n,
+                b,
+                a,
+                t,
+                format!("β ≤ 0.4 rad; {}", kernel_note(n, 2)),
+            ));
         }
 
         // Z rotation and zonal rotation.
@@ -211,7 +232,17 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
             );
             black_box(&dst);
         });
-        rows.push(row("z", n, 0.0, a, a, "cos α, sin α given".into()));
+        rows.push(row(
+            "z",
+            n,
+            0.0,
+            a,
+            a,
+            format!(
+                "cos α, sin α given; {}",
+                kernel_note(n, crate::simd::SIMD_MIN_ORDER_Z)
+            ),
+        ));
         let dirs: Vec<[f32; 3]> = rots.iter().map(|r| r.apply([0.0, 0.0, 1.0])).collect();
         let a = time_ns(reps, batches, |i| {
             rotate_zonal(

@@ -83,6 +83,7 @@ pub mod project;
 pub mod quadrature;
 pub mod real;
 pub mod rotation;
+mod simd;
 pub mod taylor;
 
 pub use basis::{

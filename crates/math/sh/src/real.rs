@@ -33,10 +33,24 @@ pub trait Real:
     fn atan2(self, x: Self) -> Self;
     fn exp(self) -> Self;
     fn ln(self) -> Self;
+    /// `Some(s)` when `Self` is f32 (selects the vectorised f32 kernels).
+    #[doc(hidden)]
+    #[inline(always)]
+    fn as_f32_slice(s: &[Self]) -> Option<&[f32]> {
+        let _ = s;
+        None
+    }
+    /// `Some(s)` when `Self` is f32.
+    #[doc(hidden)]
+    #[inline(always)]
+    fn as_f32_slice_mut(s: &mut [Self]) -> Option<&mut [f32]> {
+        let _ = s;
+        None
+    }
 }
 
 macro_rules! impl_real {
-    ($t:ty) => {
+    ($t:ty $(, $extra:item)*) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -72,8 +86,19 @@ macro_rules! impl_real {
             fn ln(self) -> Self {
                 <$t>::ln(self)
             }
+            $($extra)*
         }
     };
 }
-impl_real!(f32);
+impl_real!(
+    f32,
+    #[inline(always)]
+    fn as_f32_slice(s: &[f32]) -> Option<&[f32]> {
+        Some(s)
+    },
+    #[inline(always)]
+    fn as_f32_slice_mut(s: &mut [f32]) -> Option<&mut [f32]> {
+        Some(s)
+    }
+);
 impl_real!(f64);

@@ -26,7 +26,16 @@
 //!
 //! The vectors are stored flat over the whole coefficient vector (entries that
 //! would couple different bands are zero), so the apply loops are single
-//! contiguous sweeps that vectorise.
+//! contiguous sweeps that vectorise. For f32 at orders 2…10 on AVX-512F CPUs,
+//! [`TaylorRotation`] runs `R_z(α) R̃_y(β) R_z(γ)` as one register-resident
+//! kernel (see [`crate::rotation`], "Vectorised f32 path"). For the 1st and
+//! 1.5th order it uses the algebraically identical form
+//! `R_z(α+γ) · [R_z(−γ) R̃_y(β) R_z(γ)]`: the bracket is `I + β(cos γ R_y'(0) +
+//! sin γ G_x) + β²·R_z(−γ) diag(½R'') R_z(γ)` with `G_x = R_z(−90°) R_y'(0)
+//! R_z(90°)` the X-axis generator (it couples `(l, m)` with `(l, −m ± 1)`), and
+//! the conjugated diagonal differs from `diag(½R'')` only on the pairs
+//! `(l, ±1)` (terms in `cos 2γ, sin 2γ`) — one Z rotation fewer, same result
+//! to rounding (tested against the three-step form).
 
 use crate::rotation::{EulerZyz, Rot3, ZyzRotation, rotate_z, rotate_z_in_place};
 use crate::{MAX_ORDER, Real, ShError, check_order};
@@ -224,13 +233,34 @@ impl<T: Real> TaylorY<T> {
         self.order
     }
 
+    /// `(R'[i][i−1] (length n²+1), ½R''[i][i], ½R''[i][i−2], ½R''[i][i+2])`.
+    pub(crate) fn tables(&self) -> (&[T], &[T], &[T], &[T]) {
+        (
+            &self.sub,
+            &self.half_diag2,
+            &self.half_sub2,
+            &self.half_sup2,
+        )
+    }
+
     /// `dst ≈ R_y(β) src` with the chosen expansion (β in radians). Orders ≤ 8
-    /// run fully unrolled code.
+    /// run fully unrolled code; f32 at orders 2…10 runs the vectorised kernel
+    /// (whole vector in registers, `R'` and `R''` terms as lane shifts) when
+    /// the CPU has AVX-512F.
     ///
     /// # Panics
     /// If `src` or `dst` is shorter than `order²`.
     #[inline]
     pub fn apply(&self, kind: TaylorOrder, beta: T, src: &[T], dst: &mut [T]) {
+        if crate::simd::try_taylor_y(self.order, kind.into(), beta, src, dst) {
+            return;
+        }
+        self.apply_portable(kind, beta, src, dst);
+    }
+
+    /// [`apply`](Self::apply) without the vectorised f32 kernel.
+    #[inline]
+    pub(crate) fn apply_portable(&self, kind: TaylorOrder, beta: T, src: &[T], dst: &mut [T]) {
         match self.order {
             1 => dst[0] = src[0],
             2 => self.apply_fixed::<4>(kind, beta, src, dst),
@@ -316,10 +346,11 @@ pub fn fast_atan2_upper<T: Real>(y: T, x: T) -> T {
     let t = if den > T::ZERO { num / den } else { T::ZERO };
     let t2 = t * t;
     let c = |v: f64| T::from_f64(v);
-    let p = t
-        * (c(0.999_866_0)
-            + t2 * (c(-0.330_299_5)
-                + t2 * (c(0.180_141_0) + t2 * (c(-0.085_133_0) + t2 * (c(0.020_835_1))))));
+    // Estrin's scheme (shorter dependency chain than Horner; same polynomial).
+    let t4 = t2 * t2;
+    let lo = c(0.999_866_0) + t2 * c(-0.330_299_5);
+    let mid = c(0.180_141_0) + t2 * c(-0.085_133_0);
+    let p = t * (lo + t4 * (mid + t4 * c(0.020_835_1)));
     let a = if swap {
         c(std::f64::consts::FRAC_PI_2) - p
     } else {
@@ -383,6 +414,9 @@ impl<T: Real> TaylorRotation<T> {
             return false;
         }
         let n = self.taylor.order;
+        if crate::simd::try_taylor_rotation(n, self.kind.into(), e, beta, src, dst) {
+            return true;
+        }
         rotate_z(n, e.cos_gamma, e.sin_gamma, src, scratch);
         self.taylor.apply(self.kind, beta, scratch, dst);
         rotate_z_in_place(n, e.cos_alpha, e.sin_alpha, dst);
@@ -390,8 +424,39 @@ impl<T: Real> TaylorRotation<T> {
     }
 
     /// Decomposes `rot` (ZYZ) and applies it; see [`apply_euler`](Self::apply_euler).
+    ///
+    /// Where the vectorised 1st/1.5th-order kernel runs (f32, orders 2…10,
+    /// AVX-512F) and `β ≤ min(β_lim, π/2)`, only the angles that kernel needs are
+    /// read off the matrix — `β`, `γ` from the third row
+    /// (`R₂₀ = −sin β cos γ`, `R₂₁ = sin β sin γ`) and `α+γ` from the upper 2×2
+    /// block (`(R₀₀+R₁₁, R₁₀−R₀₁) = (1+cos β)(cos, sin)(α+γ)`) — instead of
+    /// the full [`Rot3::euler_zyz`]; the rotation applied is the same.
     #[inline]
     pub fn apply(&self, rot: &Rot3<T>, src: &[T], dst: &mut [T], scratch: &mut [T]) -> bool {
+        if self.kind != TaylorOrder::Second
+            && crate::simd::taylor_kernel_available::<T>(self.taylor.order)
+        {
+            let m = rot.m;
+            let cb = m[2][2];
+            if cb >= T::ZERO {
+                let sb = (m[2][0] * m[2][0] + m[2][1] * m[2][1]).sqrt();
+                let beta = fast_atan2_upper(sb, cb);
+                if beta <= self.beta_lim {
+                    let (cg, sg) = crate::rotation::normalize2(-m[2][0], m[2][1]);
+                    let (cs, ss) =
+                        crate::rotation::normalize2(m[0][0] + m[1][1], m[1][0] - m[0][1]);
+                    if crate::simd::try_taylor_rotation_sigma(
+                        self.taylor.order,
+                        self.kind.into(),
+                        [cs, ss, beta, cg, sg],
+                        src,
+                        dst,
+                    ) {
+                        return true;
+                    }
+                }
+            }
+        }
         self.apply_euler(&rot.euler_zyz(), src, dst, scratch)
     }
 }
