@@ -11,8 +11,11 @@
 //! 3. [`model`]: the per-pixel complete model L = e^{−T_vp} L_p + L_a
 //!    (eq. 3.29) for any number of isotropic point lights, phase functions
 //!    as polynomials in cos α.
-//! 4. [`render`]: [`render_fog`] on relight-render's rasterizer, plus
-//!    classic OpenGL fog for comparison.
+//! 4. [`render`]: [`render_fog`] on relight-render's rasterizer (pass 1:
+//!    visibility buffer; pass 2: [`shade`], the data-oriented per-pixel
+//!    evaluation — structure-of-arrays batches per row, one branch-free loop
+//!    per light, AVX2 gathers where the CPU has them, the cheap [`fast`]
+//!    exp/log/atan), plus classic OpenGL fog for comparison.
 //! 5. [`psf`]: the airlight point-spread function (eq. 3.30–3.32), its zonal
 //!    SH coefficients and the convolutions of environment maps and BRDFs
 //!    (eq. 3.34–3.37).
@@ -26,10 +29,13 @@
 //! to it).
 
 pub mod bench;
+pub mod fast;
 pub mod model;
 pub mod psf;
 pub mod quad;
 pub mod render;
+pub mod shade;
+mod simd;
 pub mod special;
 pub mod table;
 pub mod verify;

@@ -33,9 +33,10 @@
 //! * Tiny negative airlight from interpolation is clamped to 0.
 
 use crate::FogError;
+use crate::fast;
 use crate::table::{FogTables, Interp, Table2};
 use glam::Vec3;
-use std::f32::consts::{FRAC_PI_2, PI};
+use std::f32::consts::PI;
 
 /// Smallest angle (radians) between the view ray and a light used by the
 /// airlight (see the module docs).
@@ -44,6 +45,24 @@ pub const MIN_ANGLE: f32 = 1e-4;
 /// integrated over the view segment directly (6-point Gauss–Legendre on
 /// eq. 3.5) instead of as a difference of nearly equal tails.
 pub const CANCELLATION_RATIO: f32 = 0.5;
+/// 6-point Gauss–Legendre nodes on [−1, 1] ([`FogModel::segment_gauss`]).
+pub const GAUSS6_X: [f32; 6] = [
+    -0.932_469_5,
+    -0.661_209_4,
+    -0.238_619_2,
+    0.238_619_2,
+    0.661_209_4,
+    0.932_469_5,
+];
+/// The weights of [`GAUSS6_X`].
+pub const GAUSS6_W: [f32; 6] = [
+    0.171_324_5,
+    0.360_761_6,
+    0.467_913_9,
+    0.467_913_9,
+    0.360_761_6,
+    0.171_324_5,
+];
 /// Smallest distance (world units) used anywhere in the model.
 pub const MIN_DISTANCE: f32 = 1e-6;
 
@@ -201,23 +220,34 @@ impl FogMaterial {
     }
 }
 
-/// First-quadrant atan2(y, x) for y, x ≥ 0 (not both 0): minimax
-/// polynomial, |error| < 1e-5 rad.
-#[inline]
-#[must_use]
-pub fn atan2_pos(y: f32, x: f32) -> f32 {
-    let (a, swap) = if y <= x {
-        (y / x.max(1e-30), false)
-    } else {
-        (x / y, true)
-    };
-    let s = a * a;
-    let r = a
-        * (0.999_977_26
-            + s * (-0.332_623_47
-                + s * (0.193_543_46
-                    + s * (-0.116_432_87 + s * (0.052_653_32 + s * -0.011_721_2)))));
-    if swap { FRAC_PI_2 - r } else { r }
+pub use crate::fast::atan2_pos;
+
+/// How the per-pixel code reads a table: a zero-sized type per
+/// [`Interp`], so the batch loops are compiled once per interpolation
+/// with no per-lookup branch.
+pub trait Lookup: Copy + Send + Sync {
+    fn get(t: &Table2, x: f32, y: f32) -> f32;
+}
+
+/// [`Interp::Bilinear`] as a type.
+#[derive(Clone, Copy, Debug)]
+pub struct Bilinear;
+/// [`Interp::Nearest`] as a type.
+#[derive(Clone, Copy, Debug)]
+pub struct Nearest;
+
+impl Lookup for Bilinear {
+    #[inline(always)]
+    fn get(t: &Table2, x: f32, y: f32) -> f32 {
+        t.bilinear(x, y)
+    }
+}
+
+impl Lookup for Nearest {
+    #[inline(always)]
+    fn get(t: &Table2, x: f32, y: f32) -> f32 {
+        t.nearest(x, y)
+    }
 }
 
 /// A light with the per-frame constants of one eye position.
@@ -231,6 +261,26 @@ pub struct PreparedLight {
     pub d_sv: f32,
     /// e^{−β D_sv}.
     pub exp_t_sv: f32,
+    /// MIN_ANGLE · D_sv: the smallest light-to-ray distance h used.
+    pub h_min_sv: f32,
+}
+
+/// The per-(pixel, light) quantities of a surface pixel before the
+/// material is applied (eq. 3.20–3.29, per unit intensity).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceTerms {
+    /// Airlight difference L∞(eye) − e^{−T_vp} L∞(p) (clamped to ≥ 0).
+    pub air: f32,
+    /// Whether the two tails nearly cancel (then `air` must be replaced by
+    /// [`FogModel::segment_gauss`] of `along`, `h`).
+    pub cancels: bool,
+    /// e^{−T_sp} cos θ_s / D_sp² + β e^{−T_sp} G̃₀ / (2π D_sp) (× k_d).
+    pub diffuse: f32,
+    /// e^{−T_sp} cosⁿθ′_s / D_sp² + β e^{−T_sp} G̃_n / (2π D_sp) (× k_s).
+    pub spec: f32,
+    /// Offset of the light along the view ray and its distance from it.
+    pub along: f32,
+    pub h: f32,
 }
 
 /// The tables, medium and interpolation of one frame, ready to evaluate.
@@ -242,6 +292,8 @@ pub struct FogModel<'a> {
     phase: &'a [f32],
     g_lambert: Option<&'a Table2>,
     tables: &'a FogTables,
+    /// β / (2π).
+    beta_2pi: f32,
 }
 
 impl<'a> FogModel<'a> {
@@ -272,7 +324,39 @@ impl<'a> FogModel<'a> {
             phase: &phase.w,
             g_lambert,
             tables,
+            beta_2pi: beta / (2.0 * PI),
         })
+    }
+
+    /// A table that stands in for a missing Phong G table (its term is then
+    /// multiplied by k_s = 0): Lambert's G, else the first tail table.
+    #[must_use]
+    pub fn stand_in_table(&self) -> &'a Table2 {
+        self.g_lambert.unwrap_or(&self.tails[0])
+    }
+
+    /// The parts the AVX2 kernels read.
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn simd_ctx(&self) -> crate::simd::Ctx<'a> {
+        crate::simd::Ctx {
+            beta: self.beta,
+            tables: self.tables,
+            tails: self.tails,
+            phase: self.phase,
+            g_lambert: self.g_lambert,
+        }
+    }
+
+    /// The largest side of any table this model may read.
+    #[must_use]
+    pub fn max_table_size(&self) -> usize {
+        self.tables
+            .tail
+            .iter()
+            .chain(self.tables.g.iter().map(|(_, t)| t))
+            .map(Table2::size)
+            .max()
+            .unwrap_or(0)
     }
 
     /// The G table for a material's Phong exponent (error if not built).
@@ -313,39 +397,76 @@ impl<'a> FogModel<'a> {
                     to_light,
                     d_sv,
                     exp_t_sv: (-self.beta * d_sv).exp(),
+                    h_min_sv: (MIN_ANGLE * d_sv).max(MIN_DISTANCE),
                 })
             })
             .collect()
     }
 
     /// Phase-weighted Σ_k w_k Rᵏ(w, v).
-    #[inline]
-    fn tail_sum(&self, w: f32, v: f32) -> f32 {
+    #[inline(always)]
+    fn tail_sum<L: Lookup>(&self, w: f32, v: f32) -> f32 {
         if self.phase.len() == 1 {
-            return self.phase[0] * self.tails[0].lookup(self.interp, w, v);
+            return self.phase[0] * L::get(&self.tails[0], w, v);
         }
         let mut s = 0.0;
         for (c, t) in self.phase.iter().zip(self.tails) {
-            s += c * t.lookup(self.interp, w, v);
+            s += c * L::get(t, w, v);
         }
         s
     }
 
-    /// Airlight to infinity per unit intensity, without e^{−T}:
-    /// β N R / (2π h) for a light at distance `d` whose offset along the ray
-    /// is `along` and perpendicular distance `h` (already clamped).
-    #[inline]
-    fn l_inf_kernel(&self, d: f32, along: f32, h: f32) -> f32 {
-        let s = (h / d).min(1.0);
-        let c = (along / d).clamp(-1.0, 1.0);
+    /// Airlight to infinity per unit intensity without e^{−T} and without
+    /// the common factor β / (2π h): N(u, v) q R(w, v) for a light at
+    /// distance `d` whose offset along the ray is `along`, with u = β h and
+    /// w = u / (1 + u) of the (clamped) distance h from the ray.
+    #[inline(always)]
+    #[allow(clippy::manual_clamp)] // maps NaN to a bound
+    fn l_inf_kernel<L: Lookup>(&self, d: f32, along: f32, h: f32, u: f32, w: f32) -> f32 {
+        let inv_d = 1.0 / d;
+        let s = (h * inv_d).min(1.0);
+        let c = (along * inv_d).max(-1.0).min(1.0);
+        // 1 + cos γ, accurate near γ = π: sin²γ / (1 − cos γ).
         let opc = if c >= 0.0 { 1.0 + c } else { s * s / (1.0 - c) };
+        let opc = opc.max(1e-30);
         let cos2v = 0.5 * opc;
         let cosv = cos2v.sqrt();
         let v = atan2_pos(s, opc);
+        let q = self.tables.corner(u * s / opc);
+        cos2v / (cosv + u) * q * self.tail_sum::<L>(w, v)
+    }
+
+    /// Airlight to infinity (eq. 3.17) per unit intensity along unit `dir`
+    /// from the eye (no surface).
+    #[inline(always)]
+    pub fn air_inf<L: Lookup>(&self, light: &PreparedLight, dir: Vec3) -> f32 {
+        let along = light.to_light.dot(dir);
+        let h = light.to_light.cross(dir).length().max(light.h_min_sv);
         let u = self.beta * h;
         let w = u / (1.0 + u);
-        let n = cos2v / (cosv + u) * self.tables.corner(u * s / opc.max(1e-30));
-        self.beta * n * self.tail_sum(w, v) / (2.0 * PI * h)
+        light.exp_t_sv * self.l_inf_kernel::<L>(light.d_sv, along, h, u, w) * self.beta_2pi / h
+    }
+
+    /// The airlight difference of eq. 3.16 as two tails (see
+    /// [`crate::special`]): (L∞(eye) − e^{−T_vp} L∞(p), tails cancel?).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn air_split<L: Lookup>(
+        &self,
+        light: &PreparedLight,
+        along: f32,
+        h_raw: f32,
+        along_p: f32,
+        d_sp: f32,
+        exp_vp_sp: f32,
+    ) -> (f32, bool, f32) {
+        let h = h_raw.max(light.h_min_sv.min(MIN_ANGLE * d_sp).max(MIN_DISTANCE));
+        let u = self.beta * h;
+        let w = u / (1.0 + u);
+        let a = light.exp_t_sv * self.l_inf_kernel::<L>(light.d_sv, along, h, u, w);
+        let b = exp_vp_sp * self.l_inf_kernel::<L>(d_sp, along_p, h, u, w);
+        let k = self.beta_2pi / h;
+        ((a - b).max(0.0) * k, b > CANCELLATION_RATIO * a, h)
     }
 
     /// Airlight L_a (eq. 3.16, per unit intensity) along the ray from the
@@ -354,94 +475,127 @@ impl<'a> FogModel<'a> {
     #[inline]
     #[must_use]
     pub fn airlight(&self, light: &PreparedLight, dir: Vec3, hit: Option<(Vec3, f32, f32)>) -> f32 {
-        let along = light.to_light.dot(dir);
-        let h_raw = light.to_light.cross(dir).length();
+        match self.interp {
+            Interp::Bilinear => self.airlight_g::<Bilinear>(light, dir, hit),
+            Interp::Nearest => self.airlight_g::<Nearest>(light, dir, hit),
+        }
+    }
+
+    #[inline(always)]
+    fn airlight_g<L: Lookup>(
+        &self,
+        light: &PreparedLight,
+        dir: Vec3,
+        hit: Option<(Vec3, f32, f32)>,
+    ) -> f32 {
         match hit {
-            None => {
-                let h = h_raw.max(MIN_ANGLE * light.d_sv).max(MIN_DISTANCE);
-                light.exp_t_sv * self.l_inf_kernel(light.d_sv, along, h)
-            }
-            Some((p, _d_vp, exp_t_vp)) => {
+            None => self.air_inf::<L>(light, dir),
+            Some((p, d_vp, exp_t_vp)) => {
+                let along = light.to_light.dot(dir);
+                let h_raw = light.to_light.cross(dir).length();
                 let lp = light.position - p;
                 let d_sp = lp.length().max(MIN_DISTANCE);
-                let exp_t_sp = (-self.beta * d_sp).exp();
-                self.airlight_split(
+                let exp_t_sp = fast::exp(-self.beta * d_sp);
+                let (air, cancels, h) = self.air_split::<L>(
                     light,
                     along,
                     h_raw,
                     lp.dot(dir),
                     d_sp,
                     exp_t_vp * exp_t_sp,
-                    _d_vp,
-                )
+                );
+                if cancels {
+                    self.segment_gauss(along, h, d_vp)
+                } else {
+                    air
+                }
             }
         }
-    }
-
-    #[inline]
-    #[allow(clippy::too_many_arguments)]
-    fn airlight_split(
-        &self,
-        light: &PreparedLight,
-        along: f32,
-        h_raw: f32,
-        along_p: f32,
-        d_sp: f32,
-        exp_vp_sp: f32,
-        d_vp: f32,
-    ) -> f32 {
-        let h = h_raw
-            .max(MIN_ANGLE * light.d_sv.min(d_sp))
-            .max(MIN_DISTANCE);
-        let a = light.exp_t_sv * self.l_inf_kernel(light.d_sv, along, h);
-        let b = exp_vp_sp * self.l_inf_kernel(d_sp, along_p, h);
-        if b > CANCELLATION_RATIO * a {
-            // The two tails nearly cancel (a short view segment far from the
-            // light): integrate eq. 3.5 over the segment directly instead.
-            return self.segment_gauss(along, h, d_vp);
-        }
-        (a - b).max(0.0)
     }
 
     /// Eq. 3.5 (with the polynomial phase) over [0, d_vp] per unit
     /// intensity, in the equiangular variable θ = atan((t − Δ)/h) (Δ the
     /// light's offset along the ray): dt/d² = dθ/h, so the integrand
     /// e^{−β(t + d)} k(−sin θ) is smooth and 6-point Gauss–Legendre suffices.
+    /// The nodes and weights are also used by the AVX2 kernel.
     #[inline]
-    fn segment_gauss(&self, along: f32, h: f32, d_vp: f32) -> f32 {
-        const X: [f32; 6] = [
-            -0.932_469_5,
-            -0.661_209_4,
-            -0.238_619_2,
-            0.238_619_2,
-            0.661_209_4,
-            0.932_469_5,
-        ];
-        const W: [f32; 6] = [
-            0.171_324_5,
-            0.360_761_6,
-            0.467_913_9,
-            0.467_913_9,
-            0.360_761_6,
-            0.171_324_5,
-        ];
-        let th0 = (-along / h).atan();
-        let th1 = ((d_vp - along) / h).atan();
-        let (mid, half) = (0.5 * (th0 + th1), 0.5 * (th1 - th0));
+    #[must_use]
+    pub fn segment_gauss(&self, along: f32, h: f32, d_vp: f32) -> f32 {
+        // θ0 = atan(−Δ/h); θ1 − θ0 from the atan difference formula, so a
+        // short segment keeps its relative accuracy:
+        // θ1 − θ0 = atan2(D_vp h, h² − Δ (D_vp − Δ)) ∈ (0, π).
+        let th0 = fast::atan_ratio(-along, h);
+        let (y, x) = (d_vp * h, h * h - along * (d_vp - along));
+        let a = fast::atan2_precise(y, x.abs());
+        let dth = if x >= 0.0 { a } else { PI - a };
+        let (mid, half) = (th0 + 0.5 * dth, 0.5 * dth);
         let mut s = 0.0;
-        for (x, w) in X.iter().zip(W) {
-            let th = mid + half * x;
-            let (sn, cs) = th.sin_cos();
-            let t = along + h * sn / cs.max(1e-30);
-            let d = h / cs.max(1e-30);
+        for (x, w) in GAUSS6_X.iter().zip(GAUSS6_W) {
+            // θ ∈ (−π/2, π/2): t + d = Δ + h (1 + sin θ)/cos θ.
+            let (sn, cs) = fast::sin_cos(mid + half * x);
+            let inv_c = 1.0 / cs.max(1e-30);
+            let t_plus_d = along + h * (1.0 + sn) * inv_c;
             let c = -sn;
             let mut k = 0.0;
             for &pw in self.phase.iter().rev() {
                 k = k * c + pw;
             }
-            s += w * k * (-self.beta * (t + d)).exp();
+            s += w * k * fast::exp(-self.beta * t_plus_d);
         }
         (self.beta / (4.0 * PI) * half * s / h).max(0.0)
+    }
+
+    /// The per-(pixel, light) terms of a surface pixel (see
+    /// [`SurfaceTerms`]): `p` the visible point, `n` its unit normal facing
+    /// the viewer (n · dir ≤ 0), `dir` the unit view direction, `refl` the
+    /// mirrored view direction dir − 2 (dir·n) n,
+    /// `exp_t_vp` = e^{−β D_vp}, `phong_n` the Phong exponent and `g_phong`
+    /// its G table (any table, e.g. Lambert's, when k_s = 0: `spec` is then
+    /// unused). Branch-free apart from the phase loop, so loops over pixels
+    /// vectorise.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn surface_terms<L: Lookup>(
+        &self,
+        light: &PreparedLight,
+        p: Vec3,
+        n: Vec3,
+        dir: Vec3,
+        refl: Vec3,
+        exp_t_vp: f32,
+        phong_n: f32,
+        g_phong: &Table2,
+    ) -> SurfaceTerms {
+        let lp = light.position - p;
+        let d2 = lp.length_squared().max(MIN_DISTANCE * MIN_DISTANCE);
+        let inv_d = 1.0 / d2.sqrt();
+        let d_sp = d2 * inv_d;
+        let t_sp = self.beta * d_sp;
+        let exp_t_sp = fast::exp(-t_sp);
+        let along = light.to_light.dot(dir);
+        let h_raw = light.to_light.cross(dir).length();
+        let (air, cancels, h) =
+            self.air_split::<L>(light, along, h_raw, lp.dot(dir), d_sp, exp_t_vp * exp_t_sp);
+        let w_t = t_sp / (1.0 + t_sp);
+        let direct = exp_t_sp * inv_d * inv_d;
+        let scat = self.beta_2pi * exp_t_sp * inv_d;
+        let mu = n.dot(lp) * inv_d;
+        let mu_r = refl.dot(lp) * inv_d;
+        let g0 = self.g_lambert.map_or(0.0, |g| L::get(g, w_t, mu));
+        let gn = L::get(g_phong, w_t, mu_r);
+        let lobe = if mu > 0.0 {
+            fast::powi_pos(mu_r, phong_n)
+        } else {
+            0.0
+        };
+        SurfaceTerms {
+            air,
+            cancels,
+            diffuse: direct * mu.max(0.0) + scat * g0,
+            spec: direct * lobe + scat * gn,
+            along,
+            h,
+        }
     }
 
     /// Complete model (eq. 3.29) for one pixel and one light: radiance
@@ -463,45 +617,44 @@ impl<'a> FogModel<'a> {
         m: &FogMaterial,
         g_phong: Option<&Table2>,
     ) -> Vec3 {
-        let lp = light.position - p;
-        let d_sp = lp.length().max(MIN_DISTANCE);
-        let t_sp = self.beta * d_sp;
-        let exp_t_sp = (-t_sp).exp();
-        let l_hat = lp / d_sp;
-        let along = light.to_light.dot(dir);
-        let h_raw = light.to_light.cross(dir).length();
-        let air = self.airlight_split(
-            light,
-            along,
-            h_raw,
-            lp.dot(dir),
-            d_sp,
-            exp_t_vp * exp_t_sp,
-            d_vp,
-        );
-
-        let n = if n.dot(dir) > 0.0 { -n } else { n };
-        let w_t = t_sp / (1.0 + t_sp);
-        let direct = exp_t_sp / (d_sp * d_sp);
-        let scat = self.beta * exp_t_sp / (2.0 * PI * d_sp);
-        let mu = n.dot(l_hat);
-        let g0 = self
-            .g_lambert
-            .map_or(0.0, |g| g.lookup(self.interp, w_t, mu));
-        let diffuse = (direct * mu.max(0.0) + scat * g0) * (1.0 / PI);
-        let mut lp_rad = m.albedo * diffuse;
-        if let Some(gt) = g_phong {
-            let r = dir - 2.0 * dir.dot(n) * n;
-            let mu_r = r.dot(l_hat);
-            let gn = gt.lookup(self.interp, w_t, mu_r);
-            let lobe = if mu > 0.0 {
-                mu_r.max(0.0).powi(m.n as i32)
-            } else {
-                0.0
-            };
-            lp_rad += m.ks * (direct * lobe + scat * gn);
+        match self.interp {
+            Interp::Bilinear => {
+                self.shade_surface_g::<Bilinear>(light, dir, p, n, d_vp, exp_t_vp, m, g_phong)
+            }
+            Interp::Nearest => {
+                self.shade_surface_g::<Nearest>(light, dir, p, n, d_vp, exp_t_vp, m, g_phong)
+            }
         }
-        light.intensity * (exp_t_vp * lp_rad + Vec3::splat(air))
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn shade_surface_g<L: Lookup>(
+        &self,
+        light: &PreparedLight,
+        dir: Vec3,
+        p: Vec3,
+        n: Vec3,
+        d_vp: f32,
+        exp_t_vp: f32,
+        m: &FogMaterial,
+        g_phong: Option<&Table2>,
+    ) -> Vec3 {
+        let n = if n.dot(dir) > 0.0 { -n } else { n };
+        let refl = dir - 2.0 * dir.dot(n) * n;
+        // Without a Phong lobe any table stands in (its `spec` is unused).
+        let (ks, gt) = match g_phong {
+            Some(g) => (m.ks, g),
+            None => (Vec3::ZERO, self.stand_in_table()),
+        };
+        let s = self.surface_terms::<L>(light, p, n, dir, refl, exp_t_vp, m.n as f32, gt);
+        let air = if s.cancels {
+            self.segment_gauss(s.along, s.h, d_vp)
+        } else {
+            s.air
+        };
+        light.intensity
+            * (exp_t_vp * (m.albedo * (s.diffuse * (1.0 / PI)) + ks * s.spec) + Vec3::splat(air))
     }
 
     /// Complete model summed over `lights` for one pixel: surface hit
@@ -524,7 +677,7 @@ impl<'a> FogModel<'a> {
             }
             Some((p, n, m, g)) => {
                 let d_vp = (p - eye).length();
-                let exp_t_vp = (-self.beta * d_vp).exp();
+                let exp_t_vp = fast::exp(-self.beta * d_vp);
                 for l in lights {
                     sum += self.shade_surface(l, dir, p, n, d_vp, exp_t_vp, m, g);
                 }
@@ -619,17 +772,6 @@ pub fn airlight_paper_f(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn atan2_pos_is_accurate() {
-        for i in 0..=100 {
-            for j in 0..=100 {
-                let (y, x) = (i as f32 / 10.0, j as f32 / 10.0 + 1e-3);
-                let e = (atan2_pos(y, x) - y.atan2(x)).abs();
-                assert!(e < 2e-5, "atan2({y},{x}) err {e}");
-            }
-        }
-    }
 
     #[test]
     fn phase_fits() {

@@ -11,11 +11,13 @@
 //! as a floor do not trip it).
 
 use crate::FogError;
-use crate::model::{FogMaterial, FogModel, Phase, PointLight, opengl_fog_pixel};
+use crate::model::{FogMaterial, FogModel, Phase, PointLight, PreparedLight, opengl_fog_pixel};
+use crate::shade::{MaterialConst, PixelBatch, shade_background, shade_surface_run};
 use crate::table::{FogTables, Interp, Table2};
 use glam::Vec3;
+use rayon::prelude::*;
 use relight_geom::Mesh;
-use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
+use relight_render::raster::{Background, DrawCall, NO_TRIANGLE, RasterOptions, Rasterizer};
 use relight_render::{Camera, Image};
 
 /// Which fog to render.
@@ -166,8 +168,10 @@ pub fn render_fog(
     Ok(out)
 }
 
-/// [`render_fog`] reusing a rasterizer and an output image (no per-frame
-/// allocation in steady state except the normal attribute arrays).
+/// [`render_fog`] reusing a rasterizer and an output image. Per frame it
+/// allocates only a few small per-object/per-light arrays and one scratch
+/// [`PixelBatch`] per rayon task; the per-pixel loops do not allocate once
+/// the scratch has grown to a row.
 pub fn render_fog_into(
     rasterizer: &mut Rasterizer,
     objects: &[FogObject],
@@ -193,59 +197,53 @@ pub fn render_fog_into(
             }
         })
         .collect::<Result<_, _>>()?;
-    // Smooth normals as a 3-float vertex attribute where the mesh has them.
-    let normals: Vec<Vec<f32>> = objects
-        .iter()
-        .map(|o| {
-            if o.mesh.normals.len() == o.mesh.positions.len() {
-                o.mesh.normals.iter().flat_map(|n| n.to_array()).collect()
-            } else {
-                Vec::new()
-            }
-        })
-        .collect();
-    let draws: Vec<DrawCall> = objects
-        .iter()
-        .zip(&normals)
-        .enumerate()
-        .map(|(i, (o, n))| {
-            let d = DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32);
-            if n.is_empty() {
-                d
-            } else {
-                d.with_attributes(3, n)
-            }
-        })
-        .collect();
-    let options = RasterOptions::default().fit_depth(camera, &draws);
     let eye = camera.eye;
     let prepared = model.prepare_lights(eye, lights)?;
     match settings.mode {
         FogMode::Analytic => {
-            let bg = |dir: Vec3| model.shade_pixel(eye, dir, &prepared, None);
-            rasterizer.render(
-                camera,
-                &draws,
-                |f| {
-                    let n = if f.attributes.len() == 3 {
-                        Vec3::from_slice(f.attributes).normalize_or(f.normal)
-                    } else {
-                        f.normal
-                    };
-                    let i = f.object as usize;
-                    model.shade_pixel(
-                        eye,
-                        -f.to_eye,
-                        &prepared,
-                        Some((f.position, n, &objects[i].material, g_tables[i])),
-                    )
-                },
-                Background::Environment(&bg),
-                &options,
-                out,
-            )?;
+            let draws: Vec<DrawCall> = objects
+                .iter()
+                .enumerate()
+                .map(|(i, o)| {
+                    DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32)
+                })
+                .collect();
+            let options = RasterOptions::default().fit_depth(camera, &draws);
+            rasterizer.rasterize(camera, &draws, &options)?;
+            let mats: Vec<MaterialConst> = objects
+                .iter()
+                .zip(&g_tables)
+                .map(|(o, g)| MaterialConst::new(&model, &o.material, *g))
+                .collect();
+            shade_gbuffer(rasterizer, objects, &mats, camera, &model, &prepared, out);
         }
         FogMode::OpenGl { fog_color } => {
+            // Smooth normals as a 3-float vertex attribute where the mesh has them.
+            let normals: Vec<Vec<f32>> = objects
+                .iter()
+                .map(|o| {
+                    if o.mesh.normals.len() == o.mesh.positions.len() {
+                        o.mesh.normals.iter().flat_map(|n| n.to_array()).collect()
+                    } else {
+                        Vec::new()
+                    }
+                })
+                .collect();
+            let draws: Vec<DrawCall> = objects
+                .iter()
+                .zip(&normals)
+                .enumerate()
+                .map(|(i, (o, n))| {
+                    let d =
+                        DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32);
+                    if n.is_empty() {
+                        d
+                    } else {
+                        d.with_attributes(3, n)
+                    }
+                })
+                .collect();
+            let options = RasterOptions::default().fit_depth(camera, &draws);
             let beta = settings.beta;
             rasterizer.render(
                 camera,
@@ -272,6 +270,139 @@ pub fn render_fog_into(
         }
     }
     Ok(())
+}
+
+/// Per-row scratch of [`shade_gbuffer`].
+#[derive(Default)]
+struct RowScratch {
+    batch: PixelBatch,
+    /// Column and object of each surface pixel of the batch.
+    xs: Vec<u32>,
+    objs: Vec<u32>,
+    /// Background pixels: columns, directions and accumulators.
+    bg_x: Vec<u32>,
+    bg_d: [Vec<f32>; 3],
+    bg_c: [Vec<f32>; 3],
+}
+
+/// Pass 2 of the analytic renderer over the rasterizer's visibility
+/// buffer: per row (parallel), every covered pixel's world position,
+/// interpolated normal and view direction go into a [`PixelBatch`]; each run
+/// of pixels of one object is shaded by [`shade_surface_run`] and the empty
+/// pixels by [`shade_background`] (the airlight to infinity).
+fn shade_gbuffer(
+    rasterizer: &Rasterizer,
+    objects: &[FogObject],
+    mats: &[MaterialConst],
+    camera: &Camera,
+    model: &FogModel,
+    lights: &[PreparedLight],
+    out: &mut Image,
+) {
+    let g = rasterizer.gbuffer();
+    let (w, h) = (g.width, g.height);
+    out.width = w;
+    out.height = h;
+    out.pixels.resize(w * h, Vec3::ZERO);
+    if w == 0 || h == 0 {
+        return;
+    }
+    // First global triangle id of each object (ids of draw d follow those
+    // of draws 0..d).
+    let mut first = Vec::with_capacity(objects.len() + 1);
+    let mut total = 0u32;
+    for o in objects {
+        first.push(total);
+        total += o.mesh.indices.len() as u32;
+    }
+    first.push(total);
+    // The camera frame of `Camera::ray` for the background directions.
+    let fwd = (camera.target - camera.eye).normalize_or(Vec3::NEG_Z);
+    let right = fwd.cross(camera.up).normalize_or(Vec3::X);
+    let up = right.cross(fwd);
+    let tan_y = (0.5 * camera.vfov_deg.to_radians()).tan();
+    let tan_x = tan_y * w as f32 / h as f32;
+    let eye = camera.eye;
+    let beta = model.beta;
+    out.pixels
+        .par_chunks_mut(w)
+        .zip(g.triangle.par_chunks(w))
+        .zip(g.barycentrics.par_chunks(w))
+        .enumerate()
+        .for_each_init(RowScratch::default, |s, (y, ((row, ids), bary))| {
+            s.batch.clear();
+            s.xs.clear();
+            s.objs.clear();
+            s.bg_x.clear();
+            for v in s.bg_d.iter_mut().chain(s.bg_c.iter_mut()) {
+                v.clear();
+            }
+            let ndc_y = 1.0 - 2.0 * (y as f32 + 0.5) / h as f32;
+            let (mut lo, mut hi, mut obj) = (1u32, 0u32, 0usize);
+            for (x, (&id, b)) in ids.iter().zip(bary).enumerate() {
+                if id == NO_TRIANGLE || id >= total {
+                    let ndc_x = 2.0 * (x as f32 + 0.5) / w as f32 - 1.0;
+                    let d = (fwd + right * (ndc_x * tan_x) + up * (ndc_y * tan_y)).normalize();
+                    s.bg_x.push(x as u32);
+                    for (k, v) in s.bg_d.iter_mut().enumerate() {
+                        v.push(d[k]);
+                    }
+                    for v in &mut s.bg_c {
+                        v.push(0.0);
+                    }
+                    continue;
+                }
+                if !(id >= lo && id < hi) {
+                    obj = first.partition_point(|&f| f <= id) - 1;
+                    lo = first[obj];
+                    hi = first[obj + 1];
+                }
+                let mesh = objects[obj].mesh;
+                let tri = mesh.indices[(id - lo) as usize];
+                let (i0, i1, i2) = (tri[0] as usize, tri[1] as usize, tri[2] as usize);
+                let l = Vec3::new(1.0 - b[0] - b[1], b[0], b[1]);
+                let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+                let p = p0 * l.x + p1 * l.y + p2 * l.z;
+                // Interpolated smooth normal; the geometric one only where the
+                // mesh has none or they cancel.
+                let ns = if mesh.normals.len() == mesh.positions.len() {
+                    mesh.normals[i0] * l.x + mesh.normals[i1] * l.y + mesh.normals[i2] * l.z
+                } else {
+                    Vec3::ZERO
+                };
+                let len2 = ns.length_squared();
+                let n = if len2 > 1e-30 && len2.is_finite() {
+                    ns * (1.0 / len2.sqrt())
+                } else {
+                    (p1 - p0).cross(p2 - p0).normalize_or_zero()
+                };
+                s.batch.push_point(p, n);
+                s.xs.push(x as u32);
+                s.objs.push(obj as u32);
+            }
+            s.batch.prepare(eye, beta, 0);
+            // Runs of one object.
+            let n = s.batch.len();
+            let mut start = 0;
+            while start < n {
+                let o = s.objs[start];
+                let mut end = start + 1;
+                while end < n && s.objs[end] == o {
+                    end += 1;
+                }
+                shade_surface_run(model, lights, &mats[o as usize], &mut s.batch, start..end);
+                start = end;
+            }
+            for (i, &x) in s.xs.iter().enumerate() {
+                row[x as usize] = s.batch.radiance(i);
+            }
+            let [dx, dy, dz] = &s.bg_d;
+            let [cr, cg, cb] = &mut s.bg_c;
+            shade_background(model, lights, dx, dy, dz, cr, cg, cb);
+            for (i, &x) in s.bg_x.iter().enumerate() {
+                row[x as usize] = Vec3::new(cr[i], cg[i], cb[i]);
+            }
+        });
 }
 
 /// A UV sphere (`rings` × `segments`) with outward normals — test and bench geometry.

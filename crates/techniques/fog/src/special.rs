@@ -47,12 +47,6 @@ fn gl32() -> (&'static [f64], &'static [f64]) {
 /// Relative tolerance of every adaptive integral in this module.
 pub const QUAD_REL: f64 = 1e-10;
 
-/// tan ξ − tan v computed stably as sin(ξ − v) / (cos ξ cos v).
-#[inline]
-fn tan_diff(xi: f64, v: f64) -> f64 {
-    (xi - v).sin() / (xi.cos() * v.cos())
-}
-
 /// F(u, v) = ∫₀ᵛ exp(−u tan ξ) dξ (Sun 2008, eq. 3.15).
 ///
 /// `u` is clamped to ≥ 0 and `v` to [0, π/2]; F(u, π/2) is finite for u > 0
@@ -82,7 +76,11 @@ pub fn fk_special(k: u32, u: f64, v: f64) -> f64 {
             } else {
                 (-u * xi.tan()).exp()
             };
-            (2.0 * xi).cos().powi(k as i32) * e
+            if k == 0 {
+                e
+            } else {
+                (2.0 * xi).cos().powi(k as i32) * e
+            }
         },
         0.0,
         v,
@@ -110,15 +108,22 @@ pub fn tail_scaled_tol(k: u32, u: f64, v: f64, rel: f64) -> f64 {
     if u.is_infinite() || v >= FRAC_PI_2 {
         return 0.0;
     }
+    // cos v is constant; cos 2ξ is only needed for k > 0.
+    let cos_v = v.cos();
     integrate(
         |xi| {
-            let c = (2.0 * xi).cos().powi(k as i32);
+            let c = if k == 0 {
+                1.0
+            } else {
+                (2.0 * xi).cos().powi(k as i32)
+            };
             if u == 0.0 {
                 c
             } else if xi >= FRAC_PI_2 {
                 0.0
             } else {
-                c * (-u * tan_diff(xi, v)).exp()
+                // tan ξ − tan v = sin(ξ − v) / (cos ξ cos v), without cancellation.
+                c * (-u * (xi - v).sin() / (xi.cos() * cos_v)).exp()
             }
         },
         v,

@@ -40,17 +40,25 @@ pub enum Interp {
 }
 
 /// A square table of f32 samples on a uniform grid over [x0, x1] × [y0, y1].
+///
+/// Invariant (kept private so lookups can skip bounds checks):
+/// `size ≥ 2` and `values.len() == size²`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Table2 {
-    pub size: usize,
+    size: usize,
     pub x0: f32,
     pub x1: f32,
     pub y0: f32,
     pub y1: f32,
     /// Row-major, `values[y * size + x]`.
-    pub values: Vec<f32>,
+    values: Vec<f32>,
+    /// Texel coordinate = x · sx + ox (and y · sy + oy).
     sx: f32,
+    ox: f32,
     sy: f32,
+    oy: f32,
+    /// size − 1 as f32.
+    last: f32,
 }
 
 impl Table2 {
@@ -77,8 +85,11 @@ impl Table2 {
         Ok(Self::from_values(size, x, y, values))
     }
 
+    /// `size` ≥ 2 and `values.len() == size²` (checked by the callers).
     fn from_values(size: usize, x: (f64, f64), y: (f64, f64), values: Vec<f32>) -> Self {
+        assert!(size >= 2 && values.len() == size * size, "table invariant");
         let n = size as f64 - 1.0;
+        let (sx, sy) = (n / (x.1 - x.0), n / (y.1 - y.0));
         Self {
             size,
             x0: x.0 as f32,
@@ -86,40 +97,79 @@ impl Table2 {
             y0: y.0 as f32,
             y1: y.1 as f32,
             values,
-            sx: (n / (x.1 - x.0)) as f32,
-            sy: (n / (y.1 - y.0)) as f32,
+            sx: sx as f32,
+            ox: (-x.0 * sx) as f32,
+            sy: sy as f32,
+            oy: (-y.0 * sy) as f32,
+            last: n as f32,
         }
     }
 
-    /// Bilinear lookup at (x, y), coordinates clamped to the axes.
+    /// Samples per axis.
     #[inline]
     #[must_use]
+    pub fn size(&self) -> usize {
+        self.size
+    }
+
+    /// The lookup's affine map and clamp: (sx, ox, sy, oy, size − 1), texel
+    /// coordinate = x · sx + ox, y · sy + oy.
+    #[inline]
+    #[must_use]
+    pub fn affine(&self) -> (f32, f32, f32, f32, f32) {
+        (self.sx, self.ox, self.sy, self.oy, self.last)
+    }
+
+    /// The samples, row-major (`values()[y * size + x]`).
+    #[inline]
+    #[must_use]
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
+
+    /// Bilinear lookup at (x, y), coordinates clamped to the axes
+    /// (branch-free, no bounds checks; NaN reads the first texel).
+    #[inline(always)]
+    #[must_use]
     pub fn bilinear(&self, x: f32, y: f32) -> f32 {
-        let n = (self.size - 1) as f32;
-        let fx = ((x - self.x0) * self.sx).max(0.0).min(n);
-        let fy = ((y - self.y0) * self.sy).max(0.0).min(n);
-        let ix = (fx as usize).min(self.size - 2);
-        let iy = (fy as usize).min(self.size - 2);
+        // `max(min)` maps NaN to 0.
+        let fx = (x * self.sx + self.ox).max(0.0).min(self.last);
+        let fy = (y * self.sy + self.oy).max(0.0).min(self.last);
+        let n2 = self.size - 2;
+        let ix = (fx as usize).min(n2);
+        let iy = (fy as usize).min(n2);
         let (tx, ty) = (fx - ix as f32, fy - iy as f32);
         let i = iy * self.size + ix;
-        let v = &self.values;
-        let a = v[i] + (v[i + 1] - v[i]) * tx;
-        let b = v[i + self.size] + (v[i + self.size + 1] - v[i + self.size]) * tx;
+        debug_assert!(i + self.size + 1 < self.values.len());
+        // SAFETY: ix, iy ≤ size − 2, so i + size + 1 ≤ size² − 1 <
+        // values.len() by the type invariant.
+        let (v00, v01, v10, v11) = unsafe {
+            (
+                *self.values.get_unchecked(i),
+                *self.values.get_unchecked(i + 1),
+                *self.values.get_unchecked(i + self.size),
+                *self.values.get_unchecked(i + self.size + 1),
+            )
+        };
+        let a = v00 + (v01 - v00) * tx;
+        let b = v10 + (v11 - v10) * tx;
         a + (b - a) * ty
     }
 
     /// Nearest-texel lookup at (x, y), coordinates clamped to the axes.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn nearest(&self, x: f32, y: f32) -> f32 {
-        let n = (self.size - 1) as f32;
-        let fx = ((x - self.x0) * self.sx).max(0.0).min(n) + 0.5;
-        let fy = ((y - self.y0) * self.sy).max(0.0).min(n) + 0.5;
-        self.values[(fy as usize).min(self.size - 1) * self.size + (fx as usize).min(self.size - 1)]
+        let fx = (x * self.sx + self.ox).max(0.0).min(self.last) + 0.5;
+        let fy = (y * self.sy + self.oy).max(0.0).min(self.last) + 0.5;
+        let n1 = self.size - 1;
+        let i = (fy as usize).min(n1) * self.size + (fx as usize).min(n1);
+        // SAFETY: both indices ≤ size − 1, so i ≤ size² − 1 < values.len().
+        unsafe { *self.values.get_unchecked(i) }
     }
 
     /// Lookup with the given interpolation.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn lookup(&self, interp: Interp, x: f32, y: f32) -> f32 {
         match interp {
@@ -166,17 +216,28 @@ fn g_tables(size: usize, w_max: f64, exps: &[u32]) -> Vec<(u32, Table2)> {
                 .collect()
         })
         .collect();
+    // P_n(γ′, μ) does not depend on T: evaluate it once per (exponent, row,
+    // node) instead of once per cell (the cells are then dot products).
     exps.iter()
         .map(|&e| {
+            let lobes: Vec<Vec<f64>> = (0..size)
+                .into_par_iter()
+                .map(|iy| {
+                    let mu = -1.0 + 2.0 * iy as f64 / n;
+                    nodes
+                        .iter()
+                        .map(|&(g, _)| lobe_azimuthal(e, g, mu))
+                        .collect()
+                })
+                .collect();
             let values: Vec<f32> = (0..size * size)
                 .into_par_iter()
                 .map(|i| {
                     let (ix, iy) = (i % size, i / size);
-                    let mu = -1.0 + 2.0 * iy as f64 / n;
-                    nodes
+                    lobes[iy]
                         .iter()
                         .zip(&h[ix])
-                        .map(|(&(g, _), hw)| hw * lobe_azimuthal(e, g, mu))
+                        .map(|(p, hw)| hw * p)
                         .sum::<f64>() as f32
                 })
                 .collect();
@@ -210,22 +271,39 @@ pub struct FogTables {
     /// The paper's F(u, v) (u ∈ [0, 10]), kept for export and comparison.
     pub f: Table2,
     /// The corner factor q(c) of [`crate::special::corner_factor`] on
-    /// x = c/(1+c) ∈ [0, 1] (1D, 256 samples, stored as a 256×2 table).
-    pub corner: Vec<f32>,
+    /// x = c/(1+c) ∈ [0, 1] ([`CORNER_SAMPLES`] values).
+    corner: Vec<f32>,
 }
 
 /// Samples of the 1D corner table.
 pub const CORNER_SAMPLES: usize = 256;
 
 impl FogTables {
-    /// q(c) by linear interpolation in x = c/(1+c).
+    /// The [`CORNER_SAMPLES`] samples of q on x = c/(1+c) ∈ [0, 1].
     #[inline]
     #[must_use]
+    pub fn corner_values(&self) -> &[f32] {
+        &self.corner
+    }
+
+    /// q(c) by linear interpolation in x = c/(1+c) (branch-free, no
+    /// bounds checks; NaN and c < 0 read q(0)).
+    #[inline(always)]
+    #[must_use]
     pub fn corner(&self, c: f32) -> f32 {
-        let x = (c / (1.0 + c)).max(0.0).min(1.0) * (CORNER_SAMPLES - 1) as f32;
+        const LAST: f32 = (CORNER_SAMPLES - 1) as f32;
+        let x = (c / (1.0 + c)).max(0.0).min(1.0) * LAST;
         let i = (x as usize).min(CORNER_SAMPLES - 2);
         let t = x - i as f32;
-        self.corner[i] + (self.corner[i + 1] - self.corner[i]) * t
+        // SAFETY: `corner` is private and always holds CORNER_SAMPLES
+        // values; i + 1 ≤ CORNER_SAMPLES − 1.
+        let (a, b) = unsafe {
+            (
+                *self.corner.get_unchecked(i),
+                *self.corner.get_unchecked(i + 1),
+            )
+        };
+        a + (b - a) * t
     }
 }
 
