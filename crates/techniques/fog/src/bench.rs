@@ -151,18 +151,23 @@ pub fn bench_fog(quick: bool) -> Vec<BenchRow> {
         width: 1280,
         height: 720,
     };
-    bench_fog_scene(quick, &objects, &camera)
+    bench_fog_scene(quick, &objects, &camera, &bench_lights())
 }
 
-/// Benchmarks on the caller's objects and camera (the CLI passes the default scene).
+/// Benchmarks on the caller's objects, camera and lights (the CLI passes the
+/// default scene as well as the bench scene).
 #[must_use]
-pub fn bench_fog_scene(quick: bool, objects: &[FogObject], camera: &Camera) -> Vec<BenchRow> {
+pub fn bench_fog_scene(
+    quick: bool,
+    objects: &[FogObject],
+    camera: &Camera,
+    lights: &[PointLight],
+) -> Vec<BenchRow> {
     let t0 = Instant::now();
     let Ok(tables) = FogTables::build(64) else {
         return Vec::new();
     };
     let table_build_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let lights = bench_lights();
     let (n, reps, frames) = if quick {
         (200_000, 3, 3)
     } else {
@@ -181,7 +186,7 @@ pub fn bench_fog_scene(quick: bool, objects: &[FogObject], camera: &Camera) -> V
             // Lights are validated once (the first, untimed frame).
             settings.check_lights_inside = f == 0;
             let t = Instant::now();
-            if render_fog_into(&mut r, objects, camera, &lights, &settings, &mut img).is_err() {
+            if render_fog_into(&mut r, objects, camera, lights, &settings, &mut img).is_err() {
                 break;
             }
             if f > 0 {

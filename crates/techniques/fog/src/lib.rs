@@ -41,7 +41,7 @@ pub mod table;
 pub mod verify;
 pub mod volumetric;
 
-pub use bench::{BenchRow, bench_fog};
+pub use bench::{BenchRow, bench_fog, bench_fog_scene};
 pub use model::{FogMaterial, FogModel, Phase, PointLight};
 pub use render::{FogMode, FogObject, FogSettings, render_fog};
 pub use table::{FogTables, Interp, Table2, TableImage};
