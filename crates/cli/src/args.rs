@@ -256,6 +256,9 @@ pub struct BenchArgs {
     /// Fewer repetitions and smaller sizes (a smoke run).
     #[arg(long)]
     pub quick: bool,
+    /// Also write an SVG plot of each table into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -266,4 +269,7 @@ pub struct VerifyArgs {
     pub json: bool,
     #[arg(long)]
     pub quick: bool,
+    /// Also write an SVG plot of each table into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
 }

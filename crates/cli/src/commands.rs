@@ -4,8 +4,9 @@ use crate::args::{
     BakeCommand, BenchArgs, Cli, Command, ConvertArgs, DemoArgs, FogCommand, Method, ParamKind,
     RenderArgs, ShCommand, Suite, VerifyArgs,
 };
+use crate::plot::PlotSpec;
 use crate::progress::Bar;
-use crate::table::print_rows;
+use crate::table::Report;
 use anyhow::{Context, Result, anyhow, bail, ensure};
 use glam::Vec3;
 use relight_assets::{ToneMap, write_exr, write_png};
@@ -277,14 +278,7 @@ fn render_fog(scene: &Scene, s: &RenderSettings) -> Result<Image> {
         ));
     }
     if lights.is_empty() {
-        lights.push(relight_fog::PointLight::new(
-            Vec3::new(-1.5, 2.2, 1.5),
-            Vec3::splat(8.0),
-        ));
-        lights.push(relight_fog::PointLight::new(
-            Vec3::new(1.8, 1.6, 1.2),
-            Vec3::new(6.0, 4.5, 3.0),
-        ));
+        lights = default_fog_lights(2);
     }
     let tables = relight_fog::FogTables::build(64)?;
     let mut settings = relight_fog::FogSettings::new(&tables, beta);
@@ -295,25 +289,44 @@ fn render_fog(scene: &Scene, s: &RenderSettings) -> Result<Image> {
         },
         other => bail!("--fog {other}: expected `analytic` or `opengl`"),
     };
-    let objects: Vec<relight_fog::FogObject> = scene
+    Ok(relight_fog::render_fog(
+        &fog_objects(scene),
+        &scene.camera,
+        &lights,
+        &settings,
+    )?)
+}
+
+/// The first `count` (≤ 4) point lights placed around the default scene's
+/// objects, for `render --method fog` without `--light` and for `bench fog`.
+fn default_fog_lights(count: usize) -> Vec<relight_fog::PointLight> {
+    [
+        (Vec3::new(-1.5, 2.2, 1.5), Vec3::splat(8.0)),
+        (Vec3::new(1.8, 1.6, 1.2), Vec3::new(6.0, 4.5, 3.0)),
+        (Vec3::new(0.2, 2.0, -1.8), Vec3::new(3.0, 4.5, 6.0)),
+        (Vec3::new(-0.4, 0.5, 1.6), Vec3::new(5.0, 3.0, 5.0)),
+    ]
+    .into_iter()
+    .take(count)
+    .map(|(p, i)| relight_fog::PointLight::new(p, i))
+    .collect()
+}
+
+/// The objects of `scene` as fog-shaded surfaces. Fog shading uses the
+/// paper's Lambert/Phong surfaces: each object becomes Lambertian with the
+/// colour of its BRDF straight down the normal.
+fn fog_objects(scene: &Scene) -> Vec<relight_fog::FogObject<'_>> {
+    scene
         .objects
         .iter()
         .map(|o| {
-            // Fog shading uses the paper's Lambert/Phong surfaces: take the
-            // colour of the object's BRDF straight down the normal.
             let albedo = o.brdf.eval(Vec3::Z, Vec3::Z) * std::f32::consts::PI;
             relight_fog::FogObject {
                 mesh: &o.mesh,
                 material: relight_fog::FogMaterial::lambert(albedo.min(Vec3::ONE)),
             }
         })
-        .collect();
-    Ok(relight_fog::render_fog(
-        &objects,
-        &scene.camera,
-        &lights,
-        &settings,
-    )?)
+        .collect()
 }
 
 fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
@@ -698,6 +711,10 @@ fn fog(c: FogCommand) -> Result<()> {
 }
 
 fn bench(a: BenchArgs) -> Result<()> {
+    let report = Report {
+        json: a.json,
+        plot_dir: a.plot.clone(),
+    };
     match a.suite {
         Suite::Raster => {
             let rows = if a.quick {
@@ -705,7 +722,7 @@ fn bench(a: BenchArgs) -> Result<()> {
             } else {
                 relight_render::raster::bench_raster(1_000_000, 1920, 1080, 10)
             };
-            print_rows("relight bench raster", &rows, a.json)
+            report.table("relight bench raster", &rows, &[])
         }
         Suite::Reference => {
             let rows = if a.quick {
@@ -713,13 +730,19 @@ fn bench(a: BenchArgs) -> Result<()> {
             } else {
                 relight_render::reference::bench_reference(640, 360, 16)
             };
-            print_rows("relight bench reference", &rows, a.json)
+            report.table("relight bench reference", &rows, &[])
         }
         Suite::Sh => {
-            print_rows(
+            report.table(
                 "relight bench sh (single thread, f32, ns)",
                 &relight_sh::bench_sh(a.quick),
-                a.json,
+                &[PlotSpec {
+                    name: "bench-sh",
+                    x: "order",
+                    y: "ns_total",
+                    series: &["method"],
+                    log_y: true,
+                }],
             )?;
             let (w, h, orders): (usize, usize, &[usize]) = if a.quick {
                 (320, 180, &[3, 6])
@@ -736,7 +759,17 @@ fn bench(a: BenchArgs) -> Result<()> {
                 &[relight_shlight::ShRotationMethod::Exact],
                 if a.quick { 1 } else { 3 },
             )?;
-            print_rows("relight bench sh: SH shading frame time", &rows, a.json)
+            report.table(
+                "relight bench sh: SH shading frame time",
+                &rows,
+                &[PlotSpec {
+                    name: "bench-sh-frame",
+                    x: "order",
+                    y: "ms_frame",
+                    series: &["rotation", "normal_map"],
+                    log_y: false,
+                }],
+            )
         }
         Suite::Wavelet => {
             let opts = if a.quick {
@@ -759,13 +792,43 @@ fn bench(a: BenchArgs) -> Result<()> {
                 );
             }
             let rows = relight_wavelet::bench_wavelet(&opts, &meshes, &Bar::new(true))?;
-            print_rows("relight bench wavelet", &rows, a.json)
+            report.table(
+                "relight bench wavelet",
+                &rows,
+                &[
+                    PlotSpec {
+                        name: "bench-wavelet-view",
+                        x: "vertices",
+                        y: "view_change_ms",
+                        series: &["n", "ntess"],
+                        log_y: false,
+                    },
+                    PlotSpec {
+                        name: "bench-wavelet-light",
+                        x: "terms",
+                        y: "light_change_ms",
+                        series: &["n", "ntess", "layout"],
+                        log_y: true,
+                    },
+                ],
+            )
         }
-        Suite::Fog => print_rows(
-            "relight bench fog",
-            &relight_fog::bench_fog(a.quick),
-            a.json,
-        ),
+        Suite::Fog => {
+            report.table(
+                "relight bench fog (fog bench scene: floor + 9 spheres, 4 lights)",
+                &relight_fog::bench_fog(a.quick),
+                &[],
+            )?;
+            let (w, h) = if a.quick { (320, 180) } else { (1280, 720) };
+            let scene = relight_scene::default_scene(w, h);
+            let rows = relight_fog::bench_fog_scene(
+                a.quick,
+                &fog_objects(&scene),
+                &scene.camera,
+                &default_fog_lights(4),
+            );
+            report.table("relight bench fog (default scene, 4 lights)", &rows, &[])
+        }
     }
 }
 
@@ -775,6 +838,10 @@ fn data_dir() -> PathBuf {
 }
 
 fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
+    let report = Report {
+        json: a.json,
+        plot_dir: a.plot.clone(),
+    };
     match a.suite {
         Suite::Sh => {
             let opts = relight_shlight::VerifyOptions::new(a.quick);
@@ -808,10 +875,25 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                 .collect();
             let rows =
                 relight_shlight::verify_sh(&vs, nm.as_ref().map(|m| ("0000.png", m)), &opts, bar)?;
-            print_rows(
+            report.table(
                 "relight verify sh: relative RMS error vs the reference renderer",
                 &rows,
-                a.json,
+                &[
+                    PlotSpec {
+                        name: "verify-sh",
+                        x: "order",
+                        y: "rel_rms_error",
+                        series: &["scene", "normal_map", "rotation"],
+                        log_y: true,
+                    },
+                    PlotSpec {
+                        name: "verify-sh-rotation",
+                        x: "order",
+                        y: "rel_rms_vs_exact",
+                        series: &["scene", "rotation"],
+                        log_y: true,
+                    },
+                ],
             )
         }
         Suite::Wavelet => {
@@ -834,11 +916,22 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                     }
                 }
             }
-            let rows = relight_wavelet::verify_wavelet(&scenes, &opts, bar)?;
-            print_rows(
+            let (rows, compare) = relight_wavelet::verify_wavelet_with_sh(&scenes, &opts, bar)?;
+            report.table(
                 "relight verify wavelet: relative RMS error vs the reference renderer",
                 &rows,
-                a.json,
+                &[PlotSpec {
+                    name: "verify-wavelet",
+                    x: "terms",
+                    y: "rel_rms_error",
+                    series: &["scene", "brdf", "n", "ntess", "ntrunc"],
+                    log_y: true,
+                }],
+            )?;
+            report.table(
+                "relight verify wavelet: wavelets beside SH (antialiased, same reference)",
+                &compare,
+                &[],
             )?;
             let light = |d: Vec3| relight_scene::studio_radiance(d);
             let rows = relight_wavelet::verify_rotation(
@@ -847,23 +940,41 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                 if a.quick { 32 } else { 64 },
                 bar,
             )?;
-            print_rows(
+            report.table(
                 "relight verify wavelet: rotated lighting (Figure 7)",
                 &rows,
-                a.json,
+                &[PlotSpec {
+                    name: "verify-wavelet-rotation",
+                    x: "terms",
+                    y: "rel_rms_error",
+                    series: &["lighting", "n"],
+                    log_y: true,
+                }],
             )
         }
-        Suite::Fog => print_rows(
+        Suite::Fog => report.table(
             "relight verify fog",
             &relight_fog::verify_fog(a.quick),
-            a.json,
+            &[PlotSpec {
+                name: "verify-fog",
+                x: "param",
+                y: "max_error",
+                series: &["check", "variant"],
+                log_y: true,
+            }],
         ),
         Suite::Raster | Suite::Reference => {
             let rows = relight_brdf::verify::verify_brdfs(if a.quick { 20_000 } else { 200_000 });
-            print_rows(
+            report.table(
                 "relight verify: BRDF sampling used by the reference renderer",
                 &rows,
-                a.json,
+                &[PlotSpec {
+                    name: "verify-brdf",
+                    x: "theta_o_deg",
+                    y: "albedo_quadrature",
+                    series: &["spec"],
+                    log_y: false,
+                }],
             )
         }
     }

@@ -1,16 +1,46 @@
 //! Printing rows of benchmark and accuracy figures as an aligned table or JSON.
 
+use crate::plot::{PlotSpec, write_plot};
 use anyhow::Result;
 use serde::Serialize;
 use serde_json::Value;
+use std::path::PathBuf;
 
-/// Prints `rows` (flat serde structs) as an aligned text table, or as a JSON
-/// array when `json` is set. Columns follow the first row's field order.
-pub fn print_rows<T: Serialize>(title: &str, rows: &[T], json: bool) -> Result<()> {
-    let values: Vec<Value> = rows
+/// Where the tables of a `bench` or `verify` run go: standard output (text or
+/// JSON) and, with `--plot DIR`, one SVG plot per [`PlotSpec`].
+#[derive(Clone, Debug, Default)]
+pub struct Report {
+    /// Print JSON arrays instead of text tables.
+    pub json: bool,
+    /// Directory for SVG plots (`--plot`), if any.
+    pub plot_dir: Option<PathBuf>,
+}
+
+impl Report {
+    /// Prints `rows` (flat serde structs) as an aligned text table (columns in
+    /// the first row's field order) or as a JSON array, and writes the `plots`
+    /// of them when a plot directory was given.
+    pub fn table<T: Serialize>(&self, title: &str, rows: &[T], plots: &[PlotSpec]) -> Result<()> {
+        let values = to_values(rows)?;
+        print_values(title, &values, self.json)?;
+        if let Some(dir) = &self.plot_dir {
+            for spec in plots {
+                let path = write_plot(dir, title, &values, spec)?;
+                eprintln!("relight: wrote {}", path.display());
+            }
+        }
+        Ok(())
+    }
+}
+
+fn to_values<T: Serialize>(rows: &[T]) -> Result<Vec<Value>> {
+    Ok(rows
         .iter()
         .map(serde_json::to_value)
-        .collect::<Result<_, _>>()?;
+        .collect::<Result<_, _>>()?)
+}
+
+fn print_values(title: &str, values: &[Value], json: bool) -> Result<()> {
     if json {
         println!("{}", serde_json::to_string_pretty(&values)?);
         return Ok(());

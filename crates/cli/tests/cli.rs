@@ -164,3 +164,30 @@ fn corrupt_scene_file_is_rejected_with_its_name() {
         "broken.toml",
     );
 }
+
+#[test]
+fn verify_writes_json_and_an_svg_plot() {
+    let dir = tmp("plots");
+    let out = relight(&[
+        "-q",
+        "verify",
+        "raster",
+        "--quick",
+        "--json",
+        "--plot",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).expect("stdout is JSON");
+    let rows = rows.as_array().expect("a JSON array of rows");
+    assert!(!rows.is_empty());
+    let svg = std::fs::read_to_string(dir.join("verify-brdf.svg")).expect("plot written");
+    assert!(svg.starts_with("<svg") && svg.contains("theta_o_deg"));
+    // One legend entry per BRDF in the table.
+    let spec = rows[0]["spec"].as_str().unwrap();
+    assert!(svg.contains(spec), "legend lacks {spec}");
+}

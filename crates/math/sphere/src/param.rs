@@ -298,6 +298,30 @@ pub fn octahedron_from_hemi_octahedral(q: DVec2) -> DVec3 {
     DVec3::new(p.x, p.y, (1.0 - p.x.abs() - p.y.abs()).max(0.0))
 }
 
+/// [`octahedral_from_dir`] in f32 (hot paths: per-vertex normal lookups).
+#[inline]
+#[must_use]
+pub fn octahedral_from_dir_f32(d: Vec3) -> glam::Vec2 {
+    let l1 = d.x.abs() + d.y.abs() + d.z.abs();
+    let (x, y) = (d.x / l1, d.y / l1);
+    if d.z < 0.0 {
+        let sx = if x >= 0.0 { 1.0 } else { -1.0 };
+        let sy = if y >= 0.0 { 1.0 } else { -1.0 };
+        glam::Vec2::new((1.0 - y.abs()) * sx, (1.0 - x.abs()) * sy)
+    } else {
+        glam::Vec2::new(x, y)
+    }
+}
+
+/// [`hemi_octahedral_from_dir`] in f32 (z mirrored to ≥ 0; `d` non-zero).
+#[inline]
+#[must_use]
+pub fn hemi_octahedral_from_dir_f32(d: Vec3) -> glam::Vec2 {
+    let l1 = d.x.abs() + d.y.abs() + d.z.abs();
+    let (x, y) = (d.x / l1, d.y / l1);
+    glam::Vec2::new((x - y).clamp(-1.0, 1.0), (x + y).clamp(-1.0, 1.0))
+}
+
 /// Cube face index and face coordinates `(a, b) ∈ [−1,1]²` of a non-zero direction.
 #[inline]
 #[must_use]
@@ -660,6 +684,36 @@ impl Param {
                     diamond_from_hemi(DVec2::new(a.x, b.y)),
                 ]);
                 octahedral_polygon_solid_angle(&poly)
+            }
+        }
+    }
+    /// Area element `dω / (du dv)` at the map coordinate `uv` (steradians per
+    /// unit uv area; the Jacobian whose integral over a texel is
+    /// [`Param::texel_solid_angle`]). Used to weight sub-texel samples.
+    ///
+    /// * lat-long: `2π² sin(πv)`;
+    /// * cube: `24 / (1 + a² + b²)^{3/2}` with the face coordinates `(a, b)`;
+    /// * octahedral: `4 / |o|³` and hemi-octahedral: `2 / |o|³`, with `o` the
+    ///   octahedron point (on a face `dω = (o·n̂)/|o|³ dA`, `o·n̂ = 1/√3`,
+    ///   `dA = √3 dx dy`, and `dx dy = 4 du dv`, resp. `2 du dv` for the
+    ///   45°-rotated hemi-octahedral square).
+    #[must_use]
+    pub fn uv_density(&self, uv: DVec2) -> f64 {
+        match *self {
+            Self::LatLong { .. } => 2.0 * PI * PI * (PI * uv.y).sin(),
+            Self::Cube { .. } => {
+                let fy = uv.y * 6.0;
+                let face = fy.floor().clamp(0.0, 5.0);
+                let (a, b) = (2.0 * uv.x - 1.0, 2.0 * (fy - face) - 1.0);
+                24.0 / (1.0 + a * a + b * b).powf(1.5)
+            }
+            Self::Octahedral { .. } => {
+                4.0 / octahedron_from_octahedral(uv * 2.0 - 1.0).length().powi(3)
+            }
+            Self::HemiOctahedral { .. } => {
+                2.0 / octahedron_from_hemi_octahedral(uv * 2.0 - 1.0)
+                    .length()
+                    .powi(3)
             }
         }
     }

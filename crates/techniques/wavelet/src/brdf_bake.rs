@@ -145,6 +145,25 @@ pub struct BrdfBake {
     pub indices: Vec<u16>,
     /// `views² × terms` RGB values.
     pub values: Vec<Vec3A>,
+    /// True when every slice equals the first (a view-independent BRDF such
+    /// as Lambert): the renderer then needs one slice per vertex whatever
+    /// the normal-blend rule.
+    pub view_independent: bool,
+}
+
+/// Whether all `terms`-long slices equal the first one (relative 1e-6).
+fn slices_identical(indices: &[u16], values: &[Vec3A], terms: usize) -> bool {
+    let (i0, v0) = (&indices[..terms], &values[..terms]);
+    let scale = v0.iter().fold(0.0f32, |a, v| a.max(v.abs().max_element()));
+    indices
+        .chunks(terms)
+        .zip(values.chunks(terms))
+        .all(|(i, v)| {
+            i == i0
+                && v.iter()
+                    .zip(v0)
+                    .all(|(a, b)| (*a - *b).abs().max_element() <= 1e-6 * scale)
+        })
 }
 
 /// Unapproximated slice (Haar coefficients, `M` values) for the local view `wo`.
@@ -237,6 +256,7 @@ pub fn bake_brdf(
         params: params.clone(),
         key_hash: params.key_hash(),
         energy_fraction: (energy / count as f64) as f32,
+        view_independent: slices_identical(&indices, &values, k),
         indices,
         values,
     })
@@ -317,12 +337,14 @@ impl BrdfBake {
         if indices.iter().any(|&i| i as usize >= mm) {
             return Err(corrupt("coefficient index out of range".into()));
         }
+        let values: Vec<Vec3A> = vals.into_iter().map(Vec3A::from_array).collect();
         Ok(Self {
+            view_independent: slices_identical(&indices, &values, params.terms),
             params,
             key_hash,
             energy_fraction: f32::from_bits(h[6]),
             indices,
-            values: vals.into_iter().map(Vec3A::from_array).collect(),
+            values,
         })
     }
 

@@ -14,7 +14,11 @@
 //! ```
 //! B(n, ω_o) = 𝐅_r(ω_o) · (𝐑_(n) 𝐋) (paper Eq. 7). The solid angle of every
 //! target texel is folded into the BRDF slices, so the wavelet dot product is
-//! a quadrature of the reflection integral (Eq. 1).
+//! a quadrature of the reflection integral (Eq. 1). Between sampled normals
+//! the default blend is mirror-aligned ([`NormalInterp`]): each of the four
+//! neighbours gets the slice whose mirror direction matches the vertex's, and
+//! their colours are blended — the paper's single-slice blend of local
+//! lighting ghosts sharp highlights ([`NormalInterp::Paper`] keeps it).
 //!
 //! # Entry points (what the CLI calls)
 //! * `relight bake rotation`: [`RotationParams::new`] → [`bake_rotation`] →
@@ -44,9 +48,10 @@ pub mod study;
 
 pub use brdf_bake::{BrdfBake, BrdfBakeParams, bake_brdf};
 pub use error::WaveletError;
-pub use render::{LightingStats, WaveletRenderer, light_rotation};
+pub use render::{LightingStats, NormalInterp, WaveletRenderer, light_rotation};
 pub use rotation::{RotationMatrices, RotationParams, bake_rotation};
 pub use study::{
-    BenchOptions, BenchRow, RotationRow, VerifyOptions, VerifyRow, bake_or_load_brdf,
+    BenchOptions, BenchRow, CompareRow, RotationRow, VerifyOptions, VerifyRow, bake_or_load_brdf,
     bake_or_load_rotation, bench_wavelet, default_cache_dir, verify_rotation, verify_wavelet,
+    verify_wavelet_with_sh,
 };

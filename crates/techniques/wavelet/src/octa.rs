@@ -18,6 +18,10 @@
 //!   the square: `(a, b) = (2u − 1, 2v − 1)`, `x = (a + b)/2`, `y = (b − a)/2`,
 //!   `P = (x, y, 1 − |x| − |y|)`.
 //!
+//! The formulas live in `relight_sphere::param` (`Param::Octahedral`,
+//! `Param::HemiOctahedral`, `Param::uv_density`); the functions here are the
+//! technique's `(u, v)`-tuple front end to them.
+//!
 //! # Exact area element
 //! On an octahedron face `dω = (P·n̂) / |P|³ dA` with `P·n̂ = 1/√3` and
 //! `dA = √3 dx dy`, so `dω = dx dy / |P|³`. Hence the densities
@@ -34,8 +38,12 @@
 //! z < 0, y = 0 — a visible meridian when local lighting is interpolated
 //! between sampled normals.
 
-use glam::{DVec3, Vec3};
-use relight_sphere::Frame;
+use glam::{DVec2, DVec3, Vec3};
+use relight_sphere::param::{
+    hemi_octahedral_from_dir, hemi_octahedral_from_dir_f32, octahedral_from_dir,
+    octahedral_from_dir_f32, octahedron_from_hemi_octahedral, octahedron_from_octahedral,
+};
+use relight_sphere::{Frame, Param};
 
 /// Direction (unit) through the octahedral map point `(u, v)`.
 #[inline]
@@ -48,51 +56,29 @@ pub fn oct_dir_from_uv(u: f64, v: f64) -> DVec3 {
 #[inline]
 #[must_use]
 pub fn oct_point(u: f64, v: f64) -> DVec3 {
-    let x = 2.0 * u - 1.0;
-    let y = 2.0 * v - 1.0;
-    let s = x.abs() + y.abs();
-    if s <= 1.0 {
-        DVec3::new(x, y, 1.0 - s)
-    } else {
-        DVec3::new(
-            x.signum() * (1.0 - y.abs()),
-            y.signum() * (1.0 - x.abs()),
-            1.0 - s,
-        )
-    }
+    octahedron_from_octahedral(DVec2::new(2.0 * u - 1.0, 2.0 * v - 1.0))
 }
 
 /// Octahedral map point of a (non-zero) direction; inverse of [`oct_dir_from_uv`].
 #[inline]
 #[must_use]
 pub fn oct_uv_from_dir(d: DVec3) -> (f64, f64) {
-    let p = d / (d.x.abs() + d.y.abs() + d.z.abs());
-    let (x, y) = if p.z >= 0.0 {
-        (p.x, p.y)
-    } else {
-        let sx = if p.x >= 0.0 { 1.0 } else { -1.0 };
-        let sy = if p.y >= 0.0 { 1.0 } else { -1.0 };
-        (sx * (1.0 - p.y.abs()), sy * (1.0 - p.x.abs()))
-    };
-    (0.5 * (x + 1.0), 0.5 * (y + 1.0))
+    let p = octahedral_from_dir(d) * 0.5 + 0.5;
+    (p.x, p.y)
 }
 
 /// `dω / (du dv)` of the octahedral map at `(u, v)` (sr per unit map area).
 #[inline]
 #[must_use]
 pub fn oct_density(u: f64, v: f64) -> f64 {
-    4.0 / oct_point(u, v).length().powi(3)
+    Param::Octahedral { n: 1 }.uv_density(DVec2::new(u, v))
 }
 
 /// Point on the L1 octahedron (z ≥ 0) for the hemi-octahedral map point `(u, v)`.
 #[inline]
 #[must_use]
 pub fn hemi_point(u: f64, v: f64) -> DVec3 {
-    let a = 2.0 * u - 1.0;
-    let b = 2.0 * v - 1.0;
-    let x = 0.5 * (a + b);
-    let y = 0.5 * (b - a);
-    DVec3::new(x, y, 1.0 - x.abs() - y.abs())
+    octahedron_from_hemi_octahedral(DVec2::new(2.0 * u - 1.0, 2.0 * v - 1.0))
 }
 
 /// Local direction (unit, z ≥ 0) through the hemi-octahedral map point `(u, v)`.
@@ -108,20 +94,18 @@ pub fn hemi_dir_from_uv(u: f64, v: f64) -> DVec3 {
 #[must_use]
 pub fn hemi_uv_from_dir(d: DVec3) -> (f64, f64) {
     let d = DVec3::new(d.x, d.y, d.z.max(0.0));
-    let p = d / (d.x.abs() + d.y.abs() + d.z).max(1e-300);
-    let a = p.x - p.y;
-    let b = p.x + p.y;
-    (
-        (0.5 * (a + 1.0)).clamp(0.0, 1.0),
-        (0.5 * (b + 1.0)).clamp(0.0, 1.0),
-    )
+    if d.x.abs() + d.y.abs() + d.z < 1e-300 {
+        return (0.5, 0.5);
+    }
+    let q = hemi_octahedral_from_dir(d) * 0.5 + 0.5;
+    (q.x, q.y)
 }
 
 /// `dω / (du dv)` of the hemi-octahedral map at `(u, v)`.
 #[inline]
 #[must_use]
 pub fn hemi_density(u: f64, v: f64) -> f64 {
-    2.0 / hemi_point(u, v).length().powi(3)
+    Param::HemiOctahedral { n: 1 }.uv_density(DVec2::new(u, v))
 }
 
 /// Texel index of map point `(u, v)` on an `n × n` grid.
@@ -163,28 +147,20 @@ pub fn shading_frame_fast(n: Vec3) -> Frame {
 #[inline]
 #[must_use]
 pub fn oct_uv_from_dir_f32(d: Vec3) -> (f32, f32) {
-    let p = d / (d.x.abs() + d.y.abs() + d.z.abs());
-    let (x, y) = if p.z >= 0.0 {
-        (p.x, p.y)
-    } else {
-        let sx = if p.x >= 0.0 { 1.0 } else { -1.0 };
-        let sy = if p.y >= 0.0 { 1.0 } else { -1.0 };
-        (sx * (1.0 - p.y.abs()), sy * (1.0 - p.x.abs()))
-    };
-    (0.5 * (x + 1.0), 0.5 * (y + 1.0))
+    let p = octahedral_from_dir_f32(d) * 0.5 + 0.5;
+    (p.x, p.y)
 }
 
 /// Hemi-octahedral map point of a local direction in f32 (z clamped to ≥ 0).
 #[inline]
 #[must_use]
 pub fn hemi_uv_from_dir_f32(d: Vec3) -> (f32, f32) {
-    let z = d.z.max(0.0);
-    let inv = 1.0 / (d.x.abs() + d.y.abs() + z).max(1e-30);
-    let (px, py) = (d.x * inv, d.y * inv);
-    (
-        (0.5 * (px - py + 1.0)).clamp(0.0, 1.0),
-        (0.5 * (px + py + 1.0)).clamp(0.0, 1.0),
-    )
+    let d = Vec3::new(d.x, d.y, d.z.max(0.0));
+    if d.x.abs() + d.y.abs() + d.z < 1e-30 {
+        return (0.5, 0.5);
+    }
+    let q = hemi_octahedral_from_dir_f32(d) * 0.5 + 0.5;
+    (q.x, q.y)
 }
 
 /// [`shading_frame`] in f64: `[x, y, z]` axes.

@@ -4,15 +4,15 @@
 
 use glam::{DVec3, Vec3, Vec3A};
 use relight_brdf::{Brdf, BrdfSpec};
-use relight_haar::{Ranking, SparseRgb, try_inverse_2d};
+use relight_haar::{Ranking, SparseRgb};
 use relight_render::NoProgress;
 use relight_wavelet::lighting::{haar_rgb, sample_octahedral};
-use relight_wavelet::octa::{
-    grid_normal, hemi_density, hemi_dir_from_uv, oct_uv_from_dir, shading_frame_f64, texel_of,
-};
-use relight_wavelet::render::WaveletRenderer;
+use relight_wavelet::octa::{grid_normal, oct_uv_from_dir, shading_frame_f64, texel_of};
+use relight_wavelet::render::{NormalInterp, WaveletRenderer};
 use relight_wavelet::rotation::rotation_matrix_f32;
-use relight_wavelet::study::{direct_radiance, smooth_sky, sun_sky};
+use relight_wavelet::study::{
+    direct_local_texels, direct_radiance, inverse_rgb, rel_rms, smooth_sky, sun_sky,
+};
 use relight_wavelet::{
     BrdfBake, BrdfBakeParams, RotationMatrices, RotationParams, WaveletError, bake_brdf,
     bake_rotation,
@@ -23,57 +23,6 @@ fn tmp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("relight-wavelet-test-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d.join(name)
-}
-
-/// Mean radiance of `f` over every texel of the m × m hemi-octahedral map of
-/// the local frame (fine supersampling; the "direct resampling" reference).
-fn direct_local_texels(
-    f: &dyn Fn(Vec3) -> Vec3,
-    frame: &[DVec3; 3],
-    m: usize,
-    ss: usize,
-) -> Vec<[f32; 3]> {
-    (0..m * m)
-        .map(|t| {
-            let (c, r) = (t % m, t / m);
-            let (mut acc, mut ws) = (DVec3::ZERO, 0.0);
-            for sy in 0..ss {
-                for sx in 0..ss {
-                    let u = (c as f64 + (sx as f64 + 0.5) / ss as f64) / m as f64;
-                    let v = (r as f64 + (sy as f64 + 0.5) / ss as f64) / m as f64;
-                    let l = hemi_dir_from_uv(u, v);
-                    let w = frame[0] * l.x + frame[1] * l.y + frame[2] * l.z;
-                    let dw = hemi_density(u, v);
-                    acc += f(w.as_vec3()).as_dvec3() * dw;
-                    ws += dw;
-                }
-            }
-            (acc / ws).as_vec3().to_array()
-        })
-        .collect()
-}
-
-fn inverse_rgb(coeffs: &[[f32; 3]], m: usize) -> Vec<[f32; 3]> {
-    let mut out = coeffs.to_vec();
-    for c in 0..3 {
-        let mut ch: Vec<f32> = coeffs.iter().map(|v| v[c]).collect();
-        try_inverse_2d(&mut ch, m).unwrap();
-        for (o, v) in out.iter_mut().zip(ch) {
-            o[c] = v;
-        }
-    }
-    out
-}
-
-fn rel_rms(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    let (mut num, mut den) = (0.0f64, 0.0f64);
-    for (x, y) in a.iter().zip(b) {
-        for c in 0..3 {
-            num += f64::from(x[c] - y[c]).powi(2);
-            den += f64::from(y[c]).powi(2);
-        }
-    }
-    (num / den).sqrt()
 }
 
 /// Applies an unquantized CSC matrix to a dense coefficient vector.
@@ -306,6 +255,7 @@ fn bake_files_round_trip_and_bad_files_are_rejected() {
     let bback = BrdfBake::load_expect(&bpath, &bp).unwrap();
     assert_eq!(bback.indices, bb.indices);
     assert_eq!(bback.values, bb.values);
+    assert!(bback.view_independent && bb.view_independent);
     assert!(matches!(
         BrdfBake::load(&path),
         Err(WaveletError::Foreign { .. })
@@ -370,6 +320,10 @@ fn lambert_slice_integrates_cosine_exactly() {
         );
     }
     assert!(bb.energy_fraction > 0.99);
+    assert!(
+        bb.view_independent,
+        "Lambert slices do not depend on the view"
+    );
 }
 
 #[test]
@@ -416,4 +370,71 @@ fn pipeline_matches_quadrature_of_the_reflection_integral() {
         );
         assert!(e < 0.05, "{spec}: {e}");
     }
+}
+
+#[test]
+fn mirror_aligned_normal_blend_removes_highlight_ghosting() {
+    // Between sampled normals the paper's blend of the neighbours' local
+    // lighting shows a sharp highlight once per neighbour; the mirror-aligned
+    // blend centres all four on the vertex's mirror direction. Coarse normal
+    // grid (8²), glossy GGX, a small bright light: the mirror-aligned rule
+    // must be clearly closer to quadrature; for Lambert both rules agree.
+    let p = RotationParams::new(32, 8, 1);
+    let rot = Arc::new(bake_rotation(&p, &NoProgress).unwrap());
+    let mut r = WaveletRenderer::new(rot, 512).unwrap();
+    let light = |d: Vec3| {
+        let s = Vec3::new(0.3, 0.8, 0.52).normalize();
+        Vec3::splat(0.2) + Vec3::new(8.0, 7.0, 6.0) * d.dot(s).max(0.0).powi(60)
+    };
+    r.set_lighting_fn(light).unwrap();
+    let eye = Vec3::new(0.0, 0.5, 4.0);
+    // Normals around the highlight of a unit sphere seen from `eye`.
+    let s = Vec3::new(0.3, 0.8, 0.52).normalize();
+    let h = (s + eye.normalize()).normalize();
+    let normals: Vec<Vec3> = (0..150)
+        .map(|i| {
+            let a = i as f32 * 2.399_963;
+            let rad = 0.35 * ((i as f32 + 0.5) / 150.0).sqrt();
+            (h + Vec3::new(rad * a.cos(), rad * a.sin(), 0.3 * rad * a.cos())).normalize()
+        })
+        .collect();
+    let mut errs = Vec::new();
+    for spec in ["ggx:0.15", "lambert:0.8"] {
+        let brdf = spec.parse::<BrdfSpec>().unwrap().build();
+        let bb = bake_brdf(
+            &BrdfBakeParams::new(spec, p.m, 32, 128),
+            brdf.as_ref(),
+            &NoProgress,
+        )
+        .unwrap();
+        assert_eq!(bb.view_independent, spec.starts_with("lambert"), "{spec}");
+        let want: Vec<[f32; 3]> = normals
+            .iter()
+            .map(|n| {
+                direct_radiance(&light, brdf.as_ref(), *n, (eye - *n).normalize(), 96).to_array()
+            })
+            .collect();
+        for rule in [NormalInterp::Paper, NormalInterp::MirrorAligned] {
+            r.normal_interp = rule;
+            let mut got = vec![Vec3::ZERO; normals.len()];
+            r.shade_vertices(&normals, &normals, &bb, eye, None, &mut got)
+                .unwrap();
+            let g: Vec<[f32; 3]> = got.iter().map(|v| v.to_array()).collect();
+            let e = rel_rms(&g, &want);
+            eprintln!("{spec} {rule:?}: rel RMS vs quadrature {e:.4}");
+            errs.push(e);
+        }
+    }
+    assert!(
+        errs[1] < 0.6 * errs[0],
+        "GGX: mirror {} vs paper {}",
+        errs[1],
+        errs[0]
+    );
+    assert!(
+        (errs[2] - errs[3]).abs() < 1e-4,
+        "Lambert: {} vs {}",
+        errs[2],
+        errs[3]
+    );
 }
