@@ -782,7 +782,7 @@ fn bench(a: BenchArgs) -> Result<()> {
             if bunny.exists() {
                 let (mesh, _) = relight_assets::load_mesh(&bunny)?;
                 for &target in &opts.vertices {
-                    let (m, _) = mesh.subdivide_to_vertices(target, 6);
+                    let m = mesh.refine_to_vertices(target);
                     meshes.push((target, std::sync::Arc::new(m)));
                 }
             } else {

@@ -6,7 +6,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`mesh`] | [`Mesh`], [`Mesh::validate_and_repair`] and its [`RepairReport`], normals, tangents, bounds, transforms, merge, topology counts |
-//! | [`subdivide`] | Loop subdivision, [`Mesh::subdivide_to_vertices`] for benchmark meshes |
+//! | [`subdivide`] | Loop subdivision; [`Mesh::refine_to_vertices`] (Loop steps + longest-edge bisection) gives benchmark meshes exact vertex counts |
 //! | [`shapes`] | uv sphere, icosphere, torus, detailed displaced sphere, plane, quad |
 //!
 //! **Architecture invariant:** no IO here; loaders live in `relight-assets`.

@@ -24,7 +24,7 @@
 
 use crate::mesh::Mesh;
 use glam::{Vec2, Vec3};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// Loop's vertex weight β for valence `n`.
 #[must_use]
@@ -193,6 +193,123 @@ impl Mesh {
         }
         (m, levels)
     }
+
+    /// Vertex count after one [`Mesh::subdivide`] step: one new vertex per
+    /// distinct index edge.
+    #[must_use]
+    pub fn loop_vertex_count(&self) -> usize {
+        let mut edges: HashSet<(u32, u32)> = HashSet::with_capacity(self.indices.len() * 2);
+        for tri in &self.indices {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                edges.insert((a.min(b), a.max(b)));
+            }
+        }
+        self.positions.len() + edges.len()
+    }
+
+    /// A mesh of exactly `target` vertices (when `target` ≥ the current count,
+    /// else a clone): Loop subdivision while a whole step stays within
+    /// `target`, then [`Mesh::bisect_longest_edges_to`] for the rest. Used to
+    /// give benchmarks the vertex counts they name (the bunny at 30 K, 50 K,
+    /// 100 K, 120 K vertices), which whole Loop steps (×≈4) cannot hit.
+    #[must_use]
+    pub fn refine_to_vertices(&self, target: usize) -> Mesh {
+        let mut m = self.clone();
+        while !m.indices.is_empty() && m.loop_vertex_count() <= target {
+            m = m.subdivide();
+        }
+        m.bisect_longest_edges_to(target);
+        m
+    }
+
+    /// Adds vertices up to `target` by splitting the longest edges at their
+    /// midpoints (each split turns the one or two triangles on the edge into
+    /// two or four; normals are the normalized mean of the endpoints', uvs the
+    /// mean; tangents are recomputed). Edges are matched by position, so an
+    /// edge on a uv seam splits on both sides and opens no crack; such an edge
+    /// adds one vertex per side. Stops early only when no edge is left to
+    /// split without passing `target`. Triangles with one edge split per pass,
+    /// longest first, so the result stays a conforming triangulation.
+    pub fn bisect_longest_edges_to(&mut self, target: usize) {
+        type PosKey = [u32; 3];
+        let key =
+            |p: Vec3| -> PosKey { p.to_array().map(|x| if x == 0.0 { 0 } else { x.to_bits() }) };
+        let has_normals = self.normals.len() == self.positions.len();
+        let has_uvs = self.uvs.len() == self.positions.len();
+        while self.positions.len() < target {
+            // Geometric edges: squared length and the (triangle, local edge) uses.
+            let mut edges: HashMap<(PosKey, PosKey), (f32, Vec<(u32, u8)>)> =
+                HashMap::with_capacity(self.indices.len() * 2);
+            for (t, tri) in self.indices.iter().enumerate() {
+                for k in 0..3u8 {
+                    let (a, b) = (tri[k as usize], tri[(k as usize + 1) % 3]);
+                    let (pa, pb) = (self.positions[a as usize], self.positions[b as usize]);
+                    let (ka, kb) = (key(pa), key(pb));
+                    let e = edges
+                        .entry(if ka < kb { (ka, kb) } else { (kb, ka) })
+                        .or_insert_with(|| (pa.distance_squared(pb), Vec::new()));
+                    e.1.push((t as u32, k));
+                }
+            }
+            let mut list: Vec<(f32, Vec<(u32, u8)>)> = edges.into_values().collect();
+            list.sort_by(|a, b| b.0.total_cmp(&a.0));
+            let mut used = vec![false; self.indices.len()];
+            let mut midpoint: HashMap<(u32, u32), u32> = HashMap::new();
+            let mut splits: Vec<(u32, u8, u32)> = Vec::new();
+            for (len2, uses) in list {
+                if self.positions.len() >= target {
+                    break;
+                }
+                if len2 <= 0.0 || uses.iter().any(|&(t, _)| used[t as usize]) {
+                    continue;
+                }
+                let pair = |&(t, k): &(u32, u8)| {
+                    let tri = self.indices[t as usize];
+                    let (a, b) = (tri[k as usize], tri[(k as usize + 1) % 3]);
+                    (a.min(b), a.max(b))
+                };
+                let mut pairs: Vec<(u32, u32)> = uses.iter().map(pair).collect();
+                pairs.sort_unstable();
+                pairs.dedup();
+                if self.positions.len() + pairs.len() > target {
+                    continue;
+                }
+                for u in &uses {
+                    used[u.0 as usize] = true;
+                    let (a, b) = pair(u);
+                    let m = *midpoint.entry((a, b)).or_insert_with(|| {
+                        let (ia, ib) = (a as usize, b as usize);
+                        self.positions
+                            .push(0.5 * (self.positions[ia] + self.positions[ib]));
+                        if has_normals {
+                            let n = self.normals[ia] + self.normals[ib];
+                            self.normals
+                                .push(n.try_normalize().unwrap_or(self.normals[ia]));
+                        }
+                        if has_uvs {
+                            self.uvs.push(0.5 * (self.uvs[ia] + self.uvs[ib]));
+                        }
+                        (self.positions.len() - 1) as u32
+                    });
+                    splits.push((u.0, u.1, m));
+                }
+            }
+            if splits.is_empty() {
+                break;
+            }
+            for (t, k, m) in splits {
+                let tri = self.indices[t as usize];
+                let k = k as usize;
+                let (v0, v1, v2) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
+                self.indices[t as usize] = [v0, m, v2];
+                self.indices.push([m, v1, v2]);
+            }
+        }
+        if !self.tangents.is_empty() {
+            self.tangents = self.compute_tangents();
+        }
+    }
 }
 
 #[cfg(test)]
@@ -302,5 +419,59 @@ mod tests {
         assert_eq!(m.vertex_count(), 10 * 4usize.pow(4) + 2);
         let (m, levels) = ico.subdivide_to_vertices(5, 8);
         assert_eq!((levels, m.vertex_count()), (0, 12));
+    }
+
+    #[test]
+    fn loop_vertex_count_predicts_subdivide() {
+        for m in [
+            shapes::icosphere(1.0, 1),
+            shapes::uv_sphere(1.0, 12, 6),
+            shapes::plane(2.0, 3),
+        ] {
+            assert_eq!(m.subdivide().vertex_count(), m.loop_vertex_count());
+        }
+    }
+
+    #[test]
+    fn refine_to_vertices_hits_the_count_and_keeps_the_surface() {
+        // A uv sphere has a seam (split vertices) and pole fans.
+        let s = shapes::uv_sphere(1.0, 24, 12);
+        let area = s.area();
+        for target in [s.vertex_count(), 1000, 3001, 12_345] {
+            let r = s.refine_to_vertices(target);
+            assert_eq!(r.vertex_count(), target, "target {target}");
+            r.try_validate().unwrap();
+            assert_eq!(r.normals.len(), target);
+            assert_eq!(r.uvs.len(), target);
+            // Closed and crack-free: welded by position, every edge has two triangles.
+            let (welded_boundary, chi) = {
+                let mut w = r.clone();
+                let mut first: HashMap<[u32; 3], u32> = HashMap::new();
+                let remap: Vec<u32> = w
+                    .positions
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| {
+                        *first
+                            .entry(p.to_array().map(f32::to_bits))
+                            .or_insert(i as u32)
+                    })
+                    .collect();
+                for tri in &mut w.indices {
+                    *tri = tri.map(|i| remap[i as usize]);
+                }
+                (w.edge_counts().1, w.euler_characteristic())
+            };
+            assert_eq!(welded_boundary, 0, "target {target}: cracks");
+            assert_eq!(chi, 2, "target {target}: welded Euler characteristic");
+            // Loop steps shrink the sphere a little, bisection keeps the surface.
+            for p in &r.positions {
+                assert!(p.length() <= 1.0 + 1e-5 && p.length() > 0.9, "{p}");
+            }
+            let ratio = r.area() / area;
+            assert!((0.85..=1.0 + 1e-5).contains(&ratio), "area ratio {ratio}");
+        }
+        // Below the current count: unchanged.
+        assert_eq!(s.refine_to_vertices(10).vertex_count(), s.vertex_count());
     }
 }
