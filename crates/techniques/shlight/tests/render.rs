@@ -280,7 +280,11 @@ fn verify_quick_smoke() {
                 .map(|r| r.rel_rms_vs_exact)
                 .unwrap()
         };
-        assert!(vs("zyz") < 1e-4, "zyz vs exact at order {order}: {}", vs("zyz"));
+        assert!(
+            vs("zyz") < 1e-4,
+            "zyz vs exact at order {order}: {}",
+            vs("zyz")
+        );
         for taylor in ["taylor1", "taylor15", "taylor2"] {
             assert!(
                 vs(taylor) < vs("none"),
