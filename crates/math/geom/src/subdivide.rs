@@ -233,13 +233,15 @@ impl Mesh {
     /// longest first, so the result stays a conforming triangulation.
     pub fn bisect_longest_edges_to(&mut self, target: usize) {
         type PosKey = [u32; 3];
+        // Squared length and the (triangle, local edge) pairs on the edge.
+        type EdgeUses = (f32, Vec<(u32, u8)>);
         let key =
             |p: Vec3| -> PosKey { p.to_array().map(|x| if x == 0.0 { 0 } else { x.to_bits() }) };
         let has_normals = self.normals.len() == self.positions.len();
         let has_uvs = self.uvs.len() == self.positions.len();
         while self.positions.len() < target {
             // Geometric edges: squared length and the (triangle, local edge) uses.
-            let mut edges: HashMap<(PosKey, PosKey), (f32, Vec<(u32, u8)>)> =
+            let mut edges: HashMap<(PosKey, PosKey), EdgeUses> =
                 HashMap::with_capacity(self.indices.len() * 2);
             for (t, tri) in self.indices.iter().enumerate() {
                 for k in 0..3u8 {
@@ -252,7 +254,7 @@ impl Mesh {
                     e.1.push((t as u32, k));
                 }
             }
-            let mut list: Vec<(f32, Vec<(u32, u8)>)> = edges.into_values().collect();
+            let mut list: Vec<EdgeUses> = edges.into_values().collect();
             list.sort_by(|a, b| b.0.total_cmp(&a.0));
             let mut used = vec![false; self.indices.len()];
             let mut midpoint: HashMap<(u32, u32), u32> = HashMap::new();
