@@ -19,6 +19,13 @@
 //!   the register shifted by one or two lanes (`valignd`).
 //! * **Fixed ±90° X rotations** of the ZYZ ("ZXZXZ") method: column form, one
 //!   broadcast multiply-add per non-zero 16-row piece of a matrix column.
+//!
+//! When the last register holds at most eight coefficients (n = 2, 6, 10),
+//! its element-wise arithmetic runs on 256-bit registers (CPUs that split
+//! 512-bit operations in two then do half the work for it); the Taylor
+//! kernels that start from a rotation matrix compute their per-rotation
+//! scalars inside the vectorised function (fused multiply-adds, no call
+//! boundary between the scalars and their broadcasts).
 
 // Off x86-64 only the portable code runs; the tables and dispatch stay compiled.
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_imports))]
@@ -406,7 +413,8 @@ pub(crate) fn try_taylor_y<T: Real>(
     false
 }
 
-/// The vectorised `R_z(α) R̃_y(β) R_z(γ)` when it applies.
+/// The vectorised `R_z(α) R̃_y(β) R_z(γ)` when it applies (the 1st and 1.5th
+/// order through the fused kernel `R_z(α+γ) · [R_z(−γ) R̃_y(β) R_z(γ)]`).
 #[inline]
 pub(crate) fn try_taylor_rotation<T: Real>(
     order: usize,
@@ -420,43 +428,38 @@ pub(crate) fn try_taylor_rotation<T: Real>(
     if let (Some(src), Some(dst)) = (T::as_f32_slice(src), T::as_f32_slice_mut(dst))
         && let Some(p) = plan_if_available(order)
     {
-        // SAFETY: `plan_if_available` checked AVX-512F.
-        unsafe {
-            x86::taylor_rotation(
-                p,
-                kind,
-                [
-                    f(e.cos_alpha),
-                    f(e.sin_alpha),
-                    f(beta),
-                    f(e.cos_gamma),
-                    f(e.sin_gamma),
-                ],
-                false,
-                src,
-                dst,
-            );
-        };
+        let (ca, sa, cg, sg) = (
+            f(e.cos_alpha),
+            f(e.sin_alpha),
+            f(e.cos_gamma),
+            f(e.sin_gamma),
+        );
+        let beta = f(beta);
+        if kind == TaylorKind::Second {
+            // SAFETY: `plan_if_available` checked AVX-512F.
+            unsafe { x86::taylor_rotation3(p, kind, [ca, sa, beta, cg, sg], src, dst) };
+        } else {
+            let sigma = (ca * cg - sa * sg, sa * cg + ca * sg);
+            // SAFETY: `plan_if_available` checked AVX-512F.
+            unsafe { x86::taylor_fused(p, kind, sigma, (beta, cg, sg), src, dst) };
+        }
         return true;
     }
     let _ = (order, kind, e, beta, src, dst);
     false
 }
 
-/// Whether the vectorised Taylor kernels run for `T` at `order` (f32,
-/// `2 ≤ order ≤ 10`, AVX-512F).
+/// The fused 1st/1.5th-order kernel straight from a rotation matrix, its
+/// scalars read off the matrix inside the vectorised function (see
+/// [`crate::taylor::TaylorRotation::apply`]). `true` when it ran; `false` (nothing written) when it
+/// does not apply: not f32, no AVX-512F, order outside 2…10, the 2nd order,
+/// `cos β < 0`, β > [`crate::taylor::SMALL_BETA_MAX`] or `β² > beta_lim²`.
 #[inline]
-pub(crate) fn taylor_kernel_available<T: Real>(order: usize) -> bool {
-    T::as_f32_slice(&[]).is_some() && plan_if_available(order).is_some()
-}
-
-/// The vectorised 1st/1.5th-order Taylor rotation from
-/// `[cos(α+γ), sin(α+γ), β, cos γ, sin γ]` when it applies.
-#[inline]
-pub(crate) fn try_taylor_rotation_sigma<T: Real>(
+pub(crate) fn try_taylor_fused_matrix<T: Real>(
     order: usize,
     kind: TaylorKind,
-    angles: [T; 5],
+    rot: &Rot3<T>,
+    beta_lim: T,
     src: &[T],
     dst: &mut [T],
 ) -> bool {
@@ -465,11 +468,38 @@ pub(crate) fn try_taylor_rotation_sigma<T: Real>(
         && let (Some(src), Some(dst)) = (T::as_f32_slice(src), T::as_f32_slice_mut(dst))
         && let Some(p) = plan_if_available(order)
     {
+        let m = T::as_f32_slice(rot.m.as_flattened()).expect("T is f32 here");
+        let lim = f(beta_lim);
         // SAFETY: `plan_if_available` checked AVX-512F.
-        unsafe { x86::taylor_rotation(p, kind, angles.map(f), true, src, dst) };
-        return true;
+        return unsafe { x86::taylor_fused_matrix(p, kind, m, lim * lim, src, dst) };
     }
-    let _ = (order, kind, angles, src, dst);
+    let _ = (order, kind, rot, beta_lim, src, dst);
+    false
+}
+
+/// The vectorised three-step Taylor rotation (any order of expansion) straight
+/// from a rotation matrix: the ZYZ angles ([`Rot3::euler_zyz`]) and β
+/// ([`crate::taylor::taylor_beta`]) are computed inside the vectorised
+/// function. `true` when it ran; `false` (nothing written) when it does not
+/// apply (not f32, no AVX-512F, order outside 2…10) or `β > beta_lim`.
+#[inline]
+pub(crate) fn try_taylor3_matrix<T: Real>(
+    order: usize,
+    kind: TaylorKind,
+    rot: &Rot3<T>,
+    beta_lim: T,
+    src: &[T],
+    dst: &mut [T],
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if let (Some(src), Some(dst)) = (T::as_f32_slice(src), T::as_f32_slice_mut(dst))
+        && let Some(p) = plan_if_available(order)
+    {
+        let m = T::as_f32_slice(rot.m.as_flattened()).expect("T is f32 here");
+        // SAFETY: `plan_if_available` checked AVX-512F.
+        return unsafe { x86::taylor3_matrix(p, kind, m, f(beta_lim), src, dst) };
+    }
+    let _ = (order, kind, rot, beta_lim, src, dst);
     false
 }
 
@@ -526,6 +556,20 @@ mod x86 {
         (n * n).div_ceil(LANES)
     }
 
+    /// Whether register `k` holds a coefficient `(l, ±1)` at order `n` (where
+    /// the conjugated `½R''` tables `t_dsig`, `t_dhalf` can be non-zero).
+    const fn has_m_pm1(n: usize, k: usize) -> bool {
+        let mut l = 1;
+        while l < n {
+            let (a, b) = (l * l + l - 1, l * l + l + 1);
+            if a / LANES == k || b / LANES == k {
+                return true;
+            }
+            l += 1;
+        }
+        false
+    }
+
     const fn mask_of(nn: usize, k: usize) -> u16 {
         let left = nn - k * LANES;
         if left >= LANES {
@@ -557,6 +601,37 @@ mod x86 {
                 _mm512_mask_storeu_ps(dst.as_mut_ptr().add(k * LANES), mask_of(N * N, k), x[k]);
             }
         }
+    }
+
+    /// Whether register `k` is the last one and holds at most 8 coefficients:
+    /// its element-wise arithmetic then runs on 256-bit registers (half the
+    /// work on CPUs that split 512-bit operations), upper lanes kept zero.
+    const fn narrow<const N: usize>(k: usize) -> bool {
+        let left = N * N - k * LANES;
+        k + 1 == nv(N) && left <= 8
+    }
+
+    /// The low eight lanes.
+    #[inline(always)]
+    fn lo(v: __m512) -> __m256 {
+        // SAFETY: a register reinterpretation; the callers have AVX-512F.
+        unsafe { _mm512_castps512_ps256(v) }
+    }
+
+    /// [`next`]`::<1>` for the last register when [`narrow`]: lanes 1…7 moved
+    /// down one (lane 7 repeats the zero above the last coefficient, where
+    /// the tables that multiply it are zero too).
+    #[inline(always)]
+    fn next8(v: __m512) -> __m256 {
+        // SAFETY: the callers have AVX-512F (which implies AVX2).
+        unsafe { _mm256_permutevar8x32_ps(lo(v), _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 7)) }
+    }
+
+    /// The first eight entries of a table register.
+    #[inline(always)]
+    unsafe fn ld8(v: &super::F16) -> __m256 {
+        // SAFETY: `F16` is 64-byte aligned; the caller has AVX-512F.
+        unsafe { _mm256_load_ps(v.0.as_ptr()) }
     }
 
     #[inline(always)]
@@ -628,7 +703,12 @@ mod x86 {
             for k in 0..nv(N) {
                 let ck = _mm512_permutexvar_ps(ldi16(&t.cidx[k]), cv);
                 let sk = _mm512_permutex2var_ps(sv, ldi16(&t.sidx[k]), nsv);
-                out[k] = _mm512_fmadd_ps(ck, x[k], _mm512_mul_ps(sk, r[k]));
+                out[k] = if narrow::<N>(k) {
+                    let (ck, sk, xk, rk) = (lo(ck), lo(sk), lo(x[k]), lo(r[k]));
+                    _mm512_zextps256_ps512(_mm256_fmadd_ps(ck, xk, _mm256_mul_ps(sk, rk)))
+                } else {
+                    _mm512_fmadd_ps(ck, x[k], _mm512_mul_ps(sk, r[k]))
+                };
             }
             out
         }
@@ -712,29 +792,56 @@ mod x86 {
     /// of the 1.5th order conjugates to itself except on the pairs `(l, ±1)`,
     /// where it picks up `cos 2γ, sin 2γ` terms. Algebraically identical to
     /// `R_z(−γ) · [R_z(γ)` then `shRotYdiff15` `]`; then `R_z(α+γ)` finishes the rotation.
+    ///
+    /// Scalars `[β cos γ, β sin γ, κ², s², c₂, n₂]` with `κ² s² = β²`,
+    /// `κ² c₂ = β² cos 2γ`, `κ² n₂ = −β² sin 2γ` (from angles: `κ = β`, `s² = 1`);
+    /// the 1.5th-order term is `κ² (s² d̄ ∘ x + c₂ δσ ∘ x + n₂ δ ∘ x̄)`.
     #[inline(always)]
     unsafe fn taylor_y_conjugated<const N: usize>(
         p: &Plan,
         kind: TaylorKind,
-        beta: f32,
-        (cg, sg): (f32, f32),
+        [bc, bs, k2, s2, c2, n2]: [f32; 6],
         x: &Regs,
     ) -> Regs {
         // SAFETY (whole body): the caller has AVX-512F.
         unsafe {
             let xr = reverse::<N>(x);
-            let bc = _mm512_set1_ps(beta * cg);
-            let bs = _mm512_set1_ps(beta * sg);
-            let bb = beta * beta;
-            let (c2, s2) = (cg * cg - sg * sg, 2.0 * cg * sg);
-            let vbb = _mm512_set1_ps(bb);
-            let vbbc2 = _mm512_set1_ps(bb * c2);
-            let nbbs2 = _mm512_set1_ps(-bb * s2);
-            let one = _mm512_set1_ps(1.0);
+            let [vbc, vbs, vk2, vs2, vc2, vn2] =
+                [bc, bs, k2, s2, c2, n2].map(|v| _mm512_set1_ps(v));
             let mut out = [_mm512_setzero_ps(); MAXV];
             for k in 0..nv(N) {
-                let gy = _mm512_sub_ps(
-                    _mm512_mul_ps(ld16(&p.t_sub[k]), prev::<1>(x, k)),
+                let dm1 = has_m_pm1(N, k);
+                if narrow::<N>(k) {
+                    // The same arithmetic on the low eight lanes.
+                    let gy = _mm256_fmsub_ps(
+                        ld8(&p.t_sub[k]),
+                        lo(prev::<1>(x, k)),
+                        _mm256_mul_ps(ld8(&p.t_sup[k]), next8(x[k])),
+                    );
+                    let gx = _mm256_fmadd_ps(
+                        ld8(&p.g_prev[k]),
+                        lo(prev::<1>(&xr, k)),
+                        _mm256_mul_ps(ld8(&p.g_next[k]), next8(xr[k])),
+                    );
+                    let (xk, xrk) = (lo(x[k]), lo(xr[k]));
+                    let mut v = _mm256_fmadd_ps(lo(vbs), gx, _mm256_fmadd_ps(lo(vbc), gy, xk));
+                    if kind != TaylorKind::First {
+                        let e = _mm256_mul_ps(lo(vs2), ld8(&p.t_dbar[k]));
+                        let sd = if dm1 {
+                            let e = _mm256_fmadd_ps(lo(vc2), ld8(&p.t_dsig[k]), e);
+                            let h = _mm256_mul_ps(lo(vn2), ld8(&p.t_dhalf[k]));
+                            _mm256_fmadd_ps(xk, e, _mm256_mul_ps(h, xrk))
+                        } else {
+                            _mm256_mul_ps(xk, e)
+                        };
+                        v = _mm256_fmadd_ps(lo(vk2), sd, v);
+                    }
+                    out[k] = _mm512_zextps256_ps512(v);
+                    continue;
+                }
+                let gy = _mm512_fmsub_ps(
+                    ld16(&p.t_sub[k]),
+                    prev::<1>(x, k),
                     _mm512_mul_ps(ld16(&p.t_sup[k]), next::<1>(x, k)),
                 );
                 let gx = _mm512_fmadd_ps(
@@ -742,18 +849,20 @@ mod x86 {
                     prev::<1>(&xr, k),
                     _mm512_mul_ps(ld16(&p.g_next[k]), next::<1>(&xr, k)),
                 );
-                let mut v = _mm512_fmadd_ps(bs, gx, _mm512_mul_ps(bc, gy));
-                if kind == TaylorKind::First {
-                    v = _mm512_add_ps(x[k], v);
-                } else {
-                    // 1 + β²(d̄ + cos 2γ · δσ)
-                    let e = _mm512_fmadd_ps(
-                        vbbc2,
-                        ld16(&p.t_dsig[k]),
-                        _mm512_fmadd_ps(vbb, ld16(&p.t_dbar[k]), one),
-                    );
-                    v = _mm512_fmadd_ps(x[k], e, v);
-                    v = _mm512_fmadd_ps(_mm512_mul_ps(nbbs2, ld16(&p.t_dhalf[k])), xr[k], v);
+                // First order: x + β cos γ G_y x + β sin γ G_x x.
+                let mut v = _mm512_fmadd_ps(vbs, gx, _mm512_fmadd_ps(vbc, gy, x[k]));
+                if kind != TaylorKind::First {
+                    // + κ² (s² d̄ ∘ x + c₂ δσ ∘ x + n₂ δ ∘ x̄)
+                    let e = _mm512_mul_ps(vs2, ld16(&p.t_dbar[k]));
+                    let sd = if dm1 {
+                        let e = _mm512_fmadd_ps(vc2, ld16(&p.t_dsig[k]), e);
+                        let h = _mm512_mul_ps(vn2, ld16(&p.t_dhalf[k]));
+                        _mm512_fmadd_ps(x[k], e, _mm512_mul_ps(h, xr[k]))
+                    } else {
+                        // No (l, ±1) lane here: the δ tables are zero.
+                        _mm512_mul_ps(x[k], e)
+                    };
+                    v = _mm512_fmadd_ps(vk2, sd, v);
                 }
                 out[k] = v;
             }
@@ -841,36 +950,162 @@ mod x86 {
     }
 
     #[target_feature(enable = "avx512f")]
-    #[allow(clippy::too_many_arguments)]
-    fn taylor_rotation_n<const N: usize>(
+    fn taylor_rotation3_n<const N: usize>(
         p: &Plan,
         kind: TaylorKind,
         (ca, sa): (f32, f32),
         beta: f32,
         (cg, sg): (f32, f32),
-        sigma: bool,
         src: &[f32],
         dst: &mut [f32],
     ) {
         let x = load::<N>(src);
         // SAFETY: AVX-512F is enabled here.
         let y = unsafe {
-            if kind == TaylorKind::Second {
-                let u = rot_z::<N>(cg, sg, &x);
-                let t = taylor_y::<N>(p, kind, beta, &u);
-                rot_z::<N>(ca, sa, &t)
-            } else {
-                // R_z(α) R̃_y(β) R_z(γ) = R_z(α+γ) · [R_z(−γ) R̃_y(β) R_z(γ)].
-                let t = taylor_y_conjugated::<N>(p, kind, beta, (cg, sg), &x);
-                let (cs, ss) = if sigma {
-                    (ca, sa)
-                } else {
-                    (ca * cg - sa * sg, sa * cg + ca * sg)
-                };
-                rot_z::<N>(cs, ss, &t)
-            }
+            let u = rot_z::<N>(cg, sg, &x);
+            let t = taylor_y::<N>(p, kind, beta, &u);
+            rot_z::<N>(ca, sa, &t)
         };
         store::<N>(&y, dst);
+    }
+
+    #[target_feature(enable = "avx512f")]
+    fn taylor3_matrix_n<const N: usize>(
+        p: &Plan,
+        kind: TaylorKind,
+        m: &[f32],
+        lim: f32,
+        src: &[f32],
+        dst: &mut [f32],
+    ) -> bool {
+        let m: &[f32; 9] = m.try_into().expect("3×3 matrix");
+        let e = crate::rotation::Rot3::new_unchecked([
+            [m[0], m[1], m[2]],
+            [m[3], m[4], m[5]],
+            [m[6], m[7], m[8]],
+        ])
+        .euler_zyz();
+        let beta = crate::taylor::taylor_beta(e.sin_beta, e.cos_beta);
+        if beta > lim {
+            return false;
+        }
+        let x = load::<N>(src);
+        // SAFETY: AVX-512F is enabled here.
+        let y = unsafe {
+            let u = rot_z::<N>(e.cos_gamma, e.sin_gamma, &x);
+            let t = taylor_y::<N>(p, kind, beta, &u);
+            rot_z::<N>(e.cos_alpha, e.sin_alpha, &t)
+        };
+        store::<N>(&y, dst);
+        true
+    }
+
+    #[target_feature(enable = "avx512f")]
+    #[allow(clippy::too_many_arguments)]
+    fn taylor_fused_n<const N: usize>(
+        p: &Plan,
+        kind: TaylorKind,
+        (cs, ss): (f32, f32),
+        (beta, cg, sg): (f32, f32, f32),
+        src: &[f32],
+        dst: &mut [f32],
+    ) {
+        let x = load::<N>(src);
+        // Y-step scalars from the angles: κ = β, (g_c, g_s) = (cos γ, sin γ), s² = 1.
+        let ystep = [
+            beta * cg,
+            beta * sg,
+            beta * beta,
+            1.0,
+            cg * cg - sg * sg,
+            -2.0 * cg * sg,
+        ];
+        // SAFETY: AVX-512F is enabled here.
+        let y = unsafe {
+            let t = taylor_y_conjugated::<N>(p, kind, ystep, &x);
+            rot_z::<N>(cs, ss, &t)
+        };
+        store::<N>(&y, dst);
+    }
+
+    /// The fused kernel's scalars read off a row-major rotation matrix `m`
+    /// without angles (see [`crate::taylor::TaylorRotation::apply`]):
+    /// `([R₀₀+R₁₁, R₁₀−R₀₁, 1/(1+cos β)], [β cos γ, β sin γ, κ², s², c₂, n₂])`
+    /// with `κ = β/sin β` ([`crate::taylor::beta_over_sin`]), `β cos γ = −κR₂₀`,
+    /// `β sin γ = κR₂₁`, `s² = sin²β = R₂₀² + R₂₁²`, `c₂ = R₂₀² − R₂₁²`,
+    /// `n₂ = 2 R₂₀ R₂₁`, so that `κ² s² = β²`, `κ² c₂ = β² cos 2γ`,
+    /// `κ² n₂ = −β² sin 2γ`. `None` when `cos β < 0` or
+    /// `sin²β > sin²(`[`crate::taylor::SMALL_BETA_MAX`]`)`. Same polynomials
+    /// as the generic functions, evaluated with fused multiply-adds.
+    #[inline(always)]
+    fn fused_scalars(m: &[f32; 9]) -> Option<([f32; 3], [f32; 6])> {
+        use crate::taylor::{BETA_OVER_SIN as K, INV_ONE_PLUS_COS as Q, SMALL_SIN2_MAX};
+        let fma = f32::mul_add;
+        let (r20, r21, r22) = (m[6], m[7], m[8]);
+        let r21sq = r21 * r21;
+        let s2 = fma(r20, r20, r21sq);
+        if !(r22 >= 0.0 && s2 <= SMALL_SIN2_MAX as f32) {
+            return None;
+        }
+        // β / sin β in s² (lane 0) and 1 / (1 + cos β) in u = 1 − cos β
+        // (lane 1), both by Estrin's scheme side by side (the second has degree
+        // 5: its sixth coefficient is 0).
+        let (k, inv) = {
+            let c = |i: usize| {
+                let q6 = if i < 6 { Q[i] as f32 } else { 0.0 };
+                // SAFETY: the caller has AVX-512F (so SSE).
+                unsafe { _mm_setr_ps(K[i] as f32, q6, 0.0, 0.0) }
+            };
+            // SAFETY (block): the caller has AVX-512F, which implies FMA.
+            unsafe {
+                let x = _mm_unpacklo_ps(_mm_set_ss(s2), _mm_set_ss(1.0 - r22));
+                let x2 = _mm_mul_ps(x, x);
+                let a = _mm_fmadd_ps(x, c(1), c(0));
+                let b = _mm_fmadd_ps(x, c(3), c(2));
+                let d = _mm_fmadd_ps(x, c(5), c(4));
+                let e = _mm_fmadd_ps(x2, c(6), d);
+                let r = _mm_fmadd_ps(x2, _mm_fmadd_ps(x2, e, b), a);
+                (_mm_cvtss_f32(r), _mm_cvtss_f32(_mm_movehdup_ps(r)))
+            }
+        };
+        Some((
+            [m[0] + m[4], m[3] - m[1], inv],
+            [
+                -(k * r20),
+                k * r21,
+                k * k,
+                s2,
+                fma(r20, r20, -r21sq),
+                (r20 + r20) * r21,
+            ],
+        ))
+    }
+
+    #[target_feature(enable = "avx512f")]
+    fn taylor_fused_matrix_n<const N: usize>(
+        p: &Plan,
+        kind: TaylorKind,
+        m: &[f32],
+        lim2: f32,
+        src: &[f32],
+        dst: &mut [f32],
+    ) -> bool {
+        let m: &[f32; 9] = m.try_into().expect("3×3 matrix");
+        match fused_scalars(m) {
+            Some(([wc, ws, q], ystep)) if ystep[2] * ystep[3] <= lim2 => {
+                let x = load::<N>(src);
+                // SAFETY: AVX-512F is enabled here.
+                let y = unsafe {
+                    // R_z(α) R̃_y(β) R_z(γ) = R_z(α+γ) · [R_z(−γ) R̃_y(β) R_z(γ)],
+                    // e^{i(α+γ)} = (R₀₀+R₁₁ + i(R₁₀−R₀₁)) / (1+cos β).
+                    let t = taylor_y_conjugated::<N>(p, kind, ystep, &x);
+                    rot_z::<N>(wc * q, ws * q, &t)
+                };
+                store::<N>(&y, dst);
+                true
+            }
+            _ => false,
+        }
     }
 
     #[target_feature(enable = "avx512f")]
@@ -942,18 +1177,16 @@ mod x86 {
         unsafe { by_order!(p.n, taylor_y_n, p, kind, beta, src, dst) }
     }
 
-    /// `R_z(α) R̃_y(β) R_z(γ)` with the Taylor-expanded Y step;
-    /// `angles = [cos α, sin α, β, cos γ, sin γ]`, or with `sigma` (1st and
-    /// 1.5th order only) `[cos(α+γ), sin(α+γ), β, cos γ, sin γ]`.
+    /// `R_z(α) R̃_y(β) R_z(γ)` with the Taylor-expanded Y step in three steps;
+    /// `angles = [cos α, sin α, β, cos γ, sin γ]`.
     ///
     /// # Safety
     /// The CPU must support AVX-512F.
     #[inline(always)]
-    pub(crate) unsafe fn taylor_rotation(
+    pub(crate) unsafe fn taylor_rotation3(
         p: &Plan,
         kind: TaylorKind,
         angles: [f32; 5],
-        sigma: bool,
         src: &[f32],
         dst: &mut [f32],
     ) {
@@ -964,17 +1197,71 @@ mod x86 {
         unsafe {
             by_order!(
                 p.n,
-                taylor_rotation_n,
+                taylor_rotation3_n,
                 p,
                 kind,
                 (ca, sa),
                 beta,
                 (cg, sg),
-                sigma,
                 src,
                 dst
             )
         }
+    }
+
+    /// The fused 1st/1.5th-order rotation `R_z(σ) · [R_z(−γ) R̃_y(β) R_z(γ)]`
+    /// from `(cos σ, sin σ)` and `(β, cos γ, sin γ)`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    pub(crate) unsafe fn taylor_fused(
+        p: &Plan,
+        kind: TaylorKind,
+        sigma: (f32, f32),
+        y: (f32, f32, f32),
+        src: &[f32],
+        dst: &mut [f32],
+    ) {
+        // SAFETY: the caller guarantees AVX-512F.
+        unsafe { by_order!(p.n, taylor_fused_n, p, kind, sigma, y, src, dst) }
+    }
+
+    /// [`taylor_fused`] with its scalars read off the rotation matrix `m`
+    /// (row-major); `false` (nothing written) when the small-angle formulas do
+    /// not apply or `β² > lim2`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    pub(crate) unsafe fn taylor_fused_matrix(
+        p: &Plan,
+        kind: TaylorKind,
+        m: &[f32],
+        lim2: f32,
+        src: &[f32],
+        dst: &mut [f32],
+    ) -> bool {
+        // SAFETY: the caller guarantees AVX-512F.
+        unsafe { by_order!(p.n, taylor_fused_matrix_n, p, kind, m, lim2, src, dst) }
+    }
+
+    /// [`taylor_rotation3`] from a row-major rotation matrix; `false`
+    /// (nothing written) when `β > lim`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[inline(always)]
+    pub(crate) unsafe fn taylor3_matrix(
+        p: &Plan,
+        kind: TaylorKind,
+        m: &[f32],
+        lim: f32,
+        src: &[f32],
+        dst: &mut [f32],
+    ) -> bool {
+        // SAFETY: the caller guarantees AVX-512F.
+        unsafe { by_order!(p.n, taylor3_matrix_n, p, kind, m, lim, src, dst) }
     }
 
     /// `R_x(−90°) R_z(β) R_x(90°)` (the exact Y rotation of the ZYZ method).
@@ -1095,7 +1382,7 @@ mod tests {
                         max_diff32(&a, &b)
                     );
                     assert!(tr.apply_euler(&es, &src, &mut a, &mut scratch));
-                    let b_beta = crate::taylor::fast_atan2_upper(es.sin_beta, es.cos_beta);
+                    let b_beta = crate::taylor::taylor_beta(es.sin_beta, es.cos_beta);
                     let mut tmp = vec![0.0f32; nn];
                     rotate_z_portable(order, es.cos_gamma, es.sin_gamma, &src, &mut tmp);
                     ty.apply_portable(kind, b_beta, &tmp, &mut b);

@@ -363,6 +363,81 @@ pub fn fast_atan2_upper<T: Real>(y: T, x: T) -> T {
     }
 }
 
+/// Largest β (radians) for which [`taylor_beta`] and the matrix fast path of
+/// [`TaylorRotation::apply`] use the division-free small-angle formulas.
+pub const SMALL_BETA_MAX: f64 = 0.75;
+/// `sin²(SMALL_BETA_MAX)`.
+pub(crate) const SMALL_SIN2_MAX: f64 = 0.464_631_399_166_148_5;
+
+/// `β / sin β = asin(s)/s` as a polynomial in `s² = sin²β`, for
+/// `0 ≤ s² ≤ sin²(0.75)` (β ≤ [`SMALL_BETA_MAX`]): a degree-6 minimax fit,
+/// relative error < 6e-8 (tested). No division, square root or `atan2`, and no
+/// singularity at β = 0 (the value there is 1).
+#[inline(always)]
+#[must_use]
+pub fn beta_over_sin<T: Real>(s2: T) -> T {
+    let c = |i: usize| T::from_f64(BETA_OVER_SIN[i]);
+    // Estrin's scheme.
+    let s4 = s2 * s2;
+    let a = c(0) + s2 * c(1);
+    let b = c(2) + s2 * c(3);
+    let d = c(4) + s2 * c(5);
+    let e = d + s4 * c(6);
+    a + s4 * (b + s4 * e)
+}
+
+/// Coefficients of [`beta_over_sin`] (powers of `s²`, ascending).
+pub(crate) const BETA_OVER_SIN: [f64; 7] = [
+    1.000_000_05,
+    0.166_656_434,
+    0.075_331_923_4,
+    0.040_658_442_3,
+    0.052_583_439_9,
+    -0.037_858_343_4,
+    0.087_827_221_7,
+];
+
+/// Coefficients of [`inv_one_plus_cos`] (powers of `u`, ascending).
+pub(crate) const INV_ONE_PLUS_COS: [f64; 6] = [
+    0.499_999_998,
+    0.250_000_583,
+    0.124_974_902,
+    0.062_891_181,
+    0.028_543_757_5,
+    0.023_885_076_8,
+];
+
+/// `1 / (1 + cos β)` as a polynomial in `u = 1 − cos β`, for
+/// `0 ≤ u ≤ 1 − cos 0.75` (β ≤ [`SMALL_BETA_MAX`]): a degree-5 minimax fit,
+/// relative error < 1e-8 (tested).
+#[inline(always)]
+#[must_use]
+pub fn inv_one_plus_cos<T: Real>(u: T) -> T {
+    let c = |i: usize| T::from_f64(INV_ONE_PLUS_COS[i]);
+    let u2 = u * u;
+    let a = c(0) + u * c(1);
+    let b = c(2) + u * c(3);
+    let d = c(4) + u * c(5);
+    a + u2 * (b + u2 * d)
+}
+
+/// β in `[0, π]` from `sin β ≥ 0` and `cos β`, as the Taylor rotations use it:
+/// for `cos β ≥ 0` and `sin²β ≤ sin²(0.75)` (β ≤ [`SMALL_BETA_MAX`]) it is
+/// `sin β · β/sin β` with [`beta_over_sin`] (relative error < 1e-7, exact
+/// behaviour at β → 0), otherwise [`fast_atan2_upper`]. The matrix fast path
+/// of [`TaylorRotation::apply`] uses the same polynomial, so both entry points
+/// agree to rounding.
+#[inline]
+#[must_use]
+pub fn taylor_beta<T: Real>(sin_beta: T, cos_beta: T) -> T {
+    let s2 = sin_beta * sin_beta;
+    if cos_beta >= T::ZERO && s2 <= T::from_f64(SMALL_SIN2_MAX) {
+        sin_beta * beta_over_sin(s2)
+    } else {
+        fast_atan2_upper(sin_beta, cos_beta)
+    }
+}
+
 /// A full rotation with the Taylor-expanded Y step: `R_z(α) R̃_y(β) R_z(γ)`,
 /// switching to the exact ZYZ rotation when `β > beta_lim` (§4.2).
 #[derive(Clone, Debug)]
@@ -408,7 +483,7 @@ impl<T: Real> TaylorRotation<T> {
         dst: &mut [T],
         scratch: &mut [T],
     ) -> bool {
-        let beta = fast_atan2_upper(e.sin_beta, e.cos_beta);
+        let beta = taylor_beta(e.sin_beta, e.cos_beta);
         if beta > self.beta_lim {
             self.exact.apply_euler(e, src, dst, scratch);
             return false;
@@ -426,36 +501,36 @@ impl<T: Real> TaylorRotation<T> {
     /// Decomposes `rot` (ZYZ) and applies it; see [`apply_euler`](Self::apply_euler).
     ///
     /// Where the vectorised 1st/1.5th-order kernel runs (f32, orders 2…10,
-    /// AVX-512F) and `β ≤ min(β_lim, π/2)`, only the angles that kernel needs are
-    /// read off the matrix — `β`, `γ` from the third row
-    /// (`R₂₀ = −sin β cos γ`, `R₂₁ = sin β sin γ`) and `α+γ` from the upper 2×2
-    /// block (`(R₀₀+R₁₁, R₁₀−R₀₁) = (1+cos β)(cos, sin)(α+γ)`) — instead of
-    /// the full [`Rot3::euler_zyz`]; the rotation applied is the same.
+    /// AVX-512F) and `β ≤ min(β_lim, 0.75)`, no angle is extracted: the kernel
+    /// needs only `β cos γ`, `β sin γ`, `β²`, `β² cos 2γ`, `β² sin 2γ` and
+    /// `(cos, sin)(α+γ)`, and all of them are polynomials in the matrix entries.
+    /// With `R₂₀ = −sin β cos γ`, `R₂₁ = sin β sin γ`, `s² = R₂₀² + R₂₁² = sin²β`
+    /// and `k = β / sin β` ([`beta_over_sin`]`(s²)`):
+    /// `β cos γ = −k R₂₀`, `β sin γ = k R₂₁`, `β² = k² s²`,
+    /// `β² cos 2γ = k² (R₂₀² − R₂₁²)`, `β² sin 2γ = −2 k² R₂₀ R₂₁`; and
+    /// `(R₀₀+R₁₁, R₁₀−R₀₁) = (1+cos β)(cos, sin)(α+γ)` with `1/(1+cos β)` from
+    /// [`inv_one_plus_cos`]`(1 − R₂₂)`. No `atan2`, square root or division, no
+    /// special case at β = 0 (where γ is undefined, `β cos γ = β sin γ = 0`
+    /// follows from `R₂₀ = R₂₁ = 0`). The rotation applied is the same as
+    /// through [`Rot3::euler_zyz`] and [`apply_euler`](Self::apply_euler)
+    /// (tested on both sides of β_lim and near β = 0). The kernel applies the
+    /// 1st-order term as `x + (β cos γ) G_y x + (β sin γ) G_x x` and the
+    /// 1.5th-order term as `k² (s² d̄ ∘ x + c₂ δσ ∘ x + n₂ δ ∘ x̄)`
+    /// (`c₂ = R₂₀² − R₂₁²`, `n₂ = 2R₂₀R₂₁`), so the 1.5th-order part waits
+    /// for the polynomial `k` only in its last multiply-add.
+    ///
+    /// The 2nd order on the same CPUs computes [`Rot3::euler_zyz`] and
+    /// [`taylor_beta`] inside the vectorised three-step kernel. Elsewhere
+    /// (f64, other CPUs, larger β) this is `apply_euler(&rot.euler_zyz(), …)`.
     #[inline]
     pub fn apply(&self, rot: &Rot3<T>, src: &[T], dst: &mut [T], scratch: &mut [T]) -> bool {
-        if self.kind != TaylorOrder::Second
-            && crate::simd::taylor_kernel_available::<T>(self.taylor.order)
-        {
-            let m = rot.m;
-            let cb = m[2][2];
-            if cb >= T::ZERO {
-                let sb = (m[2][0] * m[2][0] + m[2][1] * m[2][1]).sqrt();
-                let beta = fast_atan2_upper(sb, cb);
-                if beta <= self.beta_lim {
-                    let (cg, sg) = crate::rotation::normalize2(-m[2][0], m[2][1]);
-                    let (cs, ss) =
-                        crate::rotation::normalize2(m[0][0] + m[1][1], m[1][0] - m[0][1]);
-                    if crate::simd::try_taylor_rotation_sigma(
-                        self.taylor.order,
-                        self.kind.into(),
-                        [cs, ss, beta, cg, sg],
-                        src,
-                        dst,
-                    ) {
-                        return true;
-                    }
-                }
+        let (n, kind) = (self.taylor.order, self.kind.into());
+        if self.kind == TaylorOrder::Second {
+            if crate::simd::try_taylor3_matrix(n, kind, rot, self.beta_lim, src, dst) {
+                return true;
             }
+        } else if crate::simd::try_taylor_fused_matrix(n, kind, rot, self.beta_lim, src, dst) {
+            return true;
         }
         self.apply_euler(&rot.euler_zyz(), src, dst, scratch)
     }
@@ -620,6 +695,94 @@ mod tests {
         assert!(!t.apply(&big, &f, &mut out, &mut scratch));
         assert!(out.iter().zip(&want).all(|(a, b)| (a - b).abs() < 1e-12));
         assert!(TaylorRotation::<f32>::new(order, TaylorOrder::First, -1.0).is_err());
+    }
+
+    #[test]
+    fn small_angle_polynomials_accuracy() {
+        for k in 0..=3000 {
+            let b = SMALL_BETA_MAX * k as f64 / 3000.0;
+            let (sb, cb) = b.sin_cos();
+            let want = if k == 0 { 1.0 } else { b / sb };
+            let got = beta_over_sin(sb * sb);
+            assert!(
+                (got / want - 1.0).abs() < 1e-7,
+                "β/sin β at β {b}: {got} vs {want}"
+            );
+            let inv = inv_one_plus_cos(1.0 - cb);
+            assert!(
+                (inv * (1.0 + cb) - 1.0).abs() < 2e-8,
+                "1/(1+cos β) at β {b}: {inv}"
+            );
+            let tb = taylor_beta(sb, cb);
+            assert!((tb - b).abs() <= 1e-7 * b, "taylor_beta at β {b}: {tb}");
+        }
+        // The small-angle branch ends at sin²β = sin²(0.75); past it (and for
+        // cos β < 0) `taylor_beta` is `fast_atan2_upper`.
+        assert!((SMALL_SIN2_MAX - SMALL_BETA_MAX.sin().powi(2)).abs() < 1e-15);
+        for k in 0..=1000 {
+            let b = std::f64::consts::PI * k as f64 / 1000.0;
+            let got = taylor_beta(b.sin(), b.cos());
+            assert!((got - b).abs() < 2e-5, "β {b}: {got}");
+        }
+        // Exactly 0 at β = 0, no division anywhere.
+        assert_eq!(taylor_beta(0.0f32, 1.0), 0.0);
+    }
+
+    /// `TaylorRotation::<f32>::apply` from a matrix (on AVX-512F CPUs the
+    /// angle-free kernel for the 1st/1.5th order, the in-kernel ZYZ split for
+    /// the 2nd) against the three-step rotation built from the exact angles in
+    /// f64: random α, γ; β = 0, tiny, below and above β_lim, around the end of
+    /// the small-angle range and past π/2.
+    #[test]
+    fn apply_from_matrix_matches_exact_angles() {
+        use crate::rotation::rotate_z_in_place;
+        for order in [2usize, 3, 6, 10] {
+            let nn = order * order;
+            let src = rand_vec(order as u64 + 11, nn);
+            let src32: Vec<f32> = src.iter().map(|&v| v as f32).collect();
+            let ty = TaylorY::<f64>::new(order).unwrap();
+            let (mut out, mut scr) = (vec![0.0f32; nn], vec![0.0f32; nn]);
+            let (mut want, mut tmp) = (vec![0.0f64; nn], vec![0.0f64; nn]);
+            for kind in [
+                TaylorOrder::First,
+                TaylorOrder::OneAndHalf,
+                TaylorOrder::Second,
+            ] {
+                for lim in [0.3f64, f64::INFINITY] {
+                    let tr = TaylorRotation::<f32>::new(order, kind, lim as f32).unwrap();
+                    let betas = [0.0, 1e-7, 1e-4, 0.01, 0.29, 0.31, 0.7, 0.76, 1.5, 2.5];
+                    for (i, &beta) in betas.iter().enumerate() {
+                        for seed in 0..3 {
+                            let a = 0.9 * seed as f64 + 0.37 * i as f64 - 2.0;
+                            let g = -1.3 * seed as f64 + 0.53 * i as f64 + 0.7;
+                            let rot = Rot3::from_euler_zyz(&EulerZyz::from_angles(a, beta, g));
+                            let used = tr.apply(&rot.to_f32(), &src32, &mut out, &mut scr);
+                            assert_eq!(used, beta <= lim, "{kind:?} n={order} β={beta}");
+                            if used {
+                                rotate_z(order, g.cos(), g.sin(), &src, &mut tmp);
+                                ty.apply(kind, beta, &tmp, &mut want);
+                                rotate_z_in_place(order, a.cos(), a.sin(), &mut want);
+                            } else {
+                                ShRotation::from_rotation(order, &rot)
+                                    .unwrap()
+                                    .apply(&src, &mut want);
+                            }
+                            let norm = want.iter().map(|v| v * v).sum::<f64>().sqrt().max(1.0);
+                            let err = out
+                                .iter()
+                                .zip(&want)
+                                .map(|(&o, &w)| (o as f64 - w).abs())
+                                .fold(0.0, f64::max)
+                                / norm;
+                            // f32 rounding; past the small-angle range β comes
+                            // from `fast_atan2_upper` (≤ 2e-6 rad).
+                            let tol = if beta <= SMALL_BETA_MAX { 1e-5 } else { 1e-4 };
+                            assert!(err < tol, "{kind:?} n={order} β={beta} lim={lim}: {err:e}");
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]
