@@ -40,7 +40,7 @@
 //! * [`convolve`]: zonal kernels (clamped cosine, Phong, Blinn–Phong, any
 //!   radially symmetric function) and Ramamoorthi–Hanrahan irradiance.
 //! * [`product`]: triple-product tensor Γ, products, SH exponential and logarithm.
-//! * [`bench`]: `bench_sh` timings.
+//! * [`mod@bench`]: `bench_sh` timings.
 //!
 //! # API map (for techniques and the CLI)
 //! * evaluate: [`eval_sh_into`] (allocation-free, f32/f64), [`eval_sh`], [`try_eval_sh`];

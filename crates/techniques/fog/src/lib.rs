@@ -21,7 +21,7 @@
 //!    (eq. 3.34–3.37).
 //! 6. [`volumetric`]: the Monte Carlo ground truth (single and multiple
 //!    scattering, surfaces, shadow rays through the medium).
-//! 7. [`verify`] and [`bench`]: `relight verify fog` / `relight bench fog`.
+//! 7. [`verify`] and [`mod@bench`]: `relight verify fog` / `relight bench fog`.
 //!
 //! # Citation
 //! B. Sun, "Mathematical Models for Real-Time Rendering", PhD thesis,
