@@ -116,7 +116,7 @@ impl ToneMap {
     }
 }
 
-/// sRGB decoding curve (IEC 61966-2-1), [0,1] → [0,1].
+/// sRGB decoding curve (IEC 61966-2-1), \[0,1\] → \[0,1\].
 #[must_use]
 pub fn srgb_to_linear(v: f32) -> f32 {
     if v <= 0.04045 {
@@ -126,7 +126,7 @@ pub fn srgb_to_linear(v: f32) -> f32 {
     }
 }
 
-/// sRGB encoding curve (IEC 61966-2-1), [0,1] → [0,1].
+/// sRGB encoding curve (IEC 61966-2-1), \[0,1\] → \[0,1\].
 #[must_use]
 pub fn linear_to_srgb(v: f32) -> f32 {
     if v <= 0.003_130_8 {

@@ -2,7 +2,7 @@
 //!
 //! Every loader merges all objects/primitives of the file into one mesh in
 //! the file's (world) frame, then runs [`Mesh::validate_and_repair`] and
-//! returns its [`RepairReport`] inside the [`LoadReport`] (with one warning
+//! returns its [`RepairReport`](relight_geom::RepairReport) inside the [`LoadReport`] (with one warning
 //! line per repair). A file with no valid triangle left is an
 //! [`AssetError::EmptyMesh`].
 //!

@@ -191,7 +191,7 @@ pub struct LoadedScene {
     pub warnings: Vec<String>,
 }
 
-/// Parses and loads a TOML scene file (see [`file`]); relative paths are
+/// Parses and loads a TOML scene file (see [`mod@file`]); relative paths are
 /// resolved against the file's folder. `size` overrides the camera's size.
 pub fn load_scene_file(
     path: &Path,

@@ -24,7 +24,7 @@ pub fn sample_uniform_disk_concentric(u: Vec2) -> Vec2 {
     r * Vec2::new(theta.cos(), theta.sin())
 }
 
-/// Inverse of [`sample_uniform_disk_concentric`]: the `u` ∈ [0,1]² that maps
+/// Inverse of [`sample_uniform_disk_concentric`]: the `u` ∈ \[0,1\]² that maps
 /// to the disk point `p` (|p| ≤ 1).
 #[inline]
 #[must_use]

@@ -194,6 +194,50 @@ impl Mesh {
         (m, levels)
     }
 
+    /// One step of midpoint subdivision: every triangle split into four at its
+    /// edge midpoints, the new vertex normal the renormalized mean of the edge's
+    /// two normals (uvs and tangents dropped). The surface is unchanged, and the
+    /// shading-normal field (barycentric blend of vertex normals, normalized —
+    /// what the reference renderer shades with) is unchanged up to the
+    /// renormalization of the new normals (second order in the angle between
+    /// neighbouring normals). A mesh without one normal per vertex gets none.
+    #[must_use]
+    pub fn subdivide_midpoint(&self) -> Mesh {
+        let mesh = self;
+        let has_n = mesh.normals.len() == mesh.positions.len();
+        let mut out = Mesh {
+            positions: mesh.positions.clone(),
+            normals: if has_n {
+                mesh.normals.clone()
+            } else {
+                Vec::new()
+            },
+            indices: Vec::with_capacity(mesh.indices.len() * 4),
+            ..Mesh::default()
+        };
+        let mut mid: HashMap<(u32, u32), u32> = HashMap::with_capacity(mesh.indices.len() * 2);
+        let mut edge = |a: u32, b: u32, out: &mut Mesh| -> u32 {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                let (a, b) = (a as usize, b as usize);
+                out.positions
+                    .push(0.5 * (mesh.positions[a] + mesh.positions[b]));
+                if has_n {
+                    let (na, nb) = (mesh.normals[a], mesh.normals[b]);
+                    out.normals.push((na + nb).normalize_or(na));
+                }
+                (out.positions.len() - 1) as u32
+            })
+        };
+        for &[a, b, c] in &mesh.indices {
+            let ab = edge(a, b, &mut out);
+            let bc = edge(b, c, &mut out);
+            let ca = edge(c, a, &mut out);
+            out.indices
+                .extend_from_slice(&[[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        out
+    }
+
     /// Vertex count after one [`Mesh::subdivide`] step: one new vertex per
     /// distinct index edge.
     #[must_use]

@@ -33,7 +33,7 @@
 //! Basis functions are explicit objects ([`Basis`]) that know their level,
 //! offset, type and support and evaluate both as texel values (the discrete,
 //! orthonormal-on-texels vectors of the transform) and as functions on the
-//! unit square `[0,1]²` (orthonormal in L²([0,1]²): value = texel value × n).
+//! unit square `[0,1]²` (orthonormal in L²(\[0,1\]²): value = texel value × n).
 //!
 //! # Sparse vectors and non-linear approximation
 //! [`SparseVec`] and [`SparseRgb`] store sorted indices with values.
@@ -335,7 +335,7 @@ impl Basis {
         }
     }
 
-    /// Value at the continuous map point `uv` ∈ [0,1]² (u along columns, v
+    /// Value at the continuous map point `uv` ∈ \[0,1\]² (u along columns, v
     /// along rows), normalised so that ∫∫ ψ² du dv = 1: `texel_value × n`.
     #[must_use]
     pub fn eval(&self, n: usize, u: f64, v: f64) -> f64 {

@@ -35,7 +35,7 @@
 //! Modules: [`octa`] (maps, normal grid, frame rule), [`rotation`] (matrices,
 //! bake, file), [`brdf_bake`] (BRDF slices, file), [`lighting`] (source
 //! lighting), [`render`] (runtime), [`study`] (verify + bench rows),
-//! [`format`] (bake container).
+//! [`mod@format`] (bake container).
 
 pub mod brdf_bake;
 pub mod error;
@@ -51,7 +51,7 @@ pub use error::WaveletError;
 pub use render::{LightingStats, NormalInterp, WaveletRenderer, light_rotation};
 pub use rotation::{RotationMatrices, RotationParams, bake_rotation};
 pub use study::{
-    BenchOptions, BenchRow, CompareRow, RotationRow, VerifyOptions, VerifyRow, bake_or_load_brdf,
-    bake_or_load_rotation, bench_wavelet, default_cache_dir, verify_rotation, verify_wavelet,
-    verify_wavelet_with_sh,
+    BenchOptions, BenchRow, CompareRow, Densify, RotationRow, VerifyOptions, VerifyRow,
+    bake_or_load_brdf, bake_or_load_rotation, bench_wavelet, default_cache_dir, verify_rotation,
+    verify_wavelet, verify_wavelet_with_sh,
 };

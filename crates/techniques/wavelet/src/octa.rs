@@ -3,7 +3,7 @@
 //! normal tessellation and the local-frame rule of the wavelet technique.
 //!
 //! # Maps
-//! Map coordinates `(u, v)` ∈ [0,1]², `u` along columns, `v` along rows;
+//! Map coordinates `(u, v)` ∈ \[0,1\]², `u` along columns, `v` along rows;
 //! texel `(col, row)` covers `[col/n, (col+1)/n) × [row/n, (row+1)/n)` and has
 //! index `row * n + col` (the layout of `relight_sphere::Param::Octahedral`:
 //! +Z at the centre of the square).

@@ -7,20 +7,33 @@
 //!   against the reference renderer (no visibility, AO off, same BRDF) over
 //!   the object pixels, for the caller's scenes and a set of configurations
 //!   varied one parameter at a time around the paper's default
-//!   (N = 64², ntess = 32², ntrunc = 1, 256 terms). Two errors per row:
-//!   the image as drawn (per-vertex shading, Gouraud, one sample at each
-//!   pixel centre) and the antialiased error (the same wavelet shading per
-//!   pixel sample, `aa × aa` samples box-filtered like the reference), each
-//!   overall and per object, beside the reference's own noise.
+//!   (N = 64², ntess = 32², ntrunc = 1, 256 terms). Four errors per row,
+//!   each overall and per object, beside the reference's own noise:
+//!   1. `rel_rms_error`: the image as drawn (per-vertex shading, Gouraud,
+//!      one sample at each pixel centre) on the scene's own meshes;
+//!   2. `gouraud_aa_rel_rms_error`: the same Gouraud image rasterized at
+//!      `aa × aa` times the resolution and box-downsampled (antialiased the
+//!      standard way, like the reference's box filter; the per-vertex shading
+//!      cost does not change, only the raster work);
+//!   3. `dense_rel_rms_error`: 2. on meshes subdivided to a vertex density
+//!      like the paper's ~100 K-vertex models ([`VerifyOptions::dense_vertices`],
+//!      Loop by default — then against a reference of the subdivided scene);
+//!      this is the renderer as §3 runs it, "inside the rasterizer with
+//!      Gouraud shading";
+//!   4. `aa_rel_rms_error`: the wavelet shading evaluated per pixel sample
+//!      (interpolated normal), `aa × aa` samples box-filtered: the
+//!      technique's error with no vertex under-sampling at all.
 //!
-//!   Why both (measured on the default scene, N = 64², ntess = 32², 1024 spp
-//!   reference, noise 0.030): the drawn image errs by 0.19, but *exact*
-//!   per-vertex radiance (brute-force quadrature, no wavelets) drawn the same
-//!   way errs by 0.22 — the detailed knot's Phong highlight under the 1.5°
-//!   sun is under-sampled by its vertices and aliased by one sample per
-//!   pixel, against a box-filtered reference. Shading each of 4 × 4 samples
-//!   per pixel with the wavelet pipeline gives 0.056: that is the
-//!   technique's error (≈ √(0.056² − 0.030²) ≈ 0.047 without the noise).
+//!   Measured on the default scene (320 × 180, N = 64², ntess = 32²,
+//!   ntrunc = 1, 256 terms, 4096-spp reference, noise 0.015; sphere / knot /
+//!   torus): 1. 0.185 (0.060/0.221/0.086); 2. 0.166 (0.058/0.200/0.027);
+//!   3. with 73 K / 131 K / 99 K vertices 0.066 (0.045/0.076/0.029), with
+//!   291 K / 523 K / 395 K (midpoint split) 0.048 (0.044/0.052/0.029);
+//!   4. 0.045 (0.044/0.047/0.029). So the 1-spp image's error is mostly the
+//!   33 K-vertex knot's vertices under-sampling its Phong-40 highlight under
+//!   the 1.5° sun (antialiasing alone leaves the knot at 0.200), the rest the
+//!   aliasing of one sample per pixel (torus 0.086 → 0.027); on dense meshes
+//!   the Gouraud image converges to the per-pixel error.
 //! * [`verify_wavelet_with_sh`]: the above plus the SH renderer
 //!   (`relight_shlight`) at several orders on the same reference, flagging
 //!   the order whose frame time matches the wavelet's.
@@ -232,14 +245,55 @@ pub struct VerifyRow {
     pub aa_rel_rms_error: f64,
     /// [`VerifyRow::aa_rel_rms_error`] per object.
     pub aa_per_object: String,
+    /// The Gouraud image (per-vertex shading, original meshes) rasterized
+    /// at `aa × aa` times the resolution and box-downsampled: the drawn image
+    /// without the aliasing of one sample per pixel.
+    pub gouraud_aa_rel_rms_error: f64,
+    /// [`VerifyRow::gouraud_aa_rel_rms_error`] per object.
+    pub gouraud_aa_per_object: String,
+    /// Vertices per object of the dense meshes (`/`-separated; empty when
+    /// [`VerifyOptions::dense_vertices`] is 0).
+    pub dense_vertices: String,
+    /// The Gouraud image on the dense meshes ([`VerifyOptions::densify`]),
+    /// rasterized at `aa × aa` times the resolution and box-downsampled,
+    /// against the reference of the dense scene: the renderer as the paper
+    /// runs it (per-vertex shading of ~100 K-vertex models) and antialiased
+    /// like the reference. `null` when densifying is off.
+    pub dense_rel_rms_error: Option<f64>,
+    /// [`VerifyRow::dense_rel_rms_error`] per object.
+    pub dense_per_object: String,
     /// The reference's own noise as a relative RMS over the same pixels,
     /// `√(3 Σ se²) / √(Σ |ref|²)` from its per-pixel standard errors (the
     /// floor under both errors: they are ≈ √(e² + noise²)).
     pub reference_noise: f64,
+    /// The dense scene's reference noise (same measure; equal to
+    /// `reference_noise` for [`Densify::Linear`], which shares the reference).
+    pub dense_reference_noise: Option<f64>,
     /// Lighting change time, ms.
     pub light_change_ms: f64,
     /// View change (vertex shading + raster) time, ms.
     pub view_change_ms: f64,
+    /// View change on the dense meshes (vertex shading + raster at
+    /// `aa × aa` times the resolution + downsampling), ms.
+    pub dense_view_change_ms: Option<f64>,
+}
+
+/// How [`verify_wavelet`] densifies each object's mesh for the dense-mesh
+/// Gouraud error ([`VerifyRow::dense_rel_rms_error`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub enum Densify {
+    /// Loop subdivision ([`Mesh::subdivide_to_vertices`]): the smooth
+    /// subdivision surface with its smooth normals, like a dense scanned
+    /// model. The surface moves slightly (Loop smooths the knot's finest
+    /// bumps), so the reference is rendered again on the dense scene.
+    Loop,
+    /// Midpoint split with interpolated (renormalized) normals
+    /// ([`Mesh::subdivide_midpoint`]): the same surface and, up to renormalizing the
+    /// new vertex normals, the same shading-normal field as the original
+    /// mesh, so the original reference applies (the default: it isolates
+    /// vertex density from any change of the surface).
+    #[default]
+    Linear,
 }
 
 /// The SH renderer beside the wavelet one (`relight verify wavelet`):
@@ -280,6 +334,14 @@ pub struct VerifyOptions {
     pub aa: usize,
     /// SH orders compared with the first configuration (empty: no comparison).
     pub sh_orders: Vec<usize>,
+    /// Subdivide every object until it has at least this many vertices
+    /// (at most [`VerifyOptions::dense_max_levels`] steps) for the dense-mesh
+    /// Gouraud error; 0: off.
+    pub dense_vertices: usize,
+    /// Most subdivision steps per object.
+    pub dense_max_levels: u32,
+    /// Subdivision rule of the dense meshes.
+    pub densify: Densify,
     /// Bake cache (None: bake in memory, no files).
     pub cache_dir: Option<PathBuf>,
 }
@@ -310,6 +372,9 @@ impl VerifyOptions {
             brdf_terms: 128,
             aa: 4,
             sh_orders: vec![3, 5, 8, 12],
+            dense_vertices: 60_000,
+            dense_max_levels: 3,
+            densify: Densify::Linear,
             cache_dir: Some(default_cache_dir()),
         }
     }
@@ -324,6 +389,9 @@ impl VerifyOptions {
             brdf_terms: 128,
             aa: 2,
             sh_orders: vec![3, 6],
+            dense_vertices: 15_000,
+            dense_max_levels: 1,
+            densify: Densify::Linear,
             cache_dir: Some(default_cache_dir()),
         }
     }
@@ -403,6 +471,43 @@ fn errors(
     (all, per.join("/"))
 }
 
+/// `scene` with every object's mesh subdivided by `rule` until it has at
+/// least `target` vertices (at most `max_levels` steps); same materials,
+/// lighting and camera.
+#[must_use]
+pub fn densified_scene(scene: &Scene, rule: Densify, target: usize, max_levels: u32) -> Scene {
+    let mut s = scene.clone();
+    for o in &mut s.objects {
+        let mesh = match rule {
+            Densify::Loop => o.mesh.subdivide_to_vertices(target, max_levels).0,
+            Densify::Linear => {
+                let mut m = (*o.mesh).clone();
+                let mut levels = 0;
+                while m.positions.len() < target && levels < max_levels && !m.indices.is_empty() {
+                    m = m.subdivide_midpoint();
+                    levels += 1;
+                }
+                m
+            }
+        };
+        o.mesh = Arc::new(mesh);
+    }
+    s
+}
+
+/// The reference's own noise over `mask` as a relative RMS:
+/// `√(3 Σ se²) / √(Σ |ref|²)` from its per-pixel standard errors.
+fn reference_noise(reference: &relight_render::reference::ReferenceImage, mask: &[bool]) -> f64 {
+    let (mut se, mut den) = (0.0f64, 0.0f64);
+    for (i, &m) in mask.iter().enumerate() {
+        if m {
+            se += 3.0 * f64::from(reference.std_error[i]).powi(2);
+            den += f64::from(reference.image.pixels[i].length_squared());
+        }
+    }
+    if den > 0.0 { (se / den).sqrt() } else { 0.0 }
+}
+
 /// `img` (k·w × k·h) box-filtered down by `k` (the reference's pixel filter).
 #[must_use]
 pub fn downsample(img: &Image, k: usize) -> Image {
@@ -458,6 +563,22 @@ pub fn verify_wavelet_with_sh(
     let cache = opts.cache_dir.as_deref();
     let aa = opts.aa.max(1);
     for (name, scene) in scenes {
+        // The dense meshes do not depend on the BRDF: subdivide once per scene.
+        let dense = (opts.dense_vertices > 0).then(|| {
+            densified_scene(
+                scene,
+                opts.densify,
+                opts.dense_vertices,
+                opts.dense_max_levels,
+            )
+        });
+        let dense_counts = dense.as_ref().map_or_else(String::new, |d| {
+            d.objects
+                .iter()
+                .map(|o| o.mesh.positions.len().to_string())
+                .collect::<Vec<_>>()
+                .join("/")
+        });
         for spec in &opts.brdfs {
             // `scene`: every object keeps its own material (baked per object,
             // keyed by the model's Debug description); else one spec for all.
@@ -483,6 +604,32 @@ pub fn verify_wavelet_with_sh(
             let mut big = sc.clone();
             big.camera.width *= aa;
             big.camera.height *= aa;
+            // Dense scene with this BRDF; its reference (Loop moves the
+            // surface) or the original one (Linear keeps it), ids and mask.
+            let dense_sc = dense.as_ref().map(|d| {
+                let mut d = d.clone();
+                for (o, s) in d.objects.iter_mut().zip(&sc.objects) {
+                    o.brdf = s.brdf.clone();
+                }
+                d
+            });
+            let dense_ref = match (&dense_sc, opts.densify) {
+                (Some(d), Densify::Loop) => {
+                    let rd = render_reference(d, &ropts, progress)
+                        .map_err(|_| WaveletError::Cancelled)?;
+                    let ids_d = object_ids(d);
+                    let mask_d: Vec<bool> = ids_d.iter().map(|&i| i >= 0).collect();
+                    Some((Some(rd), ids_d, mask_d))
+                }
+                (Some(_), Densify::Linear) => None,
+                (None, _) => None,
+            };
+            let big_dense = dense_sc.as_ref().map(|d| {
+                let mut b = d.clone();
+                b.camera.width *= aa;
+                b.camera.height *= aa;
+                b
+            });
             for (ci, &(n, ntess, ntrunc, terms)) in opts.configs.iter().enumerate() {
                 progress.check()?;
                 let rp = RotationParams::new(n, ntess, ntrunc);
@@ -516,16 +663,25 @@ pub fn verify_wavelet_with_sh(
                 let aa_ms = t2.elapsed().as_secs_f64() * 1e3;
                 let (e, per) = errors(&img, &reference.image, &mask, &ids, nobj);
                 let (ea, per_a) = errors(&pimg, &reference.image, &mask, &ids, nobj);
-                let noise = {
-                    let (mut se, mut den) = (0.0f64, 0.0f64);
-                    for (i, &m) in mask.iter().enumerate() {
-                        if m {
-                            se += 3.0 * f64::from(reference.std_error[i]).powi(2);
-                            den += f64::from(reference.image.pixels[i].length_squared());
-                        }
-                    }
-                    if den > 0.0 { (se / den).sqrt() } else { 0.0 }
-                };
+                let noise = reference_noise(&reference, &mask);
+                // Gouraud at aa × aa the resolution, box-downsampled.
+                let (gimg, _) = r.render_with_mask(&big, &refs, &big.camera, None)?;
+                let gimg = downsample(&gimg, aa);
+                let (eg, per_g) = errors(&gimg, &reference.image, &mask, &ids, nobj);
+                // The same on the dense meshes, against the dense scene's reference.
+                let mut dense_out = None;
+                if let Some(bd) = &big_dense {
+                    let t3 = Instant::now();
+                    let (dimg, _) = r.render_with_mask(bd, &refs, &bd.camera, None)?;
+                    let dimg = downsample(&dimg, aa);
+                    let dense_ms = t3.elapsed().as_secs_f64() * 1e3;
+                    let (rd, ids_d, mask_d) = match &dense_ref {
+                        Some((Some(rd), i, m)) => (rd, &i[..], &m[..]),
+                        _ => (&reference, &ids[..], &mask[..]),
+                    };
+                    let (ed, per_d) = errors(&dimg, &rd.image, mask_d, ids_d, nobj);
+                    dense_out = Some((ed, per_d, reference_noise(rd, mask_d), dense_ms));
+                }
                 rows.push(VerifyRow {
                     scene: name.clone(),
                     brdf: spec.clone(),
@@ -537,9 +693,16 @@ pub fn verify_wavelet_with_sh(
                     per_object: per,
                     aa_rel_rms_error: ea,
                     aa_per_object: per_a.clone(),
+                    gouraud_aa_rel_rms_error: eg,
+                    gouraud_aa_per_object: per_g,
+                    dense_vertices: dense_counts.clone(),
+                    dense_rel_rms_error: dense_out.as_ref().map(|d| d.0),
+                    dense_per_object: dense_out.as_ref().map_or_else(String::new, |d| d.1.clone()),
                     reference_noise: noise,
+                    dense_reference_noise: dense_out.as_ref().map(|d| d.2),
                     light_change_ms: light_ms,
                     view_change_ms: view_ms,
+                    dense_view_change_ms: dense_out.as_ref().map(|d| d.3),
                 });
                 if ci == 0 && !opts.sh_orders.is_empty() {
                     let wave_ms = light_ms + aa_ms;
@@ -1009,5 +1172,47 @@ pub fn sphere_scene(brdf: Arc<dyn Brdf>, width: usize, height: usize) -> Scene {
             width,
             height,
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Midpoint subdivision keeps the surface and the reference's shading
+    /// normals: every new vertex is the midpoint of a parent edge with the
+    /// normal the reference interpolates there; counts are V + E and 4 F.
+    #[test]
+    fn linear_subdivision_keeps_surface_and_normal_field() {
+        let m = uv_sphere(Vec3::new(0.2, -0.1, 0.3), 0.7, 5, 7);
+        let edges: std::collections::HashSet<(u32, u32)> = m
+            .indices
+            .iter()
+            .flat_map(|t| (0..3).map(move |k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
+            .collect();
+        let s = m.subdivide_midpoint();
+        assert_eq!(s.positions.len(), m.positions.len() + edges.len());
+        assert_eq!(s.normals.len(), s.positions.len());
+        assert_eq!(s.indices.len(), 4 * m.indices.len());
+        assert_eq!(&s.positions[..m.positions.len()], &m.positions[..]);
+        for (t, &[a, b, c]) in m.indices.iter().enumerate() {
+            // The child triangles of (a, b, c) are consecutive: the middle
+            // one holds the three edge points (ab, bc, ca).
+            let [ab, bc, ca] = s.indices[4 * t + 3];
+            for (e, (p, q)) in [(ab, (a, b)), (bc, (b, c)), (ca, (c, a))] {
+                let (e, p, q) = (e as usize, p as usize, q as usize);
+                let mid = 0.5 * (m.positions[p] + m.positions[q]);
+                assert!((s.positions[e] - mid).length() < 1e-6);
+                let want = (0.5 * m.normals[p] + 0.5 * m.normals[q]).normalize();
+                assert!(s.normals[e].dot(want) > 1.0 - 1e-6);
+            }
+        }
+        let sc = sphere_scene("lambert".parse::<BrdfSpec>().unwrap().build(), 8, 8);
+        let d = densified_scene(&sc, Densify::Linear, 40_000, 1);
+        assert_eq!(
+            d.objects[0].mesh.indices.len(),
+            4 * sc.objects[0].mesh.indices.len(),
+            "max_levels bounds the steps"
+        );
     }
 }
