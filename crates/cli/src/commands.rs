@@ -750,13 +750,15 @@ fn bench(a: BenchArgs) -> Result<()> {
                 (1280, 720, &[3, 6, 10])
             };
             let scene = relight_scene::default_scene(w, h);
+            // Per-pixel rotation under a procedural bump map, every method.
+            let bumps = relight_shlight::NormalMap::bumps(256, 8, 0.6);
             let rows = relight_shlight::bench_sh_render(
                 &scene,
-                None,
+                Some(&bumps),
                 w,
                 h,
                 orders,
-                &[relight_shlight::ShRotationMethod::Exact],
+                &relight_shlight::ShRotationMethod::ALL,
                 if a.quick { 1 } else { 3 },
             )?;
             report.table(

@@ -44,7 +44,7 @@ pub fn bench_sh_render(
     let mut rows = Vec::new();
     for &order in orders {
         for &m in methods {
-            for nm in [None, normal_map] {
+            for nm in std::iter::once(None).chain(normal_map.map(Some)) {
                 if nm.is_none() && m != methods[0] {
                     continue; // without a normal map every method is the same image
                 }
