@@ -949,7 +949,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                     name: "verify-wavelet-rotation",
                     x: "terms",
                     y: "rel_rms_error",
-                    series: &["lighting", "n"],
+                    series: &["lighting", "n", "method"],
                     log_y: true,
                 }],
             )

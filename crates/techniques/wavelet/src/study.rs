@@ -767,7 +767,11 @@ pub struct RotationRow {
     pub lighting: String,
     /// Source side n.
     pub n: usize,
-    /// Lighting terms (`0`: the m × m target map approximated directly with 128 terms, "Ref128").
+    /// `rotation` (the source lighting's top terms times the rotation
+    /// matrix) or `ref128` (the paper's "Ref128": the directly resampled
+    /// target map approximated with its own top 128 terms).
+    pub method: String,
+    /// Lighting terms kept.
     pub terms: usize,
     /// Mean over the normals of the relative RMS error over target texels.
     pub rel_rms_error: f64,
@@ -819,7 +823,8 @@ pub fn verify_rotation(
         rows.push(RotationRow {
             lighting: name.into(),
             n,
-            terms,
+            method: if terms == 0 { "ref128" } else { "rotation" }.into(),
+            terms: if terms == 0 { 128 } else { terms },
             rel_rms_error: err / picks.len() as f64,
         });
     }
