@@ -98,15 +98,9 @@ impl PixelBatch {
         self.px.is_empty()
     }
 
-    /// Empties the batch (keeps the capacity).
-    pub fn clear(&mut self) {
-        for v in [
-            &mut self.px,
-            &mut self.py,
-            &mut self.pz,
-            &mut self.nx,
-            &mut self.ny,
-            &mut self.nz,
+    /// The view-dependent columns, filled by [`prepare`](Self::prepare).
+    fn view_columns(&mut self) -> [&mut Vec<f32>; 13] {
+        [
             &mut self.dx,
             &mut self.dy,
             &mut self.dz,
@@ -120,7 +114,22 @@ impl PixelBatch {
             &mut self.b,
             &mut self.along,
             &mut self.h,
+        ]
+    }
+
+    /// Empties the batch (keeps the capacity).
+    pub fn clear(&mut self) {
+        for v in [
+            &mut self.px,
+            &mut self.py,
+            &mut self.pz,
+            &mut self.nx,
+            &mut self.ny,
+            &mut self.nz,
         ] {
+            v.clear();
+        }
+        for v in self.view_columns() {
             v.clear();
         }
         self.cancel.clear();
@@ -144,21 +153,7 @@ impl PixelBatch {
         self.nx.push(n.x);
         self.ny.push(n.y);
         self.nz.push(n.z);
-        for v in [
-            &mut self.dx,
-            &mut self.dy,
-            &mut self.dz,
-            &mut self.rx,
-            &mut self.ry,
-            &mut self.rz,
-            &mut self.d_vp,
-            &mut self.e_vp,
-            &mut self.r,
-            &mut self.g,
-            &mut self.b,
-            &mut self.along,
-            &mut self.h,
-        ] {
+        for v in self.view_columns() {
             v.push(0.0);
         }
         self.cancel.push(0);
