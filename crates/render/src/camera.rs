@@ -31,15 +31,50 @@ impl Camera {
 
     /// World-space ray (origin, unit direction) through the image point
     /// (`px`, `py`) in pixels (pixel centres at +0.5, row 0 at the top).
+    /// For many rays, build the frame once with [`Camera::ray_frame`].
     #[must_use]
     pub fn ray(&self, px: f32, py: f32) -> (Vec3, Vec3) {
-        let fwd = (self.target - self.eye).normalize();
-        let right = fwd.cross(self.up).normalize();
+        (self.eye, self.ray_frame().dir(px, py))
+    }
+
+    /// The camera's ray frame, computed once for many [`CameraRays::dir`] calls.
+    #[must_use]
+    pub fn ray_frame(&self) -> CameraRays {
+        // A degenerate camera (eye = target, up ∥ view) gets a fixed frame, not NaNs.
+        let fwd = (self.target - self.eye).normalize_or(Vec3::NEG_Z);
+        let right = fwd.cross(self.up).normalize_or(Vec3::X);
         let up = right.cross(fwd);
         let tan = (0.5 * self.vfov_deg.to_radians()).tan();
         let aspect = self.width as f32 / self.height as f32;
-        let sx = (2.0 * px / self.width as f32 - 1.0) * tan * aspect;
-        let sy = (1.0 - 2.0 * py / self.height as f32) * tan;
-        (self.eye, (fwd + right * sx + up * sy).normalize())
+        CameraRays {
+            fwd,
+            right: right * (tan * aspect),
+            up: up * tan,
+            inv_width: 1.0 / self.width as f32,
+            inv_height: 1.0 / self.height as f32,
+        }
+    }
+}
+
+/// Precomputed ray frame of a [`Camera`]: forward axis and the right / up
+/// axes scaled by the half-extent of the image plane at unit distance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraRays {
+    fwd: Vec3,
+    right: Vec3,
+    up: Vec3,
+    inv_width: f32,
+    inv_height: f32,
+}
+
+impl CameraRays {
+    /// Unit world direction through the image point (`px`, `py`) in pixels
+    /// (pixel centres at +0.5, row 0 at the top).
+    #[inline]
+    #[must_use]
+    pub fn dir(&self, px: f32, py: f32) -> Vec3 {
+        let sx = 2.0 * px * self.inv_width - 1.0;
+        let sy = 1.0 - 2.0 * py * self.inv_height;
+        (self.fwd + self.right * sx + self.up * sy).normalize()
     }
 }

@@ -15,7 +15,7 @@ pub mod reference;
 pub mod sampling;
 pub mod scene;
 
-pub use camera::Camera;
+pub use camera::{Camera, CameraRays};
 pub use image::Image;
 pub use progress::{Cancelled, NoProgress, Progress};
 pub use raster::{

@@ -70,7 +70,7 @@
 //! 1 M triangles (a torus, back faces culled) at 1920×1080 on this 2-core
 //! machine: see [`bench_raster`] (`relight bench raster` prints it).
 
-use crate::{Camera, Image};
+use crate::{Camera, CameraRays, Image};
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -1076,34 +1076,28 @@ struct ResolveContext {
     camera: Camera,
     width: usize,
     height: usize,
-    fwd: Vec3,
-    right: Vec3,
-    up: Vec3,
-    tan_y: f32,
-    tan_x: f32,
+    /// The rays of `camera` at this resolution (background directions).
+    rays: CameraRays,
 }
 
 impl ResolveContext {
     fn new(camera: Camera, width: usize, height: usize) -> Self {
-        // The same frame as `Camera::ray`.
-        let fwd = (camera.target - camera.eye).normalize_or(Vec3::NEG_Z);
-        let right = fwd.cross(camera.up).normalize_or(Vec3::X);
-        let up = right.cross(fwd);
-        let tan_y = (0.5 * camera.vfov_deg.to_radians()).tan();
-        let tan_x = tan_y * width as f32 / height.max(1) as f32;
+        let rays = Camera {
+            width,
+            height: height.max(1),
+            ..camera
+        }
+        .ray_frame();
         Self {
             camera,
             width,
             height,
-            fwd,
-            right,
-            up,
-            tan_y,
-            tan_x,
+            rays,
         }
     }
 
-    #[inline]
+    /// Pixel centre (`x`, `y`) in normalized device coordinates (z = 1).
+    #[cfg(test)]
     fn ndc(&self, x: usize, y: usize) -> Vec3 {
         Vec3::new(
             2.0 * (x as f32 + 0.5) / self.width as f32 - 1.0,
@@ -1116,13 +1110,7 @@ impl ResolveContext {
     fn background(&self, bg: Background, x: usize, y: usize) -> Vec3 {
         match bg {
             Background::Color(c) => c,
-            Background::Environment(f) => {
-                let n = self.ndc(x, y);
-                f(
-                    (self.fwd + self.right * (n.x * self.tan_x) + self.up * (n.y * self.tan_y))
-                        .normalize(),
-                )
-            }
+            Background::Environment(f) => f(self.rays.dir(x as f32 + 0.5, y as f32 + 0.5)),
         }
     }
 }

@@ -316,12 +316,8 @@ fn shade_gbuffer(
         total += o.mesh.indices.len() as u32;
     }
     first.push(total);
-    // The camera frame of `Camera::ray` for the background directions.
-    let fwd = (camera.target - camera.eye).normalize_or(Vec3::NEG_Z);
-    let right = fwd.cross(camera.up).normalize_or(Vec3::X);
-    let up = right.cross(fwd);
-    let tan_y = (0.5 * camera.vfov_deg.to_radians()).tan();
-    let tan_x = tan_y * w as f32 / h as f32;
+    // Background directions are the camera rays through the pixel centres.
+    let rays = camera.ray_frame();
     let eye = camera.eye;
     let beta = model.beta;
     out.pixels
@@ -337,12 +333,10 @@ fn shade_gbuffer(
             for v in s.bg_d.iter_mut().chain(s.bg_c.iter_mut()) {
                 v.clear();
             }
-            let ndc_y = 1.0 - 2.0 * (y as f32 + 0.5) / h as f32;
             let (mut lo, mut hi, mut obj) = (1u32, 0u32, 0usize);
             for (x, (&id, b)) in ids.iter().zip(bary).enumerate() {
                 if id == NO_TRIANGLE || id >= total {
-                    let ndc_x = 2.0 * (x as f32 + 0.5) / w as f32 - 1.0;
-                    let d = (fwd + right * (ndc_x * tan_x) + up * (ndc_y * tan_y)).normalize();
+                    let d = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
                     s.bg_x.push(x as u32);
                     for (k, v) in s.bg_d.iter_mut().enumerate() {
                         v.push(d[k]);
