@@ -722,24 +722,16 @@ impl Prepared {
         let k = self.k;
         let (w, h) = (hi.width / k, hi.height / k);
         let g = self.raster.gbuffer();
-        let mut image = Image::new(w, h);
         let mut mask = vec![false; w * h];
-        let inv = 1.0 / (k * k) as f32;
         for y in 0..h {
             for x in 0..w {
-                let mut sum = Vec3::ZERO;
-                let mut covered = true;
-                for sy in 0..k {
-                    for sx in 0..k {
-                        let i = (y * k + sy) * hi.width + x * k + sx;
-                        sum += hi.pixels[i];
-                        covered &= g.is_covered(i);
-                    }
-                }
-                image.pixels[y * w + x] = sum * inv;
-                mask[y * w + x] = covered;
+                mask[y * w + x] =
+                    (0..k * k).all(|s| g.is_covered((y * k + s / k) * hi.width + x * k + s % k));
             }
         }
-        ShImage { image, mask }
+        ShImage {
+            image: hi.box_downsample(k),
+            mask,
+        }
     }
 }

@@ -17,7 +17,7 @@ use relight_wavelet::octa::{
     hemi_density, hemi_dir_from_uv, normal_bilinear, oct_uv_from_dir, shading_frame_f64,
     shading_frame_fast, texel_of,
 };
-use relight_wavelet::study::{direct_local_texels, downsample, object_ids};
+use relight_wavelet::study::{direct_local_texels, object_ids};
 use relight_wavelet::{RotationParams, WaveletRenderer, bake_or_load_rotation};
 use std::sync::Arc;
 
@@ -91,7 +91,7 @@ fn gouraud_ss(scene: &Scene, colors: &[Vec<Vec3>], k: usize) -> Image {
     let mut s = scene.clone();
     s.camera.width *= k;
     s.camera.height *= k;
-    downsample(&gouraud(&s, colors), k)
+    gouraud(&s, colors).box_downsample(k)
 }
 
 fn report(name: &str, img: &Image, reference: &Image, ids: &[i32], nobj: usize, w: usize) {
@@ -262,7 +262,7 @@ fn main() {
         let (big, _) = r.render_per_pixel(&s2, &refs, &s2.camera).unwrap();
         report(
             "paper per-pixel 4x4 SSAA",
-            &downsample(&big, 4),
+            &big.box_downsample(4),
             &reference_img,
             &ids,
             nobj,
@@ -275,7 +275,7 @@ fn main() {
         s2.camera.width *= k;
         s2.camera.height *= k;
         let (big, _) = r.render_per_pixel(&s2, &refs, &s2.camera).unwrap();
-        let img = downsample(&big, k);
+        let img = big.box_downsample(k);
         report(
             &format!("mirror per-pixel {k}x{k} SSAA"),
             &img,

@@ -508,25 +508,6 @@ fn reference_noise(reference: &relight_render::reference::ReferenceImage, mask: 
     if den > 0.0 { (se / den).sqrt() } else { 0.0 }
 }
 
-/// `img` (k·w × k·h) box-filtered down by `k` (the reference's pixel filter).
-#[must_use]
-pub fn downsample(img: &Image, k: usize) -> Image {
-    let (w, h) = (img.width / k, img.height / k);
-    let mut out = Image::new(w, h);
-    for y in 0..h {
-        for x in 0..w {
-            let mut acc = Vec3::ZERO;
-            for j in 0..k {
-                for i in 0..k {
-                    acc += img.pixels[(y * k + j) * img.width + x * k + i];
-                }
-            }
-            out.pixels[y * w + x] = acc / (k * k) as f32;
-        }
-    }
-    out
-}
-
 /// Relative RMS image error of the wavelet renderer against the reference
 /// renderer (visibility off, same BRDF, AO off) over object pixels, for every
 /// `(name, scene)` × BRDF × configuration.
@@ -659,21 +640,21 @@ pub fn verify_wavelet_with_sh(
                 let view_ms = t1.elapsed().as_secs_f64() * 1e3;
                 let t2 = Instant::now();
                 let (pimg, _) = r.render_per_pixel(&big, &refs, &big.camera)?;
-                let pimg = downsample(&pimg, aa);
+                let pimg = pimg.box_downsample(aa);
                 let aa_ms = t2.elapsed().as_secs_f64() * 1e3;
                 let (e, per) = errors(&img, &reference.image, &mask, &ids, nobj);
                 let (ea, per_a) = errors(&pimg, &reference.image, &mask, &ids, nobj);
                 let noise = reference_noise(&reference, &mask);
                 // Gouraud at aa × aa the resolution, box-downsampled.
                 let (gimg, _) = r.render_with_mask(&big, &refs, &big.camera, None)?;
-                let gimg = downsample(&gimg, aa);
+                let gimg = gimg.box_downsample(aa);
                 let (eg, per_g) = errors(&gimg, &reference.image, &mask, &ids, nobj);
                 // The same on the dense meshes, against the dense scene's reference.
                 let mut dense_out = None;
                 if let Some(bd) = &big_dense {
                     let t3 = Instant::now();
                     let (dimg, _) = r.render_with_mask(bd, &refs, &bd.camera, None)?;
-                    let dimg = downsample(&dimg, aa);
+                    let dimg = dimg.box_downsample(aa);
                     let dense_ms = t3.elapsed().as_secs_f64() * 1e3;
                     let (rd, ids_d, mask_d) = match &dense_ref {
                         Some((Some(rd), i, m)) => (rd, &i[..], &m[..]),
