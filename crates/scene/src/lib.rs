@@ -48,7 +48,7 @@ pub const BUILTIN_MESHES: [&str; 4] = ["sphere", "torus", "knot", "ground"];
 pub fn builtin_mesh(name: &str) -> Option<Mesh> {
     use relight_geom::shapes;
     let mut mesh = match name {
-        "sphere" => shapes::uv_sphere(1.0, 96, 48),
+        "sphere" => shapes::uv_sphere(1.0, 192, 96),
         "torus" => shapes::torus(0.75, 0.28, 128, 48),
         "knot" => shapes::detailed_shape(),
         "ground" => shapes::quad(4.0),
