@@ -233,24 +233,26 @@ pub struct VerifyRow {
     /// Lighting terms.
     pub terms: usize,
     /// Relative RMS image error vs the reference over object pixels: the
-    /// image as the renderer draws it (per-vertex shading, Gouraud, one
-    /// sample per pixel centre).
+    /// image as `relight render --method wavelet --aa K` draws it, K = `aa`
+    /// (per-vertex shading, Gouraud, rasterized at K × K times the
+    /// resolution and box-downsampled — the reference's own pixel filter)
+    /// on the scene's own meshes. The measure of the paper's Tables 1 and 3.
     pub rel_rms_error: f64,
     /// The same error per object (`/`-separated, scene object order).
     pub per_object: String,
-    /// Relative RMS error of the wavelet shading evaluated per pixel sample
-    /// (interpolated normal) with `aa × aa` samples per pixel, box-filtered
-    /// like the reference: the technique's error without the vertex
-    /// under-sampling and the aliasing of one sample per pixel.
-    pub aa_rel_rms_error: f64,
-    /// [`VerifyRow::aa_rel_rms_error`] per object.
-    pub aa_per_object: String,
-    /// The Gouraud image (per-vertex shading, original meshes) rasterized
-    /// at `aa × aa` times the resolution and box-downsampled: the drawn image
-    /// without the aliasing of one sample per pixel.
-    pub gouraud_aa_rel_rms_error: f64,
-    /// [`VerifyRow::gouraud_aa_rel_rms_error`] per object.
-    pub gouraud_aa_per_object: String,
+    /// The Gouraud image with one sample at each pixel centre: point
+    /// samples against the reference's pixel integrals, so this adds the
+    /// aliasing of sub-pixel detail (it grows as meshes get denser and
+    /// resolve finer highlights).
+    pub point_sampled_rel_rms_error: f64,
+    /// [`VerifyRow::point_sampled_rel_rms_error`] per object.
+    pub point_sampled_per_object: String,
+    /// The wavelet shading evaluated per pixel sample (interpolated normal),
+    /// `aa × aa` samples box-filtered: the technique's error with no vertex
+    /// under-sampling at all.
+    pub per_pixel_rel_rms_error: f64,
+    /// [`VerifyRow::per_pixel_rel_rms_error`] per object.
+    pub per_pixel_per_object: String,
     /// Vertices per object of the dense meshes (`/`-separated; empty when
     /// [`VerifyOptions::dense_vertices`] is 0).
     pub dense_vertices: String,
@@ -330,7 +332,8 @@ pub struct VerifyOptions {
     pub views: usize,
     /// Terms per BRDF slice.
     pub brdf_terms: usize,
-    /// Samples per pixel side of the antialiased error (`aa_rel_rms_error`), ≥ 1.
+    /// Samples per pixel side of the antialiased errors (`rel_rms_error`,
+    /// `per_pixel_rel_rms_error`, `dense_rel_rms_error`), ≥ 1.
     pub aa: usize,
     /// SH orders compared with the first configuration (empty: no comparison).
     pub sh_orders: Vec<usize>,
@@ -670,12 +673,12 @@ pub fn verify_wavelet_with_sh(
                     ntess,
                     ntrunc,
                     terms,
-                    rel_rms_error: e,
-                    per_object: per,
-                    aa_rel_rms_error: ea,
-                    aa_per_object: per_a.clone(),
-                    gouraud_aa_rel_rms_error: eg,
-                    gouraud_aa_per_object: per_g,
+                    rel_rms_error: eg,
+                    per_object: per_g,
+                    point_sampled_rel_rms_error: e,
+                    point_sampled_per_object: per,
+                    per_pixel_rel_rms_error: ea,
+                    per_pixel_per_object: per_a.clone(),
                     dense_vertices: dense_counts.clone(),
                     dense_rel_rms_error: dense_out.as_ref().map(|d| d.0),
                     dense_per_object: dense_out.as_ref().map_or_else(String::new, |d| d.1.clone()),
