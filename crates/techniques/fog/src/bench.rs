@@ -9,7 +9,8 @@
 //!   repeats), on the built-in bench scene (floor + 9 spheres, ≈ 80 K
 //!   triangles) unless the caller passes its own objects to
 //!   [`bench_fog_scene`].
-//! * `table_build_ms`: [`FogTables::build`] at the default size 64.
+//! * `table_build_ms`: [`FogTables::build_for`] the scene's materials at the
+//!   default size 64.
 
 use crate::model::{FogMaterial, FogModel, Phase, PointLight};
 use crate::render::{FogObject, FogSettings, floor_grid, render_fog_into, uv_sphere};
@@ -164,7 +165,7 @@ pub fn bench_fog_scene(
     lights: &[PointLight],
 ) -> Vec<BenchRow> {
     let t0 = Instant::now();
-    let Ok(tables) = FogTables::build(64) else {
+    let Ok(tables) = FogTables::build_for(64, objects.iter().map(|o| &o.material)) else {
         return Vec::new();
     };
     let table_build_ms = t0.elapsed().as_secs_f64() * 1e3;

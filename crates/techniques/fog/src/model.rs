@@ -218,7 +218,62 @@ impl FogMaterial {
     pub fn phong(albedo: Vec3, ks: Vec3, n: u32) -> Self {
         Self { albedo, ks, n }
     }
+
+    /// The model's Lambert + Phong surface (§3.4) closest to any `brdf`,
+    /// fitted at normal view (ω_o = n, where the mirror direction is n):
+    /// k_d/π is the BRDF's floor (its least value 60°–80° from the mirror
+    /// direction), k_s the peak above that floor, and n the exponent whose
+    /// cosⁿ lobe has the same half-maximum angle (luminance). A normalized
+    /// Phong BRDF ρ_s (n+2)/(2π) cosⁿα comes back exactly (k_s = ρ_s
+    /// (n+2)/(2π)), Lambert as k_s = 0; other lobes (GGX, Ward, measured)
+    /// get the Phong lobe of the same peak and width. As in §3.4.2 the lobe
+    /// stands for BRDF × cos θᵢ, so the cos θᵢ foreshortening is dropped.
+    /// The exponent is clamped to 1…[`MAX_FITTED_EXPONENT`].
+    #[must_use]
+    pub fn fit(brdf: &dyn relight_brdf::Brdf) -> Self {
+        let at = |deg: f32| {
+            let a = deg.to_radians();
+            brdf.eval(Vec3::Z, Vec3::new(a.sin(), 0.0, a.cos()))
+                .max(Vec3::ZERO)
+        };
+        let lum = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let floor = [60.0f32, 70.0, 80.0]
+            .into_iter()
+            .map(at)
+            .fold(Vec3::splat(f32::INFINITY), Vec3::min);
+        let peak = (at(0.0) - floor).max(Vec3::ZERO);
+        let albedo = (floor * PI).min(Vec3::ONE);
+        if lum(peak) <= 1e-3 * lum(floor).max(1e-6) {
+            return Self::lambert(albedo);
+        }
+        // Half-maximum angle of the lobe above the floor, by bisection.
+        let half = 0.5 * lum(peak);
+        let (mut lo, mut hi) = (0.0f32, 80.0f32);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if lum(at(mid) - floor) > half {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let c = (0.5 * (lo + hi)).to_radians().cos();
+        let n = (0.5f32.ln() / c.ln()).round();
+        Self::phong(
+            albedo,
+            peak,
+            if n.is_finite() {
+                n.clamp(1.0, MAX_FITTED_EXPONENT as f32) as u32
+            } else {
+                MAX_FITTED_EXPONENT
+            },
+        )
+    }
 }
+
+/// Largest exponent [`FogMaterial::fit`] returns (a G table per exponent
+/// is built; beyond this the lobe is narrower than a 64² table resolves).
+pub const MAX_FITTED_EXPONENT: u32 = 1000;
 
 pub use crate::fast::atan2_pos;
 
@@ -772,6 +827,34 @@ pub fn airlight_paper_f(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fit_recovers_lambert_and_phong_and_fits_other_lobes() {
+        use relight_brdf::BrdfSpec;
+        let fit = |spec: &str| FogMaterial::fit(spec.parse::<BrdfSpec>().unwrap().build().as_ref());
+        let l = fit("lambert:0.8");
+        assert!((l.albedo - Vec3::splat(0.8)).abs().max_element() < 1e-5 && l.ks == Vec3::ZERO);
+        let p = fit("phong:40@0.9,0.25,0.2");
+        assert_eq!(p.n, 40);
+        let ks = Vec3::new(0.9, 0.25, 0.2) * 42.0 / (2.0 * PI);
+        assert!(
+            (p.ks - ks).abs().max_element() < 1e-4 * ks.max_element(),
+            "{p:?}"
+        );
+        assert!(p.albedo.max_element() < 1e-6, "{p:?}");
+        let m = fit("0.5*lambert:0.6+0.5*phong:20");
+        assert_eq!(m.n, 20, "{m:?}");
+        assert!(
+            (m.albedo - Vec3::splat(0.3)).abs().max_element() < 1e-4,
+            "{m:?}"
+        );
+        // GGX α = 0.2: a narrow lobe (Blinn ≈ 2/α² − 2 = 48 in the half
+        // vector, ≈ 12 about the mirror direction at normal view).
+        let g = fit("ggx:0.2");
+        assert!(g.ks.min_element() > 0.0 && (6..=40).contains(&g.n), "{g:?}");
+        let rough = fit("ggx:0.8");
+        assert!(rough.n < g.n, "{rough:?} vs {g:?}");
+    }
 
     #[test]
     fn phase_fits() {

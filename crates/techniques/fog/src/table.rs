@@ -320,6 +320,22 @@ impl FogTables {
         Self::build_with(size, DEFAULT_PHASE_DEGREE, &DEFAULT_PHONG_EXPONENTS)
     }
 
+    /// [`FogTables::build`] plus a G table for every other Phong exponent
+    /// that `materials` use (those with `ks` ≠ 0), so that any of them can
+    /// be rendered.
+    pub fn build_for<'a>(
+        size: usize,
+        materials: impl IntoIterator<Item = &'a crate::model::FogMaterial>,
+    ) -> Result<Self, FogError> {
+        let mut exponents = DEFAULT_PHONG_EXPONENTS.to_vec();
+        for m in materials {
+            if m.ks != glam::Vec3::ZERO && !exponents.contains(&m.n) {
+                exponents.push(m.n);
+            }
+        }
+        Self::build_with(size, DEFAULT_PHASE_DEGREE, &exponents)
+    }
+
     /// Builds tails for phase degrees 0..=`max_phase_degree` and G tables for
     /// Lambert plus each Phong exponent in `phong` (each ≥ 1, ≤ 4096).
     pub fn build_with(size: usize, max_phase_degree: u32, phong: &[u32]) -> Result<Self, FogError> {
