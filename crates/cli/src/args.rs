@@ -28,6 +28,17 @@ pub enum Command {
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
+    /// Compare two images (EXR, HDR or PNG) of the same size: relative RMS
+    /// difference of the first against the second, the `verify` measure.
+    Compare {
+        /// Image under test.
+        image: PathBuf,
+        /// Reference image.
+        reference: PathBuf,
+        /// Write |image − reference| here (PNG, and an EXR beside it).
+        #[arg(long)]
+        diff: Option<PathBuf>,
+    },
     /// Convert an environment map between parameterizations and formats.
     Convert(ConvertArgs),
     /// Spherical-harmonics tools for IBL bakers.
@@ -59,6 +70,10 @@ pub struct DemoArgs {
     /// Samples per pixel for the reference renderer.
     #[arg(long, default_value_t = 64)]
     pub spp: u32,
+    /// Antialiasing of the raster methods (sh, wavelet, fog): K × K
+    /// samples per pixel, box-filtered like the reference's pixels (1…8).
+    #[arg(long, default_value_t = 2)]
+    pub aa: usize,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,6 +118,12 @@ pub struct RenderArgs {
     /// Rotate the lighting by yaw,pitch,roll in degrees.
     #[arg(long)]
     pub light_rotate: Option<String>,
+    /// Antialiasing of the raster methods (sh, wavelet, fog): K × K
+    /// samples per pixel, box-filtered like the reference's pixels (1…8).
+    /// Per-vertex shading (wavelet) costs the same at any K; only the
+    /// raster work grows.
+    #[arg(long, default_value_t = 1)]
+    pub aa: usize,
     /// Trace shadow rays (self-visibility) in the reference renderer.
     #[arg(long)]
     pub visibility: bool,

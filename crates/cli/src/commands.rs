@@ -23,6 +23,11 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Demo(a) => demo(a, &bar),
         Command::Render(a) => render(*a, &bar),
         Command::Info { files } => info(&files),
+        Command::Compare {
+            image,
+            reference,
+            diff,
+        } => compare(&image, &reference, diff.as_deref()),
         Command::Convert(a) => convert(a),
         Command::Sh(c) => sh(c),
         Command::Bake(c) => bake(c, &bar),
@@ -123,6 +128,7 @@ fn demo(a: DemoArgs, bar: &Bar) -> Result<()> {
         a.method,
         &RenderSettings {
             spp: a.spp,
+            aa: a.aa,
             ..RenderSettings::default()
         },
         bar,
@@ -157,6 +163,11 @@ pub struct RenderSettings {
     pub beta: Option<f32>,
     pub lights: Vec<String>,
     pub fog: String,
+    /// K × K samples per pixel for the raster methods (1 = none).
+    pub aa: usize,
+    /// `world_from_env` lighting rotation (`--light-rotate`). The wavelet
+    /// method rotates in its own step 1 (§3); the others resample the map.
+    pub light_rotation: glam::Mat3,
 }
 
 impl Default for RenderSettings {
@@ -175,6 +186,8 @@ impl Default for RenderSettings {
             beta: None,
             lights: Vec::new(),
             fog: "analytic".into(),
+            aa: 1,
+            light_rotation: glam::Mat3::IDENTITY,
         }
     }
 }
@@ -190,6 +203,28 @@ fn load_normal_map(path: &Path) -> Result<relight_shlight::NormalMap> {
 
 /// Renders `scene` with `method`.
 pub fn render_scene(scene: &Scene, method: Method, s: &RenderSettings, bar: &Bar) -> Result<Image> {
+    ensure!(
+        (1..=8).contains(&s.aa),
+        "--aa must be 1…8 samples per pixel side (got {})",
+        s.aa
+    );
+    // Every method but the wavelet one sees the rotated map itself.
+    let rotated;
+    let scene = if method != Method::Wavelet && s.light_rotation != glam::Mat3::IDENTITY {
+        let mut r = scene.clone();
+        r.env = scene.env.rotated(s.light_rotation, 2);
+        rotated = r;
+        &rotated
+    } else {
+        scene
+    };
+    // The raster methods draw K × K times the pixels and box-filter them.
+    let supersampled = |scene: &Scene| {
+        let mut big = scene.clone();
+        big.camera.width *= s.aa;
+        big.camera.height *= s.aa;
+        big
+    };
     match method {
         Method::Reference => {
             let opts = ReferenceOptions {
@@ -214,12 +249,13 @@ pub fn render_scene(scene: &Scene, method: Method, s: &RenderSettings, bar: &Bar
                 .parse()
                 .map_err(|e| anyhow!("--rotation {}: {e}", s.rotation))?;
             let renderer = relight_shlight::ShRenderer::new(s.order, rotation)
-                .map_err(|e| anyhow!("--order: {e}"))?;
+                .map_err(|e| anyhow!("--order: {e}"))?
+                .with_supersampling(s.aa);
             let nm = s.normal_map.as_deref().map(load_normal_map).transpose()?;
             Ok(renderer.render(scene, nm.as_ref(), bar)?.image)
         }
-        Method::Wavelet => render_wavelet(scene, s, bar),
-        Method::Fog => render_fog(scene, s),
+        Method::Wavelet => Ok(render_wavelet(&supersampled(scene), s, bar)?.box_downsample(s.aa)),
+        Method::Fog => Ok(render_fog(&supersampled(scene), s)?.box_downsample(s.aa)),
     }
 }
 
@@ -250,7 +286,7 @@ fn render_wavelet(scene: &Scene, s: &RenderSettings, bar: &Bar) -> Result<Image>
     );
     let mut renderer = relight_wavelet::WaveletRenderer::new(rot, s.terms)?;
     let t = Instant::now();
-    renderer.set_lighting(&scene.env, glam::Mat3::IDENTITY)?;
+    renderer.set_lighting(&scene.env, s.light_rotation)?;
     let light_ms = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
     let refs: Vec<&relight_wavelet::BrdfBake> = bakes.iter().map(|b| b.as_ref()).collect();
@@ -280,7 +316,8 @@ fn render_fog(scene: &Scene, s: &RenderSettings) -> Result<Image> {
     if lights.is_empty() {
         lights = default_fog_lights(2);
     }
-    let tables = relight_fog::FogTables::build(64)?;
+    let objects = fog_objects(scene);
+    let tables = relight_fog::FogTables::build_for(64, objects.iter().map(|o| &o.material))?;
     let mut settings = relight_fog::FogSettings::new(&tables, beta);
     settings.mode = match s.fog.as_str() {
         "analytic" => relight_fog::FogMode::Analytic,
@@ -290,7 +327,7 @@ fn render_fog(scene: &Scene, s: &RenderSettings) -> Result<Image> {
         other => bail!("--fog {other}: expected `analytic` or `opengl`"),
     };
     Ok(relight_fog::render_fog(
-        &fog_objects(scene),
+        &objects,
         &scene.camera,
         &lights,
         &settings,
@@ -312,19 +349,15 @@ fn default_fog_lights(count: usize) -> Vec<relight_fog::PointLight> {
     .collect()
 }
 
-/// The objects of `scene` as fog-shaded surfaces. Fog shading uses the
-/// paper's Lambert/Phong surfaces: each object becomes Lambertian with the
-/// colour of its BRDF straight down the normal.
+/// The objects of `scene` as fog-shaded surfaces: each BRDF becomes the
+/// paper's Lambert + Phong surface fitted to it ([`relight_fog::FogMaterial::fit`]).
 fn fog_objects(scene: &Scene) -> Vec<relight_fog::FogObject<'_>> {
     scene
         .objects
         .iter()
-        .map(|o| {
-            let albedo = o.brdf.eval(Vec3::Z, Vec3::Z) * std::f32::consts::PI;
-            relight_fog::FogObject {
-                mesh: &o.mesh,
-                material: relight_fog::FogMaterial::lambert(albedo.min(Vec3::ONE)),
-            }
+        .map(|o| relight_fog::FogObject {
+            mesh: &o.mesh,
+            material: relight_fog::FogMaterial::fit(o.brdf.as_ref()),
         })
         .collect()
 }
@@ -430,13 +463,13 @@ fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
             scene.camera.vfov_deg = *fov;
         }
     }
-    if let Some(r) = &a.light_rotate {
-        let v = parse_floats(r, 3, "--light-rotate")?;
-        scene.env = scene.env.rotated(
-            relight_scene::rotation_from_yaw_pitch_roll([v[0], v[1], v[2]]),
-            2,
-        );
-    }
+    let light_rotation = match &a.light_rotate {
+        Some(r) => {
+            let v = parse_floats(r, 3, "--light-rotate")?;
+            relight_scene::rotation_from_yaw_pitch_roll([v[0], v[1], v[2]])
+        }
+        None => glam::Mat3::IDENTITY,
+    };
     let spp = spp.unwrap_or(64);
     ensure!(spp >= 1, "--spp must be at least 1 (got {spp})");
     let method = method.unwrap_or(Method::Reference);
@@ -454,6 +487,8 @@ fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
         beta,
         lights,
         fog: a.fog.clone(),
+        aa: a.aa,
+        light_rotation,
     };
     let image = render_scene(&scene, method, &settings, bar)?;
     let (png, exr) = write_outputs(&image, &a.out)?;
@@ -484,6 +519,60 @@ fn info(files: &[PathBuf]) -> Result<()> {
         "{failed} of {} files could not be read",
         files.len()
     );
+    Ok(())
+}
+
+/// `relight compare`: the relative RMS difference √(Σ|a − r|² / Σ|r|²)
+/// over all pixels and channels, plus the largest per-pixel difference.
+fn compare(image: &Path, reference: &Path, diff: Option<&Path>) -> Result<()> {
+    let load = |p: &Path| -> Result<relight_assets::RgbImage> {
+        let (img, report) = relight_assets::read_image(p)?;
+        warn_all(&report.warnings);
+        Ok(img)
+    };
+    let (a, r) = (load(image)?, load(reference)?);
+    ensure!(
+        (a.width, a.height) == (r.width, r.height),
+        "{} is {}×{} but {} is {}×{}",
+        image.display(),
+        a.width,
+        a.height,
+        reference.display(),
+        r.width,
+        r.height
+    );
+    let (mut num, mut den, mut max) = (0.0f64, 0.0f64, 0.0f32);
+    for (p, q) in a.pixels.iter().zip(&r.pixels) {
+        let d = *p - *q;
+        num += f64::from(d.length_squared());
+        den += f64::from(q.length_squared());
+        max = max.max(d.abs().max_element());
+    }
+    ensure!(
+        num.is_finite() && den.is_finite(),
+        "{} or {} holds NaN or Inf pixels",
+        image.display(),
+        reference.display()
+    );
+    ensure!(den > 0.0, "{}: the reference is black", reference.display());
+    println!(
+        "relight compare: relative RMS {:.5}, largest pixel difference {max:.5} ({}×{})",
+        (num / den).sqrt(),
+        a.width,
+        a.height
+    );
+    if let Some(out) = diff {
+        let mut img = Image::new(a.width, a.height);
+        for ((o, p), q) in img.pixels.iter_mut().zip(&a.pixels).zip(&r.pixels) {
+            *o = (*p - *q).abs();
+        }
+        let (png, exr) = write_outputs(&img, out)?;
+        println!(
+            "relight compare: wrote {} and {}",
+            png.display(),
+            exr.display()
+        );
+    }
     Ok(())
 }
 
