@@ -191,3 +191,84 @@ fn verify_writes_json_and_an_svg_plot() {
     let spec = rows[0]["spec"].as_str().unwrap();
     assert!(svg.contains(spec), "legend lacks {spec}");
 }
+
+/// The relative RMS that `relight compare` prints.
+fn compared(a: &PathBuf, b: &PathBuf) -> f64 {
+    let out = relight(&["compare", a.to_str().unwrap(), b.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text} {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text.split("relative RMS ")
+        .nth(1)
+        .and_then(|t| t.split(',').next())
+        .and_then(|t| t.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no figure in {text}"))
+}
+
+#[test]
+fn light_rotation_and_aa_agree_with_the_reference_by_compare() {
+    let render = |method: &str, rotate: &str, name: &str| {
+        let out = tmp(name);
+        let o = relight(&[
+            "-q",
+            "render",
+            "--mesh",
+            "sphere",
+            "--env",
+            "studio",
+            "--brdf",
+            "lambert",
+            "--size",
+            "48x36",
+            "--method",
+            method,
+            "--spp",
+            "256",
+            "--aa",
+            "2",
+            "--light-rotate",
+            rotate,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        out.with_extension("exr")
+    };
+    let reference = render("reference", "90,30,0", "cmp-ref.png");
+    let sh = render("sh", "90,30,0", "cmp-sh.png");
+    let unrotated = render("sh", "0,0,0", "cmp-sh0.png");
+    let near = compared(&sh, &reference);
+    let far = compared(&unrotated, &reference);
+    assert!(near < 0.12, "SH order 6 vs reference, both rotated: {near}");
+    assert!(far > 2.0 * near, "unrotated {far} vs rotated {near}");
+    // A size mismatch is a one-line error naming both files.
+    let small = tmp("cmp-small.png");
+    let o = relight(&[
+        "-q",
+        "render",
+        "--mesh",
+        "sphere",
+        "--env",
+        "studio",
+        "--size",
+        "8x8",
+        "--method",
+        "sh",
+        "--out",
+        small.to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    let out = relight(&[
+        "compare",
+        small.to_str().unwrap(),
+        reference.to_str().unwrap(),
+    ]);
+    assert_clean_error(&out, "cmp-small.png is 8×8");
+    let out = relight(&[
+        "-q", "render", "--mesh", "sphere", "--aa", "9", "--method", "sh",
+    ]);
+    assert_clean_error(&out, "--aa must be 1…8");
+}
