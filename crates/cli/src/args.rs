@@ -151,9 +151,15 @@ pub struct RenderArgs {
     /// Normal tessellation ntess (ntess² sampled normals), `--method wavelet`.
     #[arg(long, default_value_t = 32)]
     pub ntess: usize,
-    /// Fog extinction coefficient β (1/scene units), `--method fog`.
+    /// Fog extinction coefficient β (1/scene units): `--method fog`, and
+    /// `--method sh`, which then shades with the foggy environment
+    /// (sun-thesis-2008 eq. 3.35–3.37) and shows it behind the objects.
     #[arg(long)]
     pub beta: Option<f32>,
+    /// Distance of the environment's light sources for `--method sh
+    /// --beta` (the PSF needs a finite one, §3.6.4), scene units.
+    #[arg(long, default_value_t = 10.0)]
+    pub env_distance: f32,
     /// Point light `x,y,z,intensity` (repeatable), `--method fog`.
     #[arg(long)]
     pub light: Vec<String>,

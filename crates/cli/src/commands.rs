@@ -163,6 +163,8 @@ pub struct RenderSettings {
     pub beta: Option<f32>,
     pub lights: Vec<String>,
     pub fog: String,
+    /// Distance of the environment's sources in fog (`--method sh --beta`).
+    pub env_distance: f32,
     /// K × K samples per pixel for the raster methods (1 = none).
     pub aa: usize,
     /// `world_from_env` lighting rotation (`--light-rotate`). The wavelet
@@ -186,6 +188,7 @@ impl Default for RenderSettings {
             beta: None,
             lights: Vec::new(),
             fog: "analytic".into(),
+            env_distance: 10.0,
             aa: 1,
             light_rotation: glam::Mat3::IDENTITY,
         }
@@ -248,9 +251,23 @@ pub fn render_scene(scene: &Scene, method: Method, s: &RenderSettings, bar: &Bar
                 .rotation
                 .parse()
                 .map_err(|e| anyhow!("--rotation {}: {e}", s.rotation))?;
-            let renderer = relight_shlight::ShRenderer::new(s.order, rotation)
+            let mut renderer = relight_shlight::ShRenderer::new(s.order, rotation)
                 .map_err(|e| anyhow!("--order: {e}"))?
                 .with_supersampling(s.aa);
+            if let Some(beta) = s.beta {
+                // The foggy environment of eq. 3.35–3.37 at T_sv = β D.
+                let t = f64::from(beta) * f64::from(s.env_distance);
+                ensure!(
+                    beta >= 0.0 && s.env_distance > 0.0 && t.is_finite(),
+                    "--beta {beta} and --env-distance {} must be ≥ 0 and > 0",
+                    s.env_distance
+                );
+                let bands = relight_fog::psf::convolution_weights(t, s.order, true);
+                renderer = renderer.with_lighting_filter(relight_shlight::LightingFilter {
+                    direct: (-t).exp() as f32,
+                    bands: bands.iter().map(|&w| w as f32).collect(),
+                })?;
+            }
             let nm = s.normal_map.as_deref().map(load_normal_map).transpose()?;
             Ok(renderer.render(scene, nm.as_ref(), bar)?.image)
         }
@@ -487,6 +504,7 @@ fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
         beta,
         lights,
         fog: a.fog.clone(),
+        env_distance: a.env_distance,
         aa: a.aa,
         light_rotation,
     };

@@ -55,7 +55,7 @@ pub mod verify;
 pub use bake::{BakeOptions, BrdfShTable};
 pub use bench::{ShRenderBenchRow, bench_sh_render};
 pub use normal_map::NormalMap;
-pub use relight::{ShImage, ShRenderer, ShRotationMethod};
+pub use relight::{LightingFilter, ShImage, ShRenderer, ShRotationMethod};
 pub use verify::{ShVerifyRow, VerifyOptions, VerifyScene, verify_sh};
 
 use relight_render::Cancelled;

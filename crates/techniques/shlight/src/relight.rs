@@ -155,7 +155,29 @@ pub struct ShRenderer {
     supersampling: usize,
     beta_lim: f32,
     env_background: bool,
+    filter: Option<LightingFilter>,
     cache: Mutex<Vec<CacheEntry>>,
+}
+
+/// A zonal (rotationally symmetric) filter of the lighting: shading uses
+/// L′_lm = (`direct` + `bands[l]`) L_lm, and background pixels show
+/// `direct` · L(d) + Σ_lm `bands[l]` L_lm Y_lm(d). Bands past the end of
+/// `bands` get 0. With `direct` = e^{−T_sv} and `bands` the PSF's
+/// √(4π/(2l+1)) PSF_l (`relight_fog::psf::convolution_weights`) this is the
+/// foggy environment of sun-thesis-2008 eq. 3.35–3.37: attenuated lighting
+/// plus its convolution with the single-scattering point-spread function.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightingFilter {
+    /// Weight of the unfiltered lighting (direct transmission), ≥ 0.
+    pub direct: f32,
+    /// Weight of band l of the filtered part (finite).
+    pub bands: Vec<f32>,
+}
+
+impl LightingFilter {
+    fn band(&self, l: usize) -> f32 {
+        self.bands.get(l).copied().unwrap_or(0.0)
+    }
 }
 
 #[derive(Debug)]
@@ -177,6 +199,9 @@ pub(crate) struct Prepared {
     raster: Rasterizer,
     camera: Camera,
     k: usize,
+    /// With a [`LightingFilter`]: its `direct` weight and the filtered
+    /// lighting's SH (order_max², RGB), added to the background.
+    filtered_background: Option<(f32, [Vec<f32>; 3])>,
 }
 
 struct DrawData {
@@ -225,6 +250,7 @@ impl ShRenderer {
             supersampling: 1,
             beta_lim: f32::INFINITY,
             env_background: true,
+            filter: None,
             cache: Mutex::new(Vec::new()),
         })
     }
@@ -265,6 +291,27 @@ impl ShRenderer {
     pub fn with_env_background(mut self, on: bool) -> Self {
         self.env_background = on;
         self
+    }
+
+    /// Filters the lighting ([`LightingFilter`]), e.g. into a foggy
+    /// environment.
+    ///
+    /// # Errors
+    /// A negative or non-finite `direct`, or a non-finite band weight.
+    pub fn with_lighting_filter(mut self, filter: LightingFilter) -> Result<Self, ShLightError> {
+        if !(filter.direct.is_finite() && filter.direct >= 0.0)
+            || filter.bands.iter().any(|w| !w.is_finite())
+        {
+            return Err(ShLightError::InvalidParameter {
+                what: "lighting filter",
+                why: format!(
+                    "direct weight {} must be finite and ≥ 0 and every band weight finite ({:?})",
+                    filter.direct, filter.bands
+                ),
+            });
+        }
+        self.filter = Some(filter);
+        Ok(self)
     }
 
     /// Bands.
@@ -382,7 +429,20 @@ impl ShRenderer {
             .map(|(i, o)| self.table(&o.brdf, order_max, i, progress))
             .collect::<Result<Vec<_>, _>>()?;
         progress.check()?;
-        let light = project_env(&scene.env, order_max, Window::None)?;
+        let mut light = project_env(&scene.env, order_max, Window::None)?;
+        // The filtered part alone, for the background (with a filter).
+        let mut filtered_background = None;
+        if let Some(f) = &self.filter {
+            let mut filtered = light.clone();
+            for (lit, only) in light.channels.iter_mut().zip(&mut filtered.channels) {
+                for (i, (a, b)) in lit.iter_mut().zip(only.iter_mut()).enumerate() {
+                    let w = f.band((i as f64).sqrt() as usize);
+                    *b *= w;
+                    *a *= f.direct + w;
+                }
+            }
+            filtered_background = Some((f.direct, filtered.channels));
+        }
         let nn = order_max * order_max;
         let stride = ATTR_HEADER + 3 * nn;
         let plan = IvanicRuedenberg::<f32>::new(order_max)?;
@@ -461,6 +521,7 @@ impl ShRenderer {
             raster,
             camera,
             k,
+            filtered_background,
         })
     }
 }
@@ -702,7 +763,16 @@ impl Prepared {
             })
         };
         let env = &scene.env;
-        let bg = |d: Vec3| env.eval(d);
+        let bg = |d: Vec3| match &self.filtered_background {
+            None => env.eval(d),
+            Some((direct, sh)) => {
+                let nn = self.order_max * self.order_max;
+                let mut y = [0.0f32; MAX_SHADING_ORDER * MAX_SHADING_ORDER];
+                relight_sh::basis::eval_sh_into(self.order_max, d.to_array(), &mut y[..nn]);
+                let dot = |c: &[f32]| c.iter().zip(&y[..nn]).map(|(a, b)| a * b).sum::<f32>();
+                *direct * env.eval(d) + Vec3::new(dot(&sh[0]), dot(&sh[1]), dot(&sh[2]))
+            }
+        };
         let background = if env_background {
             Background::Environment(&bg)
         } else {

@@ -309,3 +309,52 @@ fn rotation_method_parses() {
     assert!(ShRenderer::new(0, ShRotationMethod::Exact).is_err());
     assert!(ShRenderer::new(17, ShRotationMethod::Exact).is_err());
 }
+
+#[test]
+fn lighting_filter_scales_bands_and_background() {
+    let lambert: Arc<dyn Brdf> = Arc::new(Lambert::new(Vec3::splat(0.7)).unwrap());
+    let scene = sphere_scene(lambert, sky_env());
+    let render = |f: Option<relight_shlight::LightingFilter>| {
+        let mut r = ShRenderer::new(4, ShRotationMethod::Exact).unwrap();
+        if let Some(f) = f {
+            r = r.with_lighting_filter(f).unwrap();
+        }
+        r.render(&scene, None, &NoProgress).unwrap()
+    };
+    let filter =
+        |direct: f32, bands: Vec<f32>| Some(relight_shlight::LightingFilter { direct, bands });
+    let plain = render(None);
+    // The identity filter changes nothing; `direct` alone scales everything.
+    let same = render(filter(1.0, vec![]));
+    let half = render(filter(0.5, vec![0.0; 4]));
+    for ((a, b), c) in plain
+        .image
+        .pixels
+        .iter()
+        .zip(&same.image.pixels)
+        .zip(&half.image.pixels)
+    {
+        assert!((*a - *b).abs().max_element() <= 1e-6 * a.max_element().max(1.0));
+        assert!((*a * 0.5 - *c).abs().max_element() <= 1e-5 * a.max_element().max(1.0));
+    }
+    // Band 0 only: uniform lighting of the environment's mean radiance, so
+    // the Lambert sphere is uniform ρ·mean and the background is the mean.
+    let dc = render(filter(0.0, vec![1.0]));
+    let mean = scene.env.integral() / (4.0 * std::f32::consts::PI);
+    for (p, &covered) in dc.image.pixels.iter().zip(&dc.mask) {
+        let want = if covered { mean * 0.7 } else { mean };
+        if covered || p.max_element() > 0.0 {
+            assert!(
+                (*p - want).abs().max_element() < 2e-3 * want.max_element(),
+                "{p} vs {want}"
+            );
+        }
+    }
+    let bad = ShRenderer::new(4, ShRotationMethod::Exact)
+        .unwrap()
+        .with_lighting_filter(relight_shlight::LightingFilter {
+            direct: -1.0,
+            bands: vec![],
+        });
+    assert!(matches!(bad, Err(ShLightError::InvalidParameter { .. })));
+}
