@@ -6,18 +6,21 @@
 //!   the paper's own F table (eq. 3.16) for comparison. Error = |model −
 //!   oracle| / oracle per sample (mean and max).
 //! * `glow_single` / `glow_multiple`: glow images (a light in front of a
-//!   40° camera) vs the volumetric Monte Carlo of [`crate::volumetric`]
-//!   along the pixel-centre rays: relative RMS error (`mean_error`, which
-//!   includes the MC noise) and the MC's own relative standard error
-//!   (`noise`), for T_sv = 0.25 … 25 (Figure 3.7). The paper pairs
-//!   T_sv ∈ (0.25, 25) with T_vp ∈ (0.5, 50), so the scene is closed by
-//!   black walls at T_vp = 2 T_sv (variant `walls 2D_sv`); `open` rows
-//!   repeat the multiple-scattering comparison in the unbounded medium.
-//!   In a non-absorbing medium multiply scattered light is a large part of
-//!   the glow away from the source even for thin media (the MC's scattered
-//!   flux matches the exact I (1 − e^{−T})/D² of energy conservation, while
-//!   single scattering carries only 39 % of it at T = 1), so these errors
-//!   measure the single-scattering approximation itself.
+//!   square camera, [`GlowSetup`]) vs the volumetric Monte Carlo of
+//!   [`crate::volumetric`] along the pixel-centre rays: relative RMS error
+//!   (`mean_error`, which includes the MC noise), the RMS error over the
+//!   brightest pixel (`max_error`, [`GlowError::peak_rel_rms`]) and the
+//!   MC's own relative standard error (`noise`), for T_sv = 0.25 … 25
+//!   (Figure 3.7). The paper pairs T_sv ∈ (0.25, 25) with T_vp ∈ (0.5, 50),
+//!   so the scene is closed by black walls at T_vp = 2 T_sv (variants
+//!   `walls 2D_sv`); `open` rows repeat the multiple-scattering comparison
+//!   in the unbounded medium and `10°` rows in a narrow view of the glow's
+//!   core. In a non-absorbing medium multiply scattered light is a large
+//!   part of the glow away from the source even for thin media (the MC's
+//!   scattered flux matches the exact I (1 − e^{−T})/D² of energy
+//!   conservation, while single scattering carries only 39 % of it at
+//!   T = 1), so these errors measure the single-scattering approximation
+//!   itself.
 //! * `surface_lambert` / `surface_phong`: the scattered surface term
 //!   β e^{−T} G̃_n / (2π D) vs numerical integration of eq. 3.22 (airlight
 //!   from eq. 3.5 at Gauss–Legendre nodes in γ′ times a midpoint sum of the
@@ -49,9 +52,11 @@ pub struct VerifyRow {
     /// surface_phong; γ in degrees for psf rows.
     pub param: f64,
     pub samples: usize,
-    /// Mean relative error (relative RMS error for glows; mean absolute for psf).
+    /// Mean relative error (relative RMS error [`GlowError::rel_rms`] for
+    /// glows; mean absolute for psf).
     pub mean_error: f64,
-    /// Max relative error (glows: NaN; psf: std of the absolute error).
+    /// Max relative error (glows: the RMS error over the brightest MC
+    /// pixel, [`GlowError::peak_rel_rms`]; psf: std of the absolute error).
     pub max_error: f64,
     /// Monte Carlo relative standard error (glows), else 0.
     pub noise: f64,
@@ -177,61 +182,93 @@ pub fn verify_airlight(sizes: &[usize], n: usize) -> Vec<VerifyRow> {
     rows
 }
 
-/// Glow comparison for one optical thickness in an unbounded medium:
-/// [`glow_error_walls`] without walls.
-#[must_use]
-pub fn glow_error(
-    tables: &FogTables,
-    t_sv: f32,
-    res: usize,
-    spp: u32,
-    transport: Transport,
-    seed: u64,
-) -> (f64, f64) {
-    glow_error_walls(tables, t_sv, res, spp, transport, seed, None)
+/// One glow comparison (Figure 3.7): a unit point light at D_sv = 10
+/// (just off the optical axis, so no pixel centre sits on it) straight
+/// ahead of a square camera, β = T_sv / D_sv, isotropic phase.
+#[derive(Clone, Copy, Debug)]
+pub struct GlowSetup {
+    /// Optical thickness T_sv between eye and light.
+    pub t_sv: f32,
+    /// Image side in pixels.
+    pub res: usize,
+    /// Monte Carlo samples per pixel.
+    pub spp: u32,
+    pub transport: Transport,
+    pub seed: u64,
+    /// `Some(k)`: a black sphere of radius k·D_sv about the eye closes the
+    /// medium, so every view ray ends at T_vp = k·T_sv and light scattered
+    /// out to it is absorbed (the paper pairs T_sv ∈ (0.25, 25) with
+    /// T_vp ∈ (0.5, 50), i.e. k = 2); `None`: unbounded medium.
+    pub walls: Option<f32>,
+    /// Vertical (= horizontal) field of view, degrees.
+    pub vfov_deg: f32,
 }
 
-/// Glow comparison for one optical thickness (Figure 3.7): a unit point
-/// light at D_sv = 10 straight ahead of a 40° camera, β = T_sv / D_sv,
-/// isotropic phase: the analytic airlight (bilinear tables) vs the
-/// volumetric Monte Carlo of `transport`, both along each pixel-centre ray. With `walls = Some(k)` the scene is enclosed by a black sphere of
-/// radius k·D_sv about the eye, so every view ray ends at T_vp = k·T_sv
-/// (the paper's comparison spans T_sv ∈ (0.25, 25) with T_vp ∈ (0.5, 50),
-/// i.e. k = 2) and light that scatters out to the walls is absorbed; the
-/// analytic side then uses the finite-segment airlight of eq. 3.16.
-/// Returns (relative RMS error √(Σ(a − m)² / Σm²), the MC's own relative
-/// standard error √(Σ var(m) / Σm²)).
+impl GlowSetup {
+    /// The paper's pairing (walls at 2 D_sv), 40° field of view, 24² pixels,
+    /// 256 samples per pixel.
+    #[must_use]
+    pub fn new(t_sv: f32, transport: Transport) -> Self {
+        Self {
+            t_sv,
+            res: 24,
+            spp: 256,
+            transport,
+            seed: 1,
+            walls: Some(2.0),
+            vfov_deg: 40.0,
+        }
+    }
+}
+
+/// What [`glow_error`] measures.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GlowError {
+    /// Relative RMS error √(Σ(a − m)² / Σm²) of the analytic airlight `a`
+    /// against the Monte Carlo `m` (includes the MC noise).
+    pub rel_rms: f64,
+    /// The MC's own relative standard error √(Σ var(m) / Σm²).
+    pub noise: f64,
+    /// RMS error over the image's brightest MC pixel, √(mean (a − m)²) /
+    /// max m: another reading of "relative RMS" that weights the glow's
+    /// core (it depends on how close a pixel comes to the light).
+    pub peak_rel_rms: f64,
+}
+
+/// The analytic airlight (bilinear 64² tables; the finite-segment airlight
+/// of eq. 3.16 when walls close the medium) against the volumetric Monte
+/// Carlo of `g.transport`, both along each pixel-centre ray.
 #[must_use]
-pub fn glow_error_walls(
-    tables: &FogTables,
-    t_sv: f32,
-    res: usize,
-    spp: u32,
-    transport: Transport,
-    seed: u64,
-    walls: Option<f32>,
-) -> (f64, f64) {
+pub fn glow_error(tables: &FogTables, g: &GlowSetup) -> GlowError {
+    let nan = GlowError {
+        rel_rms: f64::NAN,
+        noise: f64::NAN,
+        peak_rel_rms: f64::NAN,
+    };
+    let (res, spp) = (g.res, g.spp);
     let d_sv = 10.0f32;
-    let beta = t_sv / d_sv;
+    let beta = g.t_sv / d_sv;
     // Light slightly off the optical axis so no pixel centre sits on it.
     let light = PointLight::new(Vec3::new(0.0137, 0.0091, -d_sv), Vec3::ONE);
     let camera = Camera {
         eye: Vec3::ZERO,
         target: Vec3::NEG_Z,
         up: Vec3::Y,
-        vfov_deg: 40.0,
+        vfov_deg: g.vfov_deg,
         width: res,
         height: res,
     };
     let phase = Phase::isotropic();
     let Ok(model) = FogModel::new(tables, beta, &phase, Interp::Bilinear) else {
-        return (f64::NAN, f64::NAN);
+        return nan;
     };
     let Ok(pl) = model.prepare_lights(camera.eye, &[light]) else {
-        return (f64::NAN, f64::NAN);
+        return nan;
     };
     let lights = [light];
-    let wall_mesh = walls.map(|k| crate::render::uv_sphere(camera.eye, k * d_sv, 48, 96));
+    let wall_mesh = g
+        .walls
+        .map(|k| crate::render::uv_sphere(camera.eye, k * d_sv, 48, 96));
     let bvh = wall_mesh.as_ref().map(|m| SceneBvh::build(&[m]));
     let black = [FogMaterial::lambert(Vec3::ZERO)];
     let scene = VolumetricScene {
@@ -253,10 +290,10 @@ pub fn glow_error_walls(
                 None => model.airlight(&pl[0], d, None),
                 Some(h) => model.airlight(&pl[0], d, Some((o + h.t * d, h.t, (-beta * h.t).exp()))),
             });
-            let mut rng = Rng::for_sample(seed, i as u64, 0);
+            let mut rng = Rng::for_sample(g.seed, i as u64, 0);
             let (mut s, mut s2) = (0.0f64, 0.0f64);
             for _ in 0..spp {
-                let v = f64::from(scene.radiance_sample(o, d, transport, &mut rng).x);
+                let v = f64::from(scene.radiance_sample(o, d, g.transport, &mut rng).x);
                 s += v;
                 s2 += v * v;
             }
@@ -268,7 +305,12 @@ pub fn glow_error_walls(
     let num: f64 = px.iter().map(|(a, m, _)| (a - m).powi(2)).sum();
     let den: f64 = px.iter().map(|(_, m, _)| m * m).sum();
     let var: f64 = px.iter().map(|(_, _, v)| v).sum();
-    ((num / den).sqrt(), (var / den).sqrt())
+    let peak = px.iter().fold(0.0f64, |p, (_, m, _)| p.max(*m));
+    GlowError {
+        rel_rms: (num / den).sqrt(),
+        noise: (var / den).sqrt(),
+        peak_rel_rms: (num / px.len() as f64).sqrt() / peak,
+    }
 }
 
 /// Numerical eq. 3.22 for the scattered surface term with lobe exponent `n`
@@ -367,47 +409,80 @@ pub fn verify_fog(quick: bool) -> Vec<VerifyRow> {
         return rows;
     };
     let (res, spp_s, spp_m) = if quick { (12, 32, 64) } else { (24, 256, 512) };
-    // The paper's pairing T_vp = 2 T_sv: black walls at 2 D_sv.
-    let walls = Some(2.0);
     let multiple = Transport::Multiple {
         max_scatters: 64,
         max_bounces: 0,
     };
     for &t in &[0.25f32, 0.5, 1.0, 2.0, 5.0, 10.0, 25.0] {
-        let (e, noise) = glow_error_walls(&tables, t, res, spp_s, Transport::Single, 1, walls);
-        rows.push(row(
-            "glow_single",
-            "single, walls 2D_sv",
-            f64::from(t),
-            res * res,
-            e,
-            f64::NAN,
-            noise,
-            f64::NAN,
-        ));
-        let (e, noise) = glow_error_walls(&tables, t, res, spp_m, multiple, 2, walls);
-        let target = if t <= 2.0 { 0.04 } else { f64::NAN };
-        rows.push(row(
-            "glow_multiple",
-            "multiple(64), walls 2D_sv",
-            f64::from(t),
-            res * res,
-            e,
-            f64::NAN,
-            noise,
-            target,
-        ));
-        let (e, noise) = glow_error_walls(&tables, t, res, spp_m, multiple, 3, None);
-        rows.push(row(
-            "glow_multiple",
-            "multiple(64), open",
-            f64::from(t),
-            res * res,
-            e,
-            f64::NAN,
-            noise,
-            f64::NAN,
-        ));
+        // The paper's pairing T_vp = 2 T_sv (walls at 2 D_sv), 40° view;
+        // multiple scattering also in the open medium and in a 10° view
+        // of the glow's core.
+        let base = GlowSetup {
+            res,
+            ..GlowSetup::new(t, Transport::Single)
+        };
+        let cases = [
+            ("glow_single", "single, walls 2D_sv, 40°", base, spp_s, 1),
+            (
+                "glow_multiple",
+                "multiple(64), walls 2D_sv, 40°",
+                base,
+                spp_m,
+                2,
+            ),
+            (
+                "glow_multiple",
+                "multiple(64), open, 40°",
+                GlowSetup {
+                    walls: None,
+                    ..base
+                },
+                spp_m,
+                3,
+            ),
+            (
+                "glow_multiple",
+                "multiple(64), walls 2D_sv, 10°",
+                GlowSetup {
+                    vfov_deg: 10.0,
+                    ..base
+                },
+                spp_m,
+                4,
+            ),
+        ];
+        for (check, variant, setup, spp, seed) in cases {
+            let transport = if check == "glow_single" {
+                Transport::Single
+            } else {
+                multiple
+            };
+            let g = glow_error(
+                &tables,
+                &GlowSetup {
+                    spp,
+                    seed,
+                    transport,
+                    ..setup
+                },
+            );
+            // Figure 3.7's claim: < 4 % for T_sv ≤ 2 in the paper's setup.
+            let target = if check == "glow_multiple" && seed == 2 && t <= 2.0 {
+                0.04
+            } else {
+                f64::NAN
+            };
+            rows.push(row(
+                check,
+                variant,
+                f64::from(t),
+                res * res,
+                g.rel_rms,
+                g.peak_rel_rms,
+                g.noise,
+                target,
+            ));
+        }
     }
     rows.extend(verify_surface(&tables, if quick { 24 } else { 200 }));
     for r in psf_factorization_error(&[2.0, 5.0, 10.0, 20.0, 45.0, 90.0, 135.0, 180.0]) {

@@ -6,7 +6,7 @@ use proptest::prelude::*;
 use relight_fog::model::{airlight_model, opengl_fog_pixel};
 use relight_fog::render::{floor_grid, uv_sphere};
 use relight_fog::special::{airlight_eq35, f_special, fk_special, g_scaled, tail_ratio};
-use relight_fog::verify::{glow_error, surface_scatter_eq322};
+use relight_fog::verify::{GlowSetup, glow_error, surface_scatter_eq322};
 use relight_fog::volumetric::Transport;
 use relight_fog::*;
 use relight_render::Camera;
@@ -59,7 +59,17 @@ fn airlight_matches_direct_integration_of_eq35() {
 #[test]
 fn mc_single_scatter_matches_analytic_airlight() {
     for &t in &[0.5f32, 2.0] {
-        let (e, noise) = glow_error(tables(), t, 6, 64, Transport::Single, 11);
+        let g = glow_error(
+            tables(),
+            &GlowSetup {
+                res: 6,
+                spp: 64,
+                seed: 11,
+                walls: None,
+                ..GlowSetup::new(t, Transport::Single)
+            },
+        );
+        let (e, noise) = (g.rel_rms, g.noise);
         // Sampling noise (4σ) plus the 32² table's interpolation error.
         assert!(
             e < 4.0 * noise + 0.02,
