@@ -235,6 +235,9 @@ pub enum BakeCommand {
         /// Target hemi-octahedral side m (default n/2).
         #[arg(long)]
         m: Option<usize>,
+        /// Samples per target texel side of the area integral (1…32).
+        #[arg(long, default_value_t = 8)]
+        supersample: usize,
         #[arg(long)]
         out: PathBuf,
     },

@@ -753,17 +753,19 @@ fn bake(c: BakeCommand, bar: &Bar) -> Result<()> {
             ntess,
             ntrunc,
             m,
+            supersample,
             out,
         } => {
             let mut p = relight_wavelet::RotationParams::new(n, ntess, ntrunc);
             if let Some(m) = m {
                 p.m = m;
             }
+            p.supersample = supersample;
             p.validate()?;
             let rot = relight_wavelet::bake_rotation(&p, bar)?;
             rot.save(&out)?;
             println!(
-                "relight bake rotation: n={n} ntess={ntess} ntrunc={ntrunc} m={}: {:.1} nnz/row, {:.1} MB, wrote {} in {:.1} s",
+                "relight bake rotation: n={n} ntess={ntess} ntrunc={ntrunc} m={} supersample={supersample}: {:.1} nnz/row, {:.1} MB, wrote {} in {:.1} s",
                 p.m,
                 rot.nnz_per_row(),
                 rot.size_bytes() as f64 / 1e6,
