@@ -142,6 +142,11 @@ pub struct RenderArgs {
     /// Cache directory for baked data (`--method wavelet`).
     #[arg(long)]
     pub cache: Option<PathBuf>,
+    /// Per-vertex ambient occlusion for `--method wavelet` (§3: radiance ×
+    /// AO): this many cosine-weighted rays per vertex against every object
+    /// (0 = off).
+    #[arg(long, default_value_t = 0)]
+    pub ao: u32,
     /// Wavelet lighting terms kept.
     #[arg(long, default_value_t = 256)]
     pub terms: usize,

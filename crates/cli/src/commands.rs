@@ -158,6 +158,8 @@ pub struct RenderSettings {
     pub n: usize,
     pub ntess: usize,
     pub terms: usize,
+    /// Ambient-occlusion rays per vertex (`--method wavelet`; 0 = off).
+    pub ao: u32,
     pub cache: Option<PathBuf>,
     /// Fog parameters (`--method fog`).
     pub beta: Option<f32>,
@@ -184,6 +186,7 @@ impl Default for RenderSettings {
             n: 64,
             ntess: 32,
             terms: 256,
+            ao: 0,
             cache: None,
             beta: None,
             lights: Vec::new(),
@@ -288,7 +291,8 @@ fn render_wavelet(scene: &Scene, s: &RenderSettings, bar: &Bar) -> Result<Image>
     let mut bakes = Vec::new();
     for o in &scene.objects {
         let key = format!("{:?}", o.brdf);
-        let p = relight_wavelet::BrdfBakeParams::new(&key, params.m, 64, 128);
+        let p =
+            relight_wavelet::BrdfBakeParams::new(&key, params.m, 64, 128.min(params.target_len()));
         bakes.push(relight_wavelet::bake_or_load_brdf(
             &p,
             o.brdf.as_ref(),
@@ -305,9 +309,25 @@ fn render_wavelet(scene: &Scene, s: &RenderSettings, bar: &Bar) -> Result<Image>
     let t = Instant::now();
     renderer.set_lighting(&scene.env, s.light_rotation)?;
     let light_ms = t.elapsed().as_secs_f64() * 1e3;
-    let t = Instant::now();
     let refs: Vec<&relight_wavelet::BrdfBake> = bakes.iter().map(|b| b.as_ref()).collect();
-    let image = renderer.render(scene, &refs, &scene.camera, None)?;
+    let ao = if s.ao > 0 {
+        let t = Instant::now();
+        let meshes: Vec<&relight_geom::Mesh> = scene.objects.iter().map(|o| &*o.mesh).collect();
+        let bvh = relight_render::SceneBvh::build(&meshes);
+        let ao = (0..meshes.len())
+            .map(|i| bvh.vertex_ambient_occlusion(i, s.ao, s.seed, bar))
+            .collect::<Result<Vec<_>, _>>()?;
+        eprintln!(
+            "relight: ambient occlusion, {} rays per vertex: {:.2} s",
+            s.ao,
+            t.elapsed().as_secs_f64()
+        );
+        Some(ao)
+    } else {
+        None
+    };
+    let t = Instant::now();
+    let image = renderer.render(scene, &refs, &scene.camera, ao.as_deref())?;
     eprintln!(
         "relight: wavelet: lighting change {light_ms:.1} ms, view change + raster {:.1} ms",
         t.elapsed().as_secs_f64() * 1e3
@@ -500,6 +520,7 @@ fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
         n: a.n,
         ntess: a.ntess,
         terms: a.terms,
+        ao: a.ao,
         cache: a.cache.clone(),
         beta,
         lights,

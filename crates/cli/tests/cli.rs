@@ -272,3 +272,45 @@ fn light_rotation_and_aa_agree_with_the_reference_by_compare() {
     ]);
     assert_clean_error(&out, "--aa must be 1…8");
 }
+
+#[test]
+fn wavelet_render_bakes_into_its_cache_and_applies_ambient_occlusion() {
+    let cache = tmp("wavelet-cache");
+    let render = |ao: &str, name: &str| {
+        let out = tmp(name);
+        let o = relight(&[
+            "-q",
+            "render",
+            "--method",
+            "wavelet",
+            "--mesh",
+            "knot",
+            "--env",
+            "studio",
+            "--n",
+            "16",
+            "--ntess",
+            "4",
+            "--size",
+            "48x36",
+            "--ao",
+            ao,
+            "--cache",
+            cache.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        out.with_extension("exr")
+    };
+    let plain = render("0", "wav-plain.png");
+    let baked: Vec<_> = std::fs::read_dir(&cache).unwrap().collect();
+    assert!(
+        baked.len() >= 2,
+        "rotation and BRDF bakes cached: {baked:?}"
+    );
+    let occluded = render("16", "wav-ao.png");
+    // The knot's bumps occlude themselves: darker, but far from black.
+    let d = compared(&occluded, &plain);
+    assert!(d > 0.01 && d < 0.6, "AO vs none: {d}");
+}
