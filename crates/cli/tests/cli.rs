@@ -208,108 +208,86 @@ fn compared(a: &PathBuf, b: &PathBuf) -> f64 {
         .unwrap_or_else(|| panic!("no figure in {text}"))
 }
 
+/// Runs `relight -q render ARGS --out <tmp>/NAME` (ARGS split at spaces),
+/// asserts success and returns the EXR written beside the PNG.
+fn rendered(args: &str, name: &str) -> PathBuf {
+    let out = tmp(name);
+    let mut all = vec!["-q", "render"];
+    all.extend(args.split_whitespace());
+    all.extend(["--out", out.to_str().unwrap()]);
+    let o = relight(&all);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    out.with_extension("exr")
+}
+
 #[test]
 fn light_rotation_and_aa_agree_with_the_reference_by_compare() {
-    let render = |method: &str, rotate: &str, name: &str| {
-        let out = tmp(name);
-        let o = relight(&[
-            "-q",
-            "render",
-            "--mesh",
-            "sphere",
-            "--env",
-            "studio",
-            "--brdf",
-            "lambert",
-            "--size",
-            "48x36",
-            "--method",
-            method,
-            "--spp",
-            "256",
-            "--aa",
-            "2",
-            "--light-rotate",
-            rotate,
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        out.with_extension("exr")
-    };
-    let reference = render("reference", "90,30,0", "cmp-ref.png");
-    let sh = render("sh", "90,30,0", "cmp-sh.png");
-    let unrotated = render("sh", "0,0,0", "cmp-sh0.png");
+    let sphere = "--mesh sphere --env studio --brdf lambert --size 48x36 --aa 2 --spp 256";
+    let reference = rendered(
+        &format!("{sphere} --method reference --light-rotate 90,30,0"),
+        "cmp-ref.png",
+    );
+    let sh = rendered(
+        &format!("{sphere} --method sh --light-rotate 90,30,0"),
+        "cmp-sh.png",
+    );
+    let unrotated = rendered(&format!("{sphere} --method sh"), "cmp-sh0.png");
     let near = compared(&sh, &reference);
     let far = compared(&unrotated, &reference);
     assert!(near < 0.12, "SH order 6 vs reference, both rotated: {near}");
     assert!(far > 2.0 * near, "unrotated {far} vs rotated {near}");
     // A size mismatch is a one-line error naming both files.
-    let small = tmp("cmp-small.png");
-    let o = relight(&[
-        "-q",
-        "render",
-        "--mesh",
-        "sphere",
-        "--env",
-        "studio",
-        "--size",
-        "8x8",
-        "--method",
-        "sh",
-        "--out",
-        small.to_str().unwrap(),
-    ]);
-    assert!(o.status.success());
+    let small = rendered(
+        "--mesh sphere --env studio --size 8x8 --method sh",
+        "cmp-small.png",
+    );
     let out = relight(&[
         "compare",
         small.to_str().unwrap(),
         reference.to_str().unwrap(),
     ]);
-    assert_clean_error(&out, "cmp-small.png is 8×8");
+    assert_clean_error(&out, "cmp-small.exr is 8×8");
     let out = relight(&[
         "-q", "render", "--mesh", "sphere", "--aa", "9", "--method", "sh",
     ]);
     assert_clean_error(&out, "--aa must be 1…8");
+    // SH in fog (the foggy environment) changes the image; a negative β is
+    // a one-line error.
+    let foggy = rendered(
+        &format!("{sphere} --method sh --light-rotate 90,30,0 --beta 0.1"),
+        "cmp-fog.png",
+    );
+    let fog_vs_clear = compared(&foggy, &sh);
+    assert!(
+        fog_vs_clear > 0.1,
+        "fog at T = 1 should change the image: {fog_vs_clear}"
+    );
+    let out = relight(&[
+        "-q",
+        "render",
+        "--mesh",
+        "sphere",
+        "--method",
+        "sh",
+        "--beta=-1",
+    ]);
+    assert_clean_error(&out, "--beta -1");
 }
 
 #[test]
 fn wavelet_render_bakes_into_its_cache_and_applies_ambient_occlusion() {
     let cache = tmp("wavelet-cache");
-    let render = |ao: &str, name: &str| {
-        let out = tmp(name);
-        let o = relight(&[
-            "-q",
-            "render",
-            "--method",
-            "wavelet",
-            "--mesh",
-            "knot",
-            "--env",
-            "studio",
-            "--n",
-            "16",
-            "--ntess",
-            "4",
-            "--size",
-            "48x36",
-            "--ao",
-            ao,
-            "--cache",
-            cache.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        out.with_extension("exr")
-    };
-    let plain = render("0", "wav-plain.png");
+    let knot = format!(
+        "--method wavelet --mesh knot --env studio --n 16 --ntess 4 --size 48x36 --cache {}",
+        cache.display()
+    );
+    let plain = rendered(&knot, "wav-plain.png");
     let baked: Vec<_> = std::fs::read_dir(&cache).unwrap().collect();
     assert!(
         baked.len() >= 2,
         "rotation and BRDF bakes cached: {baked:?}"
     );
-    let occluded = render("16", "wav-ao.png");
+    let occluded = rendered(&format!("{knot} --ao 16"), "wav-ao.png");
     // The knot's bumps occlude themselves: darker, but far from black.
     let d = compared(&occluded, &plain);
     assert!(d > 0.01 && d < 0.6, "AO vs none: {d}");
