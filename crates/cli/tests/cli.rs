@@ -1,7 +1,7 @@
 //! End-to-end tests of the `relight` binary: the fresh-machine demo, scene
 //! files, and bad input (one-line error, non-zero exit, never a panic).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn relight(args: &[&str]) -> Output {
@@ -193,7 +193,7 @@ fn verify_writes_json_and_an_svg_plot() {
 }
 
 /// The relative RMS that `relight compare` prints.
-fn compared(a: &PathBuf, b: &PathBuf) -> f64 {
+fn compared(a: &Path, b: &Path) -> f64 {
     let out = relight(&["compare", a.to_str().unwrap(), b.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
