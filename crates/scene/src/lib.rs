@@ -9,12 +9,13 @@
 pub mod file;
 pub mod studio;
 
-use glam::{Affine3A, EulerRot, Mat3, Quat, Vec3};
+use glam::{Affine3A, Quat, Vec3};
 use relight_assets::AssetError;
 use relight_brdf::{Brdf, BrdfSpec};
 use relight_geom::Mesh;
 use relight_render::{Camera, Object, Scene};
 use relight_sphere::EnvMap;
+pub use relight_sphere::rotation_from_yaw_pitch_roll;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -126,18 +127,6 @@ pub fn with_brdf(scene: &Scene, brdf: &Arc<dyn Brdf>) -> Scene {
         o.brdf = brdf.clone();
     }
     s
-}
-
-/// `world_from_old` rotation for yaw (about +Y), pitch (about +X) and roll
-/// (about +Z), in degrees, applied in that order (yaw outermost).
-#[must_use]
-pub fn rotation_from_yaw_pitch_roll(deg: [f32; 3]) -> Mat3 {
-    Mat3::from_euler(
-        EulerRot::YXZ,
-        deg[0].to_radians(),
-        deg[1].to_radians(),
-        deg[2].to_radians(),
-    )
 }
 
 /// A camera that frames all `objects` from the front (+Z), slightly above.

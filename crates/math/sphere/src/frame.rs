@@ -1,6 +1,6 @@
 //! Local shading frames and spherical-coordinate helpers.
 
-use glam::Vec3;
+use glam::{EulerRot, Mat3, Vec3};
 
 /// An orthonormal frame; `z` is the surface normal in shading frames.
 ///
@@ -71,4 +71,17 @@ pub fn spherical_direction(theta: f32, phi: f32) -> Vec3 {
     let (st, ct) = theta.sin_cos();
     let (sp, cp) = phi.sin_cos();
     Vec3::new(st * cp, st * sp, ct)
+}
+
+/// `world_from_old` rotation for yaw (about +Y), pitch (about +X) and roll
+/// (about +Z), in degrees, applied in that order (yaw outermost):
+/// `R_y(yaw) · R_x(pitch) · R_z(roll)`. The `--light-rotate` convention.
+#[must_use]
+pub fn rotation_from_yaw_pitch_roll(deg: [f32; 3]) -> Mat3 {
+    Mat3::from_euler(
+        EulerRot::YXZ,
+        deg[0].to_radians(),
+        deg[1].to_radians(),
+        deg[2].to_radians(),
+    )
 }

@@ -57,7 +57,7 @@ pub mod map;
 pub mod param;
 pub mod verify;
 
-pub use frame::Frame;
+pub use frame::{Frame, rotation_from_yaw_pitch_roll};
 pub use icosahedral::{Icosahedral, IcosahedralError};
 pub use map::EnvMap;
 pub use param::{Bilinear, BilinearF64, Param, ParamError};

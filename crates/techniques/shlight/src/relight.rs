@@ -161,7 +161,7 @@ pub struct ShRenderer {
 
 /// A zonal (rotationally symmetric) filter of the lighting: shading uses
 /// L′_lm = (`direct` + `bands[l]`) L_lm, and background pixels show
-/// `direct` · L(d) + Σ_lm `bands[l]` L_lm Y_lm(d). Bands past the end of
+/// `direct` · L(d) + max(0, Σ_lm `bands[l]` L_lm Y_lm(d)). Bands past the end of
 /// `bands` get 0. With `direct` = e^{−T_sv} and `bands` the PSF's
 /// √(4π/(2l+1)) PSF_l (`relight_fog::psf::convolution_weights`) this is the
 /// foggy environment of sun-thesis-2008 eq. 3.35–3.37: attenuated lighting
@@ -770,7 +770,9 @@ impl Prepared {
                 let mut y = [0.0f32; MAX_SHADING_ORDER * MAX_SHADING_ORDER];
                 relight_sh::basis::eval_sh_into(self.order_max, d.to_array(), &mut y[..nn]);
                 let dot = |c: &[f32]| c.iter().zip(&y[..nn]).map(|(a, b)| a * b).sum::<f32>();
-                *direct * env.eval(d) + Vec3::new(dot(&sh[0]), dot(&sh[1]), dot(&sh[2]))
+                // The band-limited filtered part may ring below zero.
+                *direct * env.eval(d)
+                    + Vec3::new(dot(&sh[0]), dot(&sh[1]), dot(&sh[2])).max(Vec3::ZERO)
             }
         };
         let background = if env_background {

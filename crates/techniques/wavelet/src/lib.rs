@@ -27,7 +27,7 @@
 //! * `relight render --method wavelet`: [`bake_or_load_rotation`] and
 //!   [`bake_or_load_brdf`] (cache keyed by every parameter, [`default_cache_dir`]),
 //!   [`WaveletRenderer::new`], [`WaveletRenderer::set_lighting`] with
-//!   [`light_rotation`]`(yaw, pitch, roll)`, [`WaveletRenderer::render`].
+//!   `relight_sphere::rotation_from_yaw_pitch_roll([yaw, pitch, roll])`, [`WaveletRenderer::render`].
 //! * `relight verify wavelet`: [`verify_wavelet`] (image error vs the reference
 //!   renderer) and [`verify_rotation`] (Figure 7); `relight bench wavelet`:
 //!   [`bench_wavelet`].
@@ -48,7 +48,7 @@ pub mod study;
 
 pub use brdf_bake::{BrdfBake, BrdfBakeParams, bake_brdf};
 pub use error::WaveletError;
-pub use render::{LightingStats, NormalInterp, WaveletRenderer, light_rotation};
+pub use render::{LightingStats, NormalInterp, WaveletRenderer};
 pub use rotation::{RotationMatrices, RotationParams, bake_rotation};
 pub use study::{
     BenchOptions, BenchRow, CompareRow, Densify, RotationRow, VerifyOptions, VerifyRow,

@@ -112,15 +112,6 @@ impl std::fmt::Debug for WaveletRenderer {
     }
 }
 
-/// Lighting rotation from yaw (about world +Y), pitch (about +X) and roll
-/// (about +Z), in degrees: `world_from_env = R_y(yaw) · R_x(pitch) · R_z(roll)`.
-#[must_use]
-pub fn light_rotation(yaw_deg: f32, pitch_deg: f32, roll_deg: f32) -> Mat3 {
-    Mat3::from_rotation_y(yaw_deg.to_radians())
-        * Mat3::from_rotation_x(pitch_deg.to_radians())
-        * Mat3::from_rotation_z(roll_deg.to_radians())
-}
-
 impl WaveletRenderer {
     /// A renderer over `rot` keeping `terms` lighting coefficients (1..=N).
     ///

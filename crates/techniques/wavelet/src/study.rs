@@ -1007,7 +1007,7 @@ pub fn bench_wavelet(
         let mut times = Vec::new();
         let c1 = process_cpu_seconds();
         for i in 0..opts.reps.max(1) {
-            let rotm = crate::render::light_rotation(10.0 * i as f32, 0.0, 0.0);
+            let rotm = relight_sphere::rotation_from_yaw_pitch_roll([10.0 * i as f32, 0.0, 0.0]);
             let t = Instant::now();
             r.set_lighting_fn(|d| light(rotm.transpose() * d))?;
             times.push(t.elapsed().as_secs_f64() * 1e3);
