@@ -27,8 +27,8 @@
 //!
 //!   Measured on the default scene (320 × 180, N = 64², ntess = 32²,
 //!   ntrunc = 1, 256 terms, K = 4, 4096-spp reference with noise 0.016;
-//!   sphere / knot / torus at 18.7 K / 131.8 K / 6.2 K vertices): antialiased
-//!   0.066 (0.047/0.078/0.027), point-sampled 0.239 (0.051/0.303/0.086),
+//!   sphere / knot / torus at 18.7 K / 131.8 K / 24.9 K vertices): antialiased
+//!   0.066 (0.047/0.078/0.028), point-sampled 0.239 (0.051/0.303/0.086),
 //!   per pixel 0.043 (0.043/0.044/0.029). With the knot at 33 K vertices
 //!   the antialiased error was 0.166 (knot 0.200) and the point-sampled one
 //!   0.185: the denser knot resolves its Phong-40 highlights of the 1.5°
