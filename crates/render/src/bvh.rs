@@ -515,7 +515,7 @@ mod tests {
     use super::*;
     use crate::NoProgress;
 
-    use crate::reference::{floor_quad, uv_sphere};
+    use crate::reference::floor_quad;
 
     fn quad(y: f32, half: f32) -> Mesh {
         floor_quad(y, half)
@@ -523,7 +523,7 @@ mod tests {
 
     #[test]
     fn ray_hits_sphere_at_analytic_distance() {
-        let s = uv_sphere(Vec3::ZERO, 1.0, 64, 128);
+        let s = relight_geom::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 128, 64);
         let bvh = SceneBvh::build(&[&s]);
         let mut rng = Rng::new(7, 0);
         for _ in 0..200 {
@@ -578,7 +578,7 @@ mod tests {
     #[test]
     fn occlusion_and_multiple_objects() {
         let floor = quad(0.0, 10.0);
-        let ball = uv_sphere(Vec3::new(0.0, 2.0, 0.0), 1.0, 16, 32);
+        let ball = relight_geom::shapes::uv_sphere_at(Vec3::new(0.0, 2.0, 0.0), 1.0, 32, 16);
         let bvh = SceneBvh::build(&[&floor, &ball]);
         assert_eq!(
             bvh.triangle_count(),
@@ -612,7 +612,7 @@ mod tests {
     #[test]
     fn offset_origin_escapes_its_own_surface_at_any_scale() {
         for scale in [1e-3f32, 1.0, 1e3, 1e5] {
-            let s = uv_sphere(Vec3::splat(scale * 3.0), scale, 32, 64);
+            let s = relight_geom::shapes::uv_sphere_at(Vec3::splat(scale * 3.0), scale, 64, 32);
             let bvh = SceneBvh::build(&[&s]);
             let mut rng = Rng::new(3, 1);
             let mut self_hits = 0;
@@ -660,7 +660,7 @@ mod tests {
         // blocks the cone of half-angle asin(r/h); cosine-weighted blocked
         // fraction = sin²(asin(r/h)) = (r/h)².
         let (r, h) = (1.0f32, 2.0f32);
-        let ball = uv_sphere(Vec3::new(0.0, h, 0.0), r, 64, 128);
+        let ball = relight_geom::shapes::uv_sphere_at(Vec3::new(0.0, h, 0.0), r, 128, 64);
         let bvh = SceneBvh::build(&[&floor, &ball]);
         let n = 20_000;
         let ao = ambient_occlusion(&bvh, Vec3::ZERO, Vec3::Y, n, &mut rng);
@@ -675,7 +675,7 @@ mod tests {
     #[test]
     fn vertex_ao_is_deterministic_and_bounded() {
         let floor = quad(-1.5, 5.0);
-        let ball = uv_sphere(Vec3::ZERO, 1.0, 12, 24);
+        let ball = relight_geom::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 24, 12);
         let bvh = SceneBvh::build(&[&ball, &floor]);
         let a = bvh.vertex_ambient_occlusion(0, 64, 9, &NoProgress).unwrap();
         let pool = rayon::ThreadPoolBuilder::new()

@@ -527,13 +527,6 @@ pub struct ReferenceBenchRow {
     pub bvh_build_ms: f64,
 }
 
-/// A closed UV sphere about `center` ([`relight_geom::shapes::uv_sphere`]
-/// moved there), for the benchmark scenes and the tests.
-pub(crate) fn uv_sphere(center: Vec3, radius: f32, stacks: u32, slices: u32) -> Mesh {
-    relight_geom::shapes::uv_sphere(radius, slices as usize, stacks as usize)
-        .transformed(glam::Affine3A::from_translation(center))
-}
-
 /// A square floor at height `y`, facing +Y.
 pub(crate) fn floor_quad(y: f32, half: f32) -> Mesh {
     Mesh {
@@ -582,7 +575,12 @@ fn bench_scene(width: usize, height: usize) -> Scene {
     Scene {
         objects: vec![
             Object {
-                mesh: Arc::new(uv_sphere(Vec3::new(0.0, 1.0, 0.0), 1.0, 128, 256)),
+                mesh: Arc::new(relight_geom::shapes::uv_sphere_at(
+                    Vec3::new(0.0, 1.0, 0.0),
+                    1.0,
+                    256,
+                    128,
+                )),
                 brdf: brdf.clone(),
             },
             Object {
@@ -658,7 +656,7 @@ mod tests {
     fn sphere_scene(env: EnvMap, albedo: f32, size: usize) -> Scene {
         Scene {
             objects: vec![Object {
-                mesh: Arc::new(uv_sphere(Vec3::ZERO, 1.0, 48, 96)),
+                mesh: Arc::new(relight_geom::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 96, 48)),
                 brdf: Arc::new(Lambert::new(Vec3::splat(albedo)).expect("albedo in [0, 1]")),
             }],
             env,

@@ -76,6 +76,12 @@ pub fn uv_sphere(radius: f32, segments: usize, rings: usize) -> Mesh {
     })
 }
 
+/// [`uv_sphere`] centred at `center` instead of the origin.
+#[must_use]
+pub fn uv_sphere_at(center: Vec3, radius: f32, segments: usize, rings: usize) -> Mesh {
+    uv_sphere(radius, segments, rings).transformed(glam::Affine3A::from_translation(center))
+}
+
 /// A geodesic sphere: the icosahedron with each face split `4^level` times
 /// (midpoints pushed to the sphere); `10·4^level + 2` shared vertices, no
 /// uvs (no seams, so it is the watertight sphere for topology tests).

@@ -13,7 +13,7 @@
 //!   default size 64.
 
 use crate::model::{FogMaterial, FogModel, Phase, PointLight};
-use crate::render::{FogObject, FogSettings, floor_grid, render_fog_into, uv_sphere};
+use crate::render::{FogObject, FogSettings, floor_grid, render_fog_into};
 use crate::shade::{MaterialConst, PixelBatch, shade_surface_run};
 use crate::table::{FogTables, Interp};
 use glam::Vec3;
@@ -59,7 +59,12 @@ pub fn bench_meshes() -> Vec<Mesh> {
     for i in 0..9 {
         let x = -6.0 + 6.0 * (i % 3) as f32;
         let z = -2.0 - 6.0 * (i / 3) as f32;
-        v.push(uv_sphere(Vec3::new(x, 1.0, z), 1.0, 64, 128));
+        v.push(relight_geom::shapes::uv_sphere_at(
+            Vec3::new(x, 1.0, z),
+            1.0,
+            128,
+            64,
+        ));
     }
     v
 }

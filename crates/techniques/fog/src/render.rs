@@ -399,65 +399,10 @@ fn shade_gbuffer(
         });
 }
 
-/// A UV sphere (`rings` × `segments`) with outward normals — test and bench geometry.
-#[must_use]
-pub fn uv_sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> Mesh {
-    let mut m = Mesh::default();
-    for i in 0..=rings {
-        let th = std::f32::consts::PI * i as f32 / rings as f32;
-        for j in 0..=segments {
-            let ph = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
-            let n = Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
-            m.positions.push(center + radius * n);
-            m.normals.push(n);
-        }
-    }
-    let w = segments + 1;
-    for i in 0..rings {
-        for j in 0..segments {
-            let (a, b, c, d) = (
-                i * w + j,
-                i * w + j + 1,
-                (i + 1) * w + j,
-                (i + 1) * w + j + 1,
-            );
-            if i != 0 {
-                m.indices.push([a, b, c]);
-            }
-            if i + 1 != rings {
-                m.indices.push([b, d, c]);
-            }
-        }
-    }
-    m
-}
-
-/// A square floor at height `y` of half-size `half`, `n`×`n` quads, normal +Y.
+/// A square floor at height `y` of half-size `half`, `n`×`n` quads, normal +Y
+/// ([`relight_geom::shapes::plane`] raised to `y`).
 #[must_use]
 pub fn floor_grid(y: f32, half: f32, n: u32) -> Mesh {
-    let mut m = Mesh::default();
-    for i in 0..=n {
-        for j in 0..=n {
-            let (x, z) = (
-                -half + 2.0 * half * j as f32 / n as f32,
-                -half + 2.0 * half * i as f32 / n as f32,
-            );
-            m.positions.push(Vec3::new(x, y, z));
-            m.normals.push(Vec3::Y);
-        }
-    }
-    let w = n + 1;
-    for i in 0..n {
-        for j in 0..n {
-            let (a, b, c, d) = (
-                i * w + j,
-                i * w + j + 1,
-                (i + 1) * w + j,
-                (i + 1) * w + j + 1,
-            );
-            m.indices.push([a, c, b]);
-            m.indices.push([b, c, d]);
-        }
-    }
-    m
+    relight_geom::shapes::plane(2.0 * half, n as usize)
+        .transformed(glam::Affine3A::from_translation(Vec3::new(0.0, y, 0.0)))
 }

@@ -268,7 +268,7 @@ pub fn glow_error(tables: &FogTables, g: &GlowSetup) -> GlowError {
     let lights = [light];
     let wall_mesh = g
         .walls
-        .map(|k| crate::render::uv_sphere(camera.eye, k * d_sv, 48, 96));
+        .map(|k| relight_geom::shapes::uv_sphere_at(camera.eye, k * d_sv, 96, 48));
     let bvh = wall_mesh.as_ref().map(|m| SceneBvh::build(&[m]));
     let black = [FogMaterial::lambert(Vec3::ZERO)];
     let scene = VolumetricScene {

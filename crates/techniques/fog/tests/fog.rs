@@ -4,7 +4,7 @@
 use glam::Vec3;
 use proptest::prelude::*;
 use relight_fog::model::{airlight_model, opengl_fog_pixel};
-use relight_fog::render::{floor_grid, uv_sphere};
+use relight_fog::render::floor_grid;
 use relight_fog::special::{airlight_eq35, f_special, fk_special, g_scaled, tail_ratio};
 use relight_fog::verify::{GlowSetup, glow_error, surface_scatter_eq322};
 use relight_fog::volumetric::Transport;
@@ -140,7 +140,7 @@ fn bad_input_gives_typed_errors() {
         Err(FogError::PhaseDegree { .. })
     ));
     // A light inside a closed sphere is rejected; above an open floor it is fine.
-    let sphere = uv_sphere(Vec3::ZERO, 1.0, 12, 24);
+    let sphere = relight_geom::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 24, 12);
     let floor = floor_grid(-1.0, 5.0, 4);
     let objs = [
         FogObject {

@@ -183,39 +183,6 @@ pub fn direct_radiance(
     acc.as_vec3()
 }
 
-/// A UV sphere (`stacks × slices` quads) with exact normals.
-#[must_use]
-pub fn uv_sphere(center: Vec3, radius: f32, stacks: u32, slices: u32) -> Mesh {
-    let mut m = Mesh::default();
-    for i in 0..=stacks {
-        let th = std::f32::consts::PI * i as f32 / stacks as f32;
-        for j in 0..=slices {
-            let ph = 2.0 * std::f32::consts::PI * j as f32 / slices as f32;
-            let n = Vec3::new(th.sin() * ph.cos(), th.cos(), -th.sin() * ph.sin());
-            m.positions.push(center + n * radius);
-            m.normals.push(n);
-        }
-    }
-    let w = slices + 1;
-    for i in 0..stacks {
-        for j in 0..slices {
-            let (a, b, c, d) = (
-                i * w + j,
-                i * w + j + 1,
-                (i + 1) * w + j,
-                (i + 1) * w + j + 1,
-            );
-            if i != 0 {
-                m.indices.push([a, c, b]);
-            }
-            if i != stacks - 1 {
-                m.indices.push([b, c, d]);
-            }
-        }
-    }
-    m
-}
-
 /// One accuracy row (`relight verify wavelet`).
 #[derive(Clone, Debug, Serialize)]
 pub struct VerifyRow {
@@ -1095,7 +1062,12 @@ pub fn bench_wavelet(
             .map(|m| m.1.clone())
             .unwrap_or_else(|| {
                 let s = ((nv as f64 / 2.0).sqrt()).round() as u32;
-                Arc::new(uv_sphere(Vec3::ZERO, 1.0, s.max(2), (2 * s).max(3)))
+                Arc::new(relight_geom::shapes::uv_sphere_at(
+                    Vec3::ZERO,
+                    1.0,
+                    ((2 * s).max(3)) as usize,
+                    (s.max(2)) as usize,
+                ))
             });
         let mut out = vec![Vec3::ZERO; mesh.positions.len()];
         for rule in [NormalInterp::MirrorAligned, NormalInterp::Paper] {
@@ -1148,7 +1120,7 @@ pub fn sphere_scene(brdf: Arc<dyn Brdf>, width: usize, height: usize) -> Scene {
     );
     Scene {
         objects: vec![Object {
-            mesh: Arc::new(uv_sphere(Vec3::ZERO, 1.0, 64, 128)),
+            mesh: Arc::new(relight_geom::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 128, 64)),
             brdf,
         }],
         env,
@@ -1172,7 +1144,7 @@ mod tests {
     /// normal the reference interpolates there; counts are V + E and 4 F.
     #[test]
     fn linear_subdivision_keeps_surface_and_normal_field() {
-        let m = uv_sphere(Vec3::new(0.2, -0.1, 0.3), 0.7, 5, 7);
+        let m = relight_geom::shapes::uv_sphere_at(Vec3::new(0.2, -0.1, 0.3), 0.7, 7, 5);
         let edges: std::collections::HashSet<(u32, u32)> = m
             .indices
             .iter()
