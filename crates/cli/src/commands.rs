@@ -288,18 +288,7 @@ fn render_wavelet(scene: &Scene, s: &RenderSettings, bar: &Bar) -> Result<Image>
     params.validate().map_err(|e| anyhow!("--n/--ntess: {e}"))?;
     let t = Instant::now();
     let rot = relight_wavelet::bake_or_load_rotation(&params, &cache, bar)?;
-    let mut bakes = Vec::new();
-    for o in &scene.objects {
-        let key = format!("{:?}", o.brdf);
-        let p =
-            relight_wavelet::BrdfBakeParams::new(&key, params.m, 64, 128.min(params.target_len()));
-        bakes.push(relight_wavelet::bake_or_load_brdf(
-            &p,
-            o.brdf.as_ref(),
-            &cache,
-            bar,
-        )?);
-    }
+    let bakes = relight_wavelet::bake_or_load_scene_brdfs(scene, params.m, 64, 128, &cache, bar)?;
     eprintln!(
         "relight: wavelet data ready in {:.2} s (cache {})",
         t.elapsed().as_secs_f64(),
@@ -351,9 +340,9 @@ fn render_fog(scene: &Scene, s: &RenderSettings) -> Result<Image> {
         ));
     }
     if lights.is_empty() {
-        lights = default_fog_lights(2);
+        lights = relight_fog::default_scene_lights(2);
     }
-    let objects = fog_objects(scene);
+    let objects = relight_fog::scene_objects(scene);
     let tables = relight_fog::FogTables::build_for(64, objects.iter().map(|o| &o.material))?;
     let mut settings = relight_fog::FogSettings::new(&tables, beta);
     settings.mode = match s.fog.as_str() {
@@ -369,34 +358,6 @@ fn render_fog(scene: &Scene, s: &RenderSettings) -> Result<Image> {
         &lights,
         &settings,
     )?)
-}
-
-/// The first `count` (≤ 4) point lights placed around the default scene's
-/// objects, for `render --method fog` without `--light` and for `bench fog`.
-fn default_fog_lights(count: usize) -> Vec<relight_fog::PointLight> {
-    [
-        (Vec3::new(-1.5, 2.2, 1.5), Vec3::splat(8.0)),
-        (Vec3::new(1.8, 1.6, 1.2), Vec3::new(6.0, 4.5, 3.0)),
-        (Vec3::new(0.2, 2.0, -1.8), Vec3::new(3.0, 4.5, 6.0)),
-        (Vec3::new(-0.4, 0.5, 1.6), Vec3::new(5.0, 3.0, 5.0)),
-    ]
-    .into_iter()
-    .take(count)
-    .map(|(p, i)| relight_fog::PointLight::new(p, i))
-    .collect()
-}
-
-/// The objects of `scene` as fog-shaded surfaces: each BRDF becomes the
-/// paper's Lambert + Phong surface fitted to it ([`relight_fog::FogMaterial::fit`]).
-fn fog_objects(scene: &Scene) -> Vec<relight_fog::FogObject<'_>> {
-    scene
-        .objects
-        .iter()
-        .map(|o| relight_fog::FogObject {
-            mesh: &o.mesh,
-            material: relight_fog::FogMaterial::fit(o.brdf.as_ref()),
-        })
-        .collect()
 }
 
 fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
@@ -955,9 +916,9 @@ fn bench(a: BenchArgs) -> Result<()> {
             let scene = relight_scene::default_scene(w, h);
             let rows = relight_fog::bench_fog_scene(
                 a.quick,
-                &fog_objects(&scene),
+                &relight_fog::scene_objects(&scene),
                 &scene.camera,
-                &default_fog_lights(4),
+                &relight_fog::default_scene_lights(4),
             );
             report.table("relight bench fog (default scene, 4 lights)", &rows, &[])
         }

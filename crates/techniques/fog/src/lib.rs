@@ -43,7 +43,9 @@ pub mod volumetric;
 
 pub use bench::{BenchRow, bench_fog, bench_fog_scene};
 pub use model::{FogMaterial, FogModel, Phase, PointLight};
-pub use render::{FogMode, FogObject, FogSettings, render_fog};
+pub use render::{
+    FogMode, FogObject, FogSettings, default_scene_lights, render_fog, scene_objects,
+};
 pub use table::{FogTables, Interp, Table2, TableImage};
 pub use verify::{VerifyRow, verify_fog};
 

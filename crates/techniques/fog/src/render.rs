@@ -36,6 +36,37 @@ pub struct FogObject<'a> {
     pub material: FogMaterial,
 }
 
+/// The objects of `scene` as fog-shaded surfaces: each BRDF becomes the
+/// paper's Lambert + Phong surface fitted to it ([`FogMaterial::fit`]).
+#[must_use]
+pub fn scene_objects(scene: &relight_render::Scene) -> Vec<FogObject<'_>> {
+    scene
+        .objects
+        .iter()
+        .map(|o| FogObject {
+            mesh: &o.mesh,
+            material: FogMaterial::fit(o.brdf.as_ref()),
+        })
+        .collect()
+}
+
+/// The first `count` (≤ 4) point lights placed around the default scene's
+/// objects (`relight_scene::default_scene`): what `render --method fog`
+/// uses without `--light`, `bench fog` and the viewer.
+#[must_use]
+pub fn default_scene_lights(count: usize) -> Vec<PointLight> {
+    [
+        (Vec3::new(-1.5, 2.2, 1.5), Vec3::splat(8.0)),
+        (Vec3::new(1.8, 1.6, 1.2), Vec3::new(6.0, 4.5, 3.0)),
+        (Vec3::new(0.2, 2.0, -1.8), Vec3::new(3.0, 4.5, 6.0)),
+        (Vec3::new(-0.4, 0.5, 1.6), Vec3::new(5.0, 3.0, 5.0)),
+    ]
+    .into_iter()
+    .take(count)
+    .map(|(p, i)| PointLight::new(p, i))
+    .collect()
+}
+
 /// Medium and evaluation settings.
 #[derive(Clone, Debug)]
 pub struct FogSettings<'a> {

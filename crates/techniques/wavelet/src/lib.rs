@@ -52,6 +52,6 @@ pub use render::{LightingStats, NormalInterp, WaveletRenderer};
 pub use rotation::{RotationMatrices, RotationParams, bake_rotation};
 pub use study::{
     BenchOptions, BenchRow, CompareRow, Densify, RotationRow, VerifyOptions, VerifyRow,
-    bake_or_load_brdf, bake_or_load_rotation, bench_wavelet, default_cache_dir, verify_rotation,
-    verify_wavelet, verify_wavelet_with_sh,
+    bake_or_load_brdf, bake_or_load_rotation, bake_or_load_scene_brdfs, bench_wavelet,
+    default_cache_dir, verify_rotation, verify_wavelet, verify_wavelet_with_sh,
 };

@@ -124,6 +124,31 @@ pub fn bake_or_load_brdf(
     Ok(Arc::new(b))
 }
 
+/// [`bake_or_load_brdf`] for every object of `scene`, each keyed by its
+/// model's `Debug` description: slices on the `m × m` target grid for
+/// `views × views` view directions, `terms` kept (capped at m²).
+///
+/// # Errors
+/// As [`bake_or_load_brdf`].
+pub fn bake_or_load_scene_brdfs(
+    scene: &Scene,
+    m: usize,
+    views: usize,
+    terms: usize,
+    cache_dir: &Path,
+    progress: &dyn Progress,
+) -> Result<Vec<Arc<BrdfBake>>, WaveletError> {
+    scene
+        .objects
+        .iter()
+        .map(|o| {
+            let key = format!("{:?}", o.brdf);
+            let p = BrdfBakeParams::new(&key, m, views, terms.min(m * m));
+            bake_or_load_brdf(&p, o.brdf.as_ref(), cache_dir, progress)
+        })
+        .collect()
+}
+
 /// A smooth sky (blue gradient, bright warm lobe, dark ground) as a function
 /// of the world direction (+Y up); used by tests.
 pub fn smooth_sky() -> impl Fn(Vec3) -> Vec3 + Sync + Copy {
