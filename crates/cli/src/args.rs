@@ -22,6 +22,9 @@ pub enum Command {
     Demo(DemoArgs),
     /// Render a scene file, or a mesh under an environment map.
     Render(Box<RenderArgs>),
+    /// Interactive window: drag to orbit, right-drag to turn the lighting,
+    /// 1/2/3 for wavelet/sh/fog, a for antialiasing, s to save, Esc to quit.
+    View(ViewArgs),
     /// Describe files: environment maps, images and meshes, with statistics.
     Info {
         /// Files to describe.
@@ -74,6 +77,48 @@ pub struct DemoArgs {
     /// samples per pixel, box-filtered like the reference's pixels (1…8).
     #[arg(long, default_value_t = 2)]
     pub aa: usize,
+}
+
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    /// Scene file (TOML); the embedded default scene when absent.
+    pub scene: Option<PathBuf>,
+    /// Environment map file, or `studio`, replacing the scene's.
+    #[arg(long)]
+    pub env: Option<String>,
+    /// Method shown first.
+    #[arg(long, value_enum, default_value_t = ViewMethodArg::Wavelet)]
+    pub method: ViewMethodArg,
+    /// Window size WIDTHxHEIGHT.
+    #[arg(long, default_value = "960x540")]
+    pub size: String,
+    /// Samples per pixel side of still frames (1…8).
+    #[arg(long, default_value_t = 2)]
+    pub aa: usize,
+    /// Wavelet source side n, normal tessellation side and lighting terms.
+    #[arg(long, default_value_t = 64)]
+    pub n: usize,
+    #[arg(long, default_value_t = 32)]
+    pub ntess: usize,
+    #[arg(long, default_value_t = 256)]
+    pub terms: usize,
+    /// SH bands.
+    #[arg(long, default_value_t = 6)]
+    pub order: usize,
+    /// Fog extinction coefficient β.
+    #[arg(long, default_value_t = 0.04)]
+    pub beta: f32,
+    /// Bake cache of the wavelet method.
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+}
+
+/// The real-time methods of `relight view`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewMethodArg {
+    Wavelet,
+    Sh,
+    Fog,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

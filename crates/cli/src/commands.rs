@@ -2,7 +2,7 @@
 
 use crate::args::{
     BakeCommand, BenchArgs, Cli, Command, ConvertArgs, DemoArgs, FogCommand, Method, ParamKind,
-    RenderArgs, ShCommand, Suite, VerifyArgs,
+    RenderArgs, ShCommand, Suite, VerifyArgs, ViewArgs, ViewMethodArg,
 };
 use crate::plot::PlotSpec;
 use crate::progress::Bar;
@@ -22,6 +22,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Demo(a) => demo(a, &bar),
         Command::Render(a) => render(*a, &bar),
+        Command::View(a) => view(a, &bar),
         Command::Info { files } => info(&files),
         Command::Compare {
             image,
@@ -519,6 +520,43 @@ fn info(files: &[PathBuf]) -> Result<()> {
         "{failed} of {} files could not be read",
         files.len()
     );
+    Ok(())
+}
+
+/// `relight view`: prepares the first method (bake or load, with progress)
+/// and opens the window.
+fn view(a: ViewArgs, bar: &Bar) -> Result<()> {
+    let (w, h) = parse_size(&a.size, "--size")?;
+    let mut scene = match &a.scene {
+        Some(path) => {
+            let loaded = relight_scene::load_scene_file(path, Some((w, h)))?;
+            warn_all(&loaded.warnings);
+            loaded.scene
+        }
+        None => relight_scene::default_scene(w, h),
+    };
+    if let Some(env) = &a.env {
+        let (e, warnings) = relight_scene::load_environment(env)?;
+        warn_all(&warnings);
+        scene.env = e;
+    }
+    let method = match a.method {
+        ViewMethodArg::Wavelet => relight_viewer::ViewMethod::Wavelet,
+        ViewMethodArg::Sh => relight_viewer::ViewMethod::Sh,
+        ViewMethodArg::Fog => relight_viewer::ViewMethod::Fog,
+    };
+    let opts = relight_viewer::ViewerOptions {
+        n: a.n,
+        ntess: a.ntess,
+        terms: a.terms,
+        sh_order: a.order,
+        beta: a.beta,
+        aa: a.aa,
+        cache: a.cache.unwrap_or_else(relight_wavelet::default_cache_dir),
+    };
+    let mut viewer = relight_viewer::Viewer::new(scene, method, opts)?;
+    viewer.prepare(bar)?;
+    relight_viewer::run(viewer, w as u32, h as u32)?;
     Ok(())
 }
 

@@ -292,3 +292,17 @@ fn wavelet_render_bakes_into_its_cache_and_applies_ambient_occlusion() {
     let d = compared(&occluded, &plain);
     assert!(d > 0.01 && d < 0.6, "AO vs none: {d}");
 }
+
+#[test]
+fn view_without_a_display_is_a_one_line_error() {
+    let out = Command::new(env!("CARGO_BIN_EXE_relight"))
+        .args(["-q", "view", "--method", "fog", "--size", "64x36"])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .expect("run relight");
+    assert_clean_error(&out, "needs DISPLAY or WAYLAND_DISPLAY");
+    let out = relight(&["-q", "view", "--aa", "0"]);
+    assert_clean_error(&out, "aa = 0");
+}

@@ -1,0 +1,372 @@
+//! What the viewer shows and how a frame is made: the scene, the orbit
+//! camera, the lighting rotation and the method, with each method's
+//! precomputation kept between frames so that only the per-frame step runs.
+//!
+//! | method | on a lighting change | on a view change |
+//! |---|---|---|
+//! | wavelet | step 1: project + rotate into every sampled normal's frame | step 2: per-vertex sparse dot products, Gouraud |
+//! | sh | resample the map rotated, project | per-pixel rotation of the transfer vectors |
+//! | fog | the point lights turn about the orbit target (one carried into an object sits the frame out) | per-pixel analytic airlight + surface radiance |
+
+use crate::orbit::Orbit;
+use glam::Mat3;
+use relight_fog::{FogSettings, FogTables, PointLight};
+use relight_render::{Image, Progress, Scene};
+use relight_shlight::ShRenderer;
+use relight_wavelet::{BrdfBake, RotationParams, WaveletRenderer};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// What can go wrong in the viewer.
+#[derive(Debug, thiserror::Error)]
+pub enum ViewerError {
+    #[error("wavelet method: {0}")]
+    Wavelet(#[from] relight_wavelet::WaveletError),
+    #[error("sh method: {0}")]
+    Sh(#[from] relight_shlight::ShLightError),
+    #[error("fog method: {0}")]
+    Fog(#[from] relight_fog::FogError),
+    #[error(transparent)]
+    Asset(#[from] relight_assets::AssetError),
+    #[error("window: {0}")]
+    Window(String),
+    #[error("{what} = {value}: {why}")]
+    Invalid {
+        what: &'static str,
+        value: String,
+        why: &'static str,
+    },
+}
+
+/// The real-time methods the viewer switches between (keys 1, 2, 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewMethod {
+    Wavelet,
+    Sh,
+    Fog,
+}
+
+impl ViewMethod {
+    /// Lower-case name, as on the command line.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Wavelet => "wavelet",
+            Self::Sh => "sh",
+            Self::Fog => "fog",
+        }
+    }
+}
+
+/// Parameters of the methods (the CLI's `render` flags).
+#[derive(Clone, Debug)]
+pub struct ViewerOptions {
+    /// Wavelet source side n, normal tessellation side and lighting terms.
+    pub n: usize,
+    pub ntess: usize,
+    pub terms: usize,
+    /// SH bands.
+    pub sh_order: usize,
+    /// Fog extinction coefficient β (1/world unit).
+    pub beta: f32,
+    /// Samples per pixel side when the view is still (1…8).
+    pub aa: usize,
+    /// Bake cache of the wavelet method.
+    pub cache: PathBuf,
+}
+
+impl Default for ViewerOptions {
+    fn default() -> Self {
+        Self {
+            n: 64,
+            ntess: 32,
+            terms: 256,
+            sh_order: 6,
+            beta: 0.04,
+            aa: 2,
+            cache: relight_wavelet::default_cache_dir(),
+        }
+    }
+}
+
+/// One drawn frame.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub image: Image,
+    /// Time of the per-frame work (ms), lighting update included.
+    pub ms: f64,
+    /// Samples per pixel side it was drawn with.
+    pub aa: usize,
+}
+
+struct WaveletState {
+    renderer: WaveletRenderer,
+    bakes: Vec<Arc<BrdfBake>>,
+    /// The lighting rotation step 1 last ran with.
+    lit: Option<Mat3>,
+}
+
+/// The viewer's state: everything a frame needs, input applied by the
+/// window layer ([`crate::window`]) or by tests.
+pub struct Viewer {
+    scene: Scene,
+    /// The camera.
+    pub orbit: Orbit,
+    home: Orbit,
+    /// Lighting rotation: yaw about +Y and pitch about +X, degrees.
+    pub light_yaw_deg: f32,
+    pub light_pitch_deg: f32,
+    pub method: ViewMethod,
+    /// Antialias still frames (`opts.aa` samples per side) or not.
+    pub antialias: bool,
+    opts: ViewerOptions,
+    wavelet: Option<WaveletState>,
+    /// Taken out while it renders (its builder methods take it by value).
+    sh: Option<ShRenderer>,
+    /// The environment rotated for the SH method, with its rotation.
+    sh_env: Option<(Mat3, relight_sphere::EnvMap)>,
+    fog_tables: Option<FogTables>,
+    fog_lights: Vec<PointLight>,
+}
+
+impl Viewer {
+    /// A viewer of `scene` from its own camera, starting with `method`.
+    ///
+    /// # Errors
+    /// Out-of-range options.
+    pub fn new(scene: Scene, method: ViewMethod, opts: ViewerOptions) -> Result<Self, ViewerError> {
+        if !(1..=8).contains(&opts.aa) {
+            return Err(ViewerError::Invalid {
+                what: "aa",
+                value: opts.aa.to_string(),
+                why: "must be 1…8 samples per pixel side",
+            });
+        }
+        if !(opts.beta.is_finite() && opts.beta >= 0.0) {
+            return Err(ViewerError::Invalid {
+                what: "beta",
+                value: opts.beta.to_string(),
+                why: "must be a finite number ≥ 0",
+            });
+        }
+        RotationParams::new(opts.n, opts.ntess, 1).validate()?;
+        let sh = ShRenderer::new(opts.sh_order, relight_shlight::ShRotationMethod::Exact)?;
+        let orbit = Orbit::from_camera(&scene.camera);
+        Ok(Self {
+            scene,
+            orbit,
+            home: orbit,
+            light_yaw_deg: 0.0,
+            light_pitch_deg: 0.0,
+            method,
+            antialias: true,
+            opts,
+            wavelet: None,
+            sh: Some(sh),
+            sh_env: None,
+            fog_tables: None,
+            fog_lights: relight_fog::default_scene_lights(4),
+        })
+    }
+
+    /// Back to the starting camera and lighting.
+    pub fn reset(&mut self) {
+        self.orbit = self.home;
+        self.light_yaw_deg = 0.0;
+        self.light_pitch_deg = 0.0;
+    }
+
+    /// The starting camera's distance to its target.
+    #[must_use]
+    pub fn home_distance(&self) -> f32 {
+        self.home.distance
+    }
+
+    /// `world_from_env` of the current lighting rotation.
+    #[must_use]
+    pub fn light_rotation(&self) -> Mat3 {
+        relight_sphere::rotation_from_yaw_pitch_roll([
+            self.light_yaw_deg,
+            self.light_pitch_deg,
+            0.0,
+        ])
+    }
+
+    /// Runs the current method's precomputation now (bakes or loads the
+    /// wavelet data, builds the fog tables), so the first frame is fast.
+    ///
+    /// # Errors
+    /// As the method's bake.
+    pub fn prepare(&mut self, progress: &dyn Progress) -> Result<(), ViewerError> {
+        match self.method {
+            ViewMethod::Wavelet if self.wavelet.is_none() => {
+                let p = RotationParams::new(self.opts.n, self.opts.ntess, 1);
+                let rot = relight_wavelet::bake_or_load_rotation(&p, &self.opts.cache, progress)?;
+                let bakes = relight_wavelet::bake_or_load_scene_brdfs(
+                    &self.scene,
+                    p.m,
+                    64,
+                    128,
+                    &self.opts.cache,
+                    progress,
+                )?;
+                let terms = self.opts.terms.min(p.source_len());
+                self.wavelet = Some(WaveletState {
+                    renderer: WaveletRenderer::new(rot, terms)?,
+                    bakes,
+                    lit: None,
+                });
+            }
+            ViewMethod::Fog if self.fog_tables.is_none() => {
+                let objects = relight_fog::scene_objects(&self.scene);
+                self.fog_tables = Some(FogTables::build_for(
+                    64,
+                    objects.iter().map(|o| &o.material),
+                )?);
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// Draws a `width × height` frame; `preview` (while the user drags)
+    /// skips antialiasing.
+    ///
+    /// # Errors
+    /// The method's errors (bad sizes, cancellation of a first bake).
+    pub fn frame(
+        &mut self,
+        width: usize,
+        height: usize,
+        preview: bool,
+        progress: &dyn Progress,
+    ) -> Result<Frame, ViewerError> {
+        self.prepare(progress)?;
+        let aa = if preview || !self.antialias {
+            1
+        } else {
+            self.opts.aa
+        };
+        let t = Instant::now();
+        let rotation = self.light_rotation();
+        let mut scene = self.scene.clone();
+        scene.camera = self.orbit.camera(width * aa, height * aa);
+        let image = match self.method {
+            ViewMethod::Wavelet => {
+                let Some(w) = self.wavelet.as_mut() else {
+                    unreachable!("prepared above")
+                };
+                if w.lit != Some(rotation) {
+                    w.renderer.set_lighting(&scene.env, rotation)?;
+                    w.lit = Some(rotation);
+                }
+                let refs: Vec<&BrdfBake> = w.bakes.iter().map(AsRef::as_ref).collect();
+                w.renderer.render(&scene, &refs, &scene.camera, None)?
+            }
+            ViewMethod::Sh => {
+                if rotation == Mat3::IDENTITY {
+                    self.sh_env = None;
+                } else if self.sh_env.as_ref().is_none_or(|(r, _)| *r != rotation) {
+                    self.sh_env = Some((rotation, self.scene.env.rotated(rotation, 2)));
+                }
+                if let Some((_, env)) = &self.sh_env {
+                    scene.env = env.clone();
+                }
+                // The renderer supersamples itself.
+                scene.camera = self.orbit.camera(width, height);
+                let sh = match self.sh.take() {
+                    Some(sh) => sh,
+                    None => ShRenderer::new(
+                        self.opts.sh_order,
+                        relight_shlight::ShRotationMethod::Exact,
+                    )?,
+                }
+                .with_supersampling(aa);
+                let out = sh.render(&scene, None, progress);
+                self.sh = Some(sh);
+                return Ok(Frame {
+                    image: out?.image,
+                    ms: t.elapsed().as_secs_f64() * 1e3,
+                    aa,
+                });
+            }
+            ViewMethod::Fog => {
+                let Some(tables) = self.fog_tables.as_ref() else {
+                    unreachable!("prepared above")
+                };
+                let target = self.orbit.target;
+                let mut lights: Vec<PointLight> = self
+                    .fog_lights
+                    .iter()
+                    .map(|l| {
+                        PointLight::new(target + rotation * (l.position - target), l.intensity)
+                    })
+                    .collect();
+                let objects = relight_fog::scene_objects(&scene);
+                let settings = FogSettings::new(tables, self.opts.beta);
+                // A light the rotation carries into an object sits this
+                // frame out (the model needs lights in the medium).
+                loop {
+                    match relight_fog::render_fog(&objects, &scene.camera, &lights, &settings) {
+                        Err(relight_fog::FogError::LightInsideGeometry { index, .. })
+                            if index < lights.len() =>
+                        {
+                            lights.remove(index);
+                        }
+                        other => break other?,
+                    }
+                }
+            }
+        };
+        Ok(Frame {
+            image: image.box_downsample(aa),
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            aa,
+        })
+    }
+
+    /// Writes `frame` as `stem.png` (tone-mapped) and `stem.exr` (linear).
+    ///
+    /// # Errors
+    /// Unwritable files.
+    pub fn save(frame: &Frame, stem: &std::path::Path) -> Result<(), ViewerError> {
+        let img = &frame.image;
+        relight_assets::write_png(
+            &stem.with_extension("png"),
+            img.width,
+            img.height,
+            &img.pixels,
+            relight_assets::ToneMap::default(),
+        )?;
+        relight_assets::write_exr(
+            &stem.with_extension("exr"),
+            img.width,
+            img.height,
+            &img.pixels,
+        )?;
+        Ok(())
+    }
+}
+
+/// Tone-maps `image` (ACES, sRGB) into 0x00RRGGBB words for a window.
+pub fn to_display(image: &Image, out: &mut [u32]) {
+    use rayon::prelude::*;
+    let tone = relight_assets::ToneMap::default();
+    // sRGB of display-referred [0, 1] in 4096 steps.
+    let lut: Vec<u32> = (0..4096)
+        .map(|i| {
+            let v = relight_assets::linear_to_srgb(i as f32 / 4095.0);
+            (v * 255.0 + 0.5).clamp(0.0, 255.0) as u32
+        })
+        .collect();
+    let w = image.width.max(1);
+    out.par_chunks_mut(w)
+        .zip(image.pixels.par_chunks(w))
+        .for_each(|(dst, src)| {
+            for (d, p) in dst.iter_mut().zip(src) {
+                let c = |x: f32| lut[(tone.apply(x) * 4095.0 + 0.5) as usize];
+                *d = (c(p.x) << 16) | (c(p.y) << 8) | c(p.z);
+            }
+        });
+}
