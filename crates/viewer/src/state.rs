@@ -200,34 +200,44 @@ impl Viewer {
     /// As the method's bake.
     pub fn prepare(&mut self, progress: &dyn Progress) -> Result<(), ViewerError> {
         match self.method {
-            ViewMethod::Wavelet if self.wavelet.is_none() => {
-                let p = RotationParams::new(self.opts.n, self.opts.ntess, 1);
-                let rot = relight_wavelet::bake_or_load_rotation(&p, &self.opts.cache, progress)?;
-                let bakes = relight_wavelet::bake_or_load_scene_brdfs(
-                    &self.scene,
-                    p.m,
-                    64,
-                    128,
-                    &self.opts.cache,
-                    progress,
-                )?;
-                let terms = self.opts.terms.min(p.source_len());
-                self.wavelet = Some(WaveletState {
-                    renderer: WaveletRenderer::new(rot, terms)?,
-                    bakes,
-                    lit: None,
-                });
-            }
-            ViewMethod::Fog if self.fog_tables.is_none() => {
-                let objects = relight_fog::scene_objects(&self.scene);
-                self.fog_tables = Some(FogTables::build_for(
-                    64,
-                    objects.iter().map(|o| &o.material),
-                )?);
-            }
-            _ => {}
+            ViewMethod::Wavelet => self.wavelet_state(progress).map(|_| ()),
+            ViewMethod::Fog => self.fog_tables().map(|_| ()),
+            ViewMethod::Sh => Ok(()),
         }
-        Ok(())
+    }
+
+    /// The wavelet method's matrices, BRDF slices and renderer, baked or
+    /// loaded on first use.
+    fn wavelet_state(&mut self, progress: &dyn Progress) -> Result<&mut WaveletState, ViewerError> {
+        if let Some(w) = self.wavelet.take() {
+            return Ok(self.wavelet.insert(w));
+        }
+        let p = RotationParams::new(self.opts.n, self.opts.ntess, 1);
+        let rot = relight_wavelet::bake_or_load_rotation(&p, &self.opts.cache, progress)?;
+        let bakes = relight_wavelet::bake_or_load_scene_brdfs(
+            &self.scene,
+            p.m,
+            64,
+            128,
+            &self.opts.cache,
+            progress,
+        )?;
+        let terms = self.opts.terms.min(p.source_len());
+        Ok(self.wavelet.insert(WaveletState {
+            renderer: WaveletRenderer::new(rot, terms)?,
+            bakes,
+            lit: None,
+        }))
+    }
+
+    /// The fog tables for the scene's fitted materials, built on first use.
+    fn fog_tables(&mut self) -> Result<&FogTables, ViewerError> {
+        if let Some(t) = self.fog_tables.take() {
+            return Ok(self.fog_tables.insert(t));
+        }
+        let objects = relight_fog::scene_objects(&self.scene);
+        let tables = FogTables::build_for(64, objects.iter().map(|o| &o.material))?;
+        Ok(self.fog_tables.insert(tables))
     }
 
     /// Draws a `width × height` frame; `preview` (while the user drags)
@@ -242,7 +252,6 @@ impl Viewer {
         preview: bool,
         progress: &dyn Progress,
     ) -> Result<Frame, ViewerError> {
-        self.prepare(progress)?;
         let aa = if preview || !self.antialias {
             1
         } else {
@@ -254,9 +263,7 @@ impl Viewer {
         scene.camera = self.orbit.camera(width * aa, height * aa);
         let image = match self.method {
             ViewMethod::Wavelet => {
-                let Some(w) = self.wavelet.as_mut() else {
-                    unreachable!("prepared above")
-                };
+                let w = self.wavelet_state(progress)?;
                 if w.lit != Some(rotation) {
                     w.renderer.set_lighting(&scene.env, rotation)?;
                     w.lit = Some(rotation);
@@ -292,9 +299,6 @@ impl Viewer {
                 });
             }
             ViewMethod::Fog => {
-                let Some(tables) = self.fog_tables.as_ref() else {
-                    unreachable!("prepared above")
-                };
                 let target = self.orbit.target;
                 let mut lights: Vec<PointLight> = self
                     .fog_lights
@@ -303,8 +307,9 @@ impl Viewer {
                         PointLight::new(target + rotation * (l.position - target), l.intensity)
                     })
                     .collect();
+                let beta = self.opts.beta;
                 let objects = relight_fog::scene_objects(&scene);
-                let settings = FogSettings::new(tables, self.opts.beta);
+                let settings = FogSettings::new(self.fog_tables()?, beta);
                 // A light the rotation carries into an object sits this
                 // frame out (the model needs lights in the medium).
                 loop {
