@@ -171,7 +171,8 @@ pub struct RenderSettings {
     /// K × K samples per pixel for the raster methods (1 = none).
     pub aa: usize,
     /// `world_from_env` lighting rotation (`--light-rotate`). The wavelet
-    /// method rotates in its own step 1 (§3); the others resample the map.
+    /// method rotates in its own step 1 (§3), the SH method rotates its
+    /// coefficients; the others resample the map.
     pub light_rotation: glam::Mat3,
 }
 
@@ -215,9 +216,11 @@ pub fn render_scene(scene: &Scene, method: Method, s: &RenderSettings, bar: &Bar
         "--aa must be 1…8 samples per pixel side (got {})",
         s.aa
     );
-    // Every method but the wavelet one sees the rotated map itself.
+    // The wavelet and SH methods rotate the lighting in their own domain;
+    // the others see the rotated map.
     let rotated;
-    let scene = if method != Method::Wavelet && s.light_rotation != glam::Mat3::IDENTITY {
+    let in_domain = matches!(method, Method::Wavelet | Method::Sh);
+    let scene = if !in_domain && s.light_rotation != glam::Mat3::IDENTITY {
         let mut r = scene.clone();
         r.env = scene.env.rotated(s.light_rotation, 2);
         rotated = r;
@@ -257,7 +260,8 @@ pub fn render_scene(scene: &Scene, method: Method, s: &RenderSettings, bar: &Bar
                 .map_err(|e| anyhow!("--rotation {}: {e}", s.rotation))?;
             let mut renderer = relight_shlight::ShRenderer::new(s.order, rotation)
                 .map_err(|e| anyhow!("--order: {e}"))?
-                .with_supersampling(s.aa);
+                .with_supersampling(s.aa)
+                .with_lighting_rotation(s.light_rotation)?;
             if let Some(beta) = s.beta {
                 // The foggy environment of eq. 3.35–3.37 at T_sv = β D.
                 let t = f64::from(beta) * f64::from(s.env_distance);

@@ -5,7 +5,7 @@
 //! | method | on a lighting change | on a view change |
 //! |---|---|---|
 //! | wavelet | step 1: project + rotate into every sampled normal's frame | step 2: per-vertex sparse dot products, Gouraud |
-//! | sh | resample the map rotated, project | per-pixel rotation of the transfer vectors |
+//! | sh | project, rotate the coefficients (exact) | per-pixel rotation of the transfer vectors |
 //! | fog | the point lights turn about the orbit target (one carried into an object sits the frame out) | per-pixel analytic airlight + surface radiance |
 
 use crate::orbit::Orbit;
@@ -124,8 +124,6 @@ pub struct Viewer {
     wavelet: Option<WaveletState>,
     /// Taken out while it renders (its builder methods take it by value).
     sh: Option<ShRenderer>,
-    /// The environment rotated for the SH method, with its rotation.
-    sh_env: Option<(Mat3, relight_sphere::EnvMap)>,
     fog_tables: Option<FogTables>,
     fog_lights: Vec<PointLight>,
 }
@@ -164,7 +162,6 @@ impl Viewer {
             opts,
             wavelet: None,
             sh: Some(sh),
-            sh_env: None,
             fog_tables: None,
             fog_lights: relight_fog::default_scene_lights(4),
         })
@@ -272,14 +269,6 @@ impl Viewer {
                 w.renderer.render(&scene, &refs, &scene.camera, None)?
             }
             ViewMethod::Sh => {
-                if rotation == Mat3::IDENTITY {
-                    self.sh_env = None;
-                } else if self.sh_env.as_ref().is_none_or(|(r, _)| *r != rotation) {
-                    self.sh_env = Some((rotation, self.scene.env.rotated(rotation, 2)));
-                }
-                if let Some((_, env)) = &self.sh_env {
-                    scene.env = env.clone();
-                }
                 // The renderer supersamples itself.
                 scene.camera = self.orbit.camera(width, height);
                 let sh = match self.sh.take() {
@@ -289,7 +278,8 @@ impl Viewer {
                         relight_shlight::ShRotationMethod::Exact,
                     )?,
                 }
-                .with_supersampling(aa);
+                .with_supersampling(aa)
+                .with_lighting_rotation(rotation)?;
                 let out = sh.render(&scene, None, progress);
                 self.sh = Some(sh);
                 return Ok(Frame {

@@ -156,6 +156,8 @@ pub struct ShRenderer {
     beta_lim: f32,
     env_background: bool,
     filter: Option<LightingFilter>,
+    /// `world_from_env` of the lighting, applied to its SH coefficients.
+    lighting_rotation: Option<(Mat3, Rot3<f32>)>,
     cache: Mutex<Vec<CacheEntry>>,
 }
 
@@ -202,6 +204,8 @@ pub(crate) struct Prepared {
     /// With a [`LightingFilter`]: its `direct` weight and the filtered
     /// lighting's SH (order_max², RGB), added to the background.
     filtered_background: Option<(f32, [Vec<f32>; 3])>,
+    /// Inverse of the lighting rotation, for background lookups.
+    env_from_world: Mat3,
 }
 
 struct DrawData {
@@ -251,6 +255,7 @@ impl ShRenderer {
             beta_lim: f32::INFINITY,
             env_background: true,
             filter: None,
+            lighting_rotation: None,
             cache: Mutex::new(Vec::new()),
         })
     }
@@ -311,6 +316,19 @@ impl ShRenderer {
             });
         }
         self.filter = Some(filter);
+        Ok(self)
+    }
+
+    /// Rotates the lighting by `world_from_env` (`L_world(d) =
+    /// env(world_from_envᵀ d)`) in the SH domain: the projected
+    /// coefficients are rotated exactly (Ivanic–Ruedenberg), so the map is
+    /// never resampled; background pixels look the map up rotated.
+    ///
+    /// # Errors
+    /// A matrix that is not a rotation (tolerance 1e-4).
+    pub fn with_lighting_rotation(mut self, world_from_env: Mat3) -> Result<Self, ShLightError> {
+        let r = Rot3::try_from_mat3(world_from_env)?;
+        self.lighting_rotation = (world_from_env != Mat3::IDENTITY).then_some((world_from_env, r));
         Ok(self)
     }
 
@@ -430,6 +448,18 @@ impl ShRenderer {
             .collect::<Result<Vec<_>, _>>()?;
         progress.check()?;
         let mut light = project_env(&scene.env, order_max, Window::None)?;
+        let plan = IvanicRuedenberg::<f32>::new(order_max)?;
+        let mut env_from_world = Mat3::IDENTITY;
+        if let Some((world_from_env, r)) = &self.lighting_rotation {
+            let mut rot = ShRotation::<f32>::identity(order_max)?;
+            plan.build(r, &mut rot);
+            for c in &mut light.channels {
+                let mut rotated = vec![0.0; c.len()];
+                rot.apply(c, &mut rotated);
+                *c = rotated;
+            }
+            env_from_world = world_from_env.transpose();
+        }
         // The filtered part alone, for the background (with a filter).
         let mut filtered_background = None;
         if let Some(f) = &self.filter {
@@ -445,7 +475,6 @@ impl ShRenderer {
         }
         let nn = order_max * order_max;
         let stride = ATTR_HEADER + 3 * nn;
-        let plan = IvanicRuedenberg::<f32>::new(order_max)?;
         let total: u64 = scene
             .objects
             .iter()
@@ -522,6 +551,7 @@ impl ShRenderer {
             camera,
             k,
             filtered_background,
+            env_from_world,
         })
     }
 }
@@ -764,14 +794,14 @@ impl Prepared {
         };
         let env = &scene.env;
         let bg = |d: Vec3| match &self.filtered_background {
-            None => env.eval(d),
+            None => env.eval(self.env_from_world * d),
             Some((direct, sh)) => {
                 let nn = self.order_max * self.order_max;
                 let mut y = [0.0f32; MAX_SHADING_ORDER * MAX_SHADING_ORDER];
                 relight_sh::basis::eval_sh_into(self.order_max, d.to_array(), &mut y[..nn]);
                 let dot = |c: &[f32]| c.iter().zip(&y[..nn]).map(|(a, b)| a * b).sum::<f32>();
                 // The band-limited filtered part may ring below zero.
-                *direct * env.eval(d)
+                *direct * env.eval(self.env_from_world * d)
                     + Vec3::new(dot(&sh[0]), dot(&sh[1]), dot(&sh[2])).max(Vec3::ZERO)
             }
         };

@@ -358,3 +358,43 @@ fn lighting_filter_scales_bands_and_background() {
         });
     assert!(matches!(bad, Err(ShLightError::InvalidParameter { .. })));
 }
+
+#[test]
+fn lighting_rotation_in_sh_matches_a_rotated_map() {
+    let ggx: Arc<dyn Brdf> = Arc::new(Ggx::isotropic(0.4, Vec3::ONE).unwrap());
+    let scene = sphere_scene(ggx, sky_env());
+    let r = glam::Mat3::from_euler(glam::EulerRot::YXZ, 1.1, 0.4, -0.3);
+    let mut resampled = scene.clone();
+    resampled.env = scene.env.rotated(r, 4);
+    let renderer = ShRenderer::new(6, ShRotationMethod::Exact).unwrap();
+    let want = renderer
+        .render(&resampled, None, &NoProgress)
+        .unwrap()
+        .image;
+    let got = ShRenderer::new(6, ShRotationMethod::Exact)
+        .unwrap()
+        .with_lighting_rotation(r)
+        .unwrap()
+        .render(&scene, None, &NoProgress)
+        .unwrap()
+        .image;
+    let unrotated = renderer.render(&scene, None, &NoProgress).unwrap().image;
+    let rel = |a: &Image, b: &Image| {
+        let (mut n, mut d) = (0.0f64, 0.0f64);
+        for (p, q) in a.pixels.iter().zip(&b.pixels) {
+            n += f64::from((*p - *q).length_squared());
+            d += f64::from(q.length_squared());
+        }
+        (n / d).sqrt()
+    };
+    let e = rel(&got, &want);
+    assert!(e < 0.02, "SH-domain rotation vs resampled map: {e}");
+    assert!(
+        rel(&unrotated, &want) > 10.0 * e,
+        "the rotation must matter"
+    );
+    let bad = ShRenderer::new(6, ShRotationMethod::Exact)
+        .unwrap()
+        .with_lighting_rotation(glam::Mat3::from_diagonal(Vec3::new(1.0, 1.0, -1.0)));
+    assert!(bad.is_err());
+}
