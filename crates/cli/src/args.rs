@@ -23,7 +23,7 @@ pub enum Command {
     /// Render a scene file, or a mesh under an environment map.
     Render(Box<RenderArgs>),
     /// Interactive window: drag to orbit, right-drag to turn the lighting,
-    /// 1/2/3 for wavelet/sh/fog, a for antialiasing, s to save, Esc to quit.
+    /// 1-4 for wavelet/sh/fog/reference, a for antialiasing, s to save, Esc to quit.
     View(ViewArgs),
     /// Describe files: environment maps, images and meshes, with statistics.
     Info {
@@ -113,12 +113,14 @@ pub struct ViewArgs {
     pub cache: Option<PathBuf>,
 }
 
-/// The real-time methods of `relight view`.
+/// The methods of `relight view`.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ViewMethodArg {
     Wavelet,
     Sh,
     Fog,
+    /// The Monte Carlo reference, refining while the view is still.
+    Reference,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

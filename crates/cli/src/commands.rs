@@ -548,6 +548,7 @@ fn view(a: ViewArgs, bar: &Bar) -> Result<()> {
         ViewMethodArg::Wavelet => relight_viewer::ViewMethod::Wavelet,
         ViewMethodArg::Sh => relight_viewer::ViewMethod::Sh,
         ViewMethodArg::Fog => relight_viewer::ViewMethod::Fog,
+        ViewMethodArg::Reference => relight_viewer::ViewMethod::Reference,
     };
     let opts = relight_viewer::ViewerOptions {
         n: a.n,

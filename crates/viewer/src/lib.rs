@@ -5,8 +5,9 @@
 //! step 2, per-vertex sparse dot products; the SH renderer's per-pixel
 //! rotation; the fog model's per-pixel airlight), right-drag to turn the
 //! lighting (a *lighting change*: the wavelet method's step 1, the SH
-//! projection of the rotated map, the fog lights moving), and switch
-//! methods on the same scene with `1`/`2`/`3`.
+//! coefficients rotated, the fog lights moving), and switch methods on the
+//! same scene with `1`–`3` — or `4` for the Monte Carlo reference, which
+//! refines pass by pass while the view is still, to judge them against.
 //!
 //! Layout:
 //! * [`orbit`]: the orbit camera (pure math, tested);
@@ -92,6 +93,19 @@ mod tests {
                 "{method:?}: reset"
             );
         }
+    }
+
+    #[test]
+    fn the_reference_refines_while_still_and_restarts_on_change() {
+        let mut v = small_viewer(ViewMethod::Reference);
+        let a = v.frame(32, 18, false, &NoProgress).unwrap();
+        let b = v.frame(32, 18, false, &NoProgress).unwrap();
+        assert_eq!((a.spp, b.spp), (4, 8));
+        assert!(v.refining());
+        assert!(mean(&b) > 0.01);
+        v.orbit.rotate(10.0, 0.0);
+        assert_eq!(v.frame(32, 18, false, &NoProgress).unwrap().spp, 4);
+        assert_eq!(v.frame(32, 18, true, &NoProgress).unwrap().spp, 1);
     }
 
     #[test]

@@ -7,6 +7,7 @@
 //! | wavelet | step 1: project + rotate into every sampled normal's frame | step 2: per-vertex sparse dot products, Gouraud |
 //! | sh | project, rotate the coefficients (exact) | per-pixel rotation of the transfer vectors |
 //! | fog | the point lights turn about the orbit target (one carried into an object sits the frame out) | per-pixel analytic airlight + surface radiance |
+//! | reference | resample the map rotated; start again | start again; each still frame adds a pass of samples (no visibility, like `verify`) |
 
 use crate::orbit::Orbit;
 use glam::Mat3;
@@ -27,6 +28,8 @@ pub enum ViewerError {
     Sh(#[from] relight_shlight::ShLightError),
     #[error("fog method: {0}")]
     Fog(#[from] relight_fog::FogError),
+    #[error("reference: {0}")]
+    Reference(#[from] relight_render::reference::ReferenceError),
     #[error(transparent)]
     Asset(#[from] relight_assets::AssetError),
     #[error("window: {0}")]
@@ -39,12 +42,15 @@ pub enum ViewerError {
     },
 }
 
-/// The real-time methods the viewer switches between (keys 1, 2, 3).
+/// The methods the viewer switches between (keys 1–4): the three
+/// real-time ones and the Monte Carlo reference, which refines while the
+/// view is still.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ViewMethod {
     Wavelet,
     Sh,
     Fog,
+    Reference,
 }
 
 impl ViewMethod {
@@ -55,6 +61,7 @@ impl ViewMethod {
             Self::Wavelet => "wavelet",
             Self::Sh => "sh",
             Self::Fog => "fog",
+            Self::Reference => "reference",
         }
     }
 }
@@ -96,8 +103,22 @@ pub struct Frame {
     pub image: Image,
     /// Time of the per-frame work (ms), lighting update included.
     pub ms: f64,
-    /// Samples per pixel side it was drawn with.
+    /// Samples per pixel side it was drawn with (raster methods).
     pub aa: usize,
+    /// Monte Carlo samples per pixel accumulated so far (reference; 0 for
+    /// the raster methods).
+    pub spp: u32,
+}
+
+/// Samples per pixel the reference accumulates before it stops refining.
+pub const REFERENCE_MAX_SPP: u32 = 1024;
+
+/// The reference's running sum, valid for one camera, lighting and size.
+struct Accumulation {
+    key: (Orbit, Mat3, usize, usize),
+    sum: Vec<glam::Vec3>,
+    spp: u32,
+    passes: u64,
 }
 
 struct WaveletState {
@@ -126,6 +147,9 @@ pub struct Viewer {
     sh: Option<ShRenderer>,
     fog_tables: Option<FogTables>,
     fog_lights: Vec<PointLight>,
+    /// The environment rotated for the reference, with its rotation.
+    rotated_env: Option<(Mat3, relight_sphere::EnvMap)>,
+    accumulation: Option<Accumulation>,
 }
 
 impl Viewer {
@@ -164,6 +188,8 @@ impl Viewer {
             sh: Some(sh),
             fog_tables: None,
             fog_lights: relight_fog::default_scene_lights(4),
+            rotated_env: None,
+            accumulation: None,
         })
     }
 
@@ -199,7 +225,7 @@ impl Viewer {
         match self.method {
             ViewMethod::Wavelet => self.wavelet_state(progress).map(|_| ()),
             ViewMethod::Fog => self.fog_tables().map(|_| ()),
-            ViewMethod::Sh => Ok(()),
+            ViewMethod::Sh | ViewMethod::Reference => Ok(()),
         }
     }
 
@@ -259,6 +285,9 @@ impl Viewer {
         let mut scene = self.scene.clone();
         scene.camera = self.orbit.camera(width * aa, height * aa);
         let image = match self.method {
+            ViewMethod::Reference => {
+                return self.reference_pass(width, height, preview, rotation, progress, t);
+            }
             ViewMethod::Wavelet => {
                 let w = self.wavelet_state(progress)?;
                 if w.lit != Some(rotation) {
@@ -286,6 +315,7 @@ impl Viewer {
                     image: out?.image,
                     ms: t.elapsed().as_secs_f64() * 1e3,
                     aa,
+                    spp: 0,
                 });
             }
             ViewMethod::Fog => {
@@ -318,6 +348,84 @@ impl Viewer {
             image: image.box_downsample(aa),
             ms: t.elapsed().as_secs_f64() * 1e3,
             aa,
+            spp: 0,
+        })
+    }
+
+    /// Whether the reference would still refine the current view.
+    #[must_use]
+    pub fn refining(&self) -> bool {
+        self.method == ViewMethod::Reference
+            && self
+                .accumulation
+                .as_ref()
+                .is_none_or(|a| a.spp < REFERENCE_MAX_SPP)
+    }
+
+    /// One progressive pass of the reference renderer (1 sample per pixel
+    /// while dragging, 4 when still), added to the running mean of this
+    /// view; a new camera, lighting or size starts the mean again.
+    fn reference_pass(
+        &mut self,
+        width: usize,
+        height: usize,
+        preview: bool,
+        rotation: Mat3,
+        progress: &dyn Progress,
+        t: Instant,
+    ) -> Result<Frame, ViewerError> {
+        let key = (self.orbit, rotation, width, height);
+        let mut acc = match self.accumulation.take() {
+            Some(a) if a.key == key && !preview => a,
+            _ => Accumulation {
+                key,
+                sum: vec![glam::Vec3::ZERO; width * height],
+                spp: 0,
+                passes: 0,
+            },
+        };
+        let mut scene = self.scene.clone();
+        scene.camera = self.orbit.camera(width, height);
+        if rotation != Mat3::IDENTITY {
+            if self
+                .rotated_env
+                .as_ref()
+                .is_none_or(|(r, _)| *r != rotation)
+            {
+                self.rotated_env = Some((rotation, self.scene.env.rotated(rotation, 2)));
+            }
+            if let Some((_, env)) = &self.rotated_env {
+                scene.env = env.clone();
+            }
+        }
+        let pass = if preview { 1 } else { 4 };
+        if acc.spp < REFERENCE_MAX_SPP {
+            let opts = relight_render::reference::ReferenceOptions {
+                spp: pass,
+                pass_spp: pass,
+                seed: acc.passes,
+                visibility: false,
+                ..Default::default()
+            };
+            let img = relight_render::reference::render_reference(&scene, &opts, progress)?.image;
+            for (s, p) in acc.sum.iter_mut().zip(&img.pixels) {
+                *s += *p * pass as f32;
+            }
+            acc.spp += pass;
+            acc.passes += 1;
+        }
+        let mut image = Image::new(width, height);
+        let inv = 1.0 / acc.spp.max(1) as f32;
+        for (o, s) in image.pixels.iter_mut().zip(&acc.sum) {
+            *o = *s * inv;
+        }
+        let spp = acc.spp;
+        self.accumulation = Some(acc);
+        Ok(Frame {
+            image,
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            aa: 1,
+            spp,
         })
     }
 

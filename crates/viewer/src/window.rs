@@ -2,7 +2,8 @@
 //! a softbuffer surface (CPU pixels, no GPU needed).
 //!
 //! Controls: left drag orbits the camera, right drag turns the lighting,
-//! the wheel zooms; `1`/`2`/`3` switch to wavelet / sh / fog, `a` toggles
+//! the wheel zooms; `1`–`4` switch to wavelet / sh / fog / reference (which
+//! refines while the view is still), `a` toggles
 //! antialiasing, `r` resets, `s` saves the frame as PNG + EXR, `Esc`/`q`
 //! quits. While a button is held frames skip antialiasing (preview); the
 //! title shows the method and the frame time.
@@ -89,17 +90,23 @@ impl App {
         buffer
             .present()
             .map_err(|e| ViewerError::Window(e.to_string()))?;
+        let quality = if frame.spp > 0 {
+            format!(" ({} spp)", frame.spp)
+        } else if frame.aa > 1 {
+            format!(" ({}×{} AA)", frame.aa, frame.aa)
+        } else {
+            String::new()
+        };
         window.set_title(&format!(
-            "relight — {} — {:.1} ms{} — drag: orbit, right drag: light, 1/2/3: method, a: AA, s: save",
+            "relight — {} — {:.1} ms{quality} — drag: orbit, right drag: light, 1-4: method, a: AA, s: save",
             self.viewer.method.name(),
             frame.ms,
-            if frame.aa > 1 {
-                format!(" ({}×{} AA)", frame.aa, frame.aa)
-            } else {
-                String::new()
-            }
         ));
         self.last = Some(frame);
+        // The reference keeps adding samples while the view is still.
+        if self.drag.is_none() && self.viewer.refining() {
+            window.request_redraw();
+        }
         Ok(())
     }
 
@@ -117,6 +124,7 @@ impl App {
                 "1" => self.viewer.method = ViewMethod::Wavelet,
                 "2" => self.viewer.method = ViewMethod::Sh,
                 "3" => self.viewer.method = ViewMethod::Fog,
+                "4" => self.viewer.method = ViewMethod::Reference,
                 "a" => self.viewer.antialias = !self.viewer.antialias,
                 "r" => self.viewer.reset(),
                 "s" => {
