@@ -756,7 +756,15 @@ pub struct RotationRow {
 /// side `n`, the local lighting `𝐑 𝐋` (lighting approximated with 128, 256,
 /// 2048 terms) against direct resampling of `light` in the local frame
 /// (16 × 16 samples per target texel); plus the 128-term approximation of the
-/// direct result itself (`terms = 0`).
+/// direct result itself (`method = ref128`).
+///
+/// Measured (5 normals): for a smooth sky the rotation at 2048 terms is
+/// within 0.005 (n = 64) / 0.011 (n = 128) of direct resampling, so the
+/// matrices are accurate. Under the studio's 1.5° sun it stays at 0.19–0.20
+/// for n = 64 and 128 alike: the sun is smaller than a source texel at both,
+/// and with m = n/2 the source texel is always half a target texel, so the
+/// share of the sun's energy placed in the wrong target texel does not
+/// shrink with n.
 ///
 /// # Errors
 /// Bad parameters.
