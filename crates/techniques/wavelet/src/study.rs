@@ -760,11 +760,11 @@ pub struct RotationRow {
 ///
 /// Measured (5 normals): for a smooth sky the rotation at 2048 terms is
 /// within 0.005 (n = 64) / 0.011 (n = 128) of direct resampling, so the
-/// matrices are accurate. Under the studio's 1.5° sun it stays at 0.19–0.20
-/// for n = 64 and 128 alike: the sun is smaller than a source texel at both,
-/// and with m = n/2 the source texel is always half a target texel, so the
-/// share of the sun's energy placed in the wrong target texel does not
-/// shrink with n.
+/// matrices are accurate. Under the studio's sun (3° across) it stays at
+/// 0.19–0.20 for n = 64 and 128 alike: the sun is no wider than a target
+/// texel at either, and with m = n/2 a source texel is always half a target
+/// texel, so the share of the sun's energy placed in the wrong target texel
+/// does not shrink with n (a 6°-wide sun, [`sun_sky`]: 0.104 → 0.073).
 ///
 /// # Errors
 /// Bad parameters.
