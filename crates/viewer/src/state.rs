@@ -275,7 +275,8 @@ impl Viewer {
         preview: bool,
         progress: &dyn Progress,
     ) -> Result<Frame, ViewerError> {
-        let aa = if preview || !self.antialias {
+        // The reference integrates each pixel itself: no supersampling.
+        let aa = if preview || !self.antialias || self.method == ViewMethod::Reference {
             1
         } else {
             self.opts.aa
@@ -286,7 +287,7 @@ impl Viewer {
         scene.camera = self.orbit.camera(width * aa, height * aa);
         let image = match self.method {
             ViewMethod::Reference => {
-                return self.reference_pass(width, height, preview, rotation, progress, t);
+                return self.reference_pass(scene, preview, rotation, progress, t);
             }
             ViewMethod::Wavelet => {
                 let w = self.wavelet_state(progress)?;
@@ -362,18 +363,19 @@ impl Viewer {
                 .is_none_or(|a| a.spp < REFERENCE_MAX_SPP)
     }
 
-    /// One progressive pass of the reference renderer (1 sample per pixel
-    /// while dragging, 4 when still), added to the running mean of this
-    /// view; a new camera, lighting or size starts the mean again.
+    /// One progressive pass of the reference renderer over `scene` (the
+    /// viewer's scene at the frame's camera; 1 sample per pixel while
+    /// dragging, 4 when still), added to the running mean of this view; a
+    /// new camera, lighting or size starts the mean again.
     fn reference_pass(
         &mut self,
-        width: usize,
-        height: usize,
+        mut scene: Scene,
         preview: bool,
         rotation: Mat3,
         progress: &dyn Progress,
         t: Instant,
     ) -> Result<Frame, ViewerError> {
+        let (width, height) = (scene.camera.width, scene.camera.height);
         let key = (self.orbit, rotation, width, height);
         let mut acc = match self.accumulation.take() {
             Some(a) if a.key == key && !preview => a,
@@ -384,8 +386,6 @@ impl Viewer {
                 passes: 0,
             },
         };
-        let mut scene = self.scene.clone();
-        scene.camera = self.orbit.camera(width, height);
         if rotation != Mat3::IDENTITY {
             if self
                 .rotated_env
