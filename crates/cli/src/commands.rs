@@ -426,17 +426,13 @@ fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
                     .map(|w| format!("{m}: {w}"))
                     .collect::<Vec<_>>(),
             );
-            objects.push(relight_render::Object {
-                mesh: std::sync::Arc::new(mesh),
-                brdf: brdf.clone(),
-            });
+            objects.push(relight_render::Object::new(
+                std::sync::Arc::new(mesh),
+                brdf.clone(),
+            ));
         }
         let camera = relight_scene::framing_camera(&objects, w, h, 40.0);
-        Scene {
-            objects,
-            env,
-            camera,
-        }
+        Scene::new(objects, env, camera)
     };
     if let (Some(spec), Some(_)) = (&a.brdf, &a.scene) {
         {

@@ -9,20 +9,27 @@
 pub mod bvh;
 pub mod camera;
 pub mod image;
+pub mod method;
 pub mod progress;
 pub mod raster;
 pub mod reference;
 pub mod sampling;
 pub mod scene;
+pub mod texture;
 
 pub use camera::{Camera, CameraRays};
 pub use image::Image;
+pub use method::{
+    Coverage, FrameRequest, FrameTimings, MethodError, Noise, Relighter, Rendered, SceneFeature,
+    Support, check_scene, render_frame,
+};
 pub use progress::{Cancelled, NoProgress, Progress};
 pub use raster::{
     Background, CullMode, DrawCall, Fragment, GBuffer, RasterBenchRow, RasterError, RasterOptions,
     RasterStats, Rasterizer, VertexAttributes, bench_raster,
 };
-pub use scene::{Object, Scene};
+pub use scene::{Animation, AreaLight, BrdfBlend, Keyframe, Medium, Object, PointLight, Scene};
+pub use texture::{NormalMap, Texture, TextureError};
 
 pub use bvh::{Hit, SceneBvh, ShadingPoint, ambient_occlusion, vertex_ambient_occlusion};
 pub use reference::{

@@ -572,24 +572,21 @@ pub(crate) fn sun_sky(width: usize, sun_dir: Vec3, sun_radius_deg: f32, sun: f32
 #[must_use]
 fn bench_scene(width: usize, height: usize) -> Scene {
     let brdf: Arc<dyn Brdf> = Arc::new(Lambert::new(Vec3::splat(0.8)).expect("albedo in [0, 1]"));
-    Scene {
-        objects: vec![
-            Object {
-                mesh: Arc::new(relight_geom::shapes::uv_sphere_at(
+    Scene::new(
+        vec![
+            Object::new(
+                Arc::new(relight_geom::shapes::uv_sphere_at(
                     Vec3::new(0.0, 1.0, 0.0),
                     1.0,
                     256,
                     128,
                 )),
-                brdf: brdf.clone(),
-            },
-            Object {
-                mesh: Arc::new(floor_quad(0.0, 20.0)),
-                brdf,
-            },
+                brdf.clone(),
+            ),
+            Object::new(Arc::new(floor_quad(0.0, 20.0)), brdf),
         ],
-        env: sun_sky(512, Vec3::new(0.5, 1.0, 0.3), 1.5, 2000.0),
-        camera: Camera {
+        sun_sky(512, Vec3::new(0.5, 1.0, 0.3), 1.5, 2000.0),
+        Camera {
             eye: Vec3::new(0.0, 1.6, 4.0),
             target: Vec3::new(0.0, 0.9, 0.0),
             up: Vec3::Y,
@@ -597,7 +594,7 @@ fn bench_scene(width: usize, height: usize) -> Scene {
             width,
             height,
         },
-    }
+    )
 }
 
 /// Throughput of the reference renderer on the built-in scene (sphere on a
@@ -654,13 +651,13 @@ mod tests {
     }
 
     fn sphere_scene(env: EnvMap, albedo: f32, size: usize) -> Scene {
-        Scene {
-            objects: vec![Object {
-                mesh: Arc::new(relight_geom::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 96, 48)),
-                brdf: Arc::new(Lambert::new(Vec3::splat(albedo)).expect("albedo in [0, 1]")),
-            }],
+        Scene::new(
+            vec![Object::new(
+                Arc::new(relight_geom::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 96, 48)),
+                Arc::new(Lambert::new(Vec3::splat(albedo)).expect("albedo in [0, 1]")),
+            )],
             env,
-            camera: Camera {
+            Camera {
                 eye: Vec3::new(0.0, 0.0, 3.5),
                 target: Vec3::ZERO,
                 up: Vec3::Y,
@@ -668,7 +665,7 @@ mod tests {
                 width: size,
                 height: size,
             },
-        }
+        )
     }
 
     /// Mask of pixels whose centre ray hits geometry.

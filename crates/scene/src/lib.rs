@@ -98,24 +98,24 @@ pub fn default_camera(width: usize, height: usize) -> Camera {
 #[must_use]
 pub fn default_scene(width: usize, height: usize) -> Scene {
     let objects = vec![
-        Object {
-            mesh: placed("sphere", Vec3::new(-1.55, 0.55, 0.0), 0.55),
-            brdf: brdf("ggx:0.2@1,0.78,0.34"),
-        },
-        Object {
-            mesh: placed("knot", Vec3::new(0.0, 0.6, -0.2), 0.6),
-            brdf: brdf("phong:40@0.9,0.25,0.2"),
-        },
-        Object {
-            mesh: placed("torus", Vec3::new(1.55, 0.55, 0.0), 0.6),
-            brdf: brdf("lambert:0.8"),
-        },
+        Object::new(
+            placed("sphere", Vec3::new(-1.55, 0.55, 0.0), 0.55),
+            brdf("ggx:0.2@1,0.78,0.34"),
+        ),
+        Object::new(
+            placed("knot", Vec3::new(0.0, 0.6, -0.2), 0.6),
+            brdf("phong:40@0.9,0.25,0.2"),
+        ),
+        Object::new(
+            placed("torus", Vec3::new(1.55, 0.55, 0.0), 0.6),
+            brdf("lambert:0.8"),
+        ),
     ];
-    Scene {
+    Scene::new(
         objects,
-        env: studio_environment(STUDIO_HEIGHT),
-        camera: default_camera(width, height),
-    }
+        studio_environment(STUDIO_HEIGHT),
+        default_camera(width, height),
+    )
 }
 
 /// The same scene with every object's material replaced by `brdf`
@@ -282,10 +282,7 @@ pub fn load_scene_file(
             rot,
             Vec3::from(o.translate.unwrap_or([0.0; 3])),
         );
-        objects.push(Object {
-            mesh: Arc::new(mesh.transformed(xf)),
-            brdf,
-        });
+        objects.push(Object::new(Arc::new(mesh.transformed(xf)), brdf));
     }
     let (w, h) = size
         .or(file
@@ -306,11 +303,7 @@ pub fn load_scene_file(
         None => framing_camera(&objects, w, h, 40.0),
     };
     Ok(LoadedScene {
-        scene: Scene {
-            objects,
-            env,
-            camera,
-        },
+        scene: Scene::new(objects, env, camera),
         file,
         warnings,
     })

@@ -48,14 +48,13 @@
 
 pub mod bake;
 pub mod bench;
-pub mod normal_map;
 pub mod relight;
 pub mod verify;
 
 pub use bake::{BakeOptions, BrdfShTable};
 pub use bench::{ShRenderBenchRow, bench_sh_render};
-pub use normal_map::NormalMap;
 pub use relight::{LightingFilter, ShImage, ShRenderer, ShRotationMethod};
+pub use relight_render::NormalMap;
 pub use verify::{ShVerifyRow, VerifyOptions, VerifyScene, verify_sh};
 
 use relight_render::Cancelled;
@@ -109,7 +108,7 @@ pub enum ShLightError {
     Anisotropic { object: usize, deviation: f32 },
     /// A malformed normal map.
     #[error("normal map: {0}")]
-    NormalMap(String),
+    NormalMap(#[from] relight_render::TextureError),
     /// Any other invalid parameter.
     #[error("invalid parameter `{what}`: {why}")]
     InvalidParameter { what: &'static str, why: String },

@@ -60,14 +60,11 @@ fn sky_env() -> EnvMap {
 }
 
 fn sphere_scene(brdf: Arc<dyn Brdf>, env: EnvMap) -> Scene {
-    Scene {
-        objects: vec![Object {
-            mesh: Arc::new(shapes::uv_sphere(1.0, 64, 32)),
-            brdf,
-        }],
+    Scene::new(
+        vec![Object::new(Arc::new(shapes::uv_sphere(1.0, 64, 32)), brdf)],
         env,
-        camera: camera(),
-    }
+        camera(),
+    )
 }
 
 fn reference(scene: &Scene, nm: Option<&NormalMap>, spp: u32) -> ReferenceImage {

@@ -1151,13 +1151,13 @@ pub fn sphere_scene(brdf: Arc<dyn Brdf>, width: usize, height: usize) -> Scene {
         },
         sky,
     );
-    Scene {
-        objects: vec![Object {
-            mesh: Arc::new(relight_geom::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 128, 64)),
+    Scene::new(
+        vec![Object::new(
+            Arc::new(relight_geom::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 128, 64)),
             brdf,
-        }],
+        )],
         env,
-        camera: relight_render::Camera {
+        relight_render::Camera {
             eye: Vec3::new(0.0, 0.6, 3.2),
             target: Vec3::ZERO,
             up: Vec3::Y,
@@ -1165,7 +1165,7 @@ pub fn sphere_scene(brdf: Arc<dyn Brdf>, width: usize, height: usize) -> Scene {
             width,
             height,
         },
-    }
+    )
 }
 
 #[cfg(test)]

@@ -1,22 +1,143 @@
-//! Tangent-space normal maps: storage, bilinear wrap sampling, and the
-//! perturbed world normal.
+//! Textures over a mesh's uvs: [`Texture`] (linear RGB, e.g. an area light's
+//! radiance or a BRDF blend weight) and [`NormalMap`] (tangent-space normals),
+//! both sampled bilinearly with wrap-around — the one texture lookup every
+//! method and the reference share, so they shade the same values.
 //!
 //! # Convention
-//! * Texel `(x, y)` (row 0 at the top of the image) holds a unit vector in
+//! * uv → texel (both types): `x = u·W − ½`, `y = v·H − ½` (v runs down the
+//!   image, the glTF convention), bilinear, wrapping in both directions.
+//! * Normal-map texel `(x, y)` (row 0 at the top of the image) holds a unit vector in
 //!   tangent space `(t, b, n)`: +X along the tangent, +Y along the bitangent
 //!   (OpenGL "green up"), +Z out of the surface — the `shared/data/normalmaps`
 //!   convention. PNG colours `c ∈ [0, 1]³` decode as `2c − 1`
 //!   ([`NormalMap::from_rgb`]).
-//! * uv → texel: `x = u·W − ½`, `y = v·H − ½` (v runs down the image, the
-//!   glTF convention), bilinear, wrapping in both directions.
 //! * World normal: `n' = normalize(x·T + y·B + z·N)` with `N` the unit
 //!   interpolated vertex normal, `T` the interpolated tangent made orthogonal
 //!   to `N` (Gram–Schmidt) and `B = w (N × T)`, `w` = the tangent's handedness.
-//!   Both the SH renderer and the normal-mapped reference of `verify` call
-//!   [`NormalMap::perturb`], so they shade the same normals.
+//!   Every method and the reference call [`NormalMap::perturb`], so they
+//!   shade the same normals.
 
-use crate::ShLightError;
 use glam::{Vec2, Vec3, Vec4};
+
+/// Why texels do not make a texture.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TextureError {
+    #[error("size {width}×{height} is empty")]
+    Empty { width: usize, height: usize },
+    #[error("{given} texels given for a {width}×{height} texture ({} expected)", width * height)]
+    SizeMismatch {
+        width: usize,
+        height: usize,
+        given: usize,
+    },
+    #[error("texel ({x}, {y}) = {value} {why}")]
+    BadTexel {
+        x: usize,
+        y: usize,
+        value: Vec3,
+        why: &'static str,
+    },
+}
+
+fn check_size(width: usize, height: usize, given: usize) -> Result<(), TextureError> {
+    if width == 0 || height == 0 {
+        return Err(TextureError::Empty { width, height });
+    }
+    if given != width * height {
+        return Err(TextureError::SizeMismatch {
+            width,
+            height,
+            given,
+        });
+    }
+    Ok(())
+}
+
+/// The four texels and weights of a bilinear wrap-around lookup at `uv` in a
+/// `width × height` grid: `[(index, weight); 4]`.
+#[inline]
+fn bilinear_taps(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4] {
+    let fx = uv.x * width as f32 - 0.5;
+    let fy = uv.y * height as f32 - 0.5;
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (tx, ty) = if fx.is_finite() && fy.is_finite() {
+        (fx - x0, fy - y0)
+    } else {
+        (0.0, 0.0)
+    };
+    let wrap = |v: f32, n: usize| -> usize {
+        let n_i = n as i64;
+        let i = if v.is_finite() { v as i64 } else { 0 };
+        (((i % n_i) + n_i) % n_i) as usize
+    };
+    let (xa, xb) = (wrap(x0, width), wrap(x0 + 1.0, width));
+    let (ya, yb) = (wrap(y0, height), wrap(y0 + 1.0, height));
+    [
+        (ya * width + xa, (1.0 - tx) * (1.0 - ty)),
+        (ya * width + xb, tx * (1.0 - ty)),
+        (yb * width + xa, (1.0 - tx) * ty),
+        (yb * width + xb, tx * ty),
+    ]
+}
+
+/// A linear-RGB texture over uv (row 0 at the top, v down).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub width: usize,
+    pub height: usize,
+    /// Finite, non-negative linear RGB, row-major.
+    pub texels: Vec<Vec3>,
+}
+
+impl Texture {
+    /// From finite, non-negative texels.
+    ///
+    /// # Errors
+    /// Size mismatch, zero size, negative or non-finite texels.
+    pub fn try_new(width: usize, height: usize, texels: Vec<Vec3>) -> Result<Self, TextureError> {
+        check_size(width, height, texels.len())?;
+        if let Some(i) = texels
+            .iter()
+            .position(|t| !t.is_finite() || t.min_element() < 0.0)
+        {
+            return Err(TextureError::BadTexel {
+                x: i % width,
+                y: i / width,
+                value: texels[i],
+                why: "is negative or not finite",
+            });
+        }
+        Ok(Self {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    /// A 1 × 1 texture of one value (must be finite and ≥ 0).
+    ///
+    /// # Errors
+    /// A negative or non-finite value.
+    pub fn constant(value: Vec3) -> Result<Self, TextureError> {
+        Self::try_new(1, 1, vec![value])
+    }
+
+    /// Bilinear sample at `uv` with wrap-around.
+    #[inline]
+    #[must_use]
+    pub fn sample(&self, uv: Vec2) -> Vec3 {
+        bilinear_taps(self.width, self.height, uv)
+            .iter()
+            .map(|&(i, w)| self.texels[i] * w)
+            .sum()
+    }
+
+    /// Mean texel value (the texture's average over uv).
+    #[must_use]
+    pub fn mean(&self) -> Vec3 {
+        self.texels.iter().copied().sum::<Vec3>() / self.texels.len() as f32
+    }
+}
 
 /// A decoded tangent-space normal map: `width × height` unit vectors, row-major.
 #[derive(Clone, Debug, PartialEq)]
@@ -32,27 +153,17 @@ impl NormalMap {
     ///
     /// # Errors
     /// Size mismatch, zero size, non-finite or zero-length texels.
-    pub fn from_vectors(width: usize, height: usize, v: &[Vec3]) -> Result<Self, ShLightError> {
-        if width == 0 || height == 0 {
-            return Err(ShLightError::NormalMap(format!(
-                "size {width}×{height} is empty"
-            )));
-        }
-        if v.len() != width * height {
-            return Err(ShLightError::NormalMap(format!(
-                "{} texels given for a {width}×{height} map ({} expected)",
-                v.len(),
-                width * height
-            )));
-        }
+    pub fn from_vectors(width: usize, height: usize, v: &[Vec3]) -> Result<Self, TextureError> {
+        check_size(width, height, v.len())?;
         let mut texels = Vec::with_capacity(v.len());
         for (i, t) in v.iter().enumerate() {
             let Some(n) = t.try_normalize() else {
-                return Err(ShLightError::NormalMap(format!(
-                    "texel ({}, {}) = {t} is not a direction (zero or not finite)",
-                    i % width,
-                    i / width
-                )));
+                return Err(TextureError::BadTexel {
+                    x: i % width,
+                    y: i / width,
+                    value: *t,
+                    why: "is not a direction (zero or not finite)",
+                });
             };
             texels.push(n);
         }
@@ -67,7 +178,7 @@ impl NormalMap {
     ///
     /// # Errors
     /// As [`NormalMap::from_vectors`].
-    pub fn from_rgb(width: usize, height: usize, rgb: &[Vec3]) -> Result<Self, ShLightError> {
+    pub fn from_rgb(width: usize, height: usize, rgb: &[Vec3]) -> Result<Self, TextureError> {
         let v: Vec<Vec3> = rgb.iter().map(|c| *c * 2.0 - Vec3::ONE).collect();
         Self::from_vectors(width, height, &v)
     }
@@ -110,21 +221,10 @@ impl NormalMap {
     #[inline]
     #[must_use]
     pub fn sample(&self, uv: Vec2) -> Vec3 {
-        let (w, h) = (self.width as f32, self.height as f32);
-        let fx = uv.x * w - 0.5;
-        let fy = uv.y * h - 0.5;
-        let (x0, y0) = (fx.floor(), fy.floor());
-        let (tx, ty) = (fx - x0, fy - y0);
-        let wrap = |v: f32, n: usize| -> usize {
-            let n_i = n as i64;
-            let i = if v.is_finite() { v as i64 } else { 0 };
-            (((i % n_i) + n_i) % n_i) as usize
-        };
-        let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
-        let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
-        let t = |x: usize, y: usize| self.texels[y * self.width + x];
-        let v = (t(xa, ya) * (1.0 - tx) + t(xb, ya) * tx) * (1.0 - ty)
-            + (t(xa, yb) * (1.0 - tx) + t(xb, yb) * tx) * ty;
+        let v: Vec3 = bilinear_taps(self.width, self.height, uv)
+            .iter()
+            .map(|&(i, w)| self.texels[i] * w)
+            .sum();
         v.normalize_or(Vec3::Z)
     }
 

@@ -1,0 +1,549 @@
+//! The method interface: [`Relighter`], the one trait every rendering method
+//! implements — the Monte Carlo reference and each paper technique — and the
+//! only way the CLI, the viewer, `verify` and the Python package reach them.
+//!
+//! # The life of a method
+//! 1. **Options.** Each method has its own options type (in its own crate),
+//!    whose `Default` holds that method's defaults — the one place they live.
+//! 2. **Check.** [`check_scene`] compares the scene's [`SceneFeature`]s with
+//!    what the method [`supports`](Relighter::supports). A feature it cannot
+//!    render is a [`MethodError::Unsupported`] naming the method and the
+//!    feature; one it renders approximately is an error too unless the caller
+//!    passes `approximate`, and then a warning.
+//! 3. **Prepare.** [`Relighter::prepare`] bakes, or loads from the cache,
+//!    whatever the scene needs (with progress and cancellation).
+//! 4. **Per frame.** [`Relighter::set_lighting`] after the lighting changed
+//!    (the environment's `world_from_env`, the lights); [`Relighter::render`]
+//!    for a camera (a view change), returning the image and its timings.
+//!    [`render_frame`] wraps `render` with what every method shares: the
+//!    coverage and object-id channels and the one background.
+//!
+//! # One background
+//! Every method shows the same pixels where no object is seen: the
+//! environment read bilinearly ([`Scene::env_radiance`]) and averaged over a
+//! fixed [`BACKGROUND_SUBSAMPLES`]² grid of sub-pixel directions
+//! ([`background_pixel`]). [`render_frame`] writes it into every pixel whose
+//! coverage is zero, so that two methods differ only where they shade. In a
+//! scene with a medium the background is the foggy sky (attenuated and
+//! in-scattered environment), which is part of what a method computes: there
+//! each method keeps its own.
+
+use crate::raster::{CullMode, DrawCall, RasterOptions, Rasterizer};
+use crate::{Camera, Cancelled, Image, Progress, Scene};
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::time::Instant;
+
+/// A feature of a scene that a method may or may not render.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SceneFeature {
+    /// Distant environment lighting (a non-black environment map).
+    Environment,
+    /// Isotropic point lights.
+    PointLights,
+    /// Textured rectangular area lights.
+    AreaLights,
+    /// A homogeneous participating medium.
+    Medium,
+    /// Binary visibility: shadows.
+    Visibility,
+    /// Tangent-space normal maps.
+    NormalMaps,
+    /// A spatially varying BRDF (two BRDFs blended by a texture).
+    SpatiallyVaryingBrdf,
+}
+
+impl SceneFeature {
+    /// Every feature, in a fixed order.
+    pub const ALL: [SceneFeature; 7] = [
+        Self::Environment,
+        Self::PointLights,
+        Self::AreaLights,
+        Self::Medium,
+        Self::Visibility,
+        Self::NormalMaps,
+        Self::SpatiallyVaryingBrdf,
+    ];
+
+    /// Lower-case words, for messages.
+    #[must_use]
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Environment => "environment lighting",
+            Self::PointLights => "point lights",
+            Self::AreaLights => "area lights",
+            Self::Medium => "a participating medium",
+            Self::Visibility => "visibility (shadows)",
+            Self::NormalMaps => "normal maps",
+            Self::SpatiallyVaryingBrdf => "spatially varying BRDFs",
+        }
+    }
+
+    /// The features `scene` uses.
+    #[must_use]
+    pub fn of_scene(scene: &Scene) -> Vec<SceneFeature> {
+        Self::ALL
+            .into_iter()
+            .filter(|f| match f {
+                Self::Environment => scene.has_environment(),
+                Self::PointLights => !scene.point_lights.is_empty(),
+                Self::AreaLights => !scene.area_lights.is_empty(),
+                Self::Medium => scene.medium.is_some_and(|m| m.beta > 0.0),
+                Self::Visibility => scene.visibility,
+                Self::NormalMaps => scene.objects.iter().any(|o| o.normal_map.is_some()),
+                Self::SpatiallyVaryingBrdf => scene.objects.iter().any(|o| o.blend.is_some()),
+            })
+            .collect()
+    }
+}
+
+impl std::fmt::Display for SceneFeature {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.describe())
+    }
+}
+
+/// How a method renders one feature.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Support {
+    /// Rendered as the reference renders it (up to the method's own error).
+    Full,
+    /// Rendered approximately; the text says how (shown as a warning, and only
+    /// allowed with `approximate`).
+    Approximate(&'static str),
+    /// Not rendered.
+    No,
+}
+
+/// Why a method did not render.
+#[derive(Debug, thiserror::Error)]
+pub enum MethodError {
+    /// The scene uses a feature the method cannot render.
+    #[error("method {method} cannot render {feature}{}", approx_hint(*.approximate))]
+    Unsupported {
+        method: &'static str,
+        feature: SceneFeature,
+        /// `Some(how)` when `--approximate` would render it approximately.
+        approximate: Option<&'static str>,
+    },
+    /// An option is out of range or does not apply.
+    #[error("method {method}: {option}: {message}")]
+    InvalidOption {
+        method: &'static str,
+        option: &'static str,
+        message: String,
+    },
+    /// The user asked to stop; nothing was produced.
+    #[error("cancelled")]
+    Cancelled,
+    /// The method's own failure (bad data, bake IO, …).
+    #[error("method {method}: {source}")]
+    Failed {
+        method: &'static str,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+}
+
+fn approx_hint(approximate: Option<&'static str>) -> String {
+    match approximate {
+        Some(how) => format!(" exactly (pass --approximate to accept: {how})"),
+        None => String::new(),
+    }
+}
+
+impl From<Cancelled> for MethodError {
+    fn from(_: Cancelled) -> Self {
+        Self::Cancelled
+    }
+}
+
+impl MethodError {
+    /// Wraps a method's own error, keeping cancellation as [`MethodError::Cancelled`].
+    pub fn failed<E>(method: &'static str, e: E) -> Self
+    where
+        E: std::error::Error + Send + Sync + 'static,
+    {
+        let boxed: Box<dyn std::error::Error + Send + Sync> = Box::new(e);
+        if is_cancelled(boxed.as_ref()) {
+            Self::Cancelled
+        } else {
+            Self::Failed {
+                method,
+                source: boxed,
+            }
+        }
+    }
+}
+
+/// True when `e`, or any error in its source chain, is a cancellation: a
+/// [`Cancelled`], a [`MethodError::Cancelled`], or an error whose message is
+/// exactly "cancelled" or ends in " cancelled" (how each crate's error
+/// displays its own `Cancelled` variant).
+#[must_use]
+pub fn is_cancelled(e: &(dyn std::error::Error + 'static)) -> bool {
+    let mut cur: Option<&(dyn std::error::Error + 'static)> = Some(e);
+    while let Some(err) = cur {
+        if err.is::<Cancelled>() || matches!(err.downcast_ref(), Some(MethodError::Cancelled)) {
+            return true;
+        }
+        let text = err.to_string();
+        if text == "cancelled" || text.ends_with(" cancelled") {
+            return true;
+        }
+        cur = err.source();
+    }
+    false
+}
+
+/// What one frame is asked for.
+#[derive(Clone, Debug)]
+pub struct FrameRequest {
+    /// The camera (its size is the output image's).
+    pub camera: Camera,
+    /// Antialiasing: `aa × aa` samples per pixel, box-filtered like the
+    /// reference's pixels (1…[`MAX_AA`]). Monte Carlo methods integrate each
+    /// pixel themselves and ignore it.
+    pub aa: usize,
+    /// Progressive methods: when nothing changed since the last frame, add to
+    /// the running estimate instead of starting again.
+    pub progressive: bool,
+}
+
+/// Largest `aa` a [`FrameRequest`] may ask for.
+pub const MAX_AA: usize = 8;
+
+impl FrameRequest {
+    /// One sample per pixel, not progressive.
+    #[must_use]
+    pub fn new(camera: Camera) -> Self {
+        Self {
+            camera,
+            aa: 1,
+            progressive: false,
+        }
+    }
+
+    /// The same request with `aa × aa` samples per pixel.
+    #[must_use]
+    pub fn with_aa(mut self, aa: usize) -> Self {
+        self.aa = aa;
+        self
+    }
+
+    /// Checks the size and `aa`.
+    ///
+    /// # Errors
+    /// An empty image or `aa` outside 1…[`MAX_AA`].
+    pub fn validate(&self, method: &'static str) -> Result<(), MethodError> {
+        if !(1..=MAX_AA).contains(&self.aa) {
+            return Err(MethodError::InvalidOption {
+                method,
+                option: "aa",
+                message: format!(
+                    "must be 1…{MAX_AA} samples per pixel side (got {})",
+                    self.aa
+                ),
+            });
+        }
+        if self.camera.width == 0 || self.camera.height == 0 {
+            return Err(MethodError::InvalidOption {
+                method,
+                option: "size",
+                message: format!(
+                    "image size must be at least 1×1 (got {}×{})",
+                    self.camera.width, self.camera.height
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Where the time of a frame went, milliseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct FrameTimings {
+    /// The lighting change folded into this frame (0 when the lighting was
+    /// already set).
+    pub lighting_ms: f64,
+    /// The view-dependent work: shading and rasterization.
+    pub view_ms: f64,
+}
+
+/// Per-pixel coverage and object id of an image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Coverage {
+    pub width: usize,
+    pub height: usize,
+    /// Fraction of the pixel covered by objects, in [0, 1].
+    pub coverage: Vec<f32>,
+    /// 1 + index of the object covering most of the pixel; 0 = none.
+    pub object_id: Vec<u32>,
+}
+
+impl Coverage {
+    /// Pixels fully covered by objects (the default region of `compare`).
+    #[must_use]
+    pub fn object_mask(&self) -> Vec<bool> {
+        self.coverage.iter().map(|&c| c >= 1.0).collect()
+    }
+
+    /// Pixels no object touches.
+    #[must_use]
+    pub fn background_mask(&self) -> Vec<bool> {
+        self.coverage.iter().map(|&c| c <= 0.0).collect()
+    }
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug)]
+pub struct Rendered {
+    /// Linear RGB radiance per pixel.
+    pub image: Image,
+    /// Coverage and object ids, when the method knows them (else
+    /// [`render_frame`] rasterizes them).
+    pub coverage: Option<Coverage>,
+    pub timings: FrameTimings,
+    /// Monte Carlo methods: samples per pixel so far and the image's
+    /// relative standard error (mean per-pixel standard error ÷ mean
+    /// luminance). `None` for deterministic methods.
+    pub noise: Option<Noise>,
+}
+
+/// A Monte Carlo image's own error estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Noise {
+    pub spp: u32,
+    pub relative_std_error: f64,
+}
+
+/// A rendering method (see the module docs).
+pub trait Relighter: Send {
+    /// Name, as on the command line (`reference`, `sh`, `wavelet`, `fog`, …).
+    fn name(&self) -> &'static str;
+
+    /// How this method renders `feature`.
+    fn supports(&self, feature: SceneFeature) -> Support;
+
+    /// Bakes or loads what `scene` needs, then sets its lighting. Call again
+    /// when the objects or materials change.
+    ///
+    /// # Errors
+    /// Bad options or data, or [`MethodError::Cancelled`].
+    fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError>;
+
+    /// A lighting change: `scene`'s environment rotation or lights moved.
+    /// Returns the milliseconds it took.
+    ///
+    /// # Errors
+    /// As [`Relighter::prepare`].
+    fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError>;
+
+    /// Renders `scene` (as last prepared and lit) for `request`.
+    ///
+    /// # Errors
+    /// Bad sizes, or [`MethodError::Cancelled`].
+    fn render(
+        &mut self,
+        scene: &Scene,
+        request: &FrameRequest,
+        progress: &dyn Progress,
+    ) -> Result<Rendered, MethodError>;
+
+    /// Bytes of precomputed data the method holds (0 when none).
+    fn data_bytes(&self) -> u64 {
+        0
+    }
+}
+
+/// Checks that `method` renders every feature of `scene`: `Ok(warnings)`
+/// (one per approximated feature, only with `approximate`), or the first
+/// feature it cannot render.
+///
+/// # Errors
+/// [`MethodError::Unsupported`].
+pub fn check_scene(
+    method: &dyn Relighter,
+    scene: &Scene,
+    approximate: bool,
+) -> Result<Vec<String>, MethodError> {
+    let mut warnings = Vec::new();
+    for feature in SceneFeature::of_scene(scene) {
+        match method.supports(feature) {
+            Support::Full => {}
+            Support::Approximate(how) if approximate => warnings.push(format!(
+                "method {} renders {feature} approximately: {how}",
+                method.name()
+            )),
+            Support::Approximate(how) => {
+                return Err(MethodError::Unsupported {
+                    method: method.name(),
+                    feature,
+                    approximate: Some(how),
+                });
+            }
+            Support::No => {
+                return Err(MethodError::Unsupported {
+                    method: method.name(),
+                    feature,
+                    approximate: None,
+                });
+            }
+        }
+    }
+    Ok(warnings)
+}
+
+/// Sub-pixel grid side of the shared background ([`background_pixel`]).
+pub const BACKGROUND_SUBSAMPLES: usize = 4;
+
+/// The background of pixel `(x, y)`: the environment ([`Scene::env_radiance`],
+/// bilinear) averaged over a [`BACKGROUND_SUBSAMPLES`]² grid of sub-pixel
+/// centres — the box-filtered pixel the reference integrates, by quadrature.
+#[must_use]
+pub fn background_pixel(scene: &Scene, rays: &crate::CameraRays, x: usize, y: usize) -> Vec3 {
+    let k = BACKGROUND_SUBSAMPLES;
+    let mut sum = Vec3::ZERO;
+    for j in 0..k {
+        for i in 0..k {
+            let d = rays.dir(
+                x as f32 + (i as f32 + 0.5) / k as f32,
+                y as f32 + (j as f32 + 0.5) / k as f32,
+            );
+            sum += scene.env_radiance(d);
+        }
+    }
+    sum / (k * k) as f32
+}
+
+/// Writes the shared background into every pixel of `image` whose coverage
+/// is zero (all rows in parallel).
+pub fn fill_background(scene: &Scene, camera: &Camera, coverage: &Coverage, image: &mut Image) {
+    let rays = camera.ray_frame();
+    let w = image.width;
+    image
+        .pixels
+        .par_chunks_mut(w)
+        .zip(coverage.coverage.par_chunks(w))
+        .enumerate()
+        .for_each(|(y, (row, cov))| {
+            for (x, (p, &c)) in row.iter_mut().zip(cov).enumerate() {
+                if c <= 0.0 {
+                    *p = background_pixel(scene, &rays, x, y);
+                }
+            }
+        });
+}
+
+/// Coverage and object ids of `scene`'s objects seen by `camera`, from a
+/// visibility buffer at `samples × samples` points per pixel (both sides of
+/// every triangle drawn).
+///
+/// # Errors
+/// A bad image size or mesh (as the rasterizer reports it).
+pub fn rasterize_coverage(
+    scene: &Scene,
+    camera: &Camera,
+    samples: usize,
+) -> Result<Coverage, crate::RasterError> {
+    let k = samples.max(1);
+    let mut big = camera.clone();
+    big.width *= k;
+    big.height *= k;
+    let draws: Vec<DrawCall> = scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32))
+        .collect();
+    let mut r = Rasterizer::new();
+    let opts = RasterOptions {
+        cull: CullMode::None,
+        ..RasterOptions::default()
+    }
+    .fit_depth(&big, &draws);
+    r.rasterize(&big, &draws, &opts)?;
+    let g = r.gbuffer();
+    Ok(coverage_from_ids(camera.width, camera.height, k, |x, y| {
+        r.locate(g.triangle[y * g.width + x])
+            .map(|(d, _)| draws[d].object_id)
+    }))
+}
+
+/// Box-reduces per-sample object ids (`None` = empty) of a `k`× supersampled
+/// buffer to [`Coverage`] at `width × height`.
+#[must_use]
+pub fn coverage_from_ids(
+    width: usize,
+    height: usize,
+    k: usize,
+    id_at: impl Fn(usize, usize) -> Option<u32> + Sync,
+) -> Coverage {
+    let n = width * height;
+    let per: Vec<(f32, u32)> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let (px, py) = (i % width, i / width);
+            let mut counts: Vec<(u32, u32)> = Vec::new();
+            let mut hit = 0u32;
+            for sy in 0..k {
+                for sx in 0..k {
+                    if let Some(id) = id_at(px * k + sx, py * k + sy) {
+                        hit += 1;
+                        match counts.iter_mut().find(|(o, _)| *o == id) {
+                            Some(c) => c.1 += 1,
+                            None => counts.push((id, 1)),
+                        }
+                    }
+                }
+            }
+            let id = counts
+                .iter()
+                .max_by_key(|(o, c)| (*c, std::cmp::Reverse(*o)))
+                .map_or(0, |(o, _)| o + 1);
+            (hit as f32 / (k * k) as f32, id)
+        })
+        .collect();
+    Coverage {
+        width,
+        height,
+        coverage: per.iter().map(|p| p.0).collect(),
+        object_id: per.iter().map(|p| p.1).collect(),
+    }
+}
+
+/// Sub-pixel samples per side of the coverage [`render_frame`] rasterizes
+/// when a method does not report its own.
+pub const COVERAGE_SUBSAMPLES: usize = 4;
+
+/// One frame through the interface: [`Relighter::render`], then the coverage
+/// (the method's own, or rasterized at [`COVERAGE_SUBSAMPLES`]²) and the one
+/// background in every pixel no object covers. Methods that render a medium
+/// keep their own background (the foggy sky is part of their image).
+///
+/// # Errors
+/// As [`Relighter::render`].
+pub fn render_frame(
+    method: &mut dyn Relighter,
+    scene: &Scene,
+    request: &FrameRequest,
+    progress: &dyn Progress,
+) -> Result<Rendered, MethodError> {
+    request.validate(method.name())?;
+    let mut out = method.render(scene, request, progress)?;
+    let t = Instant::now();
+    let coverage = match out.coverage.take() {
+        Some(c) => c,
+        None => rasterize_coverage(scene, &request.camera, COVERAGE_SUBSAMPLES)
+            .map_err(|e| MethodError::failed(method.name(), e))?,
+    };
+    let fogged = scene.medium.is_some_and(|m| m.beta > 0.0);
+    if !fogged {
+        fill_background(scene, &request.camera, &coverage, &mut out.image);
+    }
+    out.coverage = Some(coverage);
+    out.timings.view_ms += t.elapsed().as_secs_f64() * 1e3;
+    Ok(out)
+}
