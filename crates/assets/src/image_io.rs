@@ -271,7 +271,7 @@ pub(crate) fn decode_raw(
     })
 }
 
-fn exr_error(path: &Path, e: exr::error::Error) -> AssetError {
+pub(crate) fn exr_error(path: &Path, e: exr::error::Error) -> AssetError {
     use exr::error::Error as E;
     match e {
         E::NotSupported(m) => AssetError::unsupported(path, format!("OpenEXR feature: {m}")),
@@ -459,7 +459,7 @@ fn decode_ldr(
     })
 }
 
-fn check_pixels(
+pub(crate) fn check_pixels(
     path: &Path,
     width: usize,
     height: usize,

@@ -30,6 +30,7 @@ mod error;
 pub mod image_io;
 pub mod info;
 pub mod mesh_io;
+pub mod render_exr;
 
 pub use envmap::{
     EnvLayout, encode_env_map, env_map_from_image, grid_size, load_env_map, load_env_map_as,
@@ -45,6 +46,7 @@ pub use info::{FileInfo, ImageInfo, MeshInfo, describe};
 pub use mesh_io::{MeshFormat, decode_mesh, load_mesh};
 pub use relight_geom::{Mesh, RepairReport};
 pub use relight_sphere::{EnvMap, Param};
+pub use render_exr::{MaskChannels, Masks, read_mask_channels, write_render_exr};
 
 use std::path::Path;
 

@@ -269,14 +269,43 @@ impl AreaLight {
     }
 }
 
-/// A homogeneous participating medium filling all space, with the isotropic
-/// phase function 1/(4π) (sun-thesis-2008 §3.2).
+/// A homogeneous participating medium with the isotropic phase function
+/// 1/(4π) (sun-thesis-2008 §3.2), filling the ball of `radius` about the world
+/// origin. The environment lies outside the ball: its sources are at distance
+/// `radius` from the scene centre (sun-thesis §3.6.4, where `T_sv = β·radius`),
+/// so distant light crossing the ball is attenuated by `e^{−β·chord}` and
+/// in-scattered along the way. Point and area lights sit inside it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Medium {
     /// Extinction coefficient β = σ_t (1 / scene unit, ≥ 0).
     pub beta: f32,
     /// Single-scattering albedo σ_s / σ_t in [0, 1].
     pub albedo: f32,
+    /// Radius of the fog ball about the origin (scene units, > 0).
+    pub radius: f32,
+}
+
+impl Medium {
+    /// Optical thickness from the centre to the environment, `T = β·radius`.
+    #[must_use]
+    pub fn env_thickness(&self) -> f32 {
+        self.beta * self.radius
+    }
+
+    /// The distance `(t_in, t_out)` along a ray `o + t d` (d unit) inside the
+    /// ball, clipped to `t ≥ 0`; `None` when the ray misses it.
+    #[must_use]
+    pub fn ball_span(&self, o: Vec3, d: Vec3) -> Option<(f32, f32)> {
+        let b = o.dot(d);
+        let c = o.length_squared() - self.radius * self.radius;
+        let disc = b * b - c;
+        if disc < 0.0 {
+            return None;
+        }
+        let s = disc.sqrt();
+        let (t0, t1) = (-b - s, -b + s);
+        (t1 > 0.0).then_some((t0.max(0.0), t1))
+    }
 }
 
 /// Everything a method may render, seen by `camera`.
