@@ -577,7 +577,18 @@ static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 /// Writes `bytes` to `path` atomically: a temporary file in the same
 /// directory, flushed to disk, then renamed over `path`.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), AssetError> {
-    use std::io::Write;
+    write_atomic_with(path, |w| w.write_all(bytes))
+}
+
+/// Writes to `path` atomically, streaming: `write` fills a buffered writer on
+/// a temporary file in the same directory, which is flushed to disk and
+/// renamed over `path` only when `write` succeeds (else it is removed). The
+/// one atomic-write helper of relight: images, bakes and JSON all go
+/// through it.
+pub fn write_atomic_with(
+    path: &Path,
+    write: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
+) -> Result<(), AssetError> {
     let werr = |source| AssetError::Write {
         path: path.to_path_buf(),
         source,
@@ -597,9 +608,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), AssetError> {
         TMP_COUNTER.fetch_add(1, Ordering::Relaxed)
     ));
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
+        let f = std::fs::File::create(&tmp)?;
+        let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
+        write(&mut w)?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
         std::fs::rename(&tmp, path)
     })();
     if let Err(e) = result {

@@ -39,8 +39,8 @@ pub use envmap::{
 pub use error::{AssetError, LoadReport};
 pub use image_io::{
     ColorEncoding, ImageFormat, RgbImage, ToneMap, ToneOperator, decode_image, encode_exr,
-    encode_hdr, encode_png, linear_to_srgb, read_image, read_image_with, write_atomic, write_exr,
-    write_hdr, write_image, write_png,
+    encode_hdr, encode_png, linear_to_srgb, read_image, read_image_with, write_atomic,
+    write_atomic_with, write_exr, write_hdr, write_image, write_png,
 };
 pub use info::{FileInfo, ImageInfo, MeshInfo, describe};
 pub use mesh_io::{MeshFormat, decode_mesh, load_mesh};

@@ -18,7 +18,6 @@
 
 use crate::error::{WaveletError, io};
 use bytemuck::{Pod, Zeroable};
-use std::io::Write;
 use std::path::Path;
 
 /// Version of the bake formats; bump when any layout or bake rule changes.
@@ -79,25 +78,21 @@ pub(crate) fn write_file(
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(io(dir))?;
     }
-    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-    let result = (|| {
-        let f = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
+    relight_assets::write_atomic_with(path, |w| {
         w.write_all(bytemuck::bytes_of(&h))?;
         for s in sections {
             w.write_all(s)?;
             w.write_all(&zeros[..pad8(s.len()) - s.len()])?;
         }
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(WaveletError::Io {
+        Ok(())
+    })
+    .map_err(|e| match e {
+        relight_assets::AssetError::Write { path, source } => WaveletError::Io { path, source },
+        other => WaveletError::Io {
             path: path.to_path_buf(),
-            source: e,
-        });
-    }
+            source: std::io::Error::other(other.to_string()),
+        },
+    })?;
     Ok(())
 }
 
