@@ -24,7 +24,7 @@ pub enum Command {
     Render(Box<RenderArgs>),
     /// Interactive window: drag to orbit, right-drag to turn the lighting,
     /// 1-4 for wavelet/sh/fog/reference, a for antialiasing, s to save, Esc to quit.
-    View(ViewArgs),
+    View(Box<ViewArgs>),
     /// Describe files: environment maps, images and meshes, with statistics.
     Info {
         /// Files to describe.
@@ -38,6 +38,10 @@ pub enum Command {
         image: PathBuf,
         /// Reference image.
         reference: PathBuf,
+        /// Pixels compared: `object` (fully covered by objects in both,
+        /// from the EXRs' coverage channel), `background` or `all`.
+        #[arg(long, value_enum, default_value_t = Region::Object)]
+        region: Region,
         /// Write |image − reference| here (PNG, and an EXR beside it).
         #[arg(long)]
         diff: Option<PathBuf>,
@@ -61,7 +65,8 @@ pub enum Command {
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
-    /// Output image (PNG, tone-mapped); an EXR (linear) is written beside it.
+    /// Output image (PNG, tone-mapped); an EXR (linear, with coverage and
+    /// object-id channels) is written beside it.
     #[arg(long, default_value = "demo.png")]
     pub out: PathBuf,
     /// Image size WIDTHxHEIGHT.
@@ -70,79 +75,23 @@ pub struct DemoArgs {
     /// Rendering method.
     #[arg(long, value_enum, default_value_t = Method::Reference)]
     pub method: Method,
-    /// Samples per pixel for the reference renderer.
-    #[arg(long, default_value_t = 64)]
-    pub spp: u32,
-    /// Antialiasing of the raster methods (sh, wavelet, fog): K × K
-    /// samples per pixel, box-filtered like the reference's pixels (1…8).
-    #[arg(long, default_value_t = 2)]
-    pub aa: usize,
-}
-
-#[derive(Args, Debug)]
-pub struct ViewArgs {
-    /// Scene file (TOML); the embedded default scene when absent.
-    pub scene: Option<PathBuf>,
-    /// Environment map file, or `studio`, replacing the scene's.
+    /// Antialiasing: K × K samples per pixel, box-filtered like the
+    /// reference's pixels (1…8; the reference integrates pixels itself).
     #[arg(long)]
-    pub env: Option<String>,
-    /// Method shown first.
-    #[arg(long, value_enum, default_value_t = ViewMethodArg::Wavelet)]
-    pub method: ViewMethodArg,
-    /// Window size WIDTHxHEIGHT.
-    #[arg(long, default_value = "960x540")]
-    pub size: String,
-    /// Samples per pixel side of still frames (1…8).
-    #[arg(long, default_value_t = 2)]
-    pub aa: usize,
-    /// Wavelet source side n, normal tessellation side and lighting terms.
-    #[arg(long, default_value_t = 64)]
-    pub n: usize,
-    #[arg(long, default_value_t = 32)]
-    pub ntess: usize,
-    #[arg(long, default_value_t = 256)]
-    pub terms: usize,
-    /// SH bands.
-    #[arg(long, default_value_t = 6)]
-    pub order: usize,
-    /// Fog extinction coefficient β.
-    #[arg(long, default_value_t = 0.04)]
-    pub beta: f32,
-    /// Bake cache of the wavelet method.
-    #[arg(long)]
-    pub cache: Option<PathBuf>,
+    pub aa: Option<usize>,
+    #[command(flatten)]
+    pub options: MethodFlags,
 }
 
-/// The methods of `relight view`.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ViewMethodArg {
-    Wavelet,
-    Sh,
-    Fog,
-    /// The Monte Carlo reference, refining while the view is still.
-    Reference,
-}
-
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// Monte Carlo ground truth (MIS of environment and BRDF).
-    Reference,
-    /// Spherical-harmonics environment shading with per-pixel rotation.
-    Sh,
-    /// Haar wavelets on octahedral maps with precomputed rotation matrices.
-    Wavelet,
-    /// Analytic single-scattering fog with point lights.
-    Fog,
-}
-
-#[derive(Args, Debug)]
-pub struct RenderArgs {
-    /// Scene file (TOML); flags below override it.
+/// What the scene is: a scene file and/or flags that build or override it.
+#[derive(Args, Debug, Default)]
+pub struct SceneArgs {
+    /// Scene file (TOML, see docs/scene-format.md); flags below override it.
     pub scene: Option<PathBuf>,
     /// Environment map file, or `studio` for the embedded one.
     #[arg(long)]
     pub env: Option<String>,
-    /// Mesh files (OBJ, PLY, glTF/GLB), or `sphere`, `torus`, `knot`.
+    /// Mesh files (OBJ, PLY, glTF/GLB), or a built-in shape (sphere, torus, knot, ground).
     #[arg(long)]
     pub mesh: Vec<String>,
     /// BRDF for every object, e.g. `lambert`, `ggx:0.2`, `phong:50`, `ward:0.1,0.3`.
@@ -151,73 +100,158 @@ pub struct RenderArgs {
     /// Camera `ex,ey,ez,tx,ty,tz[,fov_deg]`; default frames the meshes.
     #[arg(long)]
     pub camera: Option<String>,
-    #[arg(long, value_enum)]
-    pub method: Option<Method>,
-    /// Samples per pixel (reference method).
-    #[arg(long)]
-    pub spp: Option<u32>,
     /// Image size WIDTHxHEIGHT.
     #[arg(long)]
     pub size: Option<String>,
-    /// Output image (PNG); an EXR is written beside it.
-    #[arg(long, default_value = "render.png")]
-    pub out: PathBuf,
-    /// Rotate the lighting by yaw,pitch,roll in degrees.
+    /// Rotate the environment by yaw,pitch,roll in degrees (the scene's
+    /// world_from_env; every method rotates in its own domain).
     #[arg(long)]
     pub light_rotate: Option<String>,
-    /// Antialiasing of the raster methods (sh, wavelet, fog): K × K
-    /// samples per pixel, box-filtered like the reference's pixels (1…8).
-    /// Per-vertex shading (wavelet) costs the same at any K; only the
-    /// raster work grows.
-    #[arg(long, default_value_t = 1)]
-    pub aa: usize,
-    /// Trace shadow rays (self-visibility) in the reference renderer.
-    #[arg(long)]
-    pub visibility: bool,
-    /// Random seed of the reference renderer.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// SH order (number of bands), `--method sh`.
-    #[arg(long, default_value_t = 6)]
-    pub order: usize,
-    /// Per-pixel SH rotation, `--method sh`.
-    #[arg(long, default_value = "exact")]
-    pub rotation: String,
-    /// Tangent-space normal map (PNG), `--method sh` and reference.
+    /// Tangent-space normal map (PNG) on every object.
     #[arg(long)]
     pub normal_map: Option<PathBuf>,
-    /// Cache directory for baked data (`--method wavelet`).
-    #[arg(long)]
-    pub cache: Option<PathBuf>,
-    /// Per-vertex ambient occlusion for `--method wavelet` (§3: radiance ×
-    /// AO): this many cosine-weighted rays per vertex against every object
-    /// (0 = off).
-    #[arg(long, default_value_t = 0)]
-    pub ao: u32,
-    /// Wavelet lighting terms kept.
-    #[arg(long, default_value_t = 256)]
-    pub terms: usize,
-    /// Octahedral source resolution n (N = n²), `--method wavelet`.
-    #[arg(long, default_value_t = 64)]
-    pub n: usize,
-    /// Normal tessellation ntess (ntess² sampled normals), `--method wavelet`.
-    #[arg(long, default_value_t = 32)]
-    pub ntess: usize,
-    /// Fog extinction coefficient β (1/scene units): `--method fog`, and
-    /// `--method sh`, which then shades with the foggy environment
-    /// (sun-thesis-2008 eq. 3.35–3.37) and shows it behind the objects.
-    #[arg(long)]
-    pub beta: Option<f32>,
-    /// Distance of the environment's light sources for `--method sh
-    /// --beta` (the PSF needs a finite one, §3.6.4), scene units.
-    #[arg(long, default_value_t = 10.0)]
-    pub env_distance: f32,
-    /// Point light `x,y,z,intensity` (repeatable), `--method fog`.
+    /// Point light `x,y,z,intensity` (radiant intensity; repeatable).
     #[arg(long)]
     pub light: Vec<String>,
-    /// Fog model: `analytic` (default) or `opengl` (classic exponential fog).
-    #[arg(long, default_value = "analytic")]
-    pub fog: String,
+    /// Homogeneous medium: extinction coefficient β (1/scene units).
+    #[arg(long)]
+    pub beta: Option<f32>,
+    /// Single-scattering albedo of the medium (0…1; with --beta).
+    #[arg(long)]
+    pub albedo: Option<f32>,
+    /// Radius of the fog ball about the origin; the environment lies beyond it
+    /// (scene units; with --beta).
+    #[arg(long)]
+    pub medium_radius: Option<f32>,
+    /// Objects shadow the lights (binary visibility); without it, the
+    /// unshadowed reflection integral.
+    #[arg(long)]
+    pub visibility: bool,
+    /// Time in seconds for animated objects (keyframes in the scene file).
+    #[arg(long)]
+    pub time: Option<f32>,
+}
+
+/// Options of the methods. Each flag belongs to some methods; giving it to
+/// another is an error naming the method. Unset flags take the method's
+/// own defaults.
+#[derive(Args, Debug, Default, Clone)]
+pub struct MethodFlags {
+    /// Samples per pixel (reference) [default: 64].
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Random seed (reference) [default: 0].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Media in the reference: `multiple` (full transport) or `single`
+    /// (single scattering only, the fog model's classes) [default: multiple].
+    #[arg(long, value_enum)]
+    pub scattering: Option<Scattering>,
+    /// SH order, number of bands (sh; fog's environment part) [default: 6].
+    #[arg(long)]
+    pub order: Option<usize>,
+    /// Per-pixel SH rotation (sh): exact, zyz, taylor1, taylor15, taylor2, none
+    /// [default: exact].
+    #[arg(long)]
+    pub rotation: Option<String>,
+    /// Octahedral source resolution n, N = n² (wavelet) [default: 64].
+    #[arg(long)]
+    pub n: Option<usize>,
+    /// Normal tessellation side, ntess² sampled normals (wavelet) [default: 32].
+    #[arg(long)]
+    pub ntess: Option<usize>,
+    /// Lighting terms kept (wavelet) [default: 256].
+    #[arg(long)]
+    pub terms: Option<usize>,
+    /// Per-vertex ambient occlusion rays (wavelet, §3: radiance × AO; 0 = off).
+    /// Renders visibility approximately (needs --approximate with --visibility).
+    #[arg(long)]
+    pub ao: Option<u32>,
+    /// Bake cache folder (wavelet) [default: $RELIGHT_CACHE or ~/.cache/relight].
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+    /// Fog model (fog): `analytic` or `opengl` (classic exponential fog)
+    /// [default: analytic].
+    #[arg(long)]
+    pub fog: Option<String>,
+}
+
+/// Media transport of the reference renderer.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scattering {
+    Single,
+    Multiple,
+}
+
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Method shown first.
+    #[arg(long, value_enum, default_value_t = Method::Wavelet)]
+    pub method: Method,
+    /// Render what a method approximates (e.g. visibility by ambient
+    /// occlusion) with a warning instead of refusing.
+    #[arg(long)]
+    pub approximate: bool,
+    /// Samples per pixel side of still frames (1…8) [default: 2].
+    #[arg(long)]
+    pub aa: Option<usize>,
+    #[command(flatten)]
+    pub options: MethodFlags,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Monte Carlo ground truth: renders every scene feature.
+    Reference,
+    /// Spherical-harmonics environment shading with per-pixel rotation.
+    Sh,
+    /// Haar wavelets on octahedral maps with precomputed rotation matrices.
+    Wavelet,
+    /// Analytic single-scattering fog: point lights and the foggy environment.
+    Fog,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Rendering method [default: the scene file's, else reference].
+    #[arg(long, value_enum)]
+    pub method: Option<Method>,
+    /// Render what the method approximates with a warning instead of refusing.
+    #[arg(long)]
+    pub approximate: bool,
+    /// Output image (PNG); an EXR (linear, with coverage and object-id
+    /// channels) is written beside it.
+    #[arg(long, default_value = "render.png")]
+    pub out: PathBuf,
+    /// Antialiasing of the raster methods: K × K samples per pixel,
+    /// box-filtered like the reference's pixels (1…8) [default: 1].
+    #[arg(long)]
+    pub aa: Option<usize>,
+    #[command(flatten)]
+    pub options: MethodFlags,
+}
+
+/// Which pixels `relight compare` measures.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Region {
+    Object,
+    Background,
+    All,
+}
+
+impl Region {
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Object => "object",
+            Self::Background => "background",
+            Self::All => "all",
+        }
+    }
 }
 
 #[derive(Args, Debug)]
@@ -343,10 +377,22 @@ pub struct BenchArgs {
     pub plot: Option<PathBuf>,
 }
 
+/// Accuracy suites of `relight verify`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VerifySuite {
+    Raster,
+    Reference,
+    Sh,
+    Wavelet,
+    Fog,
+    /// Every method on a matrix of scenes against one reference.
+    Methods,
+}
+
 #[derive(Args, Debug)]
 pub struct VerifyArgs {
     #[arg(value_enum)]
-    pub suite: Suite,
+    pub suite: VerifySuite,
     #[arg(long)]
     pub json: bool,
     #[arg(long)]

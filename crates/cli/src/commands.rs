@@ -1,20 +1,22 @@
 //! One function per subcommand: validate flags, call the library, report.
 
 use crate::args::{
-    BakeCommand, BenchArgs, Cli, Command, ConvertArgs, DemoArgs, FogCommand, Method, ParamKind,
-    RenderArgs, ShCommand, Suite, VerifyArgs, ViewArgs, ViewMethodArg,
+    BakeCommand, BenchArgs, Cli, Command, ConvertArgs, FogCommand, ParamKind, ShCommand, Suite,
+    VerifyArgs, VerifySuite,
 };
+use crate::output::{warn_all, write_outputs};
 use crate::plot::PlotSpec;
 use crate::progress::Bar;
+use crate::render_cmd::{demo, render, view};
+use crate::scene_args::load_normal_map;
 use crate::table::Report;
 use anyhow::{Context, Result, anyhow, bail, ensure};
 use glam::Vec3;
-use relight_assets::{ToneMap, write_exr, write_png};
+use relight_assets::{ToneMap, write_exr};
 use relight_brdf::BrdfSpec;
-use relight_render::reference::{ReferenceOptions, render_reference};
-use relight_render::{Image, Scene};
+use relight_render::Image;
 use relight_sphere::Param;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 pub fn run(cli: Cli) -> Result<()> {
@@ -22,13 +24,14 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Demo(a) => demo(a, &bar),
         Command::Render(a) => render(*a, &bar),
-        Command::View(a) => view(a, &bar),
+        Command::View(a) => view(*a, &bar),
         Command::Info { files } => info(&files),
         Command::Compare {
             image,
             reference,
+            region,
             diff,
-        } => compare(&image, &reference, diff.as_deref()),
+        } => crate::compare::compare(&image, &reference, region, diff.as_deref()),
         Command::Convert(a) => convert(a),
         Command::Sh(c) => sh(c),
         Command::Bake(c) => bake(c, &bar),
@@ -36,472 +39,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(a) => bench(a),
         Command::Verify(a) => verify(a, &bar),
     }
-}
-
-/// Parses `WIDTHxHEIGHT`.
-pub fn parse_size(s: &str, flag: &str) -> Result<(usize, usize)> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| anyhow!("{flag} {s}: expected WIDTHxHEIGHT, e.g. 960x540"))?;
-    let w: usize = w
-        .trim()
-        .parse()
-        .map_err(|_| anyhow!("{flag} {s}: width `{w}` is not a positive integer"))?;
-    let h: usize = h
-        .trim()
-        .parse()
-        .map_err(|_| anyhow!("{flag} {s}: height `{h}` is not a positive integer"))?;
-    ensure!(
-        (1..=16384).contains(&w) && (1..=16384).contains(&h),
-        "{flag} {s}: each side must be 1…16384 pixels"
-    );
-    Ok((w, h))
-}
-
-/// Parses a comma-separated list of exactly `n` finite floats.
-pub fn parse_floats(s: &str, n: usize, flag: &str) -> Result<Vec<f32>> {
-    let v: Vec<f32> = s
-        .split(',')
-        .map(|x| {
-            x.trim()
-                .parse::<f32>()
-                .map_err(|_| anyhow!("{flag} {s}: `{x}` is not a number"))
-        })
-        .collect::<Result<_>>()?;
-    ensure!(
-        v.len() == n,
-        "{flag} {s}: expected {n} comma-separated numbers, got {}",
-        v.len()
-    );
-    ensure!(
-        v.iter().all(|x| x.is_finite()),
-        "{flag} {s}: values must be finite"
-    );
-    Ok(v)
-}
-
-/// Writes `image` as a tone-mapped PNG at `out` and a linear EXR beside it
-/// (or the other way round when `out` ends in `.exr`); returns both paths.
-pub fn write_outputs(image: &Image, out: &Path) -> Result<(PathBuf, PathBuf)> {
-    let ext = out
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    let (png, exr) = match ext.as_str() {
-        "png" => (out.to_path_buf(), out.with_extension("exr")),
-        "exr" => (out.with_extension("png"), out.to_path_buf()),
-        _ => bail!(
-            "--out {}: the output must end in .png or .exr",
-            out.display()
-        ),
-    };
-    ensure!(
-        image.pixels.iter().all(|p| p.is_finite()),
-        "internal error: the rendered image has non-finite pixels; nothing written"
-    );
-    write_png(
-        &png,
-        image.width,
-        image.height,
-        &image.pixels,
-        ToneMap::default(),
-    )
-    .with_context(|| format!("writing {}", png.display()))?;
-    write_exr(&exr, image.width, image.height, &image.pixels)
-        .with_context(|| format!("writing {}", exr.display()))?;
-    Ok((png, exr))
-}
-
-fn warn_all(warnings: &[String]) {
-    for w in warnings {
-        eprintln!("relight: warning: {w}");
-    }
-}
-
-fn demo(a: DemoArgs, bar: &Bar) -> Result<()> {
-    let (w, h) = parse_size(&a.size, "--size")?;
-    ensure!(a.spp >= 1, "--spp must be at least 1 (got {})", a.spp);
-    let start = Instant::now();
-    let scene = relight_scene::default_scene(w, h);
-    let image = render_scene(
-        &scene,
-        a.method,
-        &RenderSettings {
-            spp: a.spp,
-            aa: a.aa,
-            ..RenderSettings::default()
-        },
-        bar,
-    )?;
-    let (png, exr) = write_outputs(&image, &a.out)?;
-    println!(
-        "relight demo: {w}×{h}, method {:?}, wrote {} and {} in {:.2} s",
-        a.method,
-        png.display(),
-        exr.display(),
-        start.elapsed().as_secs_f64()
-    );
-    Ok(())
-}
-
-/// Method-independent settings of one render.
-#[derive(Clone, Debug)]
-pub struct RenderSettings {
-    pub spp: u32,
-    pub seed: u64,
-    pub visibility: bool,
-    /// SH bands and per-pixel rotation (`--method sh`).
-    pub order: usize,
-    pub rotation: String,
-    pub normal_map: Option<PathBuf>,
-    /// Wavelet parameters (`--method wavelet`).
-    pub n: usize,
-    pub ntess: usize,
-    pub terms: usize,
-    /// Ambient-occlusion rays per vertex (`--method wavelet`; 0 = off).
-    pub ao: u32,
-    pub cache: Option<PathBuf>,
-    /// Fog parameters (`--method fog`).
-    pub beta: Option<f32>,
-    pub lights: Vec<String>,
-    pub fog: String,
-    /// Distance of the environment's sources in fog (`--method sh --beta`).
-    pub env_distance: f32,
-    /// K × K samples per pixel for the raster methods (1 = none).
-    pub aa: usize,
-    /// `world_from_env` lighting rotation (`--light-rotate`). The wavelet
-    /// method rotates in its own step 1 (§3), the SH method rotates its
-    /// coefficients; the others resample the map.
-    pub light_rotation: glam::Mat3,
-}
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        Self {
-            spp: 64,
-            seed: 1,
-            visibility: false,
-            order: 6,
-            rotation: "exact".into(),
-            normal_map: None,
-            n: 64,
-            ntess: 32,
-            terms: 256,
-            ao: 0,
-            cache: None,
-            beta: None,
-            lights: Vec::new(),
-            fog: "analytic".into(),
-            env_distance: 10.0,
-            aa: 1,
-            light_rotation: glam::Mat3::IDENTITY,
-        }
-    }
-}
-
-/// Loads a tangent-space normal map (PNG, decoded linearly).
-fn load_normal_map(path: &Path) -> Result<relight_shlight::NormalMap> {
-    let (img, report) =
-        relight_assets::read_image_with(path, relight_assets::ColorEncoding::Linear)?;
-    warn_all(&report.warnings);
-    relight_shlight::NormalMap::from_rgb(img.width, img.height, &img.pixels)
-        .map_err(|e| anyhow!("{}: {e}", path.display()))
-}
-
-/// Renders `scene` with `method`.
-pub fn render_scene(scene: &Scene, method: Method, s: &RenderSettings, bar: &Bar) -> Result<Image> {
-    ensure!(
-        (1..=8).contains(&s.aa),
-        "--aa must be 1…8 samples per pixel side (got {})",
-        s.aa
-    );
-    // The wavelet and SH methods rotate the lighting in their own domain;
-    // the others see the rotated map.
-    let rotated;
-    let in_domain = matches!(method, Method::Wavelet | Method::Sh);
-    let scene = if !in_domain && s.light_rotation != glam::Mat3::IDENTITY {
-        let mut r = scene.clone();
-        r.env = scene.env.rotated(s.light_rotation, 2);
-        rotated = r;
-        &rotated
-    } else {
-        scene
-    };
-    // The raster methods draw K × K times the pixels and box-filter them.
-    let supersampled = |scene: &Scene| {
-        let mut big = scene.clone();
-        big.camera.width *= s.aa;
-        big.camera.height *= s.aa;
-        big
-    };
-    match method {
-        Method::Reference => {
-            let opts = ReferenceOptions {
-                spp: s.spp,
-                pass_spp: s.spp.min(8),
-                seed: s.seed,
-                visibility: s.visibility,
-                ..ReferenceOptions::default()
-            };
-            let r = render_reference(scene, &opts, bar)?;
-            eprintln!(
-                "relight: reference: {} spp, {:.2e} rays/s, relative standard error {:.4}",
-                r.spp,
-                r.rays as f64 / r.seconds.max(1e-9),
-                r.relative_std_error
-            );
-            Ok(r.image)
-        }
-        Method::Sh => {
-            let rotation: relight_shlight::ShRotationMethod = s
-                .rotation
-                .parse()
-                .map_err(|e| anyhow!("--rotation {}: {e}", s.rotation))?;
-            let mut renderer = relight_shlight::ShRenderer::new(s.order, rotation)
-                .map_err(|e| anyhow!("--order: {e}"))?
-                .with_supersampling(s.aa)
-                .with_lighting_rotation(s.light_rotation)?;
-            if let Some(beta) = s.beta {
-                // The foggy environment of eq. 3.35–3.37 at T_sv = β D.
-                let t = f64::from(beta) * f64::from(s.env_distance);
-                ensure!(
-                    beta >= 0.0 && s.env_distance > 0.0 && t.is_finite(),
-                    "--beta {beta} and --env-distance {} must be ≥ 0 and > 0",
-                    s.env_distance
-                );
-                let bands = relight_fog::psf::convolution_weights(t, s.order, true);
-                renderer = renderer.with_lighting_filter(relight_shlight::LightingFilter {
-                    direct: (-t).exp() as f32,
-                    bands: bands.iter().map(|&w| w as f32).collect(),
-                })?;
-            }
-            let nm = s.normal_map.as_deref().map(load_normal_map).transpose()?;
-            Ok(renderer.render(scene, nm.as_ref(), bar)?.image)
-        }
-        Method::Wavelet => Ok(render_wavelet(&supersampled(scene), s, bar)?.box_downsample(s.aa)),
-        Method::Fog => Ok(render_fog(&supersampled(scene), s)?.box_downsample(s.aa)),
-    }
-}
-
-fn render_wavelet(scene: &Scene, s: &RenderSettings, bar: &Bar) -> Result<Image> {
-    let cache = s
-        .cache
-        .clone()
-        .unwrap_or_else(relight_wavelet::default_cache_dir);
-    let params = relight_wavelet::RotationParams::new(s.n, s.ntess, 1);
-    params.validate().map_err(|e| anyhow!("--n/--ntess: {e}"))?;
-    let t = Instant::now();
-    let rot = relight_wavelet::bake_or_load_rotation(&params, &cache, bar)?;
-    let bakes = relight_wavelet::bake_or_load_scene_brdfs(scene, params.m, 64, 128, &cache, bar)?;
-    eprintln!(
-        "relight: wavelet data ready in {:.2} s (cache {})",
-        t.elapsed().as_secs_f64(),
-        cache.display()
-    );
-    let mut renderer = relight_wavelet::WaveletRenderer::new(rot, s.terms)?;
-    let t = Instant::now();
-    renderer.set_lighting(&scene.env, s.light_rotation)?;
-    let light_ms = t.elapsed().as_secs_f64() * 1e3;
-    let refs: Vec<&relight_wavelet::BrdfBake> = bakes.iter().map(|b| b.as_ref()).collect();
-    let ao = if s.ao > 0 {
-        let t = Instant::now();
-        let meshes: Vec<&relight_geom::Mesh> = scene.objects.iter().map(|o| &*o.mesh).collect();
-        let bvh = relight_render::SceneBvh::build(&meshes);
-        let ao = (0..meshes.len())
-            .map(|i| bvh.vertex_ambient_occlusion(i, s.ao, s.seed, bar))
-            .collect::<Result<Vec<_>, _>>()?;
-        eprintln!(
-            "relight: ambient occlusion, {} rays per vertex: {:.2} s",
-            s.ao,
-            t.elapsed().as_secs_f64()
-        );
-        Some(ao)
-    } else {
-        None
-    };
-    let t = Instant::now();
-    let image = renderer.render(scene, &refs, &scene.camera, ao.as_deref())?;
-    eprintln!(
-        "relight: wavelet: lighting change {light_ms:.1} ms, view change + raster {:.1} ms",
-        t.elapsed().as_secs_f64() * 1e3
-    );
-    Ok(image)
-}
-
-fn render_fog(scene: &Scene, s: &RenderSettings) -> Result<Image> {
-    let beta = s.beta.unwrap_or(0.04);
-    ensure!(
-        beta.is_finite() && beta >= 0.0,
-        "--beta must be a finite number ≥ 0 (got {beta})"
-    );
-    let mut lights = Vec::new();
-    for l in &s.lights {
-        let v = parse_floats(l, 4, "--light")?;
-        ensure!(v[3] >= 0.0, "--light {l}: intensity must be ≥ 0");
-        lights.push(relight_fog::PointLight::new(
-            Vec3::new(v[0], v[1], v[2]),
-            Vec3::splat(v[3]),
-        ));
-    }
-    if lights.is_empty() {
-        lights = relight_fog::default_scene_lights(2);
-    }
-    let objects = relight_fog::scene_objects(scene);
-    let tables = relight_fog::FogTables::build_for(64, objects.iter().map(|o| &o.material))?;
-    let mut settings = relight_fog::FogSettings::new(&tables, beta);
-    settings.mode = match s.fog.as_str() {
-        "analytic" => relight_fog::FogMode::Analytic,
-        "opengl" => relight_fog::FogMode::OpenGl {
-            fog_color: Vec3::splat(0.5),
-        },
-        other => bail!("--fog {other}: expected `analytic` or `opengl`"),
-    };
-    Ok(relight_fog::render_fog(
-        &objects,
-        &scene.camera,
-        &lights,
-        &settings,
-    )?)
-}
-
-fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
-    let start = Instant::now();
-    let size = a
-        .size
-        .as_deref()
-        .map(|s| parse_size(s, "--size"))
-        .transpose()?;
-    let mut method = a.method;
-    let mut spp = a.spp;
-    let mut beta = a.beta;
-    let mut lights = a.light.clone();
-    let mut scene = if let Some(path) = &a.scene {
-        let loaded = relight_scene::load_scene_file(path, size)?;
-        warn_all(&loaded.warnings);
-        if let Some(r) = &loaded.file.render {
-            if let (None, Some(m)) = (method, &r.method) {
-                method = Some(
-                    <Method as clap::ValueEnum>::from_str(m, true)
-                        .map_err(|_| anyhow!("{}: unknown render method `{m}`", path.display()))?,
-                );
-            }
-            spp = spp.or(r.spp);
-        }
-        if let (None, Some(f)) = (beta, &loaded.file.fog) {
-            beta = Some(f.beta);
-        }
-        if lights.is_empty() {
-            lights = loaded
-                .file
-                .lights
-                .iter()
-                .map(|l| {
-                    let p = l.position;
-                    format!("{},{},{},{}", p[0], p[1], p[2], l.intensity)
-                })
-                .collect();
-        }
-        loaded.scene
-    } else {
-        ensure!(
-            !a.mesh.is_empty(),
-            "give a scene file or at least one --mesh (a file, or sphere/torus/knot)"
-        );
-        let (w, h) = size.unwrap_or((960, 540));
-        let env_spec = a.env.clone().unwrap_or_else(|| "studio".into());
-        let (env, warnings) = relight_scene::load_environment(&env_spec)?;
-        warn_all(&warnings);
-        let brdf_spec = a.brdf.as_deref().unwrap_or("lambert");
-        let brdf = brdf_spec
-            .parse::<BrdfSpec>()
-            .map_err(|e| anyhow!("--brdf {brdf_spec}: {e}"))?
-            .build();
-        let mut objects = Vec::new();
-        for m in &a.mesh {
-            let (mesh, warnings) = relight_scene::load_mesh(m)?;
-            warn_all(
-                &warnings
-                    .iter()
-                    .map(|w| format!("{m}: {w}"))
-                    .collect::<Vec<_>>(),
-            );
-            objects.push(relight_render::Object::new(
-                std::sync::Arc::new(mesh),
-                brdf.clone(),
-            ));
-        }
-        let camera = relight_scene::framing_camera(&objects, w, h, 40.0);
-        Scene::new(objects, env, camera)
-    };
-    if let (Some(spec), Some(_)) = (&a.brdf, &a.scene) {
-        {
-            let brdf = spec
-                .parse::<BrdfSpec>()
-                .map_err(|e| anyhow!("--brdf {spec}: {e}"))?
-                .build();
-            scene = relight_scene::with_brdf(&scene, &brdf);
-        }
-    }
-    if let (Some(env), Some(_)) = (&a.env, &a.scene) {
-        {
-            let (e, warnings) = relight_scene::load_environment(env)?;
-            warn_all(&warnings);
-            scene.env = e;
-        }
-    }
-    if let Some(c) = &a.camera {
-        let v = parse_floats(c, c.split(',').count().clamp(6, 7), "--camera")?;
-        scene.camera.eye = Vec3::new(v[0], v[1], v[2]);
-        scene.camera.target = Vec3::new(v[3], v[4], v[5]);
-        if let Some(fov) = v.get(6) {
-            ensure!(
-                *fov > 0.0 && *fov < 180.0,
-                "--camera: field of view must be in (0, 180) degrees, got {fov}"
-            );
-            scene.camera.vfov_deg = *fov;
-        }
-    }
-    let light_rotation = match &a.light_rotate {
-        Some(r) => {
-            let v = parse_floats(r, 3, "--light-rotate")?;
-            relight_scene::rotation_from_yaw_pitch_roll([v[0], v[1], v[2]])
-        }
-        None => glam::Mat3::IDENTITY,
-    };
-    let spp = spp.unwrap_or(64);
-    ensure!(spp >= 1, "--spp must be at least 1 (got {spp})");
-    let method = method.unwrap_or(Method::Reference);
-    let settings = RenderSettings {
-        spp,
-        seed: a.seed,
-        visibility: a.visibility,
-        order: a.order,
-        rotation: a.rotation.clone(),
-        normal_map: a.normal_map.clone(),
-        n: a.n,
-        ntess: a.ntess,
-        terms: a.terms,
-        ao: a.ao,
-        cache: a.cache.clone(),
-        beta,
-        lights,
-        fog: a.fog.clone(),
-        env_distance: a.env_distance,
-        aa: a.aa,
-        light_rotation,
-    };
-    let image = render_scene(&scene, method, &settings, bar)?;
-    let (png, exr) = write_outputs(&image, &a.out)?;
-    println!(
-        "relight render: {}×{}, method {method:?}, wrote {} and {} in {:.2} s",
-        image.width,
-        image.height,
-        png.display(),
-        exr.display(),
-        start.elapsed().as_secs_f64()
-    );
-    Ok(())
 }
 
 fn info(files: &[PathBuf]) -> Result<()> {
@@ -520,98 +57,6 @@ fn info(files: &[PathBuf]) -> Result<()> {
         "{failed} of {} files could not be read",
         files.len()
     );
-    Ok(())
-}
-
-/// `relight view`: prepares the first method (bake or load, with progress)
-/// and opens the window.
-fn view(a: ViewArgs, bar: &Bar) -> Result<()> {
-    let (w, h) = parse_size(&a.size, "--size")?;
-    let mut scene = match &a.scene {
-        Some(path) => {
-            let loaded = relight_scene::load_scene_file(path, Some((w, h)))?;
-            warn_all(&loaded.warnings);
-            loaded.scene
-        }
-        None => relight_scene::default_scene(w, h),
-    };
-    if let Some(env) = &a.env {
-        let (e, warnings) = relight_scene::load_environment(env)?;
-        warn_all(&warnings);
-        scene.env = e;
-    }
-    let method = match a.method {
-        ViewMethodArg::Wavelet => relight_viewer::ViewMethod::Wavelet,
-        ViewMethodArg::Sh => relight_viewer::ViewMethod::Sh,
-        ViewMethodArg::Fog => relight_viewer::ViewMethod::Fog,
-        ViewMethodArg::Reference => relight_viewer::ViewMethod::Reference,
-    };
-    let opts = relight_viewer::ViewerOptions {
-        n: a.n,
-        ntess: a.ntess,
-        terms: a.terms,
-        sh_order: a.order,
-        beta: a.beta,
-        aa: a.aa,
-        cache: a.cache.unwrap_or_else(relight_wavelet::default_cache_dir),
-    };
-    let mut viewer = relight_viewer::Viewer::new(scene, method, opts)?;
-    viewer.prepare(bar)?;
-    relight_viewer::run(viewer, w as u32, h as u32)?;
-    Ok(())
-}
-
-/// `relight compare`: the relative RMS difference √(Σ|a − r|² / Σ|r|²)
-/// over all pixels and channels, plus the largest per-pixel difference.
-fn compare(image: &Path, reference: &Path, diff: Option<&Path>) -> Result<()> {
-    let load = |p: &Path| -> Result<relight_assets::RgbImage> {
-        let (img, report) = relight_assets::read_image(p)?;
-        warn_all(&report.warnings);
-        Ok(img)
-    };
-    let (a, r) = (load(image)?, load(reference)?);
-    ensure!(
-        (a.width, a.height) == (r.width, r.height),
-        "{} is {}×{} but {} is {}×{}",
-        image.display(),
-        a.width,
-        a.height,
-        reference.display(),
-        r.width,
-        r.height
-    );
-    let (mut num, mut den, mut max) = (0.0f64, 0.0f64, 0.0f32);
-    for (p, q) in a.pixels.iter().zip(&r.pixels) {
-        let d = *p - *q;
-        num += f64::from(d.length_squared());
-        den += f64::from(q.length_squared());
-        max = max.max(d.abs().max_element());
-    }
-    ensure!(
-        num.is_finite() && den.is_finite(),
-        "{} or {} holds NaN or Inf pixels",
-        image.display(),
-        reference.display()
-    );
-    ensure!(den > 0.0, "{}: the reference is black", reference.display());
-    println!(
-        "relight compare: relative RMS {:.5}, largest pixel difference {max:.5} ({}×{})",
-        (num / den).sqrt(),
-        a.width,
-        a.height
-    );
-    if let Some(out) = diff {
-        let mut img = Image::new(a.width, a.height);
-        for ((o, p), q) in img.pixels.iter_mut().zip(&a.pixels).zip(&r.pixels) {
-            *o = (*p - *q).abs();
-        }
-        let (png, exr) = write_outputs(&img, out)?;
-        println!(
-            "relight compare: wrote {} and {}",
-            png.display(),
-            exr.display()
-        );
-    }
     Ok(())
 }
 
@@ -744,7 +189,7 @@ fn sh(c: ShCommand) -> Result<()> {
                 height: map.param.height(),
                 pixels: map.texels,
             };
-            let (png, exr) = write_outputs(&img, &out)?;
+            let (png, exr) = write_outputs(&img, None, &out)?;
             if json {
                 println!("{}", serde_json::to_string_pretty(&coeffs)?);
             } else {
@@ -965,7 +410,7 @@ fn bench(a: BenchArgs) -> Result<()> {
 }
 
 /// `../shared/data` beside the working directory, or `$RELIGHT_DATA`.
-fn data_dir() -> PathBuf {
+pub fn data_dir() -> PathBuf {
     std::env::var_os("RELIGHT_DATA").map_or_else(|| PathBuf::from("../shared/data"), PathBuf::from)
 }
 
@@ -975,7 +420,8 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
         plot_dir: a.plot.clone(),
     };
     match a.suite {
-        Suite::Sh => {
+        VerifySuite::Methods => crate::verify_methods::verify_methods(&a, &report, bar),
+        VerifySuite::Sh => {
             let opts = relight_shlight::VerifyOptions::new(a.quick);
             let default = relight_scene::default_scene(opts.width, opts.height);
             let mut scenes = vec![("default".to_string(), default.clone())];
@@ -1028,7 +474,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                 ],
             )
         }
-        Suite::Wavelet => {
+        VerifySuite::Wavelet => {
             let opts = if a.quick {
                 relight_wavelet::VerifyOptions::quick()
             } else {
@@ -1083,7 +529,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                 }],
             )
         }
-        Suite::Fog => report.table(
+        VerifySuite::Fog => report.table(
             "relight verify fog",
             &relight_fog::verify_fog(a.quick),
             &[PlotSpec {
@@ -1094,7 +540,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                 log_y: true,
             }],
         ),
-        Suite::Raster | Suite::Reference => {
+        VerifySuite::Raster | VerifySuite::Reference => {
             let rows = relight_brdf::verify::verify_brdfs(if a.quick { 20_000 } else { 200_000 });
             report.table(
                 "relight verify: BRDF sampling used by the reference renderer",

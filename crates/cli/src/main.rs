@@ -6,9 +6,16 @@
 
 mod args;
 mod commands;
+mod compare;
+mod method_args;
+mod output;
+mod parse;
 mod plot;
 mod progress;
+mod render_cmd;
+mod scene_args;
 mod table;
+mod verify_methods;
 
 use clap::Parser;
 
@@ -18,7 +25,7 @@ fn main() {
     match commands::run(cli) {
         Ok(()) => {}
         Err(err) => {
-            if progress::cancelled() || err.downcast_ref::<relight_render::Cancelled>().is_some() {
+            if progress::cancelled() || err.chain().any(relight_render::method::is_cancelled) {
                 eprintln!("relight: cancelled; no output was written");
                 std::process::exit(130);
             }

@@ -6,8 +6,10 @@
 //! rotation; the fog model's per-pixel airlight), right-drag to turn the
 //! lighting (a *lighting change*: the wavelet method's step 1, the SH
 //! coefficients rotated, the fog lights moving), and switch methods on the
-//! same scene with `1`–`3` — or `4` for the Monte Carlo reference, which
-//! refines pass by pass while the view is still, to judge them against.
+//! same scene with `1`, `2`, … — the reference among them, which refines
+//! pass by pass while the view is still, to judge them against. Every
+//! method is reached through the method interface
+//! (`relight_render::method::Relighter`), as the CLI reaches it.
 //!
 //! Layout:
 //! * [`orbit`]: the orbit camera (pure math, tested);
@@ -25,44 +27,98 @@ pub mod state;
 pub mod window;
 
 pub use orbit::Orbit;
-pub use state::{Frame, ViewMethod, Viewer, ViewerError, ViewerOptions, to_display};
+pub use state::{Frame, Viewer, ViewerError, ViewerOptions, to_display};
 pub use window::run;
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use relight_methods::{MethodKind, MethodOptions};
     use relight_render::NoProgress;
 
-    fn small_viewer(method: ViewMethod) -> Viewer {
+    /// Small, fast settings of every method (the wavelet bake at n = 16).
+    fn small_options() -> ViewerOptions {
         let cache =
             std::env::temp_dir().join(format!("relight-viewer-test-{}", std::process::id()));
-        let opts = ViewerOptions {
-            n: 16,
-            ntess: 4,
-            terms: 64,
-            sh_order: 3,
+        let methods = [
+            MethodKind::Wavelet,
+            MethodKind::Sh,
+            MethodKind::Fog,
+            MethodKind::Reference,
+        ]
+        .into_iter()
+        .map(|k| match MethodOptions::default_for(k) {
+            MethodOptions::Wavelet(mut w) => {
+                w.n = 16;
+                w.ntess = 4;
+                w.terms = 64;
+                w.cache_dir = cache.clone();
+                MethodOptions::Wavelet(w)
+            }
+            MethodOptions::Sh(mut s) => {
+                s.order = 3;
+                MethodOptions::Sh(s)
+            }
+            MethodOptions::Reference(mut r) => {
+                r.pass_spp = 4;
+                MethodOptions::Reference(r)
+            }
+            other => other,
+        })
+        .collect();
+        ViewerOptions {
+            methods,
             aa: 2,
-            cache,
-            ..ViewerOptions::default()
-        };
-        Viewer::new(relight_scene::default_scene(64, 36), method, opts).unwrap()
+            approximate: false,
+        }
+    }
+
+    /// The default scene with a point light and a thin medium, so that every
+    /// method has something to draw (fog renders point lights and the
+    /// foggy environment; sh and wavelet refuse the medium).
+    fn small_viewer(method: MethodKind, scene: relight_render::Scene) -> Viewer {
+        Viewer::new(scene, method, small_options()).unwrap()
     }
 
     fn mean(f: &Frame) -> f32 {
         f.image.pixels.iter().map(|p| p.element_sum()).sum::<f32>() / f.image.pixels.len() as f32
     }
 
+    fn diff(a: &Frame, b: &Frame) -> f32 {
+        a.image
+            .pixels
+            .iter()
+            .zip(&b.image.pixels)
+            .map(|(p, q)| (*p - *q).abs().element_sum())
+            .sum::<f32>()
+    }
+
     #[test]
     fn every_method_draws_and_responds_to_camera_and_lighting() {
-        for method in [ViewMethod::Wavelet, ViewMethod::Sh, ViewMethod::Fog] {
-            let mut v = small_viewer(method);
+        let mut foggy = relight_scene::default_scene(64, 36);
+        foggy.medium = Some(relight_render::Medium {
+            beta: 0.04,
+            albedo: 1.0,
+            radius: 10.0,
+        });
+        foggy.point_lights.push(relight_render::PointLight::new(
+            glam::Vec3::new(0.0, 2.5, 1.5),
+            glam::Vec3::splat(8.0),
+        ));
+        for (method, scene) in [
+            (MethodKind::Wavelet, relight_scene::default_scene(64, 36)),
+            (MethodKind::Sh, relight_scene::default_scene(64, 36)),
+            (MethodKind::Fog, foggy),
+        ] {
+            let mut v = small_viewer(method, scene);
             let still = v.frame(48, 27, false, &NoProgress).unwrap();
+            assert!(still.message.is_none(), "{method}: {:?}", still.message);
             assert_eq!(
                 (still.image.width, still.image.height, still.aa),
                 (48, 27, 2)
             );
             let m0 = mean(&still);
-            assert!(m0.is_finite() && m0 > 0.01, "{method:?}: mean {m0}");
+            assert!(m0.is_finite() && m0 > 0.01, "{method}: mean {m0}");
             let preview = v.frame(48, 27, true, &NoProgress).unwrap();
             assert_eq!(preview.aa, 1);
             // Turning the lighting or the camera changes the picture.
@@ -70,34 +126,33 @@ mod tests {
             let lit = v.frame(48, 27, false, &NoProgress).unwrap();
             v.orbit.rotate(90.0, 20.0);
             let turned = v.frame(48, 27, false, &NoProgress).unwrap();
-            let diff = |a: &Frame, b: &Frame| {
-                a.image
-                    .pixels
-                    .iter()
-                    .zip(&b.image.pixels)
-                    .map(|(p, q)| (*p - *q).abs().element_sum())
-                    .sum::<f32>()
-            };
-            assert!(
-                diff(&still, &lit) > 0.0,
-                "{method:?}: lighting had no effect"
-            );
-            assert!(
-                diff(&lit, &turned) > 0.0,
-                "{method:?}: camera had no effect"
-            );
+            assert!(diff(&still, &lit) > 0.0, "{method}: lighting had no effect");
+            assert!(diff(&lit, &turned) > 0.0, "{method}: camera had no effect");
             v.reset();
             let back = v.frame(48, 27, false, &NoProgress).unwrap();
             assert!(
                 diff(&still, &back) < 1e-3 * diff(&still, &lit).max(1e-6),
-                "{method:?}: reset"
+                "{method}: reset"
             );
         }
     }
 
     #[test]
+    fn a_method_that_cannot_render_the_scene_says_why() {
+        let mut scene = relight_scene::default_scene(32, 18);
+        scene.point_lights.push(relight_render::PointLight::new(
+            glam::Vec3::Y * 3.0,
+            glam::Vec3::ONE,
+        ));
+        let mut v = small_viewer(MethodKind::Sh, scene);
+        let f = v.frame(32, 18, false, &NoProgress).unwrap();
+        let msg = f.message.expect("a refusal");
+        assert!(msg.contains("sh") && msg.contains("point lights"), "{msg}");
+    }
+
+    #[test]
     fn the_reference_refines_while_still_and_restarts_on_change() {
-        let mut v = small_viewer(ViewMethod::Reference);
+        let mut v = small_viewer(MethodKind::Reference, relight_scene::default_scene(32, 18));
         let a = v.frame(32, 18, false, &NoProgress).unwrap();
         let b = v.frame(32, 18, false, &NoProgress).unwrap();
         assert_eq!((a.spp, b.spp), (4, 8));
@@ -105,7 +160,7 @@ mod tests {
         assert!(mean(&b) > 0.01);
         v.orbit.rotate(10.0, 0.0);
         assert_eq!(v.frame(32, 18, false, &NoProgress).unwrap().spp, 4);
-        assert_eq!(v.frame(32, 18, true, &NoProgress).unwrap().spp, 1);
+        assert_eq!(v.frame(32, 18, true, &NoProgress).unwrap().spp, 4);
     }
 
     #[test]
@@ -126,22 +181,27 @@ mod tests {
     #[test]
     fn bad_options_are_errors() {
         let scene = relight_scene::default_scene(8, 8);
-        let bad = |o: ViewerOptions| Viewer::new(scene.clone(), ViewMethod::Sh, o).is_err();
-        assert!(bad(ViewerOptions {
-            aa: 0,
-            ..ViewerOptions::default()
-        }));
-        assert!(bad(ViewerOptions {
-            beta: -1.0,
-            ..ViewerOptions::default()
-        }));
-        assert!(bad(ViewerOptions {
-            n: 48,
-            ..ViewerOptions::default()
-        }));
-        assert!(bad(ViewerOptions {
-            sh_order: 0,
-            ..ViewerOptions::default()
-        }));
+        assert!(
+            Viewer::new(
+                scene.clone(),
+                MethodKind::Sh,
+                ViewerOptions {
+                    aa: 0,
+                    ..ViewerOptions::default()
+                }
+            )
+            .is_err()
+        );
+        assert!(
+            Viewer::new(
+                scene,
+                MethodKind::Sh,
+                ViewerOptions {
+                    methods: vec![MethodOptions::default_for(MethodKind::Fog)],
+                    ..ViewerOptions::default()
+                }
+            )
+            .is_err()
+        );
     }
 }

@@ -1,35 +1,29 @@
 //! What the viewer shows and how a frame is made: the scene, the orbit
-//! camera, the lighting rotation and the method, with each method's
-//! precomputation kept between frames so that only the per-frame step runs.
+//! camera, the lighting rotation and the method — every method reached
+//! through the method interface ([`Relighter`]), exactly as the CLI reaches it,
+//! so the same scene, method and settings give the same image in both.
 //!
-//! | method | on a lighting change | on a view change |
-//! |---|---|---|
-//! | wavelet | step 1: project + rotate into every sampled normal's frame | step 2: per-vertex sparse dot products, Gouraud |
-//! | sh | project, rotate the coefficients (exact) | per-pixel rotation of the transfer vectors |
-//! | fog | the point lights turn about the orbit target (one carried into an object sits the frame out) | per-pixel analytic airlight + surface radiance |
-//! | reference | resample the map rotated; start again | start again; each still frame adds a pass of samples (no visibility, like `verify`) |
+//! Each method is created, checked against the scene ([`check_scene`]) and
+//! prepared (bake or cache load) on first use, and kept between frames:
+//!
+//! | input | call |
+//! |---|---|
+//! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target |
+//! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera |
+//! | still view | [`render_frame`] with `aa × aa` samples; progressive methods (the reference) add a pass per frame |
 
 use crate::orbit::Orbit;
 use glam::Mat3;
-use relight_fog::{FogSettings, FogTables, PointLight};
-use relight_render::{Image, Progress, Scene};
-use relight_shlight::ShRenderer;
-use relight_wavelet::{BrdfBake, RotationParams, WaveletRenderer};
-use std::path::PathBuf;
-use std::sync::Arc;
+use relight_methods::{MethodKind, MethodOptions};
+use relight_render::method::{FrameRequest, MAX_AA, MethodError, check_scene, render_frame};
+use relight_render::{Camera, Image, Progress, Relighter, Scene};
 use std::time::Instant;
 
 /// What can go wrong in the viewer.
 #[derive(Debug, thiserror::Error)]
 pub enum ViewerError {
-    #[error("wavelet method: {0}")]
-    Wavelet(#[from] relight_wavelet::WaveletError),
-    #[error("sh method: {0}")]
-    Sh(#[from] relight_shlight::ShLightError),
-    #[error("fog method: {0}")]
-    Fog(#[from] relight_fog::FogError),
-    #[error("reference: {0}")]
-    Reference(#[from] relight_render::reference::ReferenceError),
+    #[error(transparent)]
+    Method(#[from] MethodError),
     #[error(transparent)]
     Asset(#[from] relight_assets::AssetError),
     #[error("window: {0}")]
@@ -42,57 +36,34 @@ pub enum ViewerError {
     },
 }
 
-/// The methods the viewer switches between (keys 1–4): the three
-/// real-time ones and the Monte Carlo reference, which refines while the
-/// view is still.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ViewMethod {
-    Wavelet,
-    Sh,
-    Fog,
-    Reference,
-}
-
-impl ViewMethod {
-    /// Lower-case name, as on the command line.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Wavelet => "wavelet",
-            Self::Sh => "sh",
-            Self::Fog => "fog",
-            Self::Reference => "reference",
-        }
-    }
-}
-
-/// Parameters of the methods (the CLI's `render` flags).
+/// Settings of the viewer.
 #[derive(Clone, Debug)]
 pub struct ViewerOptions {
-    /// Wavelet source side n, normal tessellation side and lighting terms.
-    pub n: usize,
-    pub ntess: usize,
-    pub terms: usize,
-    /// SH bands.
-    pub sh_order: usize,
-    /// Fog extinction coefficient β (1/world unit).
-    pub beta: f32,
+    /// The methods keys 1, 2, … switch between, each with its options.
+    pub methods: Vec<MethodOptions>,
     /// Samples per pixel side when the view is still (1…8).
     pub aa: usize,
-    /// Bake cache of the wavelet method.
-    pub cache: PathBuf,
+    /// Accept what a method renders approximately (with a warning on screen).
+    pub approximate: bool,
 }
+
+/// Samples per pixel side of a still frame unless `--aa` says otherwise.
+pub const DEFAULT_STILL_AA: usize = 2;
 
 impl Default for ViewerOptions {
     fn default() -> Self {
         Self {
-            n: 64,
-            ntess: 32,
-            terms: 256,
-            sh_order: 6,
-            beta: 0.04,
-            aa: 2,
-            cache: relight_wavelet::default_cache_dir(),
+            methods: [
+                MethodKind::Wavelet,
+                MethodKind::Sh,
+                MethodKind::Fog,
+                MethodKind::Reference,
+            ]
+            .into_iter()
+            .map(MethodOptions::default_for)
+            .collect(),
+            aa: DEFAULT_STILL_AA,
+            approximate: false,
         }
     }
 }
@@ -105,92 +76,121 @@ pub struct Frame {
     pub ms: f64,
     /// Samples per pixel side it was drawn with (raster methods).
     pub aa: usize,
-    /// Monte Carlo samples per pixel accumulated so far (reference; 0 for
-    /// the raster methods).
+    /// Monte Carlo samples per pixel accumulated so far (0 for deterministic
+    /// methods).
     pub spp: u32,
+    /// Why the method drew nothing (it cannot render the scene), or what it
+    /// approximates; shown on screen.
+    pub message: Option<String>,
 }
 
 /// Samples per pixel the reference accumulates before it stops refining.
 pub const REFERENCE_MAX_SPP: u32 = 1024;
 
-/// The reference's running sum, valid for one camera, lighting and size.
-struct Accumulation {
-    key: (Orbit, Mat3, usize, usize),
-    sum: Vec<glam::Vec3>,
-    spp: u32,
-    passes: u64,
-}
-
-struct WaveletState {
-    renderer: WaveletRenderer,
-    bakes: Vec<Arc<BrdfBake>>,
-    /// The lighting rotation step 1 last ran with.
+/// One method's state: created, checked and prepared on first use.
+struct Slot {
+    options: MethodOptions,
+    method: Option<Box<dyn Relighter>>,
+    /// Why it cannot render the scene (checked once).
+    refused: Option<String>,
+    warnings: Vec<String>,
+    /// The lighting rotation `set_lighting` last ran with.
     lit: Option<Mat3>,
+    /// Samples accumulated in the last frame (progressive methods).
+    spp: u32,
 }
 
 /// The viewer's state: everything a frame needs, input applied by the
 /// window layer ([`crate::window`]) or by tests.
 pub struct Viewer {
+    /// The scene as loaded.
     scene: Scene,
+    /// The scene with the current lighting rotation applied.
+    lit_scene: Scene,
+    lit_rotation: Mat3,
     /// The camera.
     pub orbit: Orbit,
     home: Orbit,
     /// Lighting rotation: yaw about +Y and pitch about +X, degrees.
     pub light_yaw_deg: f32,
     pub light_pitch_deg: f32,
-    pub method: ViewMethod,
-    /// Antialias still frames (`opts.aa` samples per side) or not.
+    /// Index into the methods of [`ViewerOptions::methods`].
+    current: usize,
+    /// Antialias still frames (`aa` samples per side) or not.
     pub antialias: bool,
-    opts: ViewerOptions,
-    wavelet: Option<WaveletState>,
-    /// Taken out while it renders (its builder methods take it by value).
-    sh: Option<ShRenderer>,
-    fog_tables: Option<FogTables>,
-    fog_lights: Vec<PointLight>,
-    /// The environment rotated for the reference, with its rotation.
-    rotated_env: Option<(Mat3, relight_sphere::EnvMap)>,
-    accumulation: Option<Accumulation>,
+    aa: usize,
+    approximate: bool,
+    slots: Vec<Slot>,
 }
 
 impl Viewer {
-    /// A viewer of `scene` from its own camera, starting with `method`.
+    /// A viewer of `scene` from its own camera, starting with `first`
+    /// (which must be among `opts.methods`).
     ///
     /// # Errors
     /// Out-of-range options.
-    pub fn new(scene: Scene, method: ViewMethod, opts: ViewerOptions) -> Result<Self, ViewerError> {
-        if !(1..=8).contains(&opts.aa) {
+    pub fn new(scene: Scene, first: MethodKind, opts: ViewerOptions) -> Result<Self, ViewerError> {
+        if !(1..=MAX_AA).contains(&opts.aa) {
             return Err(ViewerError::Invalid {
                 what: "aa",
                 value: opts.aa.to_string(),
                 why: "must be 1…8 samples per pixel side",
             });
         }
-        if !(opts.beta.is_finite() && opts.beta >= 0.0) {
-            return Err(ViewerError::Invalid {
-                what: "beta",
-                value: opts.beta.to_string(),
-                why: "must be a finite number ≥ 0",
-            });
-        }
-        RotationParams::new(opts.n, opts.ntess, 1).validate()?;
-        let sh = ShRenderer::new(opts.sh_order, relight_shlight::ShRotationMethod::Exact)?;
+        let current =
+            opts.methods
+                .iter()
+                .position(|m| m.kind() == first)
+                .ok_or(ViewerError::Invalid {
+                    what: "method",
+                    value: first.name().to_string(),
+                    why: "is not among the viewer's methods",
+                })?;
         let orbit = Orbit::from_camera(&scene.camera);
         Ok(Self {
+            lit_scene: scene.clone(),
+            lit_rotation: Mat3::IDENTITY,
             scene,
             orbit,
             home: orbit,
             light_yaw_deg: 0.0,
             light_pitch_deg: 0.0,
-            method,
+            current,
             antialias: true,
-            opts,
-            wavelet: None,
-            sh: Some(sh),
-            fog_tables: None,
-            fog_lights: relight_fog::default_scene_lights(4),
-            rotated_env: None,
-            accumulation: None,
+            aa: opts.aa,
+            approximate: opts.approximate,
+            slots: opts
+                .methods
+                .into_iter()
+                .map(|options| Slot {
+                    options,
+                    method: None,
+                    refused: None,
+                    warnings: Vec::new(),
+                    lit: None,
+                    spp: 0,
+                })
+                .collect(),
         })
+    }
+
+    /// The method shown.
+    #[must_use]
+    pub fn method(&self) -> MethodKind {
+        self.slots[self.current].options.kind()
+    }
+
+    /// The methods keys 1, 2, … select, in order.
+    #[must_use]
+    pub fn methods(&self) -> Vec<MethodKind> {
+        self.slots.iter().map(|s| s.options.kind()).collect()
+    }
+
+    /// Shows the `index`-th method (0-based); out of range is ignored.
+    pub fn select(&mut self, index: usize) {
+        if index < self.slots.len() {
+            self.current = index;
+        }
     }
 
     /// Back to the starting camera and lighting.
@@ -206,7 +206,8 @@ impl Viewer {
         self.home.distance
     }
 
-    /// `world_from_env` of the current lighting rotation.
+    /// The current lighting rotation (yaw about +Y, then pitch), applied on
+    /// top of the scene's own `world_from_env`.
     #[must_use]
     pub fn light_rotation(&self) -> Mat3 {
         relight_sphere::rotation_from_yaw_pitch_roll([
@@ -216,55 +217,68 @@ impl Viewer {
         ])
     }
 
-    /// Runs the current method's precomputation now (bakes or loads the
-    /// wavelet data, builds the fog tables), so the first frame is fast.
+    /// The camera of a `width × height` frame: the scene's own while the
+    /// orbit is at home (so the viewer and `relight render` see the same
+    /// rays), else the orbit's.
+    #[must_use]
+    pub fn camera(&self, width: usize, height: usize) -> Camera {
+        if self.orbit == self.home {
+            let mut c = self.scene.camera.clone();
+            c.width = width;
+            c.height = height;
+            c
+        } else {
+            self.orbit.camera(width, height)
+        }
+    }
+
+    /// Brings `lit_scene` to the current lighting rotation: the environment
+    /// turned, the point and area lights carried about the home orbit target.
+    fn update_lighting(&mut self) {
+        let r = self.light_rotation();
+        if r == self.lit_rotation {
+            return;
+        }
+        let target = self.home.target;
+        let mut s = self.scene.clone();
+        s.world_from_env = r * self.scene.world_from_env;
+        for l in &mut s.point_lights {
+            l.position = target + r * (l.position - target);
+        }
+        for l in &mut s.area_lights {
+            l.center = target + r * (l.center - target);
+            l.world_from_light = r * l.world_from_light;
+        }
+        self.lit_scene = s;
+        self.lit_rotation = r;
+    }
+
+    /// Creates, checks and prepares the current method if not done yet.
     ///
     /// # Errors
-    /// As the method's bake.
+    /// As the method's bake (a refusal is not an error: it is shown).
     pub fn prepare(&mut self, progress: &dyn Progress) -> Result<(), ViewerError> {
-        match self.method {
-            ViewMethod::Wavelet => self.wavelet_state(progress).map(|_| ()),
-            ViewMethod::Fog => self.fog_tables().map(|_| ()),
-            ViewMethod::Sh | ViewMethod::Reference => Ok(()),
+        self.update_lighting();
+        let slot = &mut self.slots[self.current];
+        if slot.method.is_some() || slot.refused.is_some() {
+            return Ok(());
         }
-    }
-
-    /// The wavelet method's matrices, BRDF slices and renderer, baked or
-    /// loaded on first use.
-    fn wavelet_state(&mut self, progress: &dyn Progress) -> Result<&mut WaveletState, ViewerError> {
-        if let Some(w) = self.wavelet.take() {
-            return Ok(self.wavelet.insert(w));
+        let mut m = relight_methods::create(&slot.options)?;
+        match check_scene(m.as_ref(), &self.lit_scene, self.approximate) {
+            Err(e) => {
+                slot.refused = Some(e.to_string());
+                return Ok(());
+            }
+            Ok(w) => slot.warnings = w,
         }
-        let p = RotationParams::new(self.opts.n, self.opts.ntess, 1);
-        let rot = relight_wavelet::bake_or_load_rotation(&p, &self.opts.cache, progress)?;
-        let bakes = relight_wavelet::bake_or_load_scene_brdfs(
-            &self.scene,
-            p.m,
-            64,
-            128,
-            &self.opts.cache,
-            progress,
-        )?;
-        let terms = self.opts.terms.min(p.source_len());
-        Ok(self.wavelet.insert(WaveletState {
-            renderer: WaveletRenderer::new(rot, terms)?,
-            bakes,
-            lit: None,
-        }))
-    }
-
-    /// The fog tables for the scene's fitted materials, built on first use.
-    fn fog_tables(&mut self) -> Result<&FogTables, ViewerError> {
-        if let Some(t) = self.fog_tables.take() {
-            return Ok(self.fog_tables.insert(t));
-        }
-        let objects = relight_fog::scene_objects(&self.scene);
-        let tables = FogTables::build_for(64, objects.iter().map(|o| &o.material))?;
-        Ok(self.fog_tables.insert(tables))
+        m.prepare(&self.lit_scene, progress)?;
+        slot.lit = Some(self.lit_rotation);
+        slot.method = Some(m);
+        Ok(())
     }
 
     /// Draws a `width × height` frame; `preview` (while the user drags)
-    /// skips antialiasing.
+    /// skips antialiasing and restarts progressive methods.
     ///
     /// # Errors
     /// The method's errors (bad sizes, cancellation of a first bake).
@@ -275,158 +289,51 @@ impl Viewer {
         preview: bool,
         progress: &dyn Progress,
     ) -> Result<Frame, ViewerError> {
-        // The reference integrates each pixel itself: no supersampling.
-        let aa = if preview || !self.antialias || self.method == ViewMethod::Reference {
+        let t = Instant::now();
+        self.prepare(progress)?;
+        let aa = if preview || !self.antialias {
             1
         } else {
-            self.opts.aa
+            self.aa
         };
-        let t = Instant::now();
-        let rotation = self.light_rotation();
-        let mut scene = self.scene.clone();
-        scene.camera = self.orbit.camera(width * aa, height * aa);
-        let image = match self.method {
-            ViewMethod::Reference => {
-                return self.reference_pass(scene, preview, rotation, progress, t);
-            }
-            ViewMethod::Wavelet => {
-                let w = self.wavelet_state(progress)?;
-                if w.lit != Some(rotation) {
-                    w.renderer.set_lighting(&scene.env, rotation)?;
-                    w.lit = Some(rotation);
-                }
-                let refs: Vec<&BrdfBake> = w.bakes.iter().map(AsRef::as_ref).collect();
-                w.renderer.render(&scene, &refs, &scene.camera, None)?
-            }
-            ViewMethod::Sh => {
-                // The renderer supersamples itself.
-                scene.camera = self.orbit.camera(width, height);
-                let sh = match self.sh.take() {
-                    Some(sh) => sh,
-                    None => ShRenderer::new(
-                        self.opts.sh_order,
-                        relight_shlight::ShRotationMethod::Exact,
-                    )?,
-                }
-                .with_supersampling(aa)
-                .with_lighting_rotation(rotation)?;
-                let out = sh.render(&scene, None, progress);
-                self.sh = Some(sh);
-                return Ok(Frame {
-                    image: out?.image,
-                    ms: t.elapsed().as_secs_f64() * 1e3,
-                    aa,
-                    spp: 0,
-                });
-            }
-            ViewMethod::Fog => {
-                let target = self.orbit.target;
-                let mut lights: Vec<PointLight> = self
-                    .fog_lights
-                    .iter()
-                    .map(|l| {
-                        PointLight::new(target + rotation * (l.position - target), l.intensity)
-                    })
-                    .collect();
-                let beta = self.opts.beta;
-                let objects = relight_fog::scene_objects(&scene);
-                let settings = FogSettings::new(self.fog_tables()?, beta);
-                // A light the rotation carries into an object sits this
-                // frame out (the model needs lights in the medium).
-                loop {
-                    match relight_fog::render_fog(&objects, &scene.camera, &lights, &settings) {
-                        Err(relight_fog::FogError::LightInsideGeometry { index, .. })
-                            if index < lights.len() =>
-                        {
-                            lights.remove(index);
-                        }
-                        other => break other?,
-                    }
-                }
-            }
+        let camera = self.camera(width, height);
+        let rotation = self.lit_rotation;
+        let slot = &mut self.slots[self.current];
+        let Some(method) = slot.method.as_mut() else {
+            return Ok(Frame {
+                image: Image::new(width, height),
+                ms: t.elapsed().as_secs_f64() * 1e3,
+                aa,
+                spp: 0,
+                message: slot.refused.clone(),
+            });
         };
-        Ok(Frame {
-            image: image.box_downsample(aa),
-            ms: t.elapsed().as_secs_f64() * 1e3,
+        if slot.lit != Some(rotation) {
+            method.set_lighting(&self.lit_scene, progress)?;
+            slot.lit = Some(rotation);
+        }
+        let request = FrameRequest {
+            camera,
             aa,
-            spp: 0,
+            progressive: !preview,
+        };
+        let out = render_frame(method.as_mut(), &self.lit_scene, &request, progress)?;
+        let spp = out.noise.map_or(0, |n| n.spp);
+        slot.spp = if preview { 0 } else { spp };
+        Ok(Frame {
+            image: out.image,
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            aa: if out.noise.is_some() { 1 } else { aa },
+            spp,
+            message: (!slot.warnings.is_empty()).then(|| slot.warnings.join("; ")),
         })
     }
 
-    /// Whether the reference would still refine the current view.
+    /// Whether the current method would still refine the current view.
     #[must_use]
     pub fn refining(&self) -> bool {
-        self.method == ViewMethod::Reference
-            && self
-                .accumulation
-                .as_ref()
-                .is_none_or(|a| a.spp < REFERENCE_MAX_SPP)
-    }
-
-    /// One progressive pass of the reference renderer over `scene` (the
-    /// viewer's scene at the frame's camera; 1 sample per pixel while
-    /// dragging, 4 when still), added to the running mean of this view; a
-    /// new camera, lighting or size starts the mean again.
-    fn reference_pass(
-        &mut self,
-        mut scene: Scene,
-        preview: bool,
-        rotation: Mat3,
-        progress: &dyn Progress,
-        t: Instant,
-    ) -> Result<Frame, ViewerError> {
-        let (width, height) = (scene.camera.width, scene.camera.height);
-        let key = (self.orbit, rotation, width, height);
-        let mut acc = match self.accumulation.take() {
-            Some(a) if a.key == key && !preview => a,
-            _ => Accumulation {
-                key,
-                sum: vec![glam::Vec3::ZERO; width * height],
-                spp: 0,
-                passes: 0,
-            },
-        };
-        if rotation != Mat3::IDENTITY {
-            if self
-                .rotated_env
-                .as_ref()
-                .is_none_or(|(r, _)| *r != rotation)
-            {
-                self.rotated_env = Some((rotation, self.scene.env.rotated(rotation, 2)));
-            }
-            if let Some((_, env)) = &self.rotated_env {
-                scene.env = env.clone();
-            }
-        }
-        let pass = if preview { 1 } else { 4 };
-        if acc.spp < REFERENCE_MAX_SPP {
-            let opts = relight_render::reference::ReferenceOptions {
-                spp: pass,
-                pass_spp: pass,
-                seed: acc.passes,
-                visibility: false,
-                ..Default::default()
-            };
-            let img = relight_render::reference::render_reference(&scene, &opts, progress)?.image;
-            for (s, p) in acc.sum.iter_mut().zip(&img.pixels) {
-                *s += *p * pass as f32;
-            }
-            acc.spp += pass;
-            acc.passes += 1;
-        }
-        let mut image = Image::new(width, height);
-        let inv = 1.0 / acc.spp.max(1) as f32;
-        for (o, s) in image.pixels.iter_mut().zip(&acc.sum) {
-            *o = *s * inv;
-        }
-        let spp = acc.spp;
-        self.accumulation = Some(acc);
-        Ok(Frame {
-            image,
-            ms: t.elapsed().as_secs_f64() * 1e3,
-            aa: 1,
-            spp,
-        })
+        let slot = &self.slots[self.current];
+        slot.options.kind() == MethodKind::Reference && slot.spp < REFERENCE_MAX_SPP
     }
 
     /// Writes `frame` as `stem.png` (tone-mapped) and `stem.exr` (linear).

@@ -8,7 +8,7 @@
 //! quits. While a button is held frames skip antialiasing (preview); the
 //! title shows the method and the frame time.
 
-use crate::state::{Frame, ViewMethod, Viewer, ViewerError};
+use crate::state::{Frame, Viewer, ViewerError};
 use relight_render::NoProgress;
 use std::num::NonZeroU32;
 use std::path::PathBuf;
@@ -97,10 +97,15 @@ impl App {
         } else {
             String::new()
         };
+        let note = frame
+            .message
+            .as_deref()
+            .map_or(String::new(), |m| format!(" — {m}"));
         window.set_title(&format!(
-            "relight — {} — {:.1} ms{quality} — drag: orbit, right drag: light, 1-4: method, a: AA, s: save",
-            self.viewer.method.name(),
+            "relight — {} — {:.1} ms{quality}{note} — drag: orbit, right drag: light, 1-{}: method, a: AA, s: save",
+            self.viewer.method().name(),
             frame.ms,
+            self.viewer.methods().len(),
         ));
         self.last = Some(frame);
         // The reference keeps adding samples while the view is still.
@@ -121,10 +126,10 @@ impl App {
             Key::Named(NamedKey::Escape) => event_loop.exit(),
             Key::Character(c) => match c.as_str() {
                 "q" => event_loop.exit(),
-                "1" => self.viewer.method = ViewMethod::Wavelet,
-                "2" => self.viewer.method = ViewMethod::Sh,
-                "3" => self.viewer.method = ViewMethod::Fog,
-                "4" => self.viewer.method = ViewMethod::Reference,
+                "1" | "2" | "3" | "4" | "5" | "6" | "7" | "8" | "9" => {
+                    let i: usize = c.parse().unwrap_or(1);
+                    self.viewer.select(i - 1);
+                }
                 "a" => self.viewer.antialias = !self.viewer.antialias,
                 "r" => self.viewer.reset(),
                 "s" => {

@@ -1,0 +1,167 @@
+//! Method flags → one method's options ([`relight_methods::MethodOptions`]).
+//!
+//! Each flag belongs to the methods listed in [`FLAG_METHODS`]; a flag given
+//! to a method it does not belong to is a one-line error naming the method,
+//! never silently dropped. Unset flags keep the method's own defaults (its
+//! options type's `Default`, the one place they live).
+
+use crate::args::{Method, MethodFlags, Scattering};
+use anyhow::{Result, anyhow, bail};
+use relight_methods::{MethodKind, MethodOptions};
+
+/// The method of a `--method` value.
+#[must_use]
+pub fn kind_of(m: Method) -> MethodKind {
+    match m {
+        Method::Reference => MethodKind::Reference,
+        Method::Sh => MethodKind::Sh,
+        Method::Wavelet => MethodKind::Wavelet,
+        Method::Fog => MethodKind::Fog,
+    }
+}
+
+/// Which methods each method flag applies to.
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 11] = [
+    ("--spp", &[MethodKind::Reference]),
+    ("--seed", &[MethodKind::Reference]),
+    ("--scattering", &[MethodKind::Reference]),
+    ("--order", &[MethodKind::Sh, MethodKind::Fog]),
+    ("--rotation", &[MethodKind::Sh]),
+    ("--n", &[MethodKind::Wavelet]),
+    ("--ntess", &[MethodKind::Wavelet]),
+    ("--terms", &[MethodKind::Wavelet]),
+    ("--ao", &[MethodKind::Wavelet]),
+    ("--cache", &[MethodKind::Wavelet]),
+    ("--fog", &[MethodKind::Fog]),
+];
+
+/// The flags of `f` that are set, by name.
+fn given(f: &MethodFlags) -> Vec<&'static str> {
+    let set = [
+        f.spp.is_some(),
+        f.seed.is_some(),
+        f.scattering.is_some(),
+        f.order.is_some(),
+        f.rotation.is_some(),
+        f.n.is_some(),
+        f.ntess.is_some(),
+        f.terms.is_some(),
+        f.ao.is_some(),
+        f.cache.is_some(),
+        f.fog.is_some(),
+    ];
+    FLAG_METHODS
+        .iter()
+        .zip(set)
+        .filter(|(_, s)| *s)
+        .map(|((name, _), _)| *name)
+        .collect()
+}
+
+/// Refuses every set flag that does not apply to `kind`.
+///
+/// # Errors
+/// The first such flag, naming the method and the methods it applies to.
+pub fn check_flags(kind: MethodKind, f: &MethodFlags) -> Result<()> {
+    for name in given(f) {
+        let (_, methods) = FLAG_METHODS
+            .iter()
+            .find(|(n, _)| *n == name)
+            .expect("every given flag is in FLAG_METHODS");
+        if !methods.contains(&kind) {
+            let names: Vec<&str> = methods.iter().map(|m| m.name()).collect();
+            bail!(
+                "{name} does not apply to method {kind} (it is an option of {})",
+                names.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Unsets every flag of `f` that does not apply to `kind` (the viewer hands
+/// each of its methods the flags that belong to it).
+pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
+    let applies = |name: &str| {
+        FLAG_METHODS
+            .iter()
+            .any(|(n, methods)| *n == name && methods.contains(&kind))
+    };
+    macro_rules! clear {
+        ($($field:ident => $name:literal),* $(,)?) => {
+            $(if !applies($name) { f.$field = None; })*
+        };
+    }
+    clear!(
+        spp => "--spp", seed => "--seed", scattering => "--scattering", order => "--order",
+        rotation => "--rotation", n => "--n", ntess => "--ntess", terms => "--terms",
+        ao => "--ao", cache => "--cache", fog => "--fog",
+    );
+}
+
+/// The options of `kind`: its defaults with the given flags applied.
+///
+/// # Errors
+/// A flag that does not apply to `kind`, or a bad value.
+pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
+    check_flags(kind, f)?;
+    let mut o = MethodOptions::default_for(kind);
+    match &mut o {
+        MethodOptions::Reference(r) => {
+            if let Some(spp) = f.spp {
+                r.spp = spp;
+            }
+            if let Some(seed) = f.seed {
+                r.seed = seed;
+            }
+            if let Some(s) = f.scattering {
+                r.medium_mode = match s {
+                    Scattering::Single => relight_render::reference::MediumMode::SingleScattering,
+                    Scattering::Multiple => {
+                        relight_render::reference::MediumMode::MultipleScattering
+                    }
+                };
+            }
+        }
+        MethodOptions::Sh(s) => {
+            if let Some(order) = f.order {
+                s.order = order;
+            }
+            if let Some(r) = &f.rotation {
+                s.rotation = r.parse().map_err(|e| anyhow!("--rotation {r}: {e}"))?;
+            }
+        }
+        MethodOptions::Wavelet(w) => {
+            if let Some(n) = f.n {
+                w.n = n;
+            }
+            if let Some(ntess) = f.ntess {
+                w.ntess = ntess;
+            }
+            if let Some(terms) = f.terms {
+                w.terms = terms;
+            }
+            if let Some(ao) = f.ao {
+                w.ao = ao;
+            }
+            if let Some(c) = &f.cache {
+                w.cache_dir = c.clone();
+            }
+        }
+        MethodOptions::Fog(g) => {
+            if let Some(order) = f.order {
+                g.env_order = order;
+            }
+            if let Some(mode) = &f.fog {
+                g.mode = match mode.as_str() {
+                    "analytic" => relight_fog::FogMode::Analytic,
+                    "opengl" => relight_fog::FogMode::OpenGl {
+                        fog_color: glam::Vec3::splat(0.5),
+                    },
+                    other => bail!("--fog {other}: expected `analytic` or `opengl`"),
+                };
+            }
+        }
+    }
+    Ok(o)
+}

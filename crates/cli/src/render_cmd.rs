@@ -1,0 +1,163 @@
+//! `relight render`, `relight demo` and `relight view`: a scene, a method and
+//! its options, through the method interface — the same calls the viewer
+//! makes (`relight_viewer::Viewer`), so both give the same image.
+
+use crate::args::{DemoArgs, MethodFlags, RenderArgs, ViewArgs};
+use crate::method_args::{kind_of, options_for};
+use crate::output::{output_paths, warn_all, write_outputs};
+use crate::parse::parse_size;
+use crate::progress::Bar;
+use crate::scene_args::build_scene;
+use anyhow::{Result, anyhow, bail};
+use relight_methods::{MethodKind, MethodOptions};
+use relight_render::Scene;
+use relight_render::method::{FrameRequest, Rendered, check_scene, render_frame};
+use std::time::Instant;
+
+/// Checks, prepares and renders `scene` with the method of `options` at
+/// `aa × aa` samples per pixel.
+///
+/// # Errors
+/// A feature the method cannot render (unless `approximate` and it renders
+/// it approximately), bad options, the method's own failures, Ctrl-C.
+pub fn render_with(
+    options: &MethodOptions,
+    scene: &Scene,
+    aa: usize,
+    approximate: bool,
+    bar: &Bar,
+) -> Result<Rendered> {
+    let mut method = relight_methods::create(options)?;
+    warn_all(&check_scene(method.as_ref(), scene, approximate)?);
+    let t = Instant::now();
+    method.prepare(scene, bar)?;
+    let prepare_s = t.elapsed().as_secs_f64();
+    let request = FrameRequest::new(scene.camera.clone()).with_aa(aa);
+    let out = render_frame(method.as_mut(), scene, &request, bar)?;
+    let noise = out.noise.map_or(String::new(), |n| {
+        format!(
+            ", {} spp, relative standard error {:.4}",
+            n.spp, n.relative_std_error
+        )
+    });
+    eprintln!(
+        "relight: {}: prepared in {prepare_s:.2} s; frame: lighting {:.1} ms, view {:.1} ms{noise}",
+        method.name(),
+        out.timings.lighting_ms,
+        out.timings.view_ms
+    );
+    Ok(out)
+}
+
+/// `--aa`, refused for the reference (it integrates each pixel itself).
+fn aa_for(kind: MethodKind, aa: Option<usize>, default: usize) -> Result<usize> {
+    match (kind, aa) {
+        (MethodKind::Reference, Some(_)) => bail!(
+            "--aa does not apply to method reference (it integrates each pixel itself; use --spp)"
+        ),
+        (MethodKind::Reference, None) => Ok(1),
+        (_, Some(k)) => Ok(k),
+        (_, None) => Ok(default),
+    }
+}
+
+/// Applies the scene file's `[render] spp` to the reference when `--spp` is unset.
+fn with_file_spp(kind: MethodKind, mut flags: MethodFlags, spp: Option<u32>) -> MethodFlags {
+    if kind == MethodKind::Reference && flags.spp.is_none() {
+        flags.spp = spp;
+    }
+    flags
+}
+
+pub fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
+    let start = Instant::now();
+    output_paths(&a.out)?;
+    let built = build_scene(&a.scene, None)?;
+    let file_method = built.render.as_ref().and_then(|r| r.method.clone());
+    let kind = match (a.method, file_method) {
+        (Some(m), _) => kind_of(m),
+        (None, Some(m)) => m.parse::<MethodKind>().map_err(|e| {
+            anyhow!(
+                "{}: [render] method: {e}",
+                a.scene
+                    .scene
+                    .as_deref()
+                    .map_or("scene".into(), |p| p.display().to_string())
+            )
+        })?,
+        (None, None) => MethodKind::Reference,
+    };
+    let flags = with_file_spp(
+        kind,
+        a.options.clone(),
+        built.render.as_ref().and_then(|r| r.spp),
+    );
+    let options = options_for(kind, &flags)?;
+    let aa = aa_for(kind, a.aa, 1)?;
+    let out = render_with(&options, &built.scene, aa, a.approximate, bar)?;
+    let (png, exr) = write_outputs(&out.image, out.coverage.as_ref(), &a.out)?;
+    println!(
+        "relight render: {}×{}, method {kind}, wrote {} and {} in {:.2} s",
+        out.image.width,
+        out.image.height,
+        png.display(),
+        exr.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// Samples per pixel side of `demo`'s raster methods unless `--aa` says otherwise.
+pub const DEMO_AA: usize = 2;
+
+pub fn demo(a: DemoArgs, bar: &Bar) -> Result<()> {
+    output_paths(&a.out)?;
+    let (w, h) = parse_size(&a.size, "--size")?;
+    let start = Instant::now();
+    let scene = relight_scene::default_scene(w, h);
+    let kind = kind_of(a.method);
+    let options = options_for(kind, &a.options)?;
+    let aa = aa_for(kind, a.aa, DEMO_AA)?;
+    let out = render_with(&options, &scene, aa, false, bar)?;
+    let (png, exr) = write_outputs(&out.image, out.coverage.as_ref(), &a.out)?;
+    println!(
+        "relight demo: {w}×{h}, method {kind}, wrote {} and {} in {:.2} s",
+        png.display(),
+        exr.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The viewer's methods: every method, each with the flags that belong to it.
+fn view_methods(flags: &MethodFlags) -> Result<Vec<MethodOptions>> {
+    let order = [
+        MethodKind::Wavelet,
+        MethodKind::Sh,
+        MethodKind::Fog,
+        MethodKind::Reference,
+    ];
+    order
+        .into_iter()
+        .map(|k| {
+            let mut f = flags.clone();
+            crate::method_args::clear_foreign(k, &mut f);
+            options_for(k, &f)
+        })
+        .collect()
+}
+
+pub fn view(a: ViewArgs, bar: &Bar) -> Result<()> {
+    let built = build_scene(&a.scene, Some(&relight_scene::default_scene))?;
+    let (w, h) = (built.scene.camera.width, built.scene.camera.height);
+    let opts = relight_viewer::ViewerOptions {
+        methods: view_methods(&a.options)?,
+        aa: a.aa.unwrap_or(relight_viewer::state::DEFAULT_STILL_AA),
+        approximate: a.approximate,
+    };
+    let mut viewer = relight_viewer::Viewer::new(built.scene, kind_of(a.method), opts)?;
+    eprintln!("relight view: preparing {} …", viewer.method());
+    viewer.prepare(bar)?;
+    relight_viewer::run(viewer, w as u32, h as u32)?;
+    Ok(())
+}

@@ -1,0 +1,180 @@
+//! Scene flags → one [`Scene`]: a scene file (or a mesh under an environment)
+//! with every flag that overrides it applied. The scene is the method
+//! interface's input, so each flag here is a scene feature, not a method
+//! option: a method that cannot render what a flag adds refuses the scene
+//! (`relight_render::method::check_scene`).
+
+use crate::args::SceneArgs;
+use crate::output::warn_all;
+use crate::parse::{parse_floats, parse_size};
+use anyhow::{Result, anyhow, ensure};
+use glam::Vec3;
+use relight_brdf::BrdfSpec;
+use relight_render::{Medium, Object, PointLight, Scene};
+use relight_scene::file::RenderDesc;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Default image size when neither the scene file nor `--size` gives one.
+pub const DEFAULT_SIZE: (usize, usize) = (960, 540);
+
+/// The scene and the scene file's `[render]` section, if any.
+pub struct BuiltScene {
+    pub scene: Scene,
+    pub render: Option<RenderDesc>,
+}
+
+/// Loads a tangent-space normal map (PNG, decoded linearly).
+pub fn load_normal_map(path: &Path) -> Result<relight_render::NormalMap> {
+    let (img, report) =
+        relight_assets::read_image_with(path, relight_assets::ColorEncoding::Linear)?;
+    warn_all(&report.warnings);
+    relight_render::NormalMap::from_rgb(img.width, img.height, &img.pixels)
+        .map_err(|e| anyhow!("{}: not a normal map: {e}", path.display()))
+}
+
+/// Builds the scene of `a`; `fallback` is the scene used when neither a file
+/// nor `--mesh` is given (`None`: that is an error).
+pub fn build_scene(
+    a: &SceneArgs,
+    fallback: Option<&dyn Fn(usize, usize) -> Scene>,
+) -> Result<BuiltScene> {
+    let size = a
+        .size
+        .as_deref()
+        .map(|s| parse_size(s, "--size"))
+        .transpose()?;
+    let (mut scene, render) = if let Some(path) = &a.scene {
+        let loaded = relight_scene::load_scene_file(path, size)?;
+        warn_all(&loaded.warnings);
+        (loaded.scene, loaded.file.render.clone())
+    } else if !a.mesh.is_empty() {
+        let (w, h) = size.unwrap_or(DEFAULT_SIZE);
+        let env_spec = a.env.as_deref().unwrap_or("studio");
+        let (env, warnings) = relight_scene::load_environment(env_spec)?;
+        warn_all(&warnings);
+        let brdf_spec = a.brdf.as_deref().unwrap_or("lambert");
+        let brdf = brdf_spec
+            .parse::<BrdfSpec>()
+            .map_err(|e| anyhow!("--brdf {brdf_spec}: {e}"))?
+            .build();
+        let mut objects = Vec::new();
+        for m in &a.mesh {
+            let (mesh, warnings) = relight_scene::load_mesh(m)?;
+            warn_all(
+                &warnings
+                    .iter()
+                    .map(|w| format!("{m}: {w}"))
+                    .collect::<Vec<_>>(),
+            );
+            objects.push(Object::new(Arc::new(mesh), brdf.clone()));
+        }
+        let camera = relight_scene::framing_camera(&objects, w, h, 40.0);
+        (Scene::new(objects, env, camera), None)
+    } else if let Some(f) = fallback {
+        let (w, h) = size.unwrap_or(DEFAULT_SIZE);
+        (f(w, h), None)
+    } else {
+        anyhow::bail!(
+            "give a scene file or at least one --mesh (a file, or sphere/torus/knot/ground)"
+        );
+    };
+    let from_file = a.scene.is_some();
+    if from_file || a.mesh.is_empty() {
+        if let Some(spec) = &a.brdf {
+            let brdf = spec
+                .parse::<BrdfSpec>()
+                .map_err(|e| anyhow!("--brdf {spec}: {e}"))?
+                .build();
+            scene = relight_scene::with_brdf(&scene, &brdf);
+        }
+        if let Some(env) = &a.env {
+            let (e, warnings) = relight_scene::load_environment(env)?;
+            warn_all(&warnings);
+            scene.env = e;
+        }
+    }
+    if let Some(c) = &a.camera {
+        let v = parse_floats(c, c.split(',').count().clamp(6, 7), "--camera")?;
+        scene.camera.eye = Vec3::new(v[0], v[1], v[2]);
+        scene.camera.target = Vec3::new(v[3], v[4], v[5]);
+        if let Some(fov) = v.get(6) {
+            ensure!(
+                *fov > 0.0 && *fov < 180.0,
+                "--camera {c}: field of view must be in (0, 180) degrees, got {fov}"
+            );
+            scene.camera.vfov_deg = *fov;
+        }
+    }
+    if let Some(r) = &a.light_rotate {
+        let v = parse_floats(r, 3, "--light-rotate")?;
+        scene.world_from_env =
+            relight_scene::rotation_from_yaw_pitch_roll([v[0], v[1], v[2]]) * scene.world_from_env;
+    }
+    if let Some(p) = &a.normal_map {
+        let nm = Arc::new(load_normal_map(p)?);
+        for (i, o) in scene.objects.iter_mut().enumerate() {
+            ensure!(
+                o.mesh.uvs.len() == o.mesh.positions.len(),
+                "--normal-map {}: object {} has no texture coordinates (uvs) to map it with",
+                p.display(),
+                i + 1
+            );
+            o.normal_map = Some(nm.clone());
+        }
+    }
+    for l in &a.light {
+        let v = parse_floats(l, 4, "--light")?;
+        ensure!(v[3] >= 0.0, "--light {l}: intensity must be ≥ 0");
+        scene.point_lights.push(PointLight::new(
+            Vec3::new(v[0], v[1], v[2]),
+            Vec3::splat(v[3]),
+        ));
+    }
+    if a.beta.is_some() || a.albedo.is_some() || a.medium_radius.is_some() {
+        let base = scene.medium;
+        let beta = a.beta.or(base.map(|m| m.beta)).ok_or_else(|| {
+            anyhow!("--albedo/--medium-radius need a medium: give --beta (or a [medium] in the scene file)")
+        })?;
+        let m = Medium {
+            beta,
+            albedo: a
+                .albedo
+                .or(base.map(|m| m.albedo))
+                .unwrap_or(relight_scene::file::DEFAULT_MEDIUM_ALBEDO),
+            radius: a
+                .medium_radius
+                .or(base.map(|m| m.radius))
+                .unwrap_or(relight_scene::file::DEFAULT_MEDIUM_RADIUS),
+        };
+        ensure!(
+            m.beta.is_finite() && m.beta >= 0.0,
+            "--beta {}: must be a finite number ≥ 0",
+            m.beta
+        );
+        ensure!(
+            (0.0..=1.0).contains(&m.albedo),
+            "--albedo {}: must be in [0, 1]",
+            m.albedo
+        );
+        ensure!(
+            m.radius.is_finite() && m.radius > 0.0,
+            "--medium-radius {}: must be a finite number > 0",
+            m.radius
+        );
+        scene.medium = Some(m);
+    }
+    if a.visibility {
+        scene.visibility = true;
+    }
+    if let Some(t) = a.time {
+        ensure!(
+            t.is_finite(),
+            "--time {t}: must be a finite number of seconds"
+        );
+        scene = scene.at_time(t);
+    } else if scene.is_animated() {
+        scene = scene.at_time(0.0);
+    }
+    Ok(BuiltScene { scene, render })
+}

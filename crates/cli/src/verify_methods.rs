@@ -1,0 +1,184 @@
+//! `relight verify methods`: the scene matrix and the cross-method table
+//! (`relight_methods::verify`).
+//!
+//! The matrix: the embedded default scene; shared probes with a sun (`park`)
+//! and indoors (`hall`) × BRDFs (Lambert, rough GGX α = 0.3, glossy GGX
+//! α = 0.1) × meshes (the default scene's objects, the Stanford bunny); the
+//! default scene with visibility (shadows), with a normal map, and in fog with
+//! point lights. `--quick` keeps the default scene, its shadowed, normal-mapped
+//! and foggy variants and one probe at a small size, and the wavelet method at
+//! n = 16, so that it fits in CI.
+
+use crate::args::VerifyArgs;
+use crate::commands::data_dir;
+use crate::plot::{PlotSpec, write_plot};
+use crate::progress::Bar;
+use crate::scene_args::load_normal_map;
+use crate::table::Report;
+use anyhow::{Result, anyhow};
+use glam::Vec3;
+use relight_brdf::BrdfSpec;
+use relight_methods::MethodOptions;
+use relight_methods::verify::{MatrixScene, VerifyMethodsOptions};
+use relight_render::{Medium, Object, PointLight, Scene};
+use std::sync::Arc;
+
+/// A CI-sized wavelet configuration for `--quick`.
+fn quick_options(mut o: VerifyMethodsOptions) -> VerifyMethodsOptions {
+    for m in &mut o.methods {
+        if let MethodOptions::Wavelet(w) = m {
+            w.n = 16;
+            w.ntess = 8;
+            w.terms = 64;
+        }
+    }
+    o.aa = 2;
+    o
+}
+
+fn brdf(spec: &str) -> Result<Arc<dyn relight_brdf::Brdf>> {
+    Ok(spec
+        .parse::<BrdfSpec>()
+        .map_err(|e| anyhow!("{spec}: {e}"))?
+        .build())
+}
+
+/// The default scene in fog: a thin medium and two point lights above the objects.
+fn foggy(mut s: Scene) -> Scene {
+    s.medium = Some(Medium {
+        beta: 0.1,
+        albedo: 1.0,
+        radius: 10.0,
+    });
+    s.point_lights = vec![
+        PointLight::new(Vec3::new(-1.0, 2.4, 1.6), Vec3::splat(6.0)),
+        PointLight::new(Vec3::new(1.4, 2.0, 1.2), Vec3::new(5.0, 4.0, 3.0)),
+    ];
+    s
+}
+
+fn matrix(quick: bool) -> Result<Vec<MatrixScene>> {
+    let (w, h) = if quick { (96, 54) } else { (320, 180) };
+    let default = relight_scene::default_scene(w, h);
+    let mut out = vec![MatrixScene {
+        name: "default".into(),
+        scene: default.clone(),
+    }];
+    let mut shadowed = default.clone();
+    shadowed.visibility = true;
+    out.push(MatrixScene {
+        name: "default+visibility".into(),
+        scene: shadowed,
+    });
+    let nm_path = data_dir().join("normalmaps/0000.png");
+    let nm = if nm_path.exists() {
+        Arc::new(load_normal_map(&nm_path)?)
+    } else {
+        eprintln!(
+            "relight: {} not found; the normal-mapped scene uses a procedural bump map",
+            nm_path.display()
+        );
+        Arc::new(relight_render::NormalMap::bumps(256, 8, 0.6))
+    };
+    let mut mapped = default.clone();
+    for o in &mut mapped.objects {
+        o.normal_map = Some(nm.clone());
+    }
+    out.push(MatrixScene {
+        name: "default+normal-map".into(),
+        scene: mapped,
+    });
+    out.push(MatrixScene {
+        name: "default+fog".into(),
+        scene: foggy(default.clone()),
+    });
+    let probes: &[&str] = if quick { &["park"] } else { &["park", "hall"] };
+    let brdfs: &[(&str, &str)] = if quick {
+        &[("lambert", "lambert:0.8")]
+    } else {
+        &[
+            ("lambert", "lambert:0.8"),
+            ("ggx0.3", "ggx:0.3@0.9,0.6,0.3"),
+            ("ggx0.1", "ggx:0.1@0.9,0.9,0.9"),
+        ]
+    };
+    let bunny = data_dir().join("mesh/bunny.obj");
+    let bunny_mesh = if !quick && bunny.exists() {
+        Some(Arc::new(
+            relight_scene::load_mesh(&bunny.to_string_lossy())?.0,
+        ))
+    } else {
+        None
+    };
+    for probe in probes {
+        let path = data_dir().join(format!("hdri/{probe}.exr"));
+        if !path.exists() {
+            eprintln!("relight: {} not found; skipping that probe", path.display());
+            continue;
+        }
+        let (env, warnings) = relight_scene::load_environment(&path.to_string_lossy())?;
+        crate::output::warn_all(&warnings);
+        for (bname, spec) in brdfs {
+            let b = brdf(spec)?;
+            let mut s = relight_scene::with_brdf(&default, &b);
+            s.env = env.clone();
+            out.push(MatrixScene {
+                name: format!("{probe}/{bname}/default-objects"),
+                scene: s,
+            });
+            if let Some(mesh) = &bunny_mesh {
+                let objects = vec![Object::new(mesh.clone(), b.clone())];
+                let camera = relight_scene::framing_camera(&objects, w, h, 40.0);
+                let mut s = Scene::new(objects, env.clone(), camera);
+                out.push(MatrixScene {
+                    name: format!("{probe}/{bname}/bunny"),
+                    scene: s.clone(),
+                });
+                s.visibility = true;
+                out.push(MatrixScene {
+                    name: format!("{probe}/{bname}/bunny+visibility"),
+                    scene: s,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+pub fn verify_methods(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
+    let scenes = matrix(a.quick)?;
+    let mut opts = VerifyMethodsOptions::new(a.quick);
+    if a.quick {
+        opts = quick_options(opts);
+    }
+    let rows = relight_methods::verify::verify_methods(&scenes, &opts, bar)?;
+    report.table(
+        "relight verify methods: relative RMS error over object pixels vs one reference",
+        &rows,
+        &[],
+    )?;
+    if let Some(dir) = &report.plot_dir {
+        for s in &scenes {
+            let values: Vec<serde_json::Value> = rows
+                .iter()
+                .filter(|r| r.scene == s.name)
+                .map(serde_json::to_value)
+                .collect::<Result<_, _>>()?;
+            let name = format!("verify-methods-{}", s.name.replace(['/', '+'], "-"));
+            let path = write_plot(
+                dir,
+                &format!("verify methods, scene {}: error against frame time", s.name),
+                &values,
+                &PlotSpec {
+                    name: &name,
+                    x: "view_ms",
+                    y: "rel_rms_error",
+                    series: &["method"],
+                    log_y: true,
+                },
+            )?;
+            eprintln!("relight: wrote {}", path.display());
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,159 @@
+//! relight-methods: the registry of rendering methods.
+//!
+//! Every method implements [`relight_render::method::Relighter`] in its own
+//! crate — the Monte Carlo reference in `relight-render`, SH shading in
+//! `relight-shlight`, wavelet shading in `relight-wavelet`, analytic fog in
+//! `relight-fog` — with an options type whose `Default` holds its defaults.
+//! This crate is the one place that knows them all: [`MethodKind`] names
+//! them, [`MethodOptions`] carries one method's options, and [`create`] builds
+//! the method behind the interface. The CLI, the viewer and `verify methods`
+//! ([`verify`]) reach the methods only through here.
+//!
+//! The registry holds no defaults of its own: `MethodOptions::default_for`
+//! takes each method's `Default`.
+
+pub mod verify;
+
+use relight_fog::{FogOptions, FogRelighter};
+use relight_render::method::{MethodError, Relighter, SceneFeature, Support};
+use relight_render::reference::{ReferenceOptions, ReferenceRenderer};
+use relight_shlight::{ShMethod, ShOptions};
+use relight_wavelet::{WaveletMethod, WaveletOptions};
+use serde::Serialize;
+
+/// The rendering methods.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MethodKind {
+    /// Monte Carlo ground truth: renders every scene feature.
+    Reference,
+    /// Spherical-harmonics environment shading with per-pixel rotation.
+    Sh,
+    /// Haar wavelets on octahedral maps with precomputed rotation matrices.
+    Wavelet,
+    /// Analytic single-scattering fog with point lights and a foggy environment.
+    Fog,
+}
+
+impl MethodKind {
+    /// Every method, the reference first.
+    pub const ALL: [MethodKind; 4] = [Self::Reference, Self::Sh, Self::Wavelet, Self::Fog];
+
+    /// The name on the command line.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Reference => "reference",
+            Self::Sh => "sh",
+            Self::Wavelet => "wavelet",
+            Self::Fog => "fog",
+        }
+    }
+}
+
+impl std::fmt::Display for MethodKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for MethodKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|m| m.name().eq_ignore_ascii_case(s))
+            .ok_or_else(|| {
+                let names: Vec<&str> = Self::ALL.iter().map(|m| m.name()).collect();
+                format!("unknown method `{s}` (known: {})", names.join(", "))
+            })
+    }
+}
+
+/// One method's options.
+#[derive(Clone, Debug)]
+pub enum MethodOptions {
+    Reference(ReferenceOptions),
+    Sh(ShOptions),
+    Wavelet(WaveletOptions),
+    Fog(FogOptions),
+}
+
+impl MethodOptions {
+    /// The defaults of `kind` (its options type's `Default`).
+    #[must_use]
+    pub fn default_for(kind: MethodKind) -> Self {
+        match kind {
+            MethodKind::Reference => Self::Reference(ReferenceOptions::default()),
+            MethodKind::Sh => Self::Sh(ShOptions::default()),
+            MethodKind::Wavelet => Self::Wavelet(WaveletOptions::default()),
+            MethodKind::Fog => Self::Fog(FogOptions::default()),
+        }
+    }
+
+    /// Which method these options are for.
+    #[must_use]
+    pub fn kind(&self) -> MethodKind {
+        match self {
+            Self::Reference(_) => MethodKind::Reference,
+            Self::Sh(_) => MethodKind::Sh,
+            Self::Wavelet(_) => MethodKind::Wavelet,
+            Self::Fog(_) => MethodKind::Fog,
+        }
+    }
+}
+
+/// Builds the method `options` are for, behind the interface.
+///
+/// # Errors
+/// Out-of-range options ([`MethodError::InvalidOption`], naming the method).
+pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError> {
+    Ok(match options {
+        MethodOptions::Reference(o) => Box::new(ReferenceRenderer::new(o.clone())),
+        MethodOptions::Sh(o) => Box::new(ShMethod::new(o.clone())?),
+        MethodOptions::Wavelet(o) => Box::new(WaveletMethod::new(o.clone())?),
+        MethodOptions::Fog(o) => Box::new(FogRelighter::new(o.clone())?),
+    })
+}
+
+/// What each method renders, feature by feature: `(method, feature, support)`
+/// for every pair (with default options), for help texts and docs.
+#[must_use]
+pub fn support_table() -> Vec<(MethodKind, SceneFeature, Support)> {
+    let mut rows = Vec::new();
+    for kind in MethodKind::ALL {
+        let m = create(&MethodOptions::default_for(kind)).expect("default options are valid");
+        for f in SceneFeature::ALL {
+            rows.push((kind, f, m.supports(f)));
+        }
+    }
+    rows
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_the_reference_renders_everything() {
+        for k in MethodKind::ALL {
+            assert_eq!(k.name().parse::<MethodKind>().unwrap(), k);
+            assert_eq!(MethodOptions::default_for(k).kind(), k);
+            assert_eq!(
+                create(&MethodOptions::default_for(k)).unwrap().name(),
+                k.name()
+            );
+        }
+        assert!(
+            "spere"
+                .parse::<MethodKind>()
+                .unwrap_err()
+                .contains("known: reference")
+        );
+        for (k, f, s) in support_table() {
+            if k == MethodKind::Reference {
+                assert_eq!(s, Support::Full, "reference must render {f}");
+            }
+        }
+    }
+}
