@@ -241,10 +241,11 @@ pub fn render_scene(scene: &Scene, method: Method, s: &RenderSettings, bar: &Bar
                 spp: s.spp,
                 pass_spp: s.spp.min(8),
                 seed: s.seed,
-                visibility: s.visibility,
                 ..ReferenceOptions::default()
             };
-            let r = render_reference(scene, &opts, bar)?;
+            let mut shadowed = scene.clone();
+            shadowed.visibility = s.visibility;
+            let r = render_reference(&shadowed, &opts, bar)?;
             eprintln!(
                 "relight: reference: {} spp, {:.2e} rays/s, relative standard error {:.4}",
                 r.spp,

@@ -404,9 +404,9 @@ impl Viewer {
                 spp: pass,
                 pass_spp: pass,
                 seed: acc.passes,
-                visibility: false,
                 ..Default::default()
             };
+            scene.visibility = false;
             let img = relight_render::reference::render_reference(&scene, &opts, progress)?.image;
             for (s, p) in acc.sum.iter_mut().zip(&img.pixels) {
                 *s += *p * pass as f32;
