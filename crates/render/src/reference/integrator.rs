@@ -225,7 +225,7 @@ impl<'a> Tracer<'a> {
 #[inline]
 fn roulette(thr: &mut Vec3, rng: &mut Rng) -> bool {
     let q = thr.max_element().min(1.0);
-    if !(q > 0.0) {
+    if q.is_nan() || q <= 0.0 {
         return false;
     }
     if q < 1.0 {

@@ -87,7 +87,7 @@ pub fn sample_equiangular(
     let th_a = (a - delta).atan2(dist);
     let th_b = (b - delta).atan2(dist);
     let span = th_b - th_a;
-    if !(span > 0.0) {
+    if span.is_nan() || span <= 0.0 {
         return None;
     }
     let th = th_a + u * span;
@@ -125,7 +125,7 @@ pub(crate) fn inscatter(
         let x = o + t * d;
         let v = p.position - x;
         let r = v.length();
-        if !(r > 0.0) || p.intensity == Vec3::ZERO {
+        if r.is_nan() || r <= 0.0 || p.intensity == Vec3::ZERO {
             continue;
         }
         let wl = v / r;
