@@ -292,6 +292,19 @@ pub(crate) fn direct_light(
         let u = rng.next_2d();
         if let Some((wi, rho, pdf)) = sc.sample(u) {
             let o = sc.origin_towards(wi);
+            if lights.areas.is_empty() {
+                // Environment only: an any-hit shadow ray, and only when it
+                // would carry light.
+                let (le, pdf_env) = lights.env_radiance_and_pdf(wi);
+                if le != Vec3::ZERO && tr.unoccluded(o, wi, f32::INFINITY, rays) {
+                    l += rho
+                        * le
+                        * (tr.transmittance(o, wi, f32::INFINITY)
+                            * strategy.bsdf_weight(pdf, pdf_env)
+                            / pdf);
+                }
+                return if l.is_finite() { l } else { Vec3::ZERO };
+            }
             let t_occ = tr.secondary_hit(o, wi, rays).map_or(f32::INFINITY, |h| h.t);
             for a in lights.areas {
                 if let Some((t, uv)) = a.intersect(o, wi, 0.0)
