@@ -33,8 +33,8 @@ pub use texture::{NormalMap, Texture, TextureError};
 
 pub use bvh::{Hit, SceneBvh, ShadingPoint, ambient_occlusion, vertex_ambient_occlusion};
 pub use reference::{
-    EnvLight, NormalOverride, RadianceEstimate, ReferenceBenchRow, ReferenceError, ReferenceImage,
-    ReferenceOptions, bench_reference, reference_radiance_at, render_reference,
-    render_reference_with,
+    EnvLight, LightSampling, MediumMode, RadianceEstimate, ReferenceBenchRow, ReferenceError,
+    ReferenceImage, ReferenceOptions, ReferenceRenderer, bench_reference, reference_radiance_at,
+    render_reference, render_reference_with,
 };
 pub use sampling::{EnvFilter, EnvSampler, Rng};

@@ -449,7 +449,7 @@ pub fn rasterize_coverage(
     samples: usize,
 ) -> Result<Coverage, crate::RasterError> {
     let k = samples.max(1);
-    let mut big = camera.clone();
+    let mut big = *camera;
     big.width *= k;
     big.height *= k;
     let draws: Vec<DrawCall> = scene

@@ -18,7 +18,7 @@
 
 use crate::relight::ShRotationMethod;
 use crate::{NormalMap, ShLightError, ShRenderer};
-use relight_render::bvh::{SceneBvh, ShadingPoint};
+use relight_render::bvh::SceneBvh;
 use relight_render::reference::{
     EnvLight, ReferenceImage, ReferenceOptions, render_reference_with,
 };
@@ -165,12 +165,19 @@ pub fn verify_sh(
             spp: opts.spp,
             pass_spp: 16,
             seed: opts.seed,
-            visibility: false,
             env_filter: EnvFilter::Nearest,
+            ..ReferenceOptions::default()
         };
-        let plain = render_reference_with(&scene, &bvh, &light, &ropts, None, progress)?;
-        let perturb = |sp: &ShadingPoint| nm.perturb(sp.shading_normal, sp.tangent, sp.uv);
-        let bumped = render_reference_with(&scene, &bvh, &light, &ropts, Some(&perturb), progress)?;
+        // The reference without visibility, plain and with the normal map.
+        let mut ref_scene = scene.clone();
+        ref_scene.visibility = false;
+        let plain = render_reference_with(&ref_scene, &bvh, &light, &ropts, progress)?;
+        let mut bumped_scene = ref_scene.clone();
+        let shared_nm = std::sync::Arc::new(nm.clone());
+        for o in &mut bumped_scene.objects {
+            o.normal_map = Some(shared_nm.clone());
+        }
+        let bumped = render_reference_with(&bumped_scene, &bvh, &light, &ropts, progress)?;
         for &order in &opts.orders {
             progress.check()?;
             // The per-pixel exact rotation at this order: the best any rotation

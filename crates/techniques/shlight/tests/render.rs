@@ -3,7 +3,7 @@
 use glam::Vec3;
 use relight_brdf::{Brdf, Ggx, Lambert};
 use relight_geom::shapes;
-use relight_render::bvh::{SceneBvh, ShadingPoint};
+use relight_render::bvh::SceneBvh;
 use relight_render::reference::{
     EnvLight, ReferenceImage, ReferenceOptions, render_reference_with,
 };
@@ -74,16 +74,18 @@ fn reference(scene: &Scene, nm: Option<&NormalMap>, spp: u32) -> ReferenceImage 
         spp,
         pass_spp: 16,
         seed: 3,
-        visibility: false,
         env_filter: EnvFilter::Nearest,
+        ..ReferenceOptions::default()
     };
-    match nm {
-        Some(m) => {
-            let f = |sp: &ShadingPoint| m.perturb(sp.shading_normal, sp.tangent, sp.uv);
-            render_reference_with(scene, &bvh, &light, &opts, Some(&f), &NoProgress).unwrap()
+    let mut scene = scene.clone();
+    scene.visibility = false;
+    if let Some(m) = nm {
+        let m = Arc::new(m.clone());
+        for o in &mut scene.objects {
+            o.normal_map = Some(m.clone());
         }
-        None => render_reference_with(scene, &bvh, &light, &opts, None, &NoProgress).unwrap(),
     }
+    render_reference_with(&scene, &bvh, &light, &opts, &NoProgress).unwrap()
 }
 
 fn render(

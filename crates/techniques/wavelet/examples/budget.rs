@@ -39,11 +39,12 @@ fn reference(scene: &Scene, spp: u32, tag: &str) -> Image {
         return img;
     }
     let t = std::time::Instant::now();
+    let mut unshadowed = scene.clone();
+    unshadowed.visibility = false;
     let r = render_reference(
-        scene,
+        &unshadowed,
         &ReferenceOptions {
             spp,
-            visibility: false,
             ..ReferenceOptions::default()
         },
         &NoProgress,

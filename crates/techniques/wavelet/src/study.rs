@@ -569,11 +569,16 @@ pub fn verify_wavelet_with_sh(
             }
             let ropts = ReferenceOptions {
                 spp: opts.spp,
-                visibility: false,
                 ..ReferenceOptions::default()
             };
-            let reference =
-                render_reference(&sc, &ropts, progress).map_err(|_| WaveletError::Cancelled)?;
+            // The reference without visibility (see the module docs).
+            let unshadowed = |s: &Scene| {
+                let mut u = s.clone();
+                u.visibility = false;
+                u
+            };
+            let reference = render_reference(&unshadowed(&sc), &ropts, progress)
+                .map_err(|_| WaveletError::Cancelled)?;
             let ids = object_ids(&sc);
             let nobj = sc.objects.len();
             let mut big = sc.clone();
@@ -590,7 +595,7 @@ pub fn verify_wavelet_with_sh(
             });
             let dense_ref = match (&dense_sc, opts.densify) {
                 (Some(d), Densify::Loop) => {
-                    let rd = render_reference(d, &ropts, progress)
+                    let rd = render_reference(&unshadowed(d), &ropts, progress)
                         .map_err(|_| WaveletError::Cancelled)?;
                     let ids_d = object_ids(d);
                     let mask_d: Vec<bool> = ids_d.iter().map(|&i| i >= 0).collect();
