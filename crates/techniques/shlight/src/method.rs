@@ -34,7 +34,7 @@ use crate::{NormalMap, ShLightError, ShRenderer, ShRotationMethod};
 use relight_geom::Mesh;
 use relight_render::method::{
     FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
-    coverage_from_ids,
+    check_scene, coverage_from_ids,
 };
 use relight_render::raster::Rasterizer;
 use relight_render::{Image, Progress, Scene};
@@ -202,6 +202,8 @@ impl Relighter for ShMethod {
     }
 
     fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
+        // A feature it cannot render is never silently dropped.
+        check_scene(self, scene, true)?;
         let needs_uvs = |i: usize| scene.objects[i].normal_map.is_some();
         let lit = self
             .renderer
