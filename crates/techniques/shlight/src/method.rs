@@ -324,7 +324,7 @@ impl Relighter for ShMethod {
             .iter()
             .enumerate()
             .filter(|(i, t)| !tables[..*i].iter().any(|u| Arc::ptr_eq(t, u)))
-            .map(|(_, t)| (t.coeffs().len() * std::mem::size_of::<f32>()) as u64)
+            .map(|(_, t)| std::mem::size_of_val(t.coeffs()) as u64)
             .sum()
     }
 }

@@ -29,7 +29,7 @@ use crate::brdf_bake::{BrdfBake, BrdfBakeParams};
 use crate::render::{NormalInterp, WaveletRenderer};
 use crate::rotation::{RotationMatrices, RotationParams};
 use crate::study::{bake_or_load_brdf, bake_or_load_rotation, default_cache_dir};
-use glam::{Mat3, Vec3A};
+use glam::Mat3;
 use relight_geom::Mesh;
 use relight_render::method::{
     FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
@@ -166,8 +166,7 @@ fn stale(why: &str) -> MethodError {
 
 /// Bytes a BRDF bake holds in memory (indices and RGB values).
 fn bake_bytes(b: &BrdfBake) -> u64 {
-    (b.indices.len() * std::mem::size_of::<u16>() + b.values.len() * std::mem::size_of::<Vec3A>())
-        as u64
+    (std::mem::size_of_val(&b.indices[..]) + std::mem::size_of_val(&b.values[..])) as u64
 }
 
 impl WaveletMethod {
