@@ -48,11 +48,13 @@
 
 pub mod bake;
 pub mod bench;
+pub mod method;
 pub mod relight;
 pub mod verify;
 
 pub use bake::{BakeOptions, BrdfShTable};
 pub use bench::{ShRenderBenchRow, bench_sh_render};
+pub use method::{SH_METHOD_NAME, ShMethod, ShOptions};
 pub use relight::{LightingFilter, ShImage, ShRenderer, ShRotationMethod};
 pub use relight_render::NormalMap;
 pub use verify::{ShVerifyRow, VerifyOptions, VerifyScene, verify_sh};

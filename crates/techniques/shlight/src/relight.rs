@@ -55,7 +55,7 @@ use rayon::prelude::*;
 use relight_brdf::Brdf;
 use relight_render::raster::{Background, DrawCall, Fragment, RasterOptions, Rasterizer};
 use relight_render::{Camera, Image, Progress, Scene};
-use relight_sh::project::{Window, project_env};
+use relight_sh::project::{ShRgb, Window, project_env};
 use relight_sh::rotation::{IvanicRuedenberg, Rot3, ShRotation, ZyzRotation, rotate_z};
 use relight_sh::taylor::{TaylorOrder, TaylorRotation};
 use relight_sphere::Frame;
@@ -191,21 +191,29 @@ struct CacheEntry {
     table: Arc<BrdfShTable>,
 }
 
-/// Geometry and per-vertex lighting of one frame at order `order_max`,
-/// rasterized at the supersampled resolution; shaded by [`Prepared::shade`].
-pub(crate) struct Prepared {
-    order_max: usize,
+/// The camera-independent state at `order_max` bands: the BRDF tables, the
+/// geometry with its vertex frames ([`ShRenderer::build`]) and, once lit
+/// ([`ShRenderer::light`]), the lighting in every vertex frame. Shaded for a
+/// camera by [`Lit::shade_into`] after [`Lit::rasterize`].
+pub(crate) struct Lit {
+    pub(crate) order_max: usize,
     stride: usize,
     draws: Vec<DrawData>,
-    tables: Vec<Arc<BrdfShTable>>,
-    raster: Rasterizer,
-    camera: Camera,
-    k: usize,
+    pub(crate) tables: Vec<Arc<BrdfShTable>>,
     /// With a [`LightingFilter`]: its `direct` weight and the filtered
     /// lighting's SH (order_max², RGB), added to the background.
     filtered_background: Option<(f32, [Vec<f32>; 3])>,
     /// Inverse of the lighting rotation, for background lookups.
     env_from_world: Mat3,
+}
+
+/// [`Lit`] rasterized for one camera at `k × k` samples per pixel; shaded
+/// by [`Prepared::shade`].
+pub(crate) struct Prepared {
+    lit: Lit,
+    raster: Rasterizer,
+    camera: Camera,
+    k: usize,
 }
 
 struct DrawData {
@@ -327,9 +335,20 @@ impl ShRenderer {
     /// # Errors
     /// A matrix that is not a rotation (tolerance 1e-4).
     pub fn with_lighting_rotation(mut self, world_from_env: Mat3) -> Result<Self, ShLightError> {
+        self.set_lighting_rotation(world_from_env)?;
+        Ok(self)
+    }
+
+    /// [`ShRenderer::with_lighting_rotation`] in place (for a renderer kept
+    /// across frames, whose BRDF bakes stay cached).
+    ///
+    /// # Errors
+    /// A matrix that is not a rotation (tolerance 1e-4); the rotation is then
+    /// unchanged.
+    pub fn set_lighting_rotation(&mut self, world_from_env: Mat3) -> Result<(), ShLightError> {
         let r = Rot3::try_from_mat3(world_from_env)?;
         self.lighting_rotation = (world_from_env != Mat3::IDENTITY).then_some((world_from_env, r));
-        Ok(self)
+        Ok(())
     }
 
     /// Bands.
@@ -412,7 +431,9 @@ impl ShRenderer {
         )
     }
 
-    /// Steps 1–2 and rasterization at `order_max` bands.
+    /// Steps 1–2 and rasterization at `order_max` bands: [`ShRenderer::build`]
+    /// (with `normal_map` on every object), the environment projected and
+    /// [`ShRenderer::light`]ed, then rasterized for the scene camera.
     pub(crate) fn prepare(
         &self,
         scene: &Scene,
@@ -420,26 +441,44 @@ impl ShRenderer {
         order_max: usize,
         progress: &dyn Progress,
     ) -> Result<Prepared, ShLightError> {
+        let mut lit = self.build(scene, order_max, &|_| normal_map.is_some(), progress)?;
+        progress.check()?;
+        let light = project_env(&scene.env, order_max, Window::None)?;
+        self.light(&mut lit, &light, progress)?;
+        let k = self.supersampling;
+        let mut camera = scene.camera;
+        camera.width *= k;
+        camera.height *= k;
+        let mut raster = Rasterizer::new();
+        lit.rasterize(&camera, &mut raster)?;
+        Ok(Prepared {
+            lit,
+            raster,
+            camera,
+            k,
+        })
+    }
+
+    /// The lighting- and camera-independent part of a frame: every mesh
+    /// checked (normals; uvs and tangents where `needs_uvs(object)`, i.e.
+    /// where a normal map will be applied), the BRDF tables (baked once per
+    /// BRDF, then from the in-memory cache) and the vertex data of every
+    /// object (normal, tangent, uv; meshes without tangents get one vertex per
+    /// triangle corner, see the module docs). The per-vertex lighting is left
+    /// zero until [`ShRenderer::light`].
+    ///
+    /// # Errors
+    /// Order out of range, a mesh without normals, a normal-mapped mesh
+    /// without uvs or tangents, an anisotropic BRDF, cancellation.
+    pub(crate) fn build(
+        &self,
+        scene: &Scene,
+        order_max: usize,
+        needs_uvs: &dyn Fn(usize) -> bool,
+        progress: &dyn Progress,
+    ) -> Result<Lit, ShLightError> {
         check_shading_order(order_max)?;
-        for (i, o) in scene.objects.iter().enumerate() {
-            let m = &o.mesh;
-            let nv = m.positions.len();
-            if m.normals.len() != nv {
-                return Err(ShLightError::MissingNormals {
-                    object: i,
-                    normals: m.normals.len(),
-                    vertices: nv,
-                });
-            }
-            if normal_map.is_some() && (m.uvs.len() != nv || m.tangents.len() != nv) {
-                return Err(ShLightError::MissingUvs {
-                    object: i,
-                    uvs: m.uvs.len(),
-                    tangents: m.tangents.len(),
-                    vertices: nv,
-                });
-            }
-        }
+        check_meshes(scene, needs_uvs)?;
         let tables = scene
             .objects
             .iter()
@@ -447,40 +486,8 @@ impl ShRenderer {
             .map(|(i, o)| self.table(&o.brdf, order_max, i, progress))
             .collect::<Result<Vec<_>, _>>()?;
         progress.check()?;
-        let mut light = project_env(&scene.env, order_max, Window::None)?;
-        let plan = IvanicRuedenberg::<f32>::new(order_max)?;
-        let mut env_from_world = Mat3::IDENTITY;
-        if let Some((world_from_env, r)) = &self.lighting_rotation {
-            let mut rot = ShRotation::<f32>::identity(order_max)?;
-            plan.build(r, &mut rot);
-            for c in &mut light.channels {
-                let mut rotated = vec![0.0; c.len()];
-                rot.apply(c, &mut rotated);
-                *c = rotated;
-            }
-            env_from_world = world_from_env.transpose();
-        }
-        // The filtered part alone, for the background (with a filter).
-        let mut filtered_background = None;
-        if let Some(f) = &self.filter {
-            let mut filtered = light.clone();
-            for (lit, only) in light.channels.iter_mut().zip(&mut filtered.channels) {
-                for (i, (a, b)) in lit.iter_mut().zip(only.iter_mut()).enumerate() {
-                    let w = f.band((i as f64).sqrt() as usize);
-                    *b *= w;
-                    *a *= f.direct + w;
-                }
-            }
-            filtered_background = Some((f.direct, filtered.channels));
-        }
         let nn = order_max * order_max;
         let stride = ATTR_HEADER + 3 * nn;
-        let total: u64 = scene
-            .objects
-            .iter()
-            .map(|o| o.mesh.positions.len() as u64)
-            .sum();
-        progress.start("sh per-vertex lighting", total.max(1));
         let mut draws = Vec::with_capacity(scene.objects.len());
         for o in &scene.objects {
             progress.check()?;
@@ -502,16 +509,89 @@ impl ShRenderer {
             } else {
                 unshare_corners(m)
             };
-            let nv = positions.len();
-            let mut attributes = vec![0.0f32; nv * stride];
-            attributes.par_chunks_mut(stride).enumerate().for_each_init(
+            let mut attributes = vec![0.0f32; positions.len() * stride];
+            attributes
+                .par_chunks_mut(stride)
+                .enumerate()
+                .for_each(|(v, a)| {
+                    a[0..3].copy_from_slice(&normals[v].to_array());
+                    a[3..7].copy_from_slice(&tangents[v].to_array());
+                    a[7..9].copy_from_slice(&uvs[v].to_array());
+                });
+            draws.push(DrawData {
+                positions,
+                triangles,
+                attributes,
+            });
+        }
+        Ok(Lit {
+            order_max,
+            stride,
+            draws,
+            tables,
+            filtered_background: None,
+            env_from_world: Mat3::IDENTITY,
+        })
+    }
+
+    /// Steps 1–2 for `lit`: `light` (the environment projected onto
+    /// `lit.order_max` bands in its own frame) rotated exactly by the
+    /// lighting rotation ([`ShRenderer::with_lighting_rotation`]), filtered
+    /// ([`ShRenderer::with_lighting_filter`]) and rotated into every vertex
+    /// frame (exact Ivanic–Ruedenberg matrix per vertex, in parallel).
+    ///
+    /// # Errors
+    /// `light` of another order than `lit`, cancellation.
+    pub(crate) fn light(
+        &self,
+        lit: &mut Lit,
+        light: &ShRgb,
+        progress: &dyn Progress,
+    ) -> Result<(), ShLightError> {
+        let order_max = lit.order_max;
+        if light.order != order_max {
+            return Err(ShLightError::InvalidParameter {
+                what: "lighting order",
+                why: format!(
+                    "the projected lighting has {} bands, the prepared geometry {order_max}",
+                    light.order
+                ),
+            });
+        }
+        let plan = IvanicRuedenberg::<f32>::new(order_max)?;
+        let mut light = light.clone();
+        let mut env_from_world = Mat3::IDENTITY;
+        if let Some((world_from_env, r)) = &self.lighting_rotation {
+            let mut rot = ShRotation::<f32>::identity(order_max)?;
+            plan.build(r, &mut rot);
+            light = light.rotated(&rot);
+            env_from_world = world_from_env.transpose();
+        }
+        // The filtered part alone, for the background (with a filter).
+        let mut filtered_background = None;
+        if let Some(f) = &self.filter {
+            let mut filtered = light.clone();
+            for (lit, only) in light.channels.iter_mut().zip(&mut filtered.channels) {
+                for (i, (a, b)) in lit.iter_mut().zip(only.iter_mut()).enumerate() {
+                    let w = f.band((i as f64).sqrt() as usize);
+                    *b *= w;
+                    *a *= f.direct + w;
+                }
+            }
+            filtered_background = Some((f.direct, filtered.channels));
+        }
+        let nn = order_max * order_max;
+        let stride = lit.stride;
+        let total: u64 = lit.draws.iter().map(|d| d.positions.len() as u64).sum();
+        progress.start("sh per-vertex lighting", total.max(1));
+        for d in &mut lit.draws {
+            progress.check()?;
+            d.attributes.par_chunks_mut(stride).for_each_init(
                 || ShRotation::<f32>::identity(order_max).expect("order checked"),
-                |rot, (v, a)| {
-                    let (n, t, uv) = (normals[v], tangents[v], uvs[v]);
-                    a[0..3].copy_from_slice(&n.to_array());
-                    a[3..7].copy_from_slice(&t.to_array());
-                    a[7..9].copy_from_slice(&uv.to_array());
-                    let f = Frame::from_normal_tangent(n, t.truncate());
+                |rot, a| {
+                    let n = Vec3::new(a[0], a[1], a[2]);
+                    let t = Vec3::new(a[3], a[4], a[5]);
+                    let f = Frame::from_normal_tangent(n, t);
                     // local_from_world: rows are the frame axes.
                     plan.build(
                         &Rot3::new_unchecked([f.x.to_array(), f.y.to_array(), f.z.to_array()]),
@@ -523,37 +603,45 @@ impl ShRenderer {
                     }
                 },
             );
-            progress.inc(nv as u64);
-            draws.push(DrawData {
-                positions,
-                triangles,
-                attributes,
-            });
+            progress.inc(d.positions.len() as u64);
         }
         progress.finish();
         progress.check()?;
-        let k = self.supersampling;
-        let mut camera = scene.camera;
-        camera.width *= k;
-        camera.height *= k;
-        let mut raster = Rasterizer::new();
-        {
-            let calls = draw_calls(&draws, stride);
-            let opts = RasterOptions::default().fit_depth(&camera, &calls);
-            raster.rasterize(&camera, &calls, &opts)?;
-        }
-        Ok(Prepared {
-            order_max,
-            stride,
-            draws,
-            tables,
-            raster,
-            camera,
-            k,
-            filtered_background,
-            env_from_world,
-        })
+        lit.filtered_background = filtered_background;
+        lit.env_from_world = env_from_world;
+        Ok(())
     }
+}
+
+/// Every object has one normal per vertex, and uvs and tangents where
+/// `needs_uvs(object)`.
+///
+/// # Errors
+/// [`ShLightError::MissingNormals`], [`ShLightError::MissingUvs`].
+pub(crate) fn check_meshes(
+    scene: &Scene,
+    needs_uvs: &dyn Fn(usize) -> bool,
+) -> Result<(), ShLightError> {
+    for (i, o) in scene.objects.iter().enumerate() {
+        let m = &o.mesh;
+        let nv = m.positions.len();
+        if m.normals.len() != nv {
+            return Err(ShLightError::MissingNormals {
+                object: i,
+                normals: m.normals.len(),
+                vertices: nv,
+            });
+        }
+        if needs_uvs(i) && (m.uvs.len() != nv || m.tangents.len() != nv) {
+            return Err(ShLightError::MissingUvs {
+                object: i,
+                uvs: m.uvs.len(),
+                tangents: m.tangents.len(),
+                vertices: nv,
+            });
+        }
+    }
+    Ok(())
 }
 
 fn draw_calls(draws: &[DrawData], stride: usize) -> Vec<DrawCall<'_>> {
@@ -692,8 +780,9 @@ impl Rotator {
 }
 
 impl Prepared {
-    /// Step 3 at `order ≤ order_max` bands with `method`; box-filters the
-    /// supersampled image down to the scene camera's size.
+    /// Step 3 at `order ≤ order_max` bands with `method`, `normal_map` on
+    /// every object; box-filters the supersampled image down to the scene
+    /// camera's size.
     pub(crate) fn shade(
         &self,
         scene: &Scene,
@@ -703,6 +792,88 @@ impl Prepared {
         beta_lim: f32,
         env_background: bool,
     ) -> Result<ShImage, ShLightError> {
+        let maps = vec![normal_map; self.lit.draws.len()];
+        let mut hi = Image::new(self.camera.width, self.camera.height);
+        self.lit.shade_into(
+            &self.raster,
+            scene,
+            order,
+            method,
+            &maps,
+            beta_lim,
+            env_background,
+            &mut hi,
+        )?;
+        if self.k == 1 {
+            let mask = self.raster.gbuffer().coverage_mask();
+            return Ok(ShImage { image: hi, mask });
+        }
+        Ok(self.downsample(&hi))
+    }
+
+    fn downsample(&self, hi: &Image) -> ShImage {
+        let k = self.k;
+        let (w, h) = (hi.width / k, hi.height / k);
+        let g = self.raster.gbuffer();
+        let mut mask = vec![false; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                mask[y * w + x] =
+                    (0..k * k).all(|s| g.is_covered((y * k + s / k) * hi.width + x * k + s % k));
+            }
+        }
+        ShImage {
+            image: hi.box_downsample(k),
+            mask,
+        }
+    }
+}
+
+impl Lit {
+    /// Pass 1 for `camera` (the raster's size, supersampling included).
+    ///
+    /// # Errors
+    /// Rasterizer errors (image size, camera).
+    pub(crate) fn rasterize(
+        &self,
+        camera: &Camera,
+        raster: &mut Rasterizer,
+    ) -> Result<(), ShLightError> {
+        let calls = draw_calls(&self.draws, self.stride);
+        let opts = RasterOptions::default().fit_depth(camera, &calls);
+        raster.rasterize(camera, &calls, &opts)?;
+        Ok(())
+    }
+
+    /// Step 3 at `order ≤ order_max` bands with `method` into `out` (at the
+    /// size `raster` was last rasterized at, from this geometry): object `i`
+    /// shades with `normal_maps[i]` (`None`: unperturbed).
+    ///
+    /// # Errors
+    /// Order out of range, `normal_maps` not one per object, a raster of other
+    /// geometry.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn shade_into(
+        &self,
+        raster: &Rasterizer,
+        scene: &Scene,
+        order: usize,
+        method: ShRotationMethod,
+        normal_maps: &[Option<&NormalMap>],
+        beta_lim: f32,
+        env_background: bool,
+        out: &mut Image,
+    ) -> Result<(), ShLightError> {
+        if normal_maps.len() != self.draws.len() {
+            return Err(ShLightError::InvalidParameter {
+                what: "normal maps",
+                why: format!(
+                    "need one entry per object ({}), got {}",
+                    self.draws.len(),
+                    normal_maps.len()
+                ),
+            });
+        }
         check_shading_order(order)?;
         if order > self.order_max {
             return Err(ShLightError::InvalidParameter {
@@ -716,6 +887,7 @@ impl Prepared {
         let flip: Vec<f32> = (0..k2).map(flip_sign).collect();
         let tables = &self.tables;
         let shader = |f: &Fragment| -> Vec3 {
+            let normal_map = normal_maps[f.draw as usize];
             let a = f.attributes;
             let n_i = Vec3::new(a[0], a[1], a[2]).normalize_or(f.normal);
             let t_i = Vec4::new(a[3], a[4], a[5], a[6]);
@@ -811,29 +983,7 @@ impl Prepared {
             Background::Color(Vec3::ZERO)
         };
         let calls = draw_calls(&self.draws, self.stride);
-        let mut hi = Image::new(self.camera.width, self.camera.height);
-        self.raster.shade(&calls, shader, background, &mut hi)?;
-        if self.k == 1 {
-            let mask = self.raster.gbuffer().coverage_mask();
-            return Ok(ShImage { image: hi, mask });
-        }
-        Ok(self.downsample(&hi))
-    }
-
-    fn downsample(&self, hi: &Image) -> ShImage {
-        let k = self.k;
-        let (w, h) = (hi.width / k, hi.height / k);
-        let g = self.raster.gbuffer();
-        let mut mask = vec![false; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                mask[y * w + x] =
-                    (0..k * k).all(|s| g.is_covered((y * k + s / k) * hi.width + x * k + s % k));
-            }
-        }
-        ShImage {
-            image: hi.box_downsample(k),
-            mask,
-        }
+        raster.shade(&calls, shader, background, out)?;
+        Ok(())
     }
 }

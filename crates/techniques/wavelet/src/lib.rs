@@ -41,6 +41,7 @@ pub mod brdf_bake;
 pub mod error;
 pub mod format;
 pub mod lighting;
+pub mod method;
 pub mod octa;
 pub mod render;
 pub mod rotation;
@@ -48,6 +49,7 @@ pub mod study;
 
 pub use brdf_bake::{BrdfBake, BrdfBakeParams, bake_brdf};
 pub use error::WaveletError;
+pub use method::{AO_APPROXIMATION, WAVELET_METHOD_NAME, WaveletMethod, WaveletOptions};
 pub use render::{LightingStats, NormalInterp, WaveletRenderer};
 pub use rotation::{RotationMatrices, RotationParams, bake_rotation};
 pub use study::{

@@ -440,6 +440,27 @@ impl WaveletRenderer {
         camera: &Camera,
         ao: Option<&[Vec<f32>]>,
     ) -> Result<(Image, Vec<bool>), WaveletError> {
+        let mut raster = Rasterizer::new();
+        let mut img = Image::new(camera.width, camera.height);
+        self.render_into(scene, brdfs, camera, ao, &mut raster, &mut img)?;
+        Ok((img, raster.gbuffer().coverage_mask()))
+    }
+
+    /// [`WaveletRenderer::render`] into `out` with a caller-kept `raster`
+    /// (its buffers reused across frames; afterwards its visibility buffer
+    /// holds the frame's triangle ids, draw `i` = object `i`).
+    ///
+    /// # Errors
+    /// As [`WaveletRenderer::render`].
+    pub fn render_into(
+        &self,
+        scene: &Scene,
+        brdfs: &[&BrdfBake],
+        camera: &Camera,
+        ao: Option<&[Vec<f32>]>,
+        raster: &mut Rasterizer,
+        out: &mut Image,
+    ) -> Result<(), WaveletError> {
         self.check_scene(scene, brdfs)?;
         if let Some(a) = ao.filter(|a| a.len() != scene.objects.len()) {
             return Err(bad(
@@ -471,12 +492,10 @@ impl WaveletRenderer {
             })
             .collect();
         let color_refs: Vec<&[Vec3]> = colors.iter().map(|c| &c[..]).collect();
-        let mut img = Image::new(camera.width, camera.height);
         let env = &scene.env;
         let env_from_world = self.world_from_env.transpose();
         let bg = |d: Vec3| env.eval(env_from_world * d);
         let opts = RasterOptions::default().fit_depth(camera, &draws);
-        let mut raster = Rasterizer::new();
         raster
             .render_gouraud(
                 camera,
@@ -484,9 +503,9 @@ impl WaveletRenderer {
                 &color_refs,
                 Background::Environment(&bg),
                 &opts,
-                &mut img,
+                out,
             )
             .map_err(|e| bad("raster", e, "rasterization failed"))?;
-        Ok((img, raster.gbuffer().coverage_mask()))
+        Ok(())
     }
 }

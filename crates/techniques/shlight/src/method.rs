@@ -1,0 +1,330 @@
+//! [`ShMethod`]: SH environment-map shading behind the method interface
+//! ([`relight_render::method::Relighter`], name `sh`).
+//!
+//! # What it renders
+//! The unshadowed reflection integral of each object's isotropic BRDF under
+//! the distant environment, band-limited to `order` SH bands (Kautz, Sloan &
+//! Snyder 2002), with each object's own tangent-space normal map applied per
+//! pixel by rotating the transfer vector from the perturbed to the
+//! interpolated frame (Křivánek et al. 2006 §4.1; [`crate::relight`] has the
+//! algorithm). Point and area lights, media, shadows and spatially varying
+//! BRDFs are not rendered, and [`Relighter::supports`] says so. (The fog
+//! method renders SH lighting in fog.)
+//!
+//! # What each call does
+//! The per-frame path does only per-frame work:
+//!
+//! | call | work | cost |
+//! |---|---|---|
+//! | [`Relighter::prepare`] | BRDF tables (baked once per BRDF and kept in memory across `prepare`s), vertex data, the environment's SH projection, then `set_lighting` | seconds on the first bake, then ≈ a lighting change |
+//! | [`Relighter::set_lighting`] | the projected lighting rotated by `world_from_env` exactly in the SH domain (one Ivanic–Ruedenberg matrix, so the map is never resampled), then into every vertex frame | O(vertices · n³) |
+//! | [`Relighter::render`] | rasterization at `aa × aa` samples per pixel, per-pixel transfer lookup, rotation and dot product, box filter | O(pixels · aa² · n³) with the exact rotation |
+//!
+//! The environment is projected again only when its texels change (a 64-bit
+//! fingerprint of the map is compared on every `set_lighting`).
+//!
+//! # Timings
+//! `set_lighting` returns its milliseconds; the next frame also reports them
+//! as [`FrameTimings::lighting_ms`] (then 0 until the next lighting change),
+//! and [`FrameTimings::view_ms`] is the raster + shading time of the frame.
+
+use crate::bake::{BakeOptions, BrdfShTable};
+use crate::relight::{Lit, check_meshes};
+use crate::{NormalMap, ShLightError, ShRenderer, ShRotationMethod};
+use relight_geom::Mesh;
+use relight_render::method::{
+    FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
+    check_scene, coverage_from_ids,
+};
+use relight_render::raster::Rasterizer;
+use relight_render::{Image, Progress, Scene};
+use relight_sh::project::{ShRgb, Window, project_env};
+use relight_sphere::EnvMap;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The method's name on the command line.
+pub const SH_METHOD_NAME: &str = "sh";
+
+/// Settings of [`ShMethod`]. `Default` holds the SH defaults (the one place
+/// they live).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShOptions {
+    /// SH bands n (1..=[`crate::MAX_SHADING_ORDER`]); n² coefficients per
+    /// channel. Default 6.
+    pub order: usize,
+    /// Per-pixel rotation of the transfer vector into the vertex frame.
+    /// Default [`ShRotationMethod::Exact`].
+    pub rotation: ShRotationMethod,
+    /// Resolution of the BRDF bake. Default [`BakeOptions::default`].
+    pub bake: BakeOptions,
+    /// Taylor rotations switch to exact ZYZ beyond this tilt, radians (≥ 0;
+    /// Křivánek et al. §4.2). Default ∞ (pure Taylor).
+    pub beta_lim: f32,
+}
+
+impl Default for ShOptions {
+    fn default() -> Self {
+        Self {
+            order: 6,
+            rotation: ShRotationMethod::Exact,
+            bake: BakeOptions::default(),
+            beta_lim: f32::INFINITY,
+        }
+    }
+}
+
+/// SH environment shading as a [`Relighter`] (see the module docs).
+pub struct ShMethod {
+    options: ShOptions,
+    /// Holds the in-memory cache of BRDF tables and the lighting rotation.
+    renderer: ShRenderer,
+    state: Option<State>,
+    raster: Rasterizer,
+    /// The last lighting change's ms, reported by the next frame.
+    pending_lighting_ms: f64,
+}
+
+/// What `prepare` built for one scene.
+struct State {
+    lit: Lit,
+    /// The meshes prepared for (identity compared with the rendered scene's).
+    meshes: Vec<Arc<Mesh>>,
+    /// Fingerprint of the projected environment and its projection (env frame).
+    env: (u64, ShRgb),
+}
+
+impl std::fmt::Debug for ShMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ShMethod")
+            .field("options", &self.options)
+            .field("prepared", &self.state.is_some())
+            .finish_non_exhaustive()
+    }
+}
+
+fn fail(e: ShLightError) -> MethodError {
+    MethodError::failed(SH_METHOD_NAME, e)
+}
+
+fn stale(why: &str) -> MethodError {
+    fail(ShLightError::InvalidParameter {
+        what: "scene",
+        why: why.to_string(),
+    })
+}
+
+/// A 64-bit fingerprint of the map's parameterization and every texel's bits
+/// (FNV-1a over 32-bit words): equal maps give equal fingerprints.
+fn env_fingerprint(env: &EnvMap) -> u64 {
+    const PRIME: u64 = 0x0000_0100_0000_01b3;
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in format!("{:?}", env.param).bytes() {
+        h = (h ^ u64::from(b)).wrapping_mul(PRIME);
+    }
+    for t in &env.texels {
+        for c in t.to_array() {
+            h = (h ^ u64::from(c.to_bits())).wrapping_mul(PRIME);
+        }
+    }
+    h
+}
+
+impl ShMethod {
+    /// A method with `options`.
+    ///
+    /// # Errors
+    /// [`MethodError::InvalidOption`] naming `order` or `beta_lim`.
+    pub fn new(options: ShOptions) -> Result<Self, MethodError> {
+        let invalid = |option, e: ShLightError| MethodError::InvalidOption {
+            method: SH_METHOD_NAME,
+            option,
+            message: e.to_string(),
+        };
+        let renderer = ShRenderer::new(options.order, options.rotation)
+            .map_err(|e| invalid("order", e))?
+            .with_bake_options(options.bake)
+            .with_beta_lim(options.beta_lim)
+            .map_err(|e| invalid("beta_lim", e))?;
+        Ok(Self {
+            options,
+            renderer,
+            state: None,
+            raster: Rasterizer::new(),
+            pending_lighting_ms: 0.0,
+        })
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &ShOptions {
+        &self.options
+    }
+
+    /// The BRDF tables of the prepared scene, one per object (shared where
+    /// objects share a BRDF); empty before `prepare`.
+    #[must_use]
+    pub fn tables(&self) -> &[Arc<BrdfShTable>] {
+        self.state.as_ref().map_or(&[], |s| &s.lit.tables)
+    }
+
+    fn check_same_meshes(state: &State, scene: &Scene) -> Result<(), MethodError> {
+        let same = state.meshes.len() == scene.objects.len()
+            && state
+                .meshes
+                .iter()
+                .zip(&scene.objects)
+                .all(|(m, o)| Arc::ptr_eq(m, &o.mesh));
+        if same {
+            Ok(())
+        } else {
+            Err(stale(
+                "the objects changed since `prepare` (other meshes, or moved by an animation); call prepare again",
+            ))
+        }
+    }
+}
+
+impl Relighter for ShMethod {
+    fn name(&self) -> &'static str {
+        SH_METHOD_NAME
+    }
+
+    fn supports(&self, feature: SceneFeature) -> Support {
+        match feature {
+            SceneFeature::Environment | SceneFeature::NormalMaps => Support::Full,
+            SceneFeature::PointLights
+            | SceneFeature::AreaLights
+            | SceneFeature::Medium
+            | SceneFeature::Visibility
+            | SceneFeature::SpatiallyVaryingBrdf => Support::No,
+        }
+    }
+
+    fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
+        // A feature it cannot render is never silently dropped.
+        check_scene(self, scene, true)?;
+        let needs_uvs = |i: usize| scene.objects[i].normal_map.is_some();
+        let lit = self
+            .renderer
+            .build(scene, self.options.order, &needs_uvs, progress)
+            .map_err(fail)?;
+        let fp = env_fingerprint(&scene.env);
+        let env = match self.state.take() {
+            Some(s) if s.env.0 == fp => s.env,
+            _ => (
+                fp,
+                project_env(&scene.env, self.options.order, Window::None)
+                    .map_err(|e| fail(e.into()))?,
+            ),
+        };
+        self.state = Some(State {
+            lit,
+            meshes: scene.objects.iter().map(|o| o.mesh.clone()).collect(),
+            env,
+        });
+        self.set_lighting(scene, progress)?;
+        Ok(())
+    }
+
+    fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError> {
+        let t = Instant::now();
+        let state = self
+            .state
+            .as_mut()
+            .ok_or_else(|| stale("call prepare before set_lighting"))?;
+        Self::check_same_meshes(state, scene)?;
+        let fp = env_fingerprint(&scene.env);
+        if fp != state.env.0 {
+            let light = project_env(&scene.env, self.options.order, Window::None)
+                .map_err(|e| fail(e.into()))?;
+            state.env = (fp, light);
+        }
+        self.renderer
+            .set_lighting_rotation(scene.world_from_env)
+            .map_err(|e| MethodError::InvalidOption {
+                method: SH_METHOD_NAME,
+                option: "world_from_env",
+                message: e.to_string(),
+            })?;
+        self.renderer
+            .light(&mut state.lit, &state.env.1, progress)
+            .map_err(fail)?;
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        self.pending_lighting_ms = ms;
+        Ok(ms)
+    }
+
+    fn render(
+        &mut self,
+        scene: &Scene,
+        request: &FrameRequest,
+        progress: &dyn Progress,
+    ) -> Result<Rendered, MethodError> {
+        request.validate(SH_METHOD_NAME)?;
+        let t = Instant::now();
+        let state = self
+            .state
+            .as_ref()
+            .ok_or_else(|| stale("call prepare before render"))?;
+        Self::check_same_meshes(state, scene)?;
+        check_meshes(scene, &|i| scene.objects[i].normal_map.is_some()).map_err(fail)?;
+        let k = request.aa;
+        let (w, h) = (request.camera.width, request.camera.height);
+        let mut camera = request.camera;
+        camera.width *= k;
+        camera.height *= k;
+        state
+            .lit
+            .rasterize(&camera, &mut self.raster)
+            .map_err(fail)?;
+        progress.check()?;
+        let maps: Vec<Option<&NormalMap>> = scene
+            .objects
+            .iter()
+            .map(|o| o.normal_map.as_deref())
+            .collect();
+        let mut hi = Image::new(camera.width, camera.height);
+        state
+            .lit
+            .shade_into(
+                &self.raster,
+                scene,
+                self.options.order,
+                self.options.rotation,
+                &maps,
+                self.options.beta_lim,
+                true,
+                &mut hi,
+            )
+            .map_err(fail)?;
+        let image = if k == 1 { hi } else { hi.box_downsample(k) };
+        let raster = &self.raster;
+        let g = raster.gbuffer();
+        let coverage = coverage_from_ids(w, h, k, |x, y| {
+            raster
+                .locate(g.triangle[y * g.width + x])
+                .map(|(d, _)| d as u32)
+        });
+        Ok(Rendered {
+            image,
+            coverage: Some(coverage),
+            timings: FrameTimings {
+                lighting_ms: std::mem::take(&mut self.pending_lighting_ms),
+                view_ms: t.elapsed().as_secs_f64() * 1e3,
+            },
+            noise: None,
+        })
+    }
+
+    /// Bytes of the distinct BRDF tables of the prepared scene.
+    fn data_bytes(&self) -> u64 {
+        let tables = self.tables();
+        tables
+            .iter()
+            .enumerate()
+            .filter(|(i, t)| !tables[..*i].iter().any(|u| Arc::ptr_eq(t, u)))
+            .map(|(_, t)| std::mem::size_of_val(t.coeffs()) as u64)
+            .sum()
+    }
+}
