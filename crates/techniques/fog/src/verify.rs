@@ -29,7 +29,6 @@
 
 use crate::model::{FogMaterial, FogModel, Phase, PointLight, airlight_model, airlight_paper_f};
 use crate::psf::psf_factorization_error;
-use crate::quad::gauss_legendre;
 use crate::special::airlight_eq35;
 use crate::table::{FogTables, Interp};
 use crate::volumetric::{Transport, VolumetricScene};
@@ -38,6 +37,7 @@ use rayon::prelude::*;
 use relight_render::Camera;
 use relight_render::bvh::SceneBvh;
 use relight_render::sampling::Rng;
+use relight_sh::quadrature::gauss_legendre;
 use std::f64::consts::PI;
 
 /// One accuracy result.
