@@ -281,10 +281,16 @@ fn bad_media_and_lights_outside_the_ball_are_errors() {
             .to_string();
         assert!(e.contains(what), "{what}: {e}");
     }
-    let mut opts = FogOptions::default();
-    opts.table_size = 1;
-    assert!(FogRelighter::new(opts).is_err());
-    let mut opts = FogOptions::default();
-    opts.env_order = 0;
-    assert!(FogRelighter::new(opts).is_err());
+    for opts in [
+        FogOptions {
+            table_size: 1,
+            ..FogOptions::default()
+        },
+        FogOptions {
+            env_order: 0,
+            ..FogOptions::default()
+        },
+    ] {
+        assert!(FogRelighter::new(opts).is_err(), "{opts:?}");
+    }
 }
