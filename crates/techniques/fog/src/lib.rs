@@ -22,6 +22,9 @@
 //! 6. [`volumetric`]: the Monte Carlo ground truth (single and multiple
 //!    scattering, surfaces, shadow rays through the medium).
 //! 7. [`verify`] and [`mod@bench`]: `relight verify fog` / `relight bench fog`.
+//! 8. [`method`]: [`FogRelighter`], the method interface's `fog` — point
+//!    lights by the analytic model plus the environment by its
+//!    PSF-convolved foggy version (§3.6.4), for a whole scene.
 //!
 //! # Citation
 //! B. Sun, "Mathematical Models for Real-Time Rendering", PhD thesis,
@@ -30,6 +33,7 @@
 
 pub mod bench;
 pub mod fast;
+pub mod method;
 pub mod model;
 pub mod psf;
 pub mod quad;
@@ -42,6 +46,7 @@ pub mod verify;
 pub mod volumetric;
 
 pub use bench::{BenchRow, bench_fog, bench_fog_scene};
+pub use method::{FogOptions, FogRelighter};
 pub use model::{FogMaterial, FogModel, Phase, PointLight};
 pub use render::{
     FogMode, FogObject, FogSettings, default_scene_lights, render_fog, scene_objects,
@@ -56,6 +61,8 @@ pub enum FogError {
     TableSize { size: usize },
     #[error("scattering coefficient β = {beta} is invalid: need a finite β ≥ 0")]
     Beta { beta: f32 },
+    #[error("single-scattering albedo {albedo} is invalid: need 0 ≤ albedo ≤ 1")]
+    Albedo { albedo: f32 },
     #[error("light {index}: intensity {intensity:?} is invalid: need finite components ≥ 0")]
     Intensity { index: usize, intensity: [f32; 3] },
     #[error("light {index}: position {position:?} is not finite")]

@@ -6,7 +6,8 @@
 //!
 //! # Units and frames
 //! World units for distances, β in 1/world-unit (extinction = scattering,
-//! single-scattering albedo 1), point-light radiant intensity I₀ per RGB
+//! single-scattering albedo 1, as in the thesis; [`FogModel::with_albedo`]
+//! scales the scattered terms by an albedo < 1), point-light radiant intensity I₀ per RGB
 //! channel (radiance = I₀ / distance² · …). Directions are world-space unit
 //! vectors; `dir` points from the eye into the scene.
 //!
@@ -124,7 +125,7 @@ impl Phase {
             return Err(FogError::Asymmetry { g });
         }
         let g = f64::from(g);
-        let (x, wq) = crate::quad::gauss_legendre(256);
+        let (x, wq) = relight_sh::quadrature::gauss_legendre(256);
         // Legendre projection c_l = (2l+1)/2 ∫ f P_l.
         let deg = degree as usize;
         let hg = |c: f64| (1.0 - g * g) / (1.0 + g * g - 2.0 * g * c).powf(1.5); // 4π·p_HG
@@ -347,7 +348,10 @@ pub struct FogModel<'a> {
     phase: &'a [f32],
     g_lambert: Option<&'a Table2>,
     tables: &'a FogTables,
-    /// β / (2π).
+    /// Single-scattering albedo a = σ_s/β ∈ [0, 1] (1 = Sun's model).
+    albedo: f32,
+    /// σ_s / (2π) = a β / (2π): the in-scattering factor of every
+    /// scattered term (airlight and the surface's scattered light).
     beta_2pi: f32,
 }
 
@@ -379,8 +383,33 @@ impl<'a> FogModel<'a> {
             phase: &phase.w,
             g_lambert,
             tables,
+            albedo: 1.0,
             beta_2pi: beta / (2.0 * PI),
         })
+    }
+
+    /// The same model in a medium of single-scattering albedo `albedo`
+    /// (σ_s = albedo · β, extinction σ_t = β). Sun's model has albedo 1 (β
+    /// is both); in single scattering every scattered term — the airlight
+    /// (eq. 3.16/3.17) and the scattered surface light (eq. 3.22) — is
+    /// linear in σ_s while every attenuation stays e^{−β·distance}, so the
+    /// albedo only scales those terms.
+    ///
+    /// # Errors
+    /// [`FogError::Albedo`] unless 0 ≤ `albedo` ≤ 1.
+    pub fn with_albedo(mut self, albedo: f32) -> Result<Self, FogError> {
+        if !(0.0..=1.0).contains(&albedo) {
+            return Err(FogError::Albedo { albedo });
+        }
+        self.albedo = albedo;
+        self.beta_2pi = albedo * self.beta / (2.0 * PI);
+        Ok(self)
+    }
+
+    /// The single-scattering albedo (1 unless [`FogModel::with_albedo`]).
+    #[must_use]
+    pub fn albedo(&self) -> f32 {
+        self.albedo
     }
 
     /// A table that stands in for a missing Phong G table (its term is then
@@ -395,6 +424,7 @@ impl<'a> FogModel<'a> {
     pub(crate) fn simd_ctx(&self) -> crate::simd::Ctx<'a> {
         crate::simd::Ctx {
             beta: self.beta,
+            sigma_s: self.albedo * self.beta,
             tables: self.tables,
             tails: self.tails,
             phase: self.phase,
@@ -597,7 +627,7 @@ impl<'a> FogModel<'a> {
             }
             s += w * k * fast::exp(-self.beta * t_plus_d);
         }
-        (self.beta / (4.0 * PI) * half * s / h).max(0.0)
+        (self.albedo * self.beta / (4.0 * PI) * half * s / h).max(0.0)
     }
 
     /// The per-(pixel, light) terms of a surface pixel (see

@@ -40,40 +40,68 @@ pub fn npsf(gamma: f64) -> f64 {
     tail_scaled(0, gamma.sin(), 0.5 * gamma) / (2.0 * PI * s)
 }
 
-/// One row of the Figure 3.14 report: at angle γ, statistics over the
-/// optical thicknesses of |PSF_T(γ)/(T e^{−T}) − NPSF(γ)|.
+/// Mean, standard deviation and maximum of `v`.
+fn stats(v: &[f64]) -> (f64, f64, f64) {
+    let n = v.len().max(1) as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / n;
+    (mean, var.sqrt(), v.iter().fold(0.0f64, |a, &e| a.max(e)))
+}
+
+/// One row of the Figure 3.14 measurement at angle γ, statistics over the
+/// optical thicknesses T ∈ {0.1, 0.4, …, 3.1}:
+/// * absolute error E(γ) = |PSF_T(γ) − T e^{−T} NPSF(γ)| (what the caption
+///   describes: the error of the empirical PSF of eq. 3.32);
+/// * normalised error |PSF_T(γ)/(T e^{−T}) − NPSF(γ)| = E(γ)/(T e^{−T})
+///   (the spread of the curves of Fig. 3.14, left).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct PsfFactorRow {
     pub gamma_deg: f64,
     pub npsf: f64,
     pub mean_abs_error: f64,
     pub std_abs_error: f64,
-    pub max_rel_error: f64,
+    pub max_abs_error: f64,
+    pub mean_norm_error: f64,
+    pub std_norm_error: f64,
+    pub max_norm_error: f64,
 }
 
-/// Figure 3.14 (right): the factorisation error over T ∈ {0.1, 0.4, …, 3.1}
-/// (11 values) at each angle of `gammas_deg`.
+/// The optical thicknesses of Figure 3.14: 0.1, 0.4, …, 3.1 (11 values).
+#[must_use]
+pub fn figure_3_14_thicknesses() -> Vec<f64> {
+    (0..11).map(|i| 0.1 + 0.3 * f64::from(i)).collect()
+}
+
+/// Figure 3.14 (right): the factorisation error over
+/// [`figure_3_14_thicknesses`] at each angle of `gammas_deg`.
 #[must_use]
 pub fn psf_factorization_error(gammas_deg: &[f64]) -> Vec<PsfFactorRow> {
-    let ts: Vec<f64> = (0..11).map(|i| 0.1 + 0.3 * i as f64).collect();
+    let ts = figure_3_14_thicknesses();
     gammas_deg
         .iter()
         .map(|&gd| {
             let g = gd.to_radians();
             let n = npsf(g);
-            let errs: Vec<f64> = ts
+            let abs: Vec<f64> = ts
                 .iter()
-                .map(|&t| (psf(t, g) / (t * (-t).exp()) - n).abs())
+                .map(|&t| (psf(t, g) - t * (-t).exp() * n).abs())
                 .collect();
-            let mean = errs.iter().sum::<f64>() / errs.len() as f64;
-            let var = errs.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / errs.len() as f64;
-            let max_rel = errs.iter().fold(0.0f64, |a, e| a.max(e / n));
+            let norm: Vec<f64> = ts
+                .iter()
+                .zip(&abs)
+                .map(|(&t, e)| e / (t * (-t).exp()))
+                .collect();
+            let (mean_abs_error, std_abs_error, max_abs_error) = stats(&abs);
+            let (mean_norm_error, std_norm_error, max_norm_error) = stats(&norm);
             PsfFactorRow {
                 gamma_deg: gd,
                 npsf: n,
-                mean_abs_error: mean,
-                std_abs_error: var.sqrt(),
-                max_rel_error: max_rel,
+                mean_abs_error,
+                std_abs_error,
+                max_abs_error,
+                mean_norm_error,
+                std_norm_error,
+                max_norm_error,
             }
         })
         .collect()
@@ -249,24 +277,43 @@ mod tests {
     }
 
     #[test]
-    fn factorization_error_is_small_away_from_the_peak() {
-        let rows = psf_factorization_error(&[10.0, 45.0, 90.0, 150.0]);
+    fn factorization_error_meets_figure_3_14() {
+        // Independent of the tails: PSF_T by eq. 3.5 integrated numerically.
+        let rows = psf_factorization_error(&[5.0, 10.0, 20.0, 45.0, 90.0, 150.0]);
         for r in &rows {
-            eprintln!("{r:?}");
-            // Figure 3.14 (right) states the absolute error stays below 0.05
-            // away from the peak; near the peak (10°) it is ~0.16 (16 % of NPSF).
-            let bound = if r.gamma_deg < 20.0 {
-                0.2 * r.npsf
-            } else {
+            let g = r.gamma_deg.to_radians();
+            let ts = figure_3_14_thicknesses();
+            let direct: f64 = ts
+                .iter()
+                .map(|&t| {
+                    let d = 10.0;
+                    let p = d * d * airlight_eq35(t / d, 1.0, d, f64::INFINITY, g);
+                    (p - t * (-t).exp() * r.npsf).abs()
+                })
+                .sum::<f64>()
+                / ts.len() as f64;
+            assert!(
+                (direct - r.mean_abs_error).abs() < 1e-5 + 1e-4 * direct,
+                "γ={}: E by eq. 3.5 {direct} vs tails {}",
+                r.gamma_deg,
+                r.mean_abs_error
+            );
+            // The caption's "well below 0.05" (issue 10's gates). At 5° the
+            // mean is 0.0508: that gate fails, and `verify fog` says so.
+            let bound = if r.gamma_deg >= 20.0 {
+                0.02
+            } else if r.gamma_deg >= 10.0 {
                 0.05
+            } else {
+                0.06
             };
             assert!(
-                r.mean_abs_error.is_finite() && r.mean_abs_error < bound,
-                "γ={}: mean abs err {} (NPSF {})",
+                r.mean_abs_error < bound,
+                "γ={}: mean |PSF − T e^-T NPSF| = {} ≥ {bound}",
                 r.gamma_deg,
-                r.mean_abs_error,
-                r.npsf
+                r.mean_abs_error
             );
+            assert!(r.mean_norm_error >= r.mean_abs_error);
         }
     }
 

@@ -5,6 +5,9 @@
 //! piece is below its share of `max(rel · |I|, abs)`; pieces stop splitting
 //! at depth 50, at round-off level, or after 2000 pieces (the estimate is
 //! then kept as is).
+//!
+//! Fixed Gauss–Legendre rules come from the one table of the workspace,
+//! [`relight_sh::quadrature::gauss_legendre`].
 
 const XGK: [f64; 8] = [
     0.991_455_371_120_812_6,
@@ -108,45 +111,6 @@ pub fn integrate_pieces(
     sum
 }
 
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on the Legendre
-/// recurrence); used by the independent checks.
-#[must_use]
-pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut x = vec![0.0; n];
-    let mut w = vec![0.0; n];
-    for i in 0..n.div_ceil(2) {
-        let mut z = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, z);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * z * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            let pn = if n == 0 {
-                1.0
-            } else if n == 1 {
-                z
-            } else {
-                p1
-            };
-            let pn1 = if n == 1 { 1.0 } else { p0 };
-            dp = n as f64 * (z * pn - pn1) / (z * z - 1.0);
-            let dz = pn / dp;
-            z -= dz;
-            if dz.abs() < 1e-15 {
-                break;
-            }
-        }
-        x[i] = -z;
-        x[n - 1 - i] = z;
-        w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
-        w[n - 1 - i] = w[i];
-    }
-    (x, w)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -157,8 +121,5 @@ mod tests {
         assert!((v - 2.0).abs() < 1e-12, "∫sin = {v}, want 2");
         let v = integrate(|x| 1.0 / x.sqrt(), 1e-12, 1.0, 1e-10, 0.0);
         assert!((v - 2.0).abs() < 1e-5, "∫x^-1/2 = {v}, want ≈2");
-        let (x, w) = gauss_legendre(12);
-        let s: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(10)).sum();
-        assert!((s - 2.0 / 11.0).abs() < 1e-13, "GL x^10 = {s}");
     }
 }

@@ -78,6 +78,15 @@ pub struct FogSettings<'a> {
     pub tables: &'a FogTables,
     /// Check lights against closed geometry (brute force, O(lights × triangles)).
     pub check_lights_inside: bool,
+    /// Single-scattering albedo σ_s/β in [0, 1] ([`FogModel::with_albedo`]; 1
+    /// in the thesis).
+    pub albedo: f32,
+    /// `Some(R)`: the medium fills only the ball of radius R about the world
+    /// origin (`relight_render::Medium`), so an empty pixel's airlight is
+    /// integrated along its ray to the ball's edge (eq. 3.16 over the
+    /// finite segment) instead of to infinity (eq. 3.17). The eye must be
+    /// inside the ball; surfaces are assumed inside it. `None`: unbounded.
+    pub ball_radius: Option<f32>,
 }
 
 impl<'a> FogSettings<'a> {
@@ -91,6 +100,8 @@ impl<'a> FogSettings<'a> {
             mode: FogMode::Analytic,
             tables,
             check_lights_inside: true,
+            albedo: 1.0,
+            ball_radius: None,
         }
     }
 }
@@ -217,7 +228,16 @@ pub fn render_fog_into(
         settings.beta,
         &settings.phase,
         settings.interp,
-    )?;
+    )?
+    .with_albedo(settings.albedo)?;
+    if let Some(r) = settings.ball_radius
+        && !(r.is_finite() && r > 0.0 && camera.eye.length() < r)
+    {
+        return Err(FogError::Distance {
+            what: "fog ball radius (must exceed the eye's distance from the origin)",
+            value: f64::from(r),
+        });
+    }
     let g_tables: Vec<Option<&Table2>> = objects
         .iter()
         .map(|o| {
@@ -246,7 +266,16 @@ pub fn render_fog_into(
                 .zip(&g_tables)
                 .map(|(o, g)| MaterialConst::new(&model, &o.material, *g))
                 .collect();
-            shade_gbuffer(rasterizer, objects, &mats, camera, &model, &prepared, out);
+            shade_gbuffer(
+                rasterizer,
+                objects,
+                &mats,
+                camera,
+                &model,
+                &prepared,
+                settings.ball_radius,
+                out,
+            );
         }
         FogMode::OpenGl { fog_color } => {
             // Smooth normals as a 3-float vertex attribute where the mesh has them.
@@ -320,7 +349,9 @@ struct RowScratch {
 /// buffer: per row (parallel), every covered pixel's world position,
 /// interpolated normal and view direction go into a [`PixelBatch`]; each run
 /// of pixels of one object is shaded by [`shade_surface_run`] and the empty
-/// pixels by [`shade_background`] (the airlight to infinity).
+/// pixels by [`shade_background`] (the airlight to infinity), or, inside a
+/// fog ball of radius `ball`, by the finite-segment airlight to its edge.
+#[allow(clippy::too_many_arguments)]
 fn shade_gbuffer(
     rasterizer: &Rasterizer,
     objects: &[FogObject],
@@ -328,6 +359,7 @@ fn shade_gbuffer(
     camera: &Camera,
     model: &FogModel,
     lights: &[PreparedLight],
+    ball: Option<f32>,
     out: &mut Image,
 ) {
     let g = rasterizer.gbuffer();
@@ -422,10 +454,26 @@ fn shade_gbuffer(
                 row[x as usize] = s.batch.radiance(i);
             }
             let [dx, dy, dz] = &s.bg_d;
-            let [cr, cg, cb] = &mut s.bg_c;
-            shade_background(model, lights, dx, dy, dz, cr, cg, cb);
-            for (i, &x) in s.bg_x.iter().enumerate() {
-                row[x as usize] = Vec3::new(cr[i], cg[i], cb[i]);
+            if let Some(radius) = ball {
+                // The ray leaves the ball (eye inside) at t = −b + √(b² − c).
+                let c = eye.length_squared() - radius * radius;
+                for (i, &x) in s.bg_x.iter().enumerate() {
+                    let d = Vec3::new(dx[i], dy[i], dz[i]);
+                    let b = eye.dot(d);
+                    let t = -b + (b * b - c).max(0.0).sqrt();
+                    let hit = Some((eye + t * d, t, (-beta * t).exp()));
+                    let mut sum = Vec3::ZERO;
+                    for l in lights {
+                        sum += l.intensity * model.airlight(l, d, hit);
+                    }
+                    row[x as usize] = sum;
+                }
+            } else {
+                let [cr, cg, cb] = &mut s.bg_c;
+                shade_background(model, lights, dx, dy, dz, cr, cg, cb);
+                for (i, &x) in s.bg_x.iter().enumerate() {
+                    row[x as usize] = Vec3::new(cr[i], cg[i], cb[i]);
+                }
             }
         });
 }

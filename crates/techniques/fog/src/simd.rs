@@ -199,7 +199,7 @@ unsafe fn segment_gauss(ctx: &Ctx, along: __m256, h: __m256, d_vp: __m256) -> __
     }
     let r = _mm256_div_ps(
         _mm256_mul_ps(
-            _mm256_mul_ps(splat(ctx.beta / (4.0 * std::f32::consts::PI)), half),
+            _mm256_mul_ps(splat(ctx.sigma_s / (4.0 * std::f32::consts::PI)), half),
             s,
         ),
         h,
@@ -270,7 +270,10 @@ unsafe fn corner(t: &FogTables, c: __m256) -> __m256 {
 
 /// The per-frame view of the model the kernels need.
 pub struct Ctx<'a> {
+    /// Extinction β.
     pub beta: f32,
+    /// Scattering σ_s = albedo · β.
+    pub sigma_s: f32,
     pub tables: &'a FogTables,
     pub tails: &'a [Table2],
     pub phase: &'a [f32],
@@ -351,7 +354,7 @@ pub unsafe fn surface_run<const NEAREST: bool>(
     let m = end.saturating_sub(start) / 8 * 8;
     let stop = start + m;
     let beta = splat(ctx.beta);
-    let beta_2pi = splat(ctx.beta / (2.0 * std::f32::consts::PI));
+    let beta_2pi = splat(ctx.sigma_s / (2.0 * std::f32::consts::PI));
     let one = splat(1.0);
     let zero = _mm256_setzero_ps();
     let phong_n = splat(mat.n);
@@ -501,7 +504,7 @@ pub unsafe fn background<const NEAREST: bool>(
         / 8
         * 8;
     let beta = splat(ctx.beta);
-    let beta_2pi = splat(ctx.beta / (2.0 * std::f32::consts::PI));
+    let beta_2pi = splat(ctx.sigma_s / (2.0 * std::f32::consts::PI));
     let one = splat(1.0);
     for light in lights {
         let (tx, ty, tz) = (

@@ -40,7 +40,7 @@ use std::sync::OnceLock;
 
 fn gl32() -> (&'static [f64], &'static [f64]) {
     static GL: OnceLock<(Vec<f64>, Vec<f64>)> = OnceLock::new();
-    let g = GL.get_or_init(|| crate::quad::gauss_legendre(32));
+    let g = GL.get_or_init(|| relight_sh::quadrature::gauss_legendre(32));
     (&g.0, &g.1)
 }
 
@@ -337,7 +337,7 @@ pub fn airlight_eq35(beta: f64, i0: f64, d_sv: f64, d_vp: f64, gamma: f64) -> f6
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::quad::gauss_legendre;
+    use relight_sh::quadrature::gauss_legendre;
 
     /// Independent check: composite Gauss–Legendre (not GK) on the
     /// s = tan ξ form F(u, v) = ∫₀^{tan v} e^{−us}/(1+s²) ds.

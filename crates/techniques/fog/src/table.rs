@@ -187,7 +187,7 @@ impl Table2 {
 /// the adaptive [`crate::special::g_scaled`] is tested (≈1e-4 relative,
 /// limited by the kinks of P_n between nodes).
 fn g_tables(size: usize, w_max: f64, exps: &[u32]) -> Vec<(u32, Table2)> {
-    let (gx, gw) = crate::quad::gauss_legendre(8);
+    let (gx, gw) = relight_sh::quadrature::gauss_legendre(8);
     let panels = 128;
     // Graded panel edges: γ = π (1 − cos(π s))/2, s uniform.
     let edge = |i: usize| {

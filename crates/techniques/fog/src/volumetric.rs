@@ -16,18 +16,29 @@
 //! β k(α) I₀ e^{−β(t + d)} V / (d² pdf) with a **shadow ray through the
 //! medium** (visibility V from the BVH, attenuation on every segment).
 //! Surface vertices connect to each light (next-event estimation with
-//! e^{−β d}·V). Paths continue by analogue free-flight sampling
-//! (t ~ β e^{−βt}, albedo 1, so the throughput is unchanged), new
-//! directions from the phase function (uniform sphere, weight 4π k) or the
-//! BRDF (cosine / Phong-lobe sampling).
+//! e^{−β d}·V). With albedo a the medium scatters σ_s = a β and
+//! extinguishes σ_t = β: the in-scatter estimate carries σ_s, every
+//! transmittance σ_t. Paths continue by analogue free-flight sampling
+//! (t ~ β e^{−βt}; a scattering vertex multiplies the throughput by a),
+//! new directions from the phase function (uniform sphere, weight 4π k) or
+//! the BRDF (cosine / Phong-lobe sampling).
+//!
+//! # Path length: Russian roulette
+//! No fixed cap on the number of medium vertices (a cap of 64 biased the
+//! glow low at T ≥ 5, where deep orders carry much of the light). From the
+//! [`ROULETTE_START`]-th vertex on, a path survives each vertex with
+//! probability q = min(max throughput channel, [`ROULETTE_MAX_SURVIVAL`])
+//! and its throughput is divided by q, which keeps the estimator unbiased;
+//! q < 1 ends even a throughput-1 path (albedo 1, unbounded medium) with
+//! probability 1, after 100 vertices on average.
 //!
 //! # Path classes
 //! * [`Transport::Single`]: exactly the classes of the analytic model —
 //!   eye→medium→light (airlight), eye→surface→light (direct), and
 //!   eye→surface→medium→light (airlight on the surface, eq. 3.22); the view
 //!   ray is otherwise only attenuated.
-//! * [`Transport::Multiple`]: any number of medium vertices (up to
-//!   `max_scatters`) and up to `max_bounces` surface vertices.
+//! * [`Transport::Multiple`]: any number of medium vertices and up to
+//!   `max_bounces` surface vertices.
 //!
 //! The direct (delta) image of the light itself is not included (the glow
 //! images compare airlight). Units as in [`crate::model`].
@@ -46,9 +57,9 @@ use std::f32::consts::PI;
 pub enum Transport {
     /// The analytic model's single-scattering classes (see the module docs).
     Single,
-    /// Multiple scattering: up to `max_scatters` medium vertices and
-    /// `max_bounces` surface vertices per path.
-    Multiple { max_scatters: u32, max_bounces: u32 },
+    /// Multiple scattering: any number of medium vertices (Russian
+    /// roulette, no cap) and up to `max_bounces` surface vertices per path.
+    Multiple { max_bounces: u32 },
 }
 
 /// The medium, lights and (optional) surfaces.
@@ -58,8 +69,10 @@ pub struct VolumetricScene<'a> {
     pub bvh: Option<&'a SceneBvh<'a>>,
     pub materials: &'a [FogMaterial],
     pub lights: &'a [PointLight],
-    /// Scattering (= extinction) coefficient, ≥ 0.
+    /// Extinction coefficient σ_t = β, ≥ 0.
     pub beta: f32,
+    /// Single-scattering albedo σ_s/σ_t in [0, 1] (σ_s = albedo · β).
+    pub albedo: f32,
     pub phase: &'a Phase,
 }
 
@@ -69,6 +82,31 @@ pub struct McOptions {
     pub samples_per_pixel: u32,
     pub seed: u64,
     pub transport: Transport,
+}
+
+/// Path vertices (medium scatters and surface bounces) before Russian
+/// roulette starts.
+pub const ROULETTE_START: u32 = 3;
+/// Largest survival probability of Russian roulette: even a path whose
+/// throughput stays 1 (albedo 1, isotropic phase) ends after on average
+/// 1/(1 − 0.99) = 100 more vertices.
+pub const ROULETTE_MAX_SURVIVAL: f32 = 0.99;
+
+/// Russian roulette after the `depth`-th vertex: survive with probability
+/// q = min(max channel of `thr`, [`ROULETTE_MAX_SURVIVAL`]) and divide the
+/// throughput by q (unbiased: E[thr'] = q · thr/q = thr). False: the path ends.
+#[inline]
+fn roulette(thr: &mut Vec3, depth: u32, rng: &mut Rng) -> bool {
+    if depth < ROULETTE_START {
+        return thr.max_element() > 0.0;
+    }
+    let q = thr.max_element().min(ROULETTE_MAX_SURVIVAL);
+    // NaN or 0 throughput ends the path.
+    if q.is_nan() || q <= 0.0 || rng.next_f32() >= q {
+        return false;
+    }
+    *thr /= q;
+    true
 }
 
 /// A right-handed orthonormal frame with +z = `n`.
@@ -94,6 +132,11 @@ impl VolumetricScene<'_> {
     pub fn validate(&self) -> Result<(), FogError> {
         if !(self.beta.is_finite() && self.beta >= 0.0) {
             return Err(FogError::Beta { beta: self.beta });
+        }
+        if !(0.0..=1.0).contains(&self.albedo) {
+            return Err(FogError::Albedo {
+                albedo: self.albedo,
+            });
         }
         for (index, l) in self.lights.iter().enumerate() {
             if !(l.intensity.is_finite() && l.intensity.min_element() >= 0.0) {
@@ -164,9 +207,10 @@ impl VolumetricScene<'_> {
                 continue;
             }
             let k = self.phase.eval(wl.dot(d));
-            // I e^{-β(t+dl)} β k / (dl² pdf), 1/(dl² pdf) = (θ_b − θ_a)/D.
+            // I e^{-β(t+dl)} σ_s k / (dl² pdf), 1/(dl² pdf) = (θ_b − θ_a)/D.
             sum += l.intensity
-                * (self.beta * k * (-self.beta * (t + dl)).exp() * (th_b - th_a) / dist);
+                * (self.albedo * self.beta * k * (-self.beta * (t + dl)).exp() * (th_b - th_a)
+                    / dist);
         }
         sum
     }
@@ -197,21 +241,21 @@ impl VolumetricScene<'_> {
     /// One radiance sample along the ray `o + t d` (unit `d`).
     #[must_use]
     pub fn radiance_sample(&self, o: Vec3, d: Vec3, transport: Transport, rng: &mut Rng) -> Vec3 {
-        let (max_scatters, max_bounces, single) = match transport {
-            Transport::Single => (1, 1, true),
-            Transport::Multiple {
-                max_scatters,
-                max_bounces,
-            } => (max_scatters, max_bounces, false),
+        let (max_bounces, single) = match transport {
+            Transport::Single => (1, true),
+            Transport::Multiple { max_bounces } => (max_bounces, false),
         };
         let (mut o, mut d) = (o, d);
         let mut thr = Vec3::ONE;
         let mut l_sum = Vec3::ZERO;
-        let (mut scatters, mut bounces) = (0u32, 0u32);
-        for _ in 0..(max_scatters + max_bounces + 1).min(1024) {
+        let (mut depth, mut bounces) = (0u32, 0u32);
+        let scatters = self.beta > 0.0 && self.albedo > 0.0;
+        // No cap on the path length: Russian roulette ends every path with
+        // probability 1 (see the module docs).
+        loop {
             let hit = self.intersect(o, d);
             let t_end = hit.map_or(f32::INFINITY, |h| h.0);
-            if scatters < max_scatters && self.beta > 0.0 {
+            if scatters {
                 l_sum += thr * self.segment_inscatter(o, d, t_end, rng);
             }
             // Continue: free flight (medium vertex) or the surface.
@@ -221,16 +265,19 @@ impl VolumetricScene<'_> {
                 f32::INFINITY
             };
             if t_s < t_end {
-                if single || scatters + 1 >= max_scatters {
-                    // Deeper medium vertices can no longer connect to a light
-                    // (single: the model's view ray only attenuates).
+                if single {
+                    // The model's view ray only attenuates.
                     break;
                 }
-                scatters += 1;
                 o += t_s * d;
                 let nd = sample_uniform_sphere(rng.next_2d());
-                thr *= 4.0 * PI * self.phase.eval(nd.dot(d)).max(0.0);
+                // Survival σ_s/σ_t = albedo, phase over the uniform pdf.
+                thr *= self.albedo * 4.0 * PI * self.phase.eval(nd.dot(d)).max(0.0);
                 d = nd;
+                depth += 1;
+                if !roulette(&mut thr, depth, rng) {
+                    break;
+                }
                 continue;
             }
             let Some((t, ng, obj)) = hit else { break };
@@ -244,7 +291,7 @@ impl VolumetricScene<'_> {
             let wo = -d;
             // The surface is reached with probability e^{-β t}, which cancels the transmittance.
             l_sum += thr * self.surface_direct(p, n, wo, m);
-            if bounces >= max_bounces && (scatters >= max_scatters || self.beta == 0.0) {
+            if bounces >= max_bounces && !scatters {
                 break;
             }
             // Sample the BRDF lobe: diffuse (weight albedo) or Phong (k_s 2π/(n+1)).
@@ -279,6 +326,10 @@ impl VolumetricScene<'_> {
                 pd * mu / PI + (1.0 - pd) * (m.n as f32 + 1.0) / (2.0 * PI) * lobe.powi(m.n as i32);
             let f_cos = m.albedo / PI * mu + m.ks * lobe.powi(m.n as i32);
             thr *= f_cos / pdf.max(1e-12);
+            depth += 1;
+            if !single && !roulette(&mut thr, depth, rng) {
+                break;
+            }
             o = offset_ray_origin(p, n);
             d = wi;
             if single {

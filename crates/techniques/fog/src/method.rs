@@ -1,0 +1,560 @@
+//! [`FogRelighter`]: the fog method behind the method interface
+//! ([`relight_render::method::Relighter`], name `fog`). It renders a whole
+//! [`Scene`] in its homogeneous medium as the sum of two images of the same
+//! camera and antialiasing:
+//!
+//! 1. **Point lights** by the analytic single-scattering model (Sun 2008,
+//!    ch. 3; [`crate::render`]): every covered pixel is L = e^{−T_vp} L_p + L_a
+//!    (eq. 3.29) with each object's BRDF fitted to the paper's Lambert + Phong
+//!    surface ([`FogMaterial::fit`]); an empty pixel gets the airlight along
+//!    its ray to the fog ball's edge (eq. 3.16 over the finite segment).
+//! 2. **The environment** by its PSF-convolved foggy version (§3.6.4,
+//!    eqs. 3.35–3.37): SH shading ([`relight_shlight::ShRenderer`]) of the
+//!    lighting L′_lm = (e^{−T} + a·√(4π/(2l+1)) PSF_l) L_lm at T = β·R
+//!    ([`relight_render::Medium::env_thickness`]; a the albedo scales the
+//!    single-scattered part), so an empty pixel shows e^{−T} L(d) + (PSF ⊛ L)(d).
+//!    The surface's radiance then crosses the view segment of length D:
+//!    L = e^{−βD} L_s + (1 − e^{−βD}) a e^{−T} L̄ with L̄ = (1/4π)∫L dω, the
+//!    environment's attenuated light scattered once into the view ray under
+//!    the same assumption (every point lit as the ball's centre).
+//!
+//! What it reads: β, albedo and R from `scene.medium` (none, or β = 0: plain
+//! direct lighting of the point lights plus the unfogged environment), the
+//! lights from `scene.point_lights` (it never invents lights;
+//! [`crate::default_scene_lights`] is a helper for scenes that want some),
+//! and the environment with `world_from_env`. Every default lives in
+//! [`FogOptions::default`].
+//!
+//! # What it does not render
+//! No shadows (the analytic model has no visibility), no normal maps, no
+//! spatially varying BRDFs, no area lights: [`Relighter::supports`] says
+//! [`Support::No`] and `check_scene` turns those into errors. The environment
+//! part is [`Support::Approximate`] ([`ENVIRONMENT_APPROXIMATION`]). The
+//! camera and every point light must lie inside the fog ball (the analytic
+//! model assumes an unbounded medium between them); surfaces are assumed
+//! inside it too. BRDFs other than Lambert + Phong are fitted, not evaluated.
+//!
+//! # Timings
+//! `set_lighting` (the PSF weights of eq. 3.35, light checks) is the
+//! lighting change; `render` — the SH projection and per-vertex rotation of
+//! the (filtered) environment, both rasterizations and the per-pixel shading
+//! — is the view change.
+
+use crate::FogError;
+use crate::model::{FogMaterial, Phase, PointLight};
+use crate::render::{FogMode, FogObject, FogSettings, render_fog_into, validate_lights};
+use crate::table::{FogTables, Interp};
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+use relight_render::method::{
+    Coverage, FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
+    coverage_from_ids,
+};
+use relight_render::raster::{NO_TRIANGLE, Rasterizer};
+use relight_render::{Image, Progress, Scene};
+use relight_shlight::{LightingFilter, ShRenderer, ShRotationMethod};
+use std::time::Instant;
+
+/// The method's name on the command line.
+pub const NAME: &str = "fog";
+
+/// How the environment part approximates (the text of its
+/// [`Support::Approximate`]).
+pub const ENVIRONMENT_APPROXIMATION: &str = "in a medium the environment lights every point as it \
+     would the fog ball's centre (sources at distance R, T = β·R, single-scattering PSF of \
+     sun-thesis eqs. 3.35–3.37, band-limited to the SH order) and its light scattered into the \
+     view ray is that of the centre too; no shadows or multiple scattering";
+
+/// Every default of the fog method (the one place they live).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FogOptions {
+    /// Side of the 2D airlight and G tables (Figure 3.6: 64² suffices).
+    pub table_size: usize,
+    /// Analytic single scattering, or classic OpenGL GL_EXP fog for
+    /// comparison (then the environment is only blended by e^{−βD} and the
+    /// background is the fog colour).
+    pub mode: FogMode,
+    /// Table interpolation.
+    pub interp: Interp,
+    /// SH order (bands) of the environment part.
+    pub env_order: usize,
+    /// Per-pixel SH rotation of the environment part (matters only on
+    /// curved, tangent-framed meshes; no normal maps are applied).
+    pub env_rotation: ShRotationMethod,
+    /// PSF in the environment part: the empirical factorisation T e^{−T}
+    /// NPSF (eq. 3.32, what the thesis uses) or the exact PSF_T (eq. 3.30).
+    pub factorized_psf: bool,
+    /// Reject point lights inside closed meshes (brute force per lighting
+    /// change, O(lights × triangles)).
+    pub check_lights_inside: bool,
+}
+
+impl Default for FogOptions {
+    fn default() -> Self {
+        Self {
+            table_size: 64,
+            mode: FogMode::Analytic,
+            interp: Interp::Bilinear,
+            env_order: 6,
+            env_rotation: ShRotationMethod::Exact,
+            factorized_psf: true,
+            check_lights_inside: true,
+        }
+    }
+}
+
+/// The medium as the method reads it: β (0 without one), albedo, radius.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct MediumParams {
+    beta: f32,
+    albedo: f32,
+    radius: Option<f32>,
+}
+
+impl MediumParams {
+    fn of(scene: &Scene) -> Result<Self, MethodError> {
+        let Some(m) = scene.medium else {
+            return Ok(Self {
+                beta: 0.0,
+                albedo: 1.0,
+                radius: None,
+            });
+        };
+        let bad = |option: &'static str, message: String| MethodError::InvalidOption {
+            method: NAME,
+            option,
+            message,
+        };
+        if !(m.beta.is_finite() && m.beta >= 0.0) {
+            return Err(bad(
+                "medium.beta",
+                format!("must be finite and ≥ 0 (got {})", m.beta),
+            ));
+        }
+        if !(0.0..=1.0).contains(&m.albedo) {
+            return Err(bad(
+                "medium.albedo",
+                format!("must be in [0, 1] (got {})", m.albedo),
+            ));
+        }
+        if !(m.radius.is_finite() && m.radius > 0.0) {
+            return Err(bad(
+                "medium.radius",
+                format!("must be finite and > 0 (got {})", m.radius),
+            ));
+        }
+        Ok(Self {
+            beta: m.beta,
+            albedo: m.albedo,
+            radius: Some(m.radius),
+        })
+    }
+
+    /// Optical thickness from the centre to the environment.
+    fn env_thickness(&self) -> f32 {
+        self.radius.map_or(0.0, |r| self.beta * r)
+    }
+}
+
+/// The lighting of the last [`Relighter::set_lighting`].
+#[derive(Clone, Debug)]
+struct Lighting {
+    medium: MediumParams,
+    lights: Vec<PointLight>,
+    /// The environment's mean radiance (1/4π)∫L dω (rotation invariant).
+    env_mean: Vec3,
+    has_env: bool,
+    /// (T, albedo, filter) of the environment part, cached.
+    filter: (f32, f32, LightingFilter),
+}
+
+/// The fog method (see the module docs).
+pub struct FogRelighter {
+    options: FogOptions,
+    /// Fitted surface of each object, from [`Relighter::prepare`].
+    materials: Vec<FogMaterial>,
+    tables: Option<FogTables>,
+    sh: Option<ShRenderer>,
+    lighting: Option<Lighting>,
+    rasterizer: Rasterizer,
+    phase: Phase,
+}
+
+impl std::fmt::Debug for FogRelighter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FogRelighter")
+            .field("options", &self.options)
+            .field("materials", &self.materials)
+            .finish_non_exhaustive()
+    }
+}
+
+fn failed(e: impl std::error::Error + Send + Sync + 'static) -> MethodError {
+    MethodError::failed(NAME, e)
+}
+
+impl FogRelighter {
+    /// A fog method with `options`.
+    ///
+    /// # Errors
+    /// A table size below 2 or an SH order outside what the SH renderer
+    /// supports ([`MethodError::InvalidOption`]).
+    pub fn new(options: FogOptions) -> Result<Self, MethodError> {
+        if options.table_size < 2 {
+            return Err(MethodError::InvalidOption {
+                method: NAME,
+                option: "table_size",
+                message: format!(
+                    "need at least 2 samples per axis (got {})",
+                    options.table_size
+                ),
+            });
+        }
+        let sh = ShRenderer::new(options.env_order, options.env_rotation).map_err(|e| {
+            MethodError::InvalidOption {
+                method: NAME,
+                option: "env_order",
+                message: e.to_string(),
+            }
+        })?;
+        Ok(Self {
+            options,
+            materials: Vec::new(),
+            tables: None,
+            sh: Some(sh),
+            lighting: None,
+            rasterizer: Rasterizer::new(),
+            phase: Phase::isotropic(),
+        })
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &FogOptions {
+        &self.options
+    }
+
+    /// The per-band multipliers of the environment part at optical
+    /// thickness `t` and albedo `albedo` (eqs. 3.35–3.37): direct e^{−T},
+    /// bands a·√(4π/(2l+1)) PSF_l.
+    #[must_use]
+    pub fn environment_filter(&self, t: f32, albedo: f32) -> LightingFilter {
+        if t <= 0.0 {
+            return LightingFilter {
+                direct: 1.0,
+                bands: Vec::new(),
+            };
+        }
+        let w = crate::psf::convolution_weights(
+            f64::from(t),
+            self.options.env_order,
+            self.options.factorized_psf,
+        );
+        LightingFilter {
+            direct: (-t).exp(),
+            bands: w.iter().map(|&x| albedo * x as f32).collect(),
+        }
+    }
+
+    fn objects<'s>(&self, scene: &'s Scene) -> Vec<FogObject<'s>> {
+        scene
+            .objects
+            .iter()
+            .zip(&self.materials)
+            .map(|(o, m)| FogObject {
+                mesh: &o.mesh,
+                material: *m,
+            })
+            .collect()
+    }
+
+    fn is_prepared_for(&self, scene: &Scene) -> bool {
+        self.tables.is_some() && self.materials.len() == scene.objects.len()
+    }
+
+    /// The environment part at the supersampled camera of `scene` (image of
+    /// `scene.camera`'s size), before the view segment.
+    fn environment_image(
+        &mut self,
+        scene: &Scene,
+        lighting: &Lighting,
+        progress: &dyn Progress,
+    ) -> Result<Option<Image>, MethodError> {
+        if !lighting.has_env {
+            return Ok(None);
+        }
+        let opengl = matches!(self.options.mode, FogMode::OpenGl { .. });
+        let filter = if opengl {
+            LightingFilter {
+                direct: 1.0,
+                bands: Vec::new(),
+            }
+        } else {
+            lighting.filter.2.clone()
+        };
+        let sh = self.sh.take().expect("the SH renderer is always present");
+        let sh = sh
+            .with_lighting_filter(filter)
+            .and_then(|s| s.with_lighting_rotation(scene.world_from_env))
+            .map(|s| s.with_env_background(!opengl).with_supersampling(1));
+        let sh = match sh {
+            Ok(s) => s,
+            Err(e) => {
+                // Keep a renderer (its bake cache is lost only on this error).
+                self.sh = ShRenderer::new(self.options.env_order, self.options.env_rotation).ok();
+                return Err(failed(e));
+            }
+        };
+        let out = sh.render(scene, None, progress);
+        self.sh = Some(sh);
+        Ok(Some(out.map_err(failed)?.image))
+    }
+}
+
+impl Relighter for FogRelighter {
+    fn name(&self) -> &'static str {
+        NAME
+    }
+
+    fn supports(&self, feature: SceneFeature) -> Support {
+        match feature {
+            SceneFeature::PointLights | SceneFeature::Medium => Support::Full,
+            SceneFeature::Environment => Support::Approximate(ENVIRONMENT_APPROXIMATION),
+            SceneFeature::AreaLights
+            | SceneFeature::Visibility
+            | SceneFeature::NormalMaps
+            | SceneFeature::SpatiallyVaryingBrdf => Support::No,
+        }
+    }
+
+    fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
+        progress.check()?;
+        self.materials = scene
+            .objects
+            .iter()
+            .map(|o| FogMaterial::fit(o.brdf.as_ref()))
+            .collect();
+        let have = |t: &FogTables| {
+            t.size == self.options.table_size
+                && self
+                    .materials
+                    .iter()
+                    .all(|m| m.ks == Vec3::ZERO || t.g_table(m.n).is_some())
+        };
+        if !self.tables.as_ref().is_some_and(have) {
+            self.tables = Some(
+                FogTables::build_for(self.options.table_size, &self.materials).map_err(failed)?,
+            );
+        }
+        progress.check()?;
+        if scene.has_environment() {
+            let sh = self.sh.as_ref().expect("the SH renderer is always present");
+            for (i, o) in scene.objects.iter().enumerate() {
+                sh.table(&o.brdf, self.options.env_order, i, progress)
+                    .map_err(failed)?;
+            }
+        }
+        self.set_lighting(scene, progress)?;
+        Ok(())
+    }
+
+    fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError> {
+        let start = Instant::now();
+        progress.check()?;
+        let medium = MediumParams::of(scene)?;
+        let lights: Vec<PointLight> = scene
+            .point_lights
+            .iter()
+            .map(|l| PointLight::new(l.position, l.intensity))
+            .collect();
+        {
+            let objects = self.objects(scene);
+            validate_lights(
+                &objects,
+                &lights,
+                medium.beta,
+                self.options.check_lights_inside,
+            )
+            .map_err(failed)?;
+        }
+        if let Some(r) = medium.radius {
+            let outside = |p: Vec3| p.length() >= r;
+            if outside(scene.camera.eye) {
+                return Err(MethodError::InvalidOption {
+                    method: NAME,
+                    option: "camera.eye",
+                    message: format!(
+                        "the eye at {} lies outside the fog ball of radius {r}; the analytic \
+                         model needs the eye inside the medium",
+                        scene.camera.eye
+                    ),
+                });
+            }
+            if let Some((i, l)) = lights.iter().enumerate().find(|(_, l)| outside(l.position)) {
+                return Err(MethodError::InvalidOption {
+                    method: NAME,
+                    option: "point_lights",
+                    message: format!(
+                        "light {i} at {} lies outside the fog ball of radius {r}",
+                        l.position
+                    ),
+                });
+            }
+        }
+        let t = medium.env_thickness();
+        let filter = match &self.lighting {
+            Some(l) if l.filter.0 == t && l.filter.1 == medium.albedo => l.filter.clone(),
+            _ => (t, medium.albedo, self.environment_filter(t, medium.albedo)),
+        };
+        let has_env = scene.has_environment();
+        let env_mean = if has_env {
+            scene.env.integral() / (4.0 * std::f32::consts::PI)
+        } else {
+            Vec3::ZERO
+        };
+        check_rotation(scene.world_from_env)?;
+        self.lighting = Some(Lighting {
+            medium,
+            lights,
+            env_mean,
+            has_env,
+            filter,
+        });
+        Ok(start.elapsed().as_secs_f64() * 1e3)
+    }
+
+    fn render(
+        &mut self,
+        scene: &Scene,
+        request: &FrameRequest,
+        progress: &dyn Progress,
+    ) -> Result<Rendered, MethodError> {
+        request.validate(NAME)?;
+        let mut timings = FrameTimings::default();
+        if !self.is_prepared_for(scene) {
+            let t = Instant::now();
+            self.prepare(scene, progress)?;
+            timings.lighting_ms = t.elapsed().as_secs_f64() * 1e3;
+        } else if self.lighting.is_none() {
+            timings.lighting_ms = self.set_lighting(scene, progress)?;
+        }
+        let start = Instant::now();
+        let lighting = self.lighting.clone().expect("set by prepare");
+        let k = request.aa;
+        let mut big = request.camera;
+        big.width *= k;
+        big.height *= k;
+        let m = lighting.medium;
+        // 1. Point lights (also the visibility buffer of this frame).
+        let mut image = Image::new(big.width, big.height);
+        {
+            let objects = self.objects(scene);
+            let tables = self.tables.as_ref().expect("built by prepare");
+            let mut settings = FogSettings::new(tables, m.beta);
+            settings.phase = self.phase.clone();
+            settings.interp = self.options.interp;
+            settings.mode = self.options.mode;
+            settings.check_lights_inside = false;
+            settings.albedo = m.albedo;
+            settings.ball_radius = m.radius;
+            render_fog_into(
+                &mut self.rasterizer,
+                &objects,
+                &big,
+                &lighting.lights,
+                &settings,
+                &mut image,
+            )
+            .map_err(|e| match e {
+                FogError::Cancelled => MethodError::Cancelled,
+                e => failed(e),
+            })?;
+        }
+        progress.check()?;
+        // 2. The environment, carried along each covered pixel's view segment.
+        let mut big_scene = scene.clone();
+        big_scene.camera = big;
+        if let Some(env) = self.environment_image(&big_scene, &lighting, progress)? {
+            let opengl = matches!(self.options.mode, FogMode::OpenGl { .. });
+            let ambient = if opengl {
+                Vec3::ZERO
+            } else {
+                lighting.env_mean * (m.albedo * (-m.env_thickness()).exp())
+            };
+            let r = &self.rasterizer;
+            let g = r.gbuffer();
+            let eye = big.eye;
+            let w = big.width;
+            image
+                .pixels
+                .par_chunks_mut(w)
+                .zip(env.pixels.par_chunks(w))
+                .enumerate()
+                .for_each(|(y, (row, env_row))| {
+                    for (x, (px, e)) in row.iter_mut().zip(env_row).enumerate() {
+                        let i = y * w + x;
+                        let id = g.triangle[i];
+                        let add = match (id != NO_TRIANGLE).then(|| r.locate(id)).flatten() {
+                            Some((d, tri)) if m.beta > 0.0 => {
+                                let mesh = &scene.objects[d].mesh;
+                                let t = mesh.indices[tri];
+                                let b = g.barycentrics[i];
+                                let p = mesh.positions[t[0] as usize] * (1.0 - b[0] - b[1])
+                                    + mesh.positions[t[1] as usize] * b[0]
+                                    + mesh.positions[t[2] as usize] * b[1];
+                                let f = (-m.beta * (p - eye).length()).exp();
+                                *e * f + ambient * (1.0 - f)
+                            }
+                            _ => *e,
+                        };
+                        *px += add;
+                    }
+                });
+        }
+        // Coverage from this frame's own visibility buffer.
+        let coverage = {
+            let r = &self.rasterizer;
+            let g = r.gbuffer();
+            let bw = g.width;
+            let c: Coverage =
+                coverage_from_ids(request.camera.width, request.camera.height, k, |x, y| {
+                    let id = g.triangle[y * bw + x];
+                    (id != NO_TRIANGLE)
+                        .then(|| r.locate(id))
+                        .flatten()
+                        .map(|(d, _)| d as u32)
+                });
+            c
+        };
+        let image = image.box_downsample(k);
+        timings.view_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(Rendered {
+            image,
+            coverage: Some(coverage),
+            timings,
+            noise: None,
+        })
+    }
+
+    fn data_bytes(&self) -> u64 {
+        self.tables.as_ref().map_or(0, |t| {
+            let tables = t
+                .tail
+                .iter()
+                .chain(t.g.iter().map(|(_, g)| g))
+                .chain([&t.f]);
+            tables.map(|x| 4 * x.values().len() as u64).sum()
+        })
+    }
+}
+
+/// Checks that `m` is a rotation (the SH renderer rotates the lighting by it).
+fn check_rotation(m: Mat3) -> Result<(), MethodError> {
+    relight_sh::rotation::Rot3::<f32>::try_from_mat3(m)
+        .map(|_| ())
+        .map_err(|e| MethodError::InvalidOption {
+            method: NAME,
+            option: "world_from_env",
+            message: e.to_string(),
+        })
+}

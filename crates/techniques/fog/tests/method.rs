@@ -1,0 +1,296 @@
+//! The fog method through the method interface: its point-light part is
+//! `render_fog`, its environment part at β = 0 is plain SH shading, in fog
+//! the environment part matches the closed form of a uniform sky, the
+//! empty-pixel airlight to the fog ball's edge matches eq. 3.5 integrated
+//! numerically, and unsupported features are `check_scene` errors.
+
+use glam::{Vec2, Vec3};
+use relight_brdf::Lambert;
+use relight_fog::method::ENVIRONMENT_APPROXIMATION;
+use relight_fog::render::floor_grid;
+use relight_fog::special::airlight_eq35;
+use relight_fog::{FogOptions, FogRelighter, FogSettings, FogTables, render_fog, scene_objects};
+use relight_render::method::{FrameRequest, MethodError, Relighter, SceneFeature, check_scene};
+use relight_render::{AreaLight, Camera, Image, Medium, NoProgress, Object, PointLight, Scene};
+use relight_sphere::{EnvMap, Param};
+use std::sync::Arc;
+
+fn camera(width: usize, height: usize) -> Camera {
+    Camera {
+        eye: Vec3::new(0.0, 1.5, 5.0),
+        target: Vec3::new(0.0, 0.5, 0.0),
+        up: Vec3::Y,
+        vfov_deg: 40.0,
+        width,
+        height,
+    }
+}
+
+fn sky(scale: f32) -> EnvMap {
+    EnvMap::from_fn(
+        Param::LatLong {
+            width: 32,
+            height: 16,
+        },
+        |d| Vec3::new(0.4, 0.5, 0.7) * (1.0 + d.y).max(0.0) * scale + Vec3::splat(0.05 * scale),
+    )
+}
+
+fn lambert(a: f32) -> Arc<dyn relight_brdf::Brdf> {
+    Arc::new(Lambert::new(Vec3::splat(a)).unwrap())
+}
+
+/// A sphere on a floor, two point lights, the given environment and medium.
+fn scene(env: EnvMap, medium: Option<Medium>) -> Scene {
+    let sphere = relight_geom::shapes::uv_sphere_at(Vec3::new(0.0, 0.6, 0.0), 0.6, 48, 24);
+    let floor = floor_grid(0.0, 3.0, 8);
+    let mut s = Scene::new(
+        vec![
+            Object::new(Arc::new(floor), lambert(0.6)),
+            Object::new(Arc::new(sphere), lambert(0.8)),
+        ],
+        env,
+        camera(40, 24),
+    );
+    s.point_lights = vec![
+        PointLight::new(Vec3::new(-1.5, 2.0, 1.0), Vec3::splat(10.0)),
+        PointLight::new(Vec3::new(1.2, 1.4, 0.8), Vec3::new(4.0, 3.0, 2.0)),
+    ];
+    s.medium = medium;
+    s
+}
+
+fn black() -> EnvMap {
+    sky(0.0)
+}
+
+fn fog(beta: f32, albedo: f32, radius: f32) -> Option<Medium> {
+    Some(Medium {
+        beta,
+        albedo,
+        radius,
+    })
+}
+
+fn render(method: &mut FogRelighter, scene: &Scene, aa: usize) -> Image {
+    method.prepare(scene, &NoProgress).unwrap();
+    method
+        .render(
+            scene,
+            &FrameRequest::new(scene.camera).with_aa(aa),
+            &NoProgress,
+        )
+        .unwrap()
+        .image
+}
+
+fn max_rel_diff(a: &Image, b: &Image) -> f32 {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let peak = b.pixels.iter().fold(0.0f32, |m, p| m.max(p.max_element()));
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0f32, f32::max)
+        / peak.max(1e-30)
+}
+
+#[test]
+fn point_light_part_is_render_fog() {
+    let s = scene(black(), fog(0.08, 0.7, 12.0));
+    let mut m = FogRelighter::new(FogOptions::default()).unwrap();
+    let objects = scene_objects(&s);
+    let tables = FogTables::build_for(64, objects.iter().map(|o| &o.material)).unwrap();
+    let mut settings = FogSettings::new(&tables, 0.08);
+    settings.albedo = 0.7;
+    settings.ball_radius = Some(12.0);
+    let lights: Vec<relight_fog::PointLight> = s
+        .point_lights
+        .iter()
+        .map(|l| relight_fog::PointLight::new(l.position, l.intensity))
+        .collect();
+    for aa in [1usize, 2] {
+        let mut cam = s.camera;
+        cam.width *= aa;
+        cam.height *= aa;
+        let want = render_fog(&objects, &cam, &lights, &settings)
+            .unwrap()
+            .box_downsample(aa);
+        let got = render(&mut m, &s, aa);
+        let e = max_rel_diff(&got, &want);
+        assert!(e < 1e-6, "aa={aa}: method vs render_fog differ by {e}");
+    }
+    // The frame reports its own coverage: the sphere and floor fill the
+    // lower image, the top row is sky.
+    let r = m
+        .render(&s, &FrameRequest::new(s.camera), &NoProgress)
+        .unwrap();
+    let c = r.coverage.unwrap();
+    assert_eq!(c.coverage.len(), 40 * 24);
+    assert_eq!(c.coverage[0], 0.0);
+    assert_eq!(c.coverage[40 * 23 + 20], 1.0);
+    assert!(c.object_id.contains(&2), "sphere pixels carry object id 2");
+}
+
+#[test]
+fn without_fog_the_environment_part_is_plain_sh_shading() {
+    let opts = FogOptions::default();
+    for medium in [None, fog(0.0, 1.0, 10.0)] {
+        let mut s = scene(sky(1.0), medium);
+        s.point_lights.clear();
+        let mut m = FogRelighter::new(opts).unwrap();
+        let got = render(&mut m, &s, 1);
+        let want = relight_shlight::ShRenderer::new(opts.env_order, opts.env_rotation)
+            .unwrap()
+            .render(&s, None, &NoProgress)
+            .unwrap()
+            .image;
+        let e = max_rel_diff(&got, &want);
+        assert!(e < 1e-6, "{medium:?}: fog method vs plain SH differ by {e}");
+    }
+}
+
+/// A uniform sky L in fog, a Lambert sphere of albedo ρ alone: the sky seen
+/// through the fog is L (e^{−T} + a w₀) (w₀ the PSF's band-0 weight), and a
+/// sphere pixel at view distance D is e^{−βD} ρ L (e^{−T} + a w₀) +
+/// (1 − e^{−βD}) a e^{−T} L (eqs. 3.35–3.37, then the view segment).
+#[test]
+fn uniform_sky_in_fog_matches_the_closed_form() {
+    let (beta, albedo, radius, rho, l) = (0.1f32, 0.8f32, 10.0f32, 0.7f32, 2.0f32);
+    let env = EnvMap::from_fn(
+        Param::LatLong {
+            width: 32,
+            height: 16,
+        },
+        |_| Vec3::splat(l),
+    );
+    let sphere = relight_geom::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 64, 32);
+    let mut cam = camera(21, 21);
+    cam.eye = Vec3::new(0.0, 0.0, 4.0);
+    cam.target = Vec3::ZERO;
+    let mut s = Scene::new(vec![Object::new(Arc::new(sphere), lambert(rho))], env, cam);
+    s.medium = fog(beta, albedo, radius);
+    let mut m = FogRelighter::new(FogOptions::default()).unwrap();
+    let img = render(&mut m, &s, 1);
+    let t = f64::from(beta * radius);
+    let w0 = relight_fog::psf::convolution_weights(t, 1, true)[0] as f32;
+    let lit = l * ((-t as f32).exp() + albedo * w0);
+    let sky_px = img.pixels[0].x;
+    assert!(
+        (sky_px - lit).abs() < 1e-3 * lit,
+        "foggy sky {sky_px} vs L(e^-T + a w0) = {lit}"
+    );
+    // Centre pixel: the sphere's front at distance 3.
+    let f = (-beta * 3.0f32).exp();
+    let want = f * rho * lit + (1.0 - f) * albedo * (-t as f32).exp() * l;
+    let got = img.pixels[10 * 21 + 10].x;
+    assert!(
+        (got - want).abs() < 1e-2 * want,
+        "sphere centre {got} vs closed form {want}"
+    );
+}
+
+/// An empty pixel's airlight runs to the fog ball's edge: eq. 3.5 integrated
+/// numerically over that finite segment, times the albedo.
+#[test]
+fn empty_pixels_integrate_the_airlight_to_the_ball_edge() {
+    let (beta, albedo, radius) = (0.15f32, 0.6f32, 6.0f32);
+    let mut s = scene(black(), fog(beta, albedo, radius));
+    s.objects.truncate(1); // the floor only: the upper rows are empty
+    s.point_lights.truncate(1);
+    let mut m = FogRelighter::new(FogOptions::default()).unwrap();
+    let img = render(&mut m, &s, 1);
+    let light = s.point_lights[0];
+    let medium = s.medium.unwrap();
+    for (x, y) in [(3usize, 1usize), (20, 2), (36, 4), (8, 6)] {
+        let (o, d) = s.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+        let (_, t_exit) = medium.ball_span(o, d).unwrap();
+        let to = light.position - o;
+        let gamma = f64::from((to.normalize().dot(d)).clamp(-1.0, 1.0)).acos();
+        let want = f64::from(albedo)
+            * airlight_eq35(
+                f64::from(beta),
+                f64::from(light.intensity.x),
+                f64::from(to.length()),
+                f64::from(t_exit),
+                gamma,
+            );
+        let got = f64::from(img.pixels[y * 40 + x].x);
+        assert!(
+            ((got - want) / want).abs() < 0.01,
+            "pixel ({x}, {y}): {got} vs eq. 3.5 to the ball edge {want}"
+        );
+    }
+}
+
+#[test]
+fn unsupported_features_are_check_scene_errors() {
+    let m = FogRelighter::new(FogOptions::default()).unwrap();
+    let base = scene(black(), fog(0.05, 1.0, 10.0));
+    assert!(check_scene(&m, &base, false).unwrap().is_empty());
+    let mut shadows = base.clone();
+    shadows.visibility = true;
+    let mut area = base.clone();
+    area.area_lights.push(AreaLight {
+        center: Vec3::new(0.0, 2.0, 0.0),
+        size: Vec2::ONE,
+        world_from_light: glam::Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
+        intensity: Vec3::ONE,
+        texture: None,
+    });
+    for (s, feature) in [
+        (shadows, SceneFeature::Visibility),
+        (area, SceneFeature::AreaLights),
+    ] {
+        match check_scene(&m, &s, true) {
+            Err(MethodError::Unsupported {
+                method: "fog",
+                feature: f,
+                approximate: None,
+            }) => assert_eq!(f, feature),
+            other => panic!("{feature}: expected Unsupported, got {other:?}"),
+        }
+    }
+    let lit = scene(sky(1.0), fog(0.05, 1.0, 10.0));
+    match check_scene(&m, &lit, false) {
+        Err(MethodError::Unsupported {
+            feature: SceneFeature::Environment,
+            approximate: Some(how),
+            ..
+        }) => assert_eq!(how, ENVIRONMENT_APPROXIMATION),
+        other => panic!("environment: expected an approximate error, got {other:?}"),
+    }
+    let warnings = check_scene(&m, &lit, true).unwrap();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+}
+
+#[test]
+fn bad_media_and_lights_outside_the_ball_are_errors() {
+    let mut m = FogRelighter::new(FogOptions::default()).unwrap();
+    let small = scene(black(), fog(0.05, 1.0, 2.5));
+    let e = m.prepare(&small, &NoProgress).unwrap_err().to_string();
+    assert!(e.contains("fog ball"), "{e}");
+    for (medium, what) in [
+        (fog(-1.0, 1.0, 10.0), "medium.beta"),
+        (fog(0.1, 1.5, 10.0), "medium.albedo"),
+        (fog(0.1, 1.0, 0.0), "medium.radius"),
+    ] {
+        let e = m
+            .prepare(&scene(black(), medium), &NoProgress)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(what), "{what}: {e}");
+    }
+    for opts in [
+        FogOptions {
+            table_size: 1,
+            ..FogOptions::default()
+        },
+        FogOptions {
+            env_order: 0,
+            ..FogOptions::default()
+        },
+    ] {
+        assert!(FogRelighter::new(opts).is_err(), "{opts:?}");
+    }
+}
