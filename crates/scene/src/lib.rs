@@ -29,7 +29,7 @@ pub use embedded::{
 };
 pub use error::SceneError;
 pub use file::{SceneFile, parse_scene_file};
-pub use load::{LoadedScene, load_environment, load_mesh, load_scene_file};
+pub use load::{LoadedScene, load_environment, load_mesh, load_scene_file, load_scene_text};
 pub use relight_sphere::rotation_from_yaw_pitch_roll;
 pub use studio::{studio_environment, studio_radiance, studio_sun_direction};
 pub use textures::{TextureFileError, load_normal_map, load_texture, load_weight_texture};

@@ -11,7 +11,7 @@
 //!   `|ẑ·Y| > VERTICAL_NORMAL_COS` (floor and ceiling lights);
 //! * `rotate` (yaw, pitch, roll in degrees): `world_from_light =
 //!   rotation_from_yaw_pitch_roll(rotate)`; `[0, 0, 0]` emits towards +Z,
-//!   `[0, 90, 0]` straight down.
+//!   `[0, 90, 0]` straight down, `[90, 0, 0]` towards +X.
 
 use crate::check::Ctx;
 use crate::file::{

@@ -95,7 +95,20 @@ pub fn load_scene_file(
         path: path.into(),
         source,
     })?;
-    let file = parse_scene_file(&text, path)?;
+    load_scene_text(&text, path, size)
+}
+
+/// [`load_scene_file`] on text already read: `path` names the file in
+/// errors and its folder is the base of relative paths (it need not exist).
+///
+/// # Errors
+/// As [`load_scene_file`], less the read error.
+pub fn load_scene_text(
+    text: &str,
+    path: &Path,
+    size: Option<(usize, usize)>,
+) -> Result<LoadedScene, SceneError> {
+    let file = parse_scene_file(text, path)?;
     let cx = Ctx { file: path };
     let base = path.parent().unwrap_or(Path::new("."));
     let resolve = |p: &str| -> PathBuf {
@@ -108,7 +121,6 @@ pub fn load_scene_file(
     };
     let mut warnings = Vec::new();
 
-    let (env, world_from_env) = environment(cx, &file, &resolve, &mut warnings)?;
     if file.objects.is_empty() {
         return Err(cx.err("object", "the scene has no `[[object]]`"));
     }
@@ -153,6 +165,8 @@ pub fn load_scene_file(
         return Err(cx.err("render.spp", "must be at least 1 (got 0)"));
     }
     let camera = camera(cx, file.camera.as_ref(), size, &objects)?;
+    // Last: the (possibly large) environment is loaded once all else checks out.
+    let (env, world_from_env) = environment(cx, &file, &resolve, &mut warnings)?;
 
     let mut scene = Scene::new(objects, env, camera);
     scene.world_from_env = world_from_env;
@@ -175,6 +189,8 @@ fn environment(
     warnings: &mut Vec<String>,
 ) -> Result<(EnvMap, glam::Mat3), SceneError> {
     let e = &file.environment;
+    let scale = cx.non_negative("environment.scale", e.scale.unwrap_or(DEFAULT_ENV_SCALE))?;
+    let rot = cx.angles("environment.rotate", e.rotate.unwrap_or(DEFAULT_ROTATE_DEG))?;
     let mut env = match (&e.file, &e.builtin) {
         (Some(_), Some(_)) => {
             return Err(cx.err("environment", "give either `file` or `builtin`, not both"));
@@ -199,11 +215,9 @@ fn environment(
             })?
         }
     };
-    let scale = cx.non_negative("environment.scale", e.scale.unwrap_or(DEFAULT_ENV_SCALE))?;
     if scale != 1.0 {
         env.texels.iter_mut().for_each(|t| *t *= scale);
     }
-    let rot = cx.angles("environment.rotate", e.rotate.unwrap_or(DEFAULT_ROTATE_DEG))?;
     Ok((env, rotation_from_yaw_pitch_roll(rot)))
 }
 
