@@ -91,15 +91,18 @@ pub struct SceneFile {
     pub area_lights: Vec<AreaLightDesc>,
     pub medium: Option<MediumDesc>,
     pub render: Option<RenderDesc>,
-    /// Removed key: a file with `[fog]` is rejected (use `[medium]`). Always
-    /// `None`; kept so that callers written for the old format still build
-    /// until they read [`relight_render::Scene::medium`].
+    /// Compatibility view of `[medium] beta` for callers written for the
+    /// removed `[fog]` table (which the parser rejects); filled by
+    /// [`crate::load_scene_file`]. Read [`relight_render::Scene::medium`]
+    /// instead; this field goes once no caller reads it.
     #[serde(skip)]
     pub fog: Option<FogDesc>,
-    /// Removed key: a file with `[[light]]` is rejected (use
-    /// `[[point_light]]`). Always empty; kept so that callers written for the
-    /// old format still build until they read
-    /// [`relight_render::Scene::point_lights`].
+    /// Compatibility view of `[[point_light]]` for callers written for the
+    /// removed `[[light]]` tables (which the parser rejects), with the grey
+    /// mean of each light's RGB intensity; filled by
+    /// [`crate::load_scene_file`]. Read
+    /// [`relight_render::Scene::point_lights`] instead; this field goes once
+    /// no caller reads it.
     #[serde(skip)]
     pub lights: Vec<LightDesc>,
 }
@@ -199,15 +202,13 @@ pub struct RenderDesc {
     pub spp: Option<u32>,
 }
 
-/// The removed `[fog]` table (never produced by the parser; see
-/// [`SceneFile::fog`]).
+/// The removed `[fog]` table's one key (see [`SceneFile::fog`]).
 #[derive(Clone, Debug)]
 pub struct FogDesc {
     pub beta: f32,
 }
 
-/// The removed `[[light]]` table (never produced by the parser; see
-/// [`SceneFile::lights`]).
+/// The removed `[[light]]` table's keys (see [`SceneFile::lights`]).
 #[derive(Clone, Debug)]
 pub struct LightDesc {
     pub position: [f32; 3],
