@@ -1,5 +1,5 @@
 //! Scenes: the embedded default scene ([`embedded`], generated in code, no
-//! files) and TOML scene files ([`file`], format in `docs/scene-format.md`)
+//! files) and TOML scene files ([`file`](mod@file), format in `docs/scene-format.md`)
 //! that load into the one scene model, [`relight_render::Scene`]:
 //! environment and its rotation, meshes with BRDFs, normal maps, BRDF blends
 //! and keyframed motion, point and area lights, a homogeneous medium,
@@ -7,7 +7,7 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`file`] | the TOML structs, every default, parsing with one-line errors |
+//! | [`file`](mod@file) | the TOML structs, every default, parsing with one-line errors |
 //! | [`load`] | scene file → [`relight_render::Scene`]: environment, objects, camera |
 //! | `lights` | point lights, area lights (orientation) and the medium |
 //! | `textures` | image files → [`relight_render::Texture`] / [`relight_render::NormalMap`] |
