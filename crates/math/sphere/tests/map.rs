@@ -201,6 +201,8 @@ fn verify_and_bench_report_sane_rows() {
         let tol = 6.0 * (2.0 / r.cells as f64).sqrt();
         assert!((r.mc_chi2_per_dof - 1.0).abs() < tol, "{r:?} (tol {tol})");
         assert_eq!(r.round_trip_failures, 0, "{r:?}");
+        assert_eq!(r.pass, Some(true), "{r:?}");
+        assert_eq!(r.target, Some(relight_sphere::verify::SOLID_ANGLE_TARGET));
     }
     let bench = relight_sphere::verify::bench_sphere(8);
     assert!(

@@ -108,6 +108,59 @@ pub struct ShVerifyRow {
     pub pixels: usize,
     /// Per-pixel shading time of this SH image (ms, excluding bake and per-vertex work).
     pub ms_shade: f64,
+    /// `rel_rms_error < target` for a per-pixel rotation with a normal map;
+    /// `None` for the reports (module docs).
+    pub pass: Option<bool>,
+    /// The `none` row's `rel_rms_error` at the same scene and order.
+    pub target: Option<f64>,
+    /// Where the target comes from, or why the row is a report.
+    pub source: Option<String>,
+}
+
+/// The source of the per-pixel rows' target.
+pub const SOURCE_BEATS_NONE: &str =
+    "issue 3: per-pixel rotation clearly better than --rotation none (target: none's error)";
+/// Why the `none` rows are reports.
+pub const REPORT_BASELINE: &str =
+    "report: the --rotation none baseline the per-pixel rows must beat";
+/// Why the rows without a normal map are reports.
+pub const REPORT_BAND_LIMIT: &str =
+    "report: band-limit error, no normal map (issue 3 sets no bound)";
+/// Why per-pixel rows are reports when the run has no `none` rows.
+pub const REPORT_NO_BASELINE: &str = "report: no --rotation none baseline in this run";
+
+/// The verdict of a per-pixel row: `Some(error < baseline)`, the baseline
+/// being the `none` row's error (strictly below: "clearly better"; NaN fails).
+#[must_use]
+pub fn beats_baseline(error: f64, baseline: f64) -> Option<bool> {
+    Some(error < baseline)
+}
+
+/// Fills `pass`, `target`, `source` of the rows of one scene and order
+/// (module docs).
+fn judge(rows: &mut [ShVerifyRow]) {
+    let baseline = rows
+        .iter()
+        .find(|r| r.rotation == ShRotationMethod::None.name() && r.normal_map != "none")
+        .map(|r| r.rel_rms_error);
+    for r in rows {
+        let (pass, target, source) = if r.normal_map == "none" {
+            (None, None, REPORT_BAND_LIMIT)
+        } else if r.rotation == ShRotationMethod::None.name() {
+            (None, None, REPORT_BASELINE)
+        } else if let Some(b) = baseline {
+            (
+                beats_baseline(r.rel_rms_error, b),
+                Some(b),
+                SOURCE_BEATS_NONE,
+            )
+        } else {
+            (None, None, REPORT_NO_BASELINE)
+        };
+        r.pass = pass;
+        r.target = target;
+        r.source = Some(source.to_string());
+    }
 }
 
 fn masked_std_error(r: &ReferenceImage, mask: &[bool]) -> f64 {
@@ -180,6 +233,7 @@ pub fn verify_sh(
         let bumped = render_reference_with(&bumped_scene, &bvh, &light, &ropts, progress)?;
         for &order in &opts.orders {
             progress.check()?;
+            let first = rows.len();
             // The per-pixel exact rotation at this order: the best any rotation
             // method can do with n bands, so `rel_rms_vs_exact` isolates the
             // error of the rotation from that of the band limit.
@@ -228,6 +282,9 @@ pub fn verify_sh(
                     reference_spp: reference.spp,
                     pixels: img.mask.iter().filter(|&&m| m).count(),
                     ms_shade,
+                    pass: None,
+                    target: None,
+                    source: None,
                 });
                 Ok(())
             };
@@ -235,7 +292,68 @@ pub fn verify_sh(
             for &m in &opts.methods {
                 push(m.name().to_string(), true, m)?;
             }
+            judge(&mut rows[first..]);
         }
     }
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(rotation: &str, normal_map: &str, err: f64) -> ShVerifyRow {
+        ShVerifyRow {
+            scene: "s".into(),
+            order: 5,
+            rotation: rotation.into(),
+            normal_map: normal_map.into(),
+            rel_rms_error: err,
+            rel_rms_vs_exact: 0.0,
+            reference_rel_std_error: 0.01,
+            reference_spp: 16,
+            pixels: 10,
+            ms_shade: 1.0,
+            pass: None,
+            target: None,
+            source: None,
+        }
+    }
+
+    /// A per-pixel row just under the `none` error passes, one equal to it
+    /// or just over fails; the baseline and the no-normal-map row are reports.
+    #[test]
+    fn per_pixel_rows_are_judged_against_none() {
+        let mut rows = vec![
+            row("any", "none", 0.5),
+            row("exact", "nm", 0.3 - 1e-9),
+            row("zyz", "nm", 0.3),
+            row("taylor1", "nm", 0.3 + 1e-9),
+            row("taylor2", "nm", f64::NAN),
+            row("none", "nm", 0.3),
+        ];
+        judge(&mut rows);
+        let got: Vec<Option<bool>> = rows.iter().map(|r| r.pass).collect();
+        assert_eq!(
+            got,
+            [
+                None,
+                Some(true),
+                Some(false),
+                Some(false),
+                Some(false),
+                None
+            ]
+        );
+        assert_eq!(rows[1].target, Some(0.3));
+        assert_eq!(rows[1].source.as_deref(), Some(SOURCE_BEATS_NONE));
+        assert_eq!((rows[0].target, rows[5].target), (None, None));
+        assert_eq!(rows[0].source.as_deref(), Some(REPORT_BAND_LIMIT));
+        assert_eq!(rows[5].source.as_deref(), Some(REPORT_BASELINE));
+        // Without a `none` row nothing can be judged.
+        let mut rows = vec![row("exact", "nm", 0.1)];
+        judge(&mut rows);
+        assert_eq!(rows[0].pass, None);
+        assert_eq!(rows[0].source.as_deref(), Some(REPORT_NO_BASELINE));
+    }
 }

@@ -293,6 +293,17 @@ fn verify_quick_smoke() {
             );
         }
     }
+    // Every per-pixel row with the normal map is judged against the `none`
+    // row of its order; the rest are reports.
+    for r in &rows {
+        let judged = r.normal_map != "none" && r.rotation != "none";
+        assert_eq!(r.pass.is_some(), judged, "{r:?}");
+        assert_eq!(r.target.is_some(), judged, "{r:?}");
+        assert!(r.source.is_some(), "{r:?}");
+        if let (Some(p), Some(t)) = (r.pass, r.target) {
+            assert_eq!(p, r.rel_rms_error < t, "{r:?}");
+        }
+    }
 }
 
 #[test]
