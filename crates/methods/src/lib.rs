@@ -109,10 +109,10 @@ impl MethodOptions {
 /// Out-of-range options ([`MethodError::InvalidOption`], naming the method).
 pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError> {
     Ok(match options {
-        MethodOptions::Reference(o) => Box::new(ReferenceRenderer::new(o.clone())),
-        MethodOptions::Sh(o) => Box::new(ShMethod::new(o.clone())?),
+        MethodOptions::Reference(o) => Box::new(ReferenceRenderer::new(*o)),
+        MethodOptions::Sh(o) => Box::new(ShMethod::new(*o)?),
         MethodOptions::Wavelet(o) => Box::new(WaveletMethod::new(o.clone())?),
-        MethodOptions::Fog(o) => Box::new(FogRelighter::new(o.clone())?),
+        MethodOptions::Fog(o) => Box::new(FogRelighter::new(*o)?),
     })
 }
 

@@ -124,7 +124,7 @@ pub fn verify_methods(
     let mut rows = Vec::new();
     for ms in scenes {
         let scene = &ms.scene;
-        let camera = scene.camera.clone();
+        let camera = scene.camera;
         let coverage = rasterize_coverage(scene, &camera, 4)
             .map_err(|e| MethodError::failed("reference", e))?;
         let mask = coverage.object_mask();
@@ -185,7 +185,7 @@ pub fn verify_methods(
             let t = Instant::now();
             method.set_lighting(scene, progress)?;
             row.lighting_ms = Some(t.elapsed().as_secs_f64() * 1e3);
-            let request = FrameRequest::new(camera.clone()).with_aa(opts.aa);
+            let request = FrameRequest::new(camera).with_aa(opts.aa);
             let t = Instant::now();
             let out = render_frame(method.as_mut(), scene, &request, progress)?;
             row.view_ms = Some(t.elapsed().as_secs_f64() * 1e3);

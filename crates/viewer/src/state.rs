@@ -223,7 +223,7 @@ impl Viewer {
     #[must_use]
     pub fn camera(&self, width: usize, height: usize) -> Camera {
         if self.orbit == self.home {
-            let mut c = self.scene.camera.clone();
+            let mut c = self.scene.camera;
             c.width = width;
             c.height = height;
             c
