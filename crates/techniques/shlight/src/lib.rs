@@ -32,6 +32,15 @@
 //!    (paper §4.1, steps 2–5). `none` skips the rotation: the paper's
 //!    "simplified normal mapping" baseline.
 //!
+//! # Entry points
+//! * [`ShMethod`] (`sh`): the method interface
+//!   (`relight_render::method::Relighter`) — bake once in `prepare`, rotate the
+//!   lighting in the SH domain in `set_lighting`, shade per pixel with each
+//!   object's own normal map in `render`; defaults in [`ShOptions`].
+//! * [`ShRenderer::render`]: one whole frame at once (bake lookups, lighting,
+//!   raster, shading), with one normal map for every object and the optional
+//!   [`LightingFilter`] (the foggy environment).
+//!
 //! # Conventions
 //! SH as in `relight-sh` (real, orthonormal, Condon–Shortley phase, index
 //! `l(l+1)+m`, polar axis +Z of whatever frame the coefficients live in;

@@ -21,6 +21,10 @@
 //! lighting ghosts sharp highlights ([`NormalInterp::Paper`] keeps it).
 //!
 //! # Entry points (what the CLI calls)
+//! * The method interface: [`WaveletMethod`] (`wavelet`, defaults in
+//!   [`WaveletOptions`]) — `prepare` bakes or loads the matrices and BRDF
+//!   slices (and per-vertex AO), `set_lighting` is step 1 with the scene's
+//!   `world_from_env`, `render` step 2 and the raster at the frame's `aa`.
 //! * `relight bake rotation`: [`RotationParams::new`] → [`bake_rotation`] →
 //!   [`RotationMatrices::save`]; [`RotationMatrices::load_expect`] memory-maps it back.
 //! * `relight bake brdf`: [`BrdfBakeParams::new`] → [`bake_brdf`] → [`BrdfBake::save`].
