@@ -91,20 +91,6 @@ pub struct SceneFile {
     pub area_lights: Vec<AreaLightDesc>,
     pub medium: Option<MediumDesc>,
     pub render: Option<RenderDesc>,
-    /// Compatibility view of `[medium] beta` for callers written for the
-    /// removed `[fog]` table (which the parser rejects); filled by
-    /// [`crate::load_scene_file`]. Read [`relight_render::Scene::medium`]
-    /// instead; this field goes once no caller reads it.
-    #[serde(skip)]
-    pub fog: Option<FogDesc>,
-    /// Compatibility view of `[[point_light]]` for callers written for the
-    /// removed `[[light]]` tables (which the parser rejects), with the grey
-    /// mean of each light's RGB intensity; filled by
-    /// [`crate::load_scene_file`]. Read
-    /// [`relight_render::Scene::point_lights`] instead; this field goes once
-    /// no caller reads it.
-    #[serde(skip)]
-    pub lights: Vec<LightDesc>,
 }
 
 /// `[environment]`.
@@ -200,20 +186,6 @@ pub struct MediumDesc {
 pub struct RenderDesc {
     pub method: Option<String>,
     pub spp: Option<u32>,
-}
-
-/// The removed `[fog]` table's one key (see [`SceneFile::fog`]).
-#[derive(Clone, Debug)]
-pub struct FogDesc {
-    pub beta: f32,
-}
-
-/// The removed `[[light]]` table's keys (see [`SceneFile::lights`]).
-#[derive(Clone, Debug)]
-pub struct LightDesc {
-    pub position: [f32; 3],
-    pub intensity: f32,
-    pub color: Option<[f32; 3]>,
 }
 
 /// An RGB value written as one number (grey) or an `[r, g, b]` array.

@@ -16,8 +16,8 @@ use crate::embedded::{STUDIO_HEIGHT, builtin_mesh, framing_camera};
 use crate::file::{
     BUILTIN_ENVIRONMENTS, CameraDesc, DEFAULT_BRDF, DEFAULT_CAMERA_UP, DEFAULT_ENV_SCALE,
     DEFAULT_ENVIRONMENT, DEFAULT_FOV_DEG, DEFAULT_IMAGE_SIZE, DEFAULT_OBJECT_SCALE,
-    DEFAULT_ROTATE_DEG, DEFAULT_TRANSLATE, DEFAULT_VISIBILITY, FogDesc, KeyframeDesc, LightDesc,
-    MAX_IMAGE_SIDE, ObjectDesc, SceneFile, parse_scene_file,
+    DEFAULT_ROTATE_DEG, DEFAULT_TRANSLATE, DEFAULT_VISIBILITY, KeyframeDesc, MAX_IMAGE_SIDE,
+    ObjectDesc, SceneFile, parse_scene_file,
 };
 use crate::lights::{area_light, medium, point_light};
 use crate::studio::studio_environment;
@@ -168,16 +168,6 @@ pub fn load_scene_text(
     // Last: the (possibly large) environment is loaded once all else checks out.
     let (env, world_from_env) = environment(cx, &file, &resolve, &mut warnings)?;
 
-    let mut file = file;
-    file.fog = medium.map(|m| FogDesc { beta: m.beta });
-    file.lights = point_lights
-        .iter()
-        .map(|l| LightDesc {
-            position: l.position.to_array(),
-            intensity: l.intensity.element_sum() / 3.0,
-            color: None,
-        })
-        .collect();
     let mut scene = Scene::new(objects, env, camera);
     scene.world_from_env = world_from_env;
     scene.point_lights = point_lights;

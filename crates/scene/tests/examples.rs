@@ -56,11 +56,6 @@ fn foggy_lights_has_a_medium_and_two_point_lights() {
     // intensity 6 × colour [1, 0.75, 0.5].
     assert_eq!(s.point_lights[1].intensity, Vec3::new(6.0, 4.5, 3.0));
     assert!(!s.has_environment(), "black environment");
-    // The compatibility view for callers of the old `[fog]` / `[[light]]`.
-    let l = load("foggy-lights.toml").unwrap();
-    assert_eq!(l.file.fog.unwrap().beta, 0.08);
-    assert_eq!(l.file.lights.len(), 2);
-    assert!((l.file.lights[1].intensity - 4.5).abs() < 1e-6);
 }
 
 #[test]
