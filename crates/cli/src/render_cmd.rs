@@ -156,7 +156,8 @@ pub fn view(a: ViewArgs, bar: &Bar) -> Result<()> {
         approximate: a.approximate,
     };
     let mut viewer = relight_viewer::Viewer::new(built.scene, kind_of(a.method), opts)?;
-    eprintln!("relight view: preparing {} …", viewer.method());
+    relight_viewer::check_display()?;
+    eprintln!("relight: view: preparing {} …", viewer.method());
     viewer.prepare(bar)?;
     relight_viewer::run(viewer, w as u32, h as u32)?;
     Ok(())

@@ -47,6 +47,7 @@ impl Camera {
         let tan = (0.5 * self.vfov_deg.to_radians()).tan();
         let aspect = self.width as f32 / self.height as f32;
         CameraRays {
+            eye: self.eye,
             fwd,
             right: right * (tan * aspect),
             up: up * tan,
@@ -60,6 +61,7 @@ impl Camera {
 /// axes scaled by the half-extent of the image plane at unit distance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraRays {
+    eye: Vec3,
     fwd: Vec3,
     right: Vec3,
     up: Vec3,
@@ -68,6 +70,13 @@ pub struct CameraRays {
 }
 
 impl CameraRays {
+    /// The rays' common origin, the camera's eye.
+    #[inline]
+    #[must_use]
+    pub fn origin(&self) -> Vec3 {
+        self.eye
+    }
+
     /// Unit world direction through the image point (`px`, `py`) in pixels
     /// (pixel centres at +0.5, row 0 at the top).
     #[inline]

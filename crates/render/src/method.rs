@@ -400,8 +400,9 @@ pub fn check_scene(
 pub const BACKGROUND_SUBSAMPLES: usize = 4;
 
 /// The background of pixel `(x, y)`: the environment ([`Scene::env_radiance`],
-/// bilinear) averaged over a [`BACKGROUND_SUBSAMPLES`]² grid of sub-pixel
-/// centres — the box-filtered pixel the reference integrates, by quadrature.
+/// bilinear) plus the front of any area light in the way, averaged over a
+/// [`BACKGROUND_SUBSAMPLES`]² grid of sub-pixel centres — the box-filtered
+/// pixel the reference integrates, by quadrature.
 #[must_use]
 pub fn background_pixel(scene: &Scene, rays: &crate::CameraRays, x: usize, y: usize) -> Vec3 {
     let k = BACKGROUND_SUBSAMPLES;
@@ -412,10 +413,22 @@ pub fn background_pixel(scene: &Scene, rays: &crate::CameraRays, x: usize, y: us
                 x as f32 + (i as f32 + 0.5) / k as f32,
                 y as f32 + (j as f32 + 0.5) / k as f32,
             );
-            sum += scene.env_radiance(d);
+            sum += scene.env_radiance(d) + area_lights_seen(scene, rays.origin(), d);
         }
     }
     sum / (k * k) as f32
+}
+
+/// Radiance the camera sees directly from area lights along `d` from `o`: the
+/// front side of every rectangle the ray crosses (area lights are transparent
+/// emitters, `relight_render::reference`), so the background shows them too.
+fn area_lights_seen(scene: &Scene, o: Vec3, d: Vec3) -> Vec3 {
+    scene
+        .area_lights
+        .iter()
+        .filter(|l| d.dot(l.normal()) < 0.0)
+        .filter_map(|l| l.intersect(o, d, 0.0).map(|(_, uv)| l.radiance_at(uv)))
+        .sum()
 }
 
 /// Writes the shared background into every pixel of `image` whose coverage

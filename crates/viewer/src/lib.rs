@@ -28,7 +28,7 @@ pub mod window;
 
 pub use orbit::Orbit;
 pub use state::{Frame, Viewer, ViewerError, ViewerOptions, to_display};
-pub use window::run;
+pub use window::{check_display, run};
 
 #[cfg(test)]
 mod tests {
@@ -160,7 +160,15 @@ mod tests {
         assert!(mean(&b) > 0.01);
         v.orbit.rotate(10.0, 0.0);
         assert_eq!(v.frame(32, 18, false, &NoProgress).unwrap().spp, 4);
+        // While dragging every frame is a new view: one pass each.
+        v.orbit.rotate(10.0, 0.0);
         assert_eq!(v.frame(32, 18, true, &NoProgress).unwrap().spp, 4);
+        // Refinement stops at the method's own spp.
+        for _ in 0..20 {
+            v.frame(32, 18, false, &NoProgress).unwrap();
+        }
+        assert!(!v.refining());
+        assert_eq!(v.frame(32, 18, false, &NoProgress).unwrap().spp, 64);
     }
 
     #[test]

@@ -84,9 +84,6 @@ pub struct Frame {
     pub message: Option<String>,
 }
 
-/// Samples per pixel the reference accumulates before it stops refining.
-pub const REFERENCE_MAX_SPP: u32 = 1024;
-
 /// One method's state: created, checked and prepared on first use.
 struct Slot {
     options: MethodOptions,
@@ -278,7 +275,7 @@ impl Viewer {
     }
 
     /// Draws a `width × height` frame; `preview` (while the user drags)
-    /// skips antialiasing and restarts progressive methods.
+    /// skips antialiasing.
     ///
     /// # Errors
     /// The method's errors (bad sizes, cancellation of a first bake).
@@ -312,14 +309,16 @@ impl Viewer {
             method.set_lighting(&self.lit_scene, progress)?;
             slot.lit = Some(rotation);
         }
+        // Progressive methods restart on any change and add a pass per
+        // frame while nothing changes, up to their own `spp`.
         let request = FrameRequest {
             camera,
             aa,
-            progressive: !preview,
+            progressive: true,
         };
         let out = render_frame(method.as_mut(), &self.lit_scene, &request, progress)?;
         let spp = out.noise.map_or(0, |n| n.spp);
-        slot.spp = if preview { 0 } else { spp };
+        slot.spp = spp;
         Ok(Frame {
             image: out.image,
             ms: t.elapsed().as_secs_f64() * 1e3,
@@ -329,11 +328,15 @@ impl Viewer {
         })
     }
 
-    /// Whether the current method would still refine the current view.
+    /// Whether the current method would still refine the current view (the
+    /// reference, until it has its `spp` samples per pixel).
     #[must_use]
     pub fn refining(&self) -> bool {
         let slot = &self.slots[self.current];
-        slot.options.kind() == MethodKind::Reference && slot.spp < REFERENCE_MAX_SPP
+        match &slot.options {
+            MethodOptions::Reference(r) => slot.spp < r.spp,
+            _ => false,
+        }
     }
 
     /// Writes `frame` as `stem.png` (tone-mapped) and `stem.exr` (linear).

@@ -37,6 +37,24 @@ struct App {
 
 /// Opens a `width × height` window on `viewer` and runs until it closes.
 ///
+/// Fails fast, before any method prepares, when no display is set.
+///
+/// # Errors
+/// None of `DISPLAY`, `WAYLAND_DISPLAY` or `WAYLAND_SOCKET` is set.
+pub fn check_display() -> Result<(), ViewerError> {
+    let any = ["DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()));
+    if any {
+        Ok(())
+    } else {
+        Err(ViewerError::Window(
+            "cannot open a window (needs DISPLAY or WAYLAND_DISPLAY; `relight render` works without one)"
+                .into(),
+        ))
+    }
+}
+
 /// # Errors
 /// No display (e.g. no `DISPLAY`/`WAYLAND_DISPLAY`), or a method's error.
 pub fn run(viewer: Viewer, width: u32, height: u32) -> Result<(), ViewerError> {

@@ -29,7 +29,9 @@
 //! No shadows (the analytic model has no visibility), no normal maps, no
 //! spatially varying BRDFs, no area lights: [`Relighter::supports`] says
 //! [`Support::No`] and `check_scene` turns those into errors. The environment
-//! part is [`Support::Approximate`] ([`ENVIRONMENT_APPROXIMATION`]). The
+//! is rendered by the thesis' model of §3.6.4 and so is [`Support::Full`]: its
+//! approximations ([`ENVIRONMENT_APPROXIMATION`]) are the method's error, which
+//! `relight verify methods` measures against the reference. The
 //! camera and every point light must lie inside the fog ball (the analytic
 //! model assumes an unbounded medium between them); surfaces are assumed
 //! inside it too. BRDFs other than Lambert + Phong are fitted, not evaluated.
@@ -318,8 +320,13 @@ impl Relighter for FogRelighter {
 
     fn supports(&self, feature: SceneFeature) -> Support {
         match feature {
-            SceneFeature::PointLights | SceneFeature::Medium => Support::Full,
-            SceneFeature::Environment => Support::Approximate(ENVIRONMENT_APPROXIMATION),
+            // The environment is rendered by the thesis' own model (§3.6.4),
+            // whose approximations (ENVIRONMENT_APPROXIMATION) are this
+            // method's error, measured by `verify methods`, as band-limiting
+            // is SH's.
+            SceneFeature::PointLights | SceneFeature::Medium | SceneFeature::Environment => {
+                Support::Full
+            }
             SceneFeature::AreaLights
             | SceneFeature::Visibility
             | SceneFeature::NormalMaps
