@@ -8,7 +8,7 @@
 //! transmittance between two points is `T = e^{−β ℓ}`, `ℓ` = the length of
 //! the segment inside the ball ([`transmittance`]).
 //!
-//! # Light scattered into a segment ([`inscatter`])
+//! # Light scattered into a segment (`inscatter`)
 //! For the segment `o + t d`, `t ∈ [0, t_end)`, the single-scattered radiance
 //! arriving at `o` is
 //!
@@ -28,7 +28,7 @@
 //!   eq. 3.5 of sun-thesis-2008 (there with `a = 1`, `o` the viewer);
 //! * **environment and area lights**: one distance `t ∈ [a, b]` drawn with
 //!   density `β e^{−β(t − a)} / (1 − e^{−β(b − a)})`, so that
-//!   `T σ_s / pdf = a (1 − e^{−β(b − a)})`, then [`direct_light`] with the
+//!   `T σ_s / pdf = a (1 − e^{−β(b − a)})`, then `direct_light` with the
 //!   phase function at `x_t`.
 
 use super::integrator::Tracer;

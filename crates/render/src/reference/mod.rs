@@ -68,7 +68,7 @@
 //!   the light's `1/d²`; for the environment and the area lights, one
 //!   distance sample `∝ e^{−βt}` on the segment's part inside the ball,
 //!   with direct light by the phase function there.
-//! * **Paths** ([`integrator`]): the in-scattered light of every segment is
+//! * **Paths** (`integrator`): the in-scattered light of every segment is
 //!   the contribution of paths whose last medium vertex lies on it; paths
 //!   continue by free flight (medium vertex, weight = albedo, new direction
 //!   from the phase function) or from the surface by BRDF sampling. Light

@@ -2,10 +2,10 @@
 //! medium — from every light, by multiple importance sampling.
 //!
 //! # The vertex
-//! A [`Scatter`] is either a surface point with its BSDF in the local shading
+//! A `Scatter` is either a surface point with its BSDF in the local shading
 //! frame (`f · cos θ_i`, cosine of the shading normal) or a medium point with
 //! the isotropic phase function `1/(4π)` (no cosine). At a surface hit
-//! ([`surface_vertex`]) the shading normal is the interpolated vertex normal,
+//! (`surface_vertex`) the shading normal is the interpolated vertex normal,
 //! perturbed by the object's normal map ([`NormalMap::perturb`] at the hit's
 //! uv and tangent, the lookup every method shares), then both normals are
 //! turned towards the viewer (surfaces are two-sided). The BSDF is the
@@ -15,7 +15,7 @@
 //! `(1 − w) p₁ + w p₂` (one-sample MIS with the balance heuristic: unbiased
 //! whatever the lobes' own samplers).
 //!
-//! # The estimate ([`direct_light`])
+//! # The estimate (`direct_light`)
 //! `L = Σ_lights ∫ ρ(ω) L_ℓ(x, ω) T(x, ω) V(x, ω) dω`, with `ρ` = `f cos` or
 //! the phase function, `T` the medium's transmittance and `V` visibility:
 //! * environment and each area light: one light sample and the one shared
