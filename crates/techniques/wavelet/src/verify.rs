@@ -35,6 +35,22 @@
 //! * [`verify_wavelet_with_sh`]: the above plus the SH renderer
 //!   (`relight_shlight`) at several orders on the same reference, flagging
 //!   the order whose frame time matches the wavelet's.
+//!
+//! # Verdict
+//! Issue 4 sets one accuracy target: "At N = 64², ntess = 32², ntrunc = 1,
+//! 256 terms the image error must be at most 0.07 (paper: 0.062 for its
+//! scene) on the default scene" ([`TARGET`], [`TARGET_CONFIG`],
+//! [`TARGET_SCENE`] with the scene's own materials). That row passes when
+//! `rel_rms_error ≤ 0.07` ([`judge`]). It is judged only when the
+//! reference's own noise is at most a third of the target
+//! ([`NOISE_FRACTION`]): the measured error is ≈ √(e² + noise²), and at a
+//! third the noise adds at most 5.4 % (√(1 + 1/9)) to an error at the target.
+//! The quick run's 128-spp reference (noise ≈ 0.10) cannot judge it, so
+//! there the row is a report that says so; the full run's 4096-spp
+//! reference (noise ≈ 0.016) does. Every other row is a report: the paper's
+//! Tables 1 and 3 give errors for its own scene only, which the row's
+//! `source` quotes beside it. The SH comparison rows are reports (issue 4
+//! asks to show where each method wins, with no bound).
 
 use crate::brdf_bake::{BrdfBake, BrdfBakeParams, bake_brdf};
 use crate::error::WaveletError;
@@ -105,14 +121,94 @@ pub struct VerifyRow {
     /// The dense scene's reference noise (same measure; equal to
     /// `reference_noise` for [`Densify::Linear`], which shares the reference).
     pub dense_reference_noise: Option<f64>,
-    /// Lighting change time, ms.
+    /// Lighting change time, ms (one warm call; `relight bench wavelet`
+    /// gives medians).
     pub light_change_ms: f64,
-    /// View change (vertex shading + raster) time, ms.
+    /// View change (vertex shading + raster) time, ms (one warm call).
     pub view_change_ms: f64,
     /// View change on the dense meshes (vertex shading + raster at
     /// `aa × aa` times the resolution + downsampling), ms.
     pub dense_view_change_ms: Option<f64>,
+    /// `rel_rms_error ≤ target` for the issue-4 row; `None` for reports
+    /// (module docs, [`judge`]).
+    pub pass: Option<bool>,
+    /// [`TARGET`] on the judged row.
+    pub target: Option<f64>,
+    /// Where the target comes from, or why the row is a report.
+    pub source: Option<String>,
 }
+
+/// Issue 4's bound on `rel_rms_error` (wavelet-rotation-2006 Table 3 gives
+/// 0.062 for the paper's scene).
+pub const TARGET: f64 = 0.07;
+/// The configuration `(n, ntess, ntrunc, terms)` the target is stated for.
+pub const TARGET_CONFIG: (usize, usize, u16, usize) = (64, 32, 1, 256);
+/// The scene name the target is stated for: the CLI's name for
+/// `relight_scene::default_scene`, judged with its own materials (`brdf =
+/// "scene"`).
+pub const TARGET_SCENE: &str = "default";
+/// The largest reference noise, as a fraction of [`TARGET`], at which the
+/// target row is judged (module docs).
+pub const NOISE_FRACTION: f64 = 1.0 / 3.0;
+/// The source of the judged row.
+pub const SOURCE: &str = "issue 4: N=64², ntess=32², ntrunc=1, 256 terms, default scene: \
+     error ≤ 0.07 (wavelet-rotation-2006 Table 3: 0.062 for its scene)";
+
+/// `pass`, `target` and `source` of a [`VerifyRow`] (module docs): the
+/// issue-4 row (scene [`TARGET_SCENE`], `brdf = "scene"`, [`TARGET_CONFIG`])
+/// is judged, `error ≤` [`TARGET`] (NaN fails), when `noise ≤`
+/// [`NOISE_FRACTION`] × [`TARGET`]; every other row is a report whose source
+/// quotes the paper's figure for that configuration where it has one.
+#[must_use]
+pub fn judge(
+    scene: &str,
+    brdf: &str,
+    config: (usize, usize, u16, usize),
+    error: f64,
+    noise: f64,
+) -> (Option<bool>, Option<f64>, Option<String>) {
+    let report = |why: String| (None, None, Some(why));
+    if config == TARGET_CONFIG && scene == TARGET_SCENE && brdf == "scene" {
+        if noise <= NOISE_FRACTION * TARGET {
+            (
+                Some(error <= TARGET),
+                Some(TARGET),
+                Some(SOURCE.to_string()),
+            )
+        } else {
+            report(format!(
+                "report: reference noise above {TARGET}/3, too high to judge issue 4's ≤ {TARGET} \
+                 (the full run judges it)"
+            ))
+        }
+    } else {
+        report(paper_figure(config).map_or_else(
+            || "report: no target stated for this case".to_string(),
+            |(table, value)| format!("report: {table} gives {value} for the paper's own scene"),
+        ))
+    }
+}
+
+/// The paper's image error for `(n, ntess, ntrunc, terms)`, where Table 1
+/// (ntrunc at N = 64², ntess = 32²) or Table 3 (ntess at N = 64², ntrunc = 1)
+/// lists one; 256 terms ("we typically use 128–256 terms").
+fn paper_figure(config: (usize, usize, u16, usize)) -> Option<(&'static str, f64)> {
+    match config {
+        (64, 32, 1, 256) => Some(("Table 3", 0.062)),
+        (64, 32, 8, 256) => Some(("Table 1", 0.067)),
+        (64, 32, 16, 256) => Some(("Table 1", 0.068)),
+        (64, 32, 32, 256) => Some(("Table 1", 0.077)),
+        (64, 32, 128, 256) => Some(("Table 1", 0.102)),
+        (64, 8, 1, 256) => Some(("Table 3", 0.225)),
+        (64, 16, 1, 256) => Some(("Table 3", 0.087)),
+        (64, 64, 1, 256) => Some(("Table 3", 0.051)),
+        _ => None,
+    }
+}
+
+/// Why the SH comparison rows are reports.
+pub const REPORT_COMPARE: &str =
+    "report: issue 4 asks where wavelets win and where SH does, with no bound";
 
 /// How [`verify_wavelet`] densifies each object's mesh for the dense-mesh
 /// Gouraud error ([`VerifyRow::dense_rel_rms_error`]).
@@ -151,6 +247,12 @@ pub struct CompareRow {
     pub frame_ms: f64,
     /// True for the SH order whose frame time is closest to the wavelet's.
     pub same_cost: bool,
+    /// Always `None`: a report ([`REPORT_COMPARE`]).
+    pub pass: Option<bool>,
+    /// Always `None`.
+    pub target: Option<f64>,
+    /// [`REPORT_COMPARE`].
+    pub source: Option<String>,
 }
 
 /// Configurations and settings of [`verify_wavelet`].
@@ -468,10 +570,14 @@ pub fn verify_wavelet_with_sh(
                     bakes.push(brdf_for(&bp, o.brdf.as_ref(), cache, progress)?);
                 }
                 let mut r = WaveletRenderer::new(rot, terms.min(rp.source_len()))?;
+                // Each timing is of a second call: the first one pages in the
+                // memory-mapped bake files (hundreds of MB at N = 64²).
+                r.set_lighting(&sc.env, glam::Mat3::IDENTITY)?;
                 let t0 = Instant::now();
                 r.set_lighting(&sc.env, glam::Mat3::IDENTITY)?;
                 let light_ms = t0.elapsed().as_secs_f64() * 1e3;
                 let refs: Vec<&BrdfBake> = bakes.iter().map(AsRef::as_ref).collect();
+                let _ = r.render_with_mask(&sc, &refs, &sc.camera, None)?;
                 let t1 = Instant::now();
                 let (img, mask) = r.render_with_mask(&sc, &refs, &sc.camera, None)?;
                 let view_ms = t1.elapsed().as_secs_f64() * 1e3;
@@ -500,6 +606,8 @@ pub fn verify_wavelet_with_sh(
                     let (ed, per_d) = errors(&dimg, &rd.image, mask_d, ids_d, nobj);
                     dense_out = Some((ed, per_d, reference_noise(rd, mask_d), dense_ms));
                 }
+                let (pass, target, source) =
+                    judge(name, spec, (n, ntess, ntrunc, terms), eg, noise);
                 rows.push(VerifyRow {
                     scene: name.clone(),
                     brdf: spec.clone(),
@@ -521,6 +629,9 @@ pub fn verify_wavelet_with_sh(
                     light_change_ms: light_ms,
                     view_change_ms: view_ms,
                     dense_view_change_ms: dense_out.as_ref().map(|d| d.3),
+                    pass,
+                    target,
+                    source,
                 });
                 if ci == 0 && !opts.sh_orders.is_empty() {
                     let wave_ms = light_ms + aa_ms;
@@ -533,6 +644,9 @@ pub fn verify_wavelet_with_sh(
                         per_object: per_a,
                         frame_ms: wave_ms,
                         same_cost: false,
+                        pass: None,
+                        target: None,
+                        source: Some(REPORT_COMPARE.into()),
                     });
                     for &order in &opts.sh_orders {
                         progress.check()?;
@@ -562,6 +676,9 @@ pub fn verify_wavelet_with_sh(
                             per_object: per_s,
                             frame_ms: ms,
                             same_cost: false,
+                            pass: None,
+                            target: None,
+                            source: Some(REPORT_COMPARE.into()),
                         });
                     }
                     if let Some(best) = (first + 1..compare.len()).min_by(|&a, &b| {
@@ -582,6 +699,50 @@ pub fn verify_wavelet_with_sh(
 mod tests {
     use super::*;
     use crate::study::sphere_scene;
+
+    /// The issue-4 row passes at the target and fails just over it (or at
+    /// NaN); too noisy a reference, another scene, material or configuration
+    /// makes a report.
+    #[test]
+    fn the_issue_4_row_is_judged_and_the_rest_are_reports() {
+        let quiet = 0.016;
+        let j = |scene, brdf, cfg, e, noise| judge(scene, brdf, cfg, e, noise);
+        let (p, t, s) = j("default", "scene", TARGET_CONFIG, TARGET, quiet);
+        assert_eq!((p, t), (Some(true), Some(TARGET)));
+        assert_eq!(s.as_deref(), Some(SOURCE));
+        let over = TARGET * (1.0 + 1e-9);
+        assert_eq!(
+            j("default", "scene", TARGET_CONFIG, over, quiet).0,
+            Some(false)
+        );
+        assert_eq!(
+            j("default", "scene", TARGET_CONFIG, f64::NAN, quiet).0,
+            Some(false)
+        );
+        // Noise at a third of the target is judged; above it is a report.
+        let edge = NOISE_FRACTION * TARGET;
+        assert_eq!(
+            j("default", "scene", TARGET_CONFIG, 0.05, edge).0,
+            Some(true)
+        );
+        let (p, t, s) = j("default", "scene", TARGET_CONFIG, 0.05, edge * 1.01);
+        assert_eq!((p, t), (None, None));
+        assert!(s.unwrap().starts_with("report: reference noise"));
+        for (scene, brdf, cfg) in [
+            ("park", "scene", TARGET_CONFIG),
+            ("default", "ggx:0.1", TARGET_CONFIG),
+            ("default", "scene", (64, 32, 16, 256)),
+            ("default", "scene", (32, 32, 1, 256)),
+        ] {
+            let (p, t, s) = j(scene, brdf, cfg, 0.01, quiet);
+            assert_eq!((p, t), (None, None), "{scene} {brdf} {cfg:?}");
+            assert!(s.unwrap().starts_with("report:"));
+        }
+        let s = j("default", "scene", (64, 32, 16, 256), 0.01, quiet)
+            .2
+            .unwrap();
+        assert!(s.contains("Table 1 gives 0.068"), "{s}");
+    }
 
     /// Midpoint subdivision keeps the surface and the reference's shading
     /// normals: every new vertex is the midpoint of a parent edge with the
