@@ -12,12 +12,13 @@ use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
 use relight_render::reference::{ReferenceOptions, render_reference};
 use relight_render::{Image, NoProgress, Scene};
 use relight_wavelet::brdf_bake::{BrdfBake, BrdfBakeParams, bake_brdf, brdf_slice};
+use relight_wavelet::figure7::direct_local_texels;
 use relight_wavelet::lighting::haar_rgb;
 use relight_wavelet::octa::{
     hemi_density, hemi_dir_from_uv, normal_bilinear, oct_uv_from_dir, shading_frame_f64,
     shading_frame_fast, texel_of,
 };
-use relight_wavelet::study::{direct_local_texels, object_ids};
+use relight_wavelet::verify::object_ids;
 use relight_wavelet::{RotationParams, WaveletRenderer, bake_or_load_rotation};
 use std::sync::Arc;
 

@@ -38,11 +38,13 @@
 //!
 //! Modules: [`octa`] (maps, normal grid, frame rule), [`rotation`] (matrices,
 //! bake, file), [`brdf_bake`] (BRDF slices, file), [`lighting`] (source
-//! lighting), [`render`] (runtime), [`study`] (verify + bench rows),
+//! lighting), [`render`] (runtime), [`study`] (bake cache, bench rows), [`verify`] (image error
+//! rows), [`figure7`] (rotated-lighting rows),
 //! [`mod@format`] (bake container).
 
 pub mod brdf_bake;
 pub mod error;
+pub mod figure7;
 pub mod format;
 pub mod lighting;
 pub mod method;
@@ -50,14 +52,18 @@ pub mod octa;
 pub mod render;
 pub mod rotation;
 pub mod study;
+pub mod verify;
 
 pub use brdf_bake::{BrdfBake, BrdfBakeParams, bake_brdf};
 pub use error::WaveletError;
+pub use figure7::{RotationRow, verify_rotation};
 pub use method::{AO_APPROXIMATION, WAVELET_METHOD_NAME, WaveletMethod, WaveletOptions};
 pub use render::{LightingStats, NormalInterp, WaveletRenderer};
 pub use rotation::{RotationMatrices, RotationParams, bake_rotation};
 pub use study::{
-    BenchOptions, BenchRow, CompareRow, Densify, RotationRow, VerifyOptions, VerifyRow,
-    bake_or_load_brdf, bake_or_load_rotation, bake_or_load_scene_brdfs, bench_wavelet,
-    default_cache_dir, verify_rotation, verify_wavelet, verify_wavelet_with_sh,
+    BenchOptions, BenchRow, bake_or_load_brdf, bake_or_load_rotation, bake_or_load_scene_brdfs,
+    bench_wavelet, default_cache_dir,
+};
+pub use verify::{
+    CompareRow, Densify, VerifyOptions, VerifyRow, verify_wavelet, verify_wavelet_with_sh,
 };

@@ -6,13 +6,12 @@ use glam::{DVec3, Vec3, Vec3A};
 use relight_brdf::{Brdf, BrdfSpec};
 use relight_haar::{Ranking, SparseRgb};
 use relight_render::NoProgress;
+use relight_wavelet::figure7::{direct_local_texels, inverse_rgb, rel_rms};
 use relight_wavelet::lighting::{haar_rgb, sample_octahedral};
 use relight_wavelet::octa::{grid_normal, oct_uv_from_dir, shading_frame_f64, texel_of};
 use relight_wavelet::render::{NormalInterp, WaveletRenderer};
 use relight_wavelet::rotation::rotation_matrix_f32;
-use relight_wavelet::study::{
-    direct_local_texels, direct_radiance, inverse_rgb, rel_rms, smooth_sky, sun_sky,
-};
+use relight_wavelet::study::{direct_radiance, smooth_sky, sun_sky};
 use relight_wavelet::{
     BrdfBake, BrdfBakeParams, RotationMatrices, RotationParams, WaveletError, bake_brdf,
     bake_rotation,
