@@ -5,7 +5,8 @@
 //! and indoors (`hall`) × BRDFs (Lambert, rough GGX α = 0.3, glossy GGX
 //! α = 0.1) × meshes (the default scene's objects, the Stanford bunny); the
 //! default scene with visibility (shadows), with a normal map, and in fog with
-//! point lights. `--quick` keeps the default scene, its shadowed, normal-mapped
+//! point lights (lit by them alone — the fog gate — and with the studio).
+//! `--quick` keeps the default scene, its shadowed, normal-mapped
 //! and foggy variants and one probe at a small size, and the wavelet method at
 //! n = 16, so that it fits in CI.
 
@@ -58,17 +59,19 @@ fn foggy(mut s: Scene) -> Scene {
 }
 
 fn matrix(quick: bool) -> Result<Vec<MatrixScene>> {
-    let (w, h) = if quick { (96, 54) } else { (320, 180) };
+    let (w, h) = if quick { (96, 54) } else { (160, 90) };
     let default = relight_scene::default_scene(w, h);
     let mut out = vec![MatrixScene {
         name: "default".into(),
         scene: default.clone(),
+        fog_gate: false,
     }];
     let mut shadowed = default.clone();
     shadowed.visibility = true;
     out.push(MatrixScene {
         name: "default+visibility".into(),
         scene: shadowed,
+        fog_gate: false,
     });
     let nm_path = data_dir().join("normalmaps/0000.png");
     let nm = if nm_path.exists() {
@@ -87,10 +90,37 @@ fn matrix(quick: bool) -> Result<Vec<MatrixScene>> {
     out.push(MatrixScene {
         name: "default+normal-map".into(),
         scene: mapped,
+        fog_gate: false,
+    });
+    // In fog: lit by point lights alone (the fog gate), and with the studio too.
+    // The gate: Lambert surfaces lit by point lights alone, which the
+    // analytic model renders exactly up to its tables. The scene's own
+    // glossy materials (the model's Phong lobe drops cos θᵢ, §3.4.2) and the
+    // studio in fog (the PSF model) are reported.
+    let mut dark = foggy(default.clone());
+    dark.env = relight_scene::load_environment("black")?.0;
+    let mut gated = dark.clone();
+    for (o, albedo) in gated
+        .objects
+        .iter_mut()
+        .zip(["0.9,0.7,0.3", "0.9,0.3,0.25", "0.8,0.8,0.8"])
+    {
+        o.brdf = brdf(&format!("lambert@{albedo}"))?;
+    }
+    out.push(MatrixScene {
+        name: "default-lambert+fog+point-lights".into(),
+        scene: gated,
+        fog_gate: true,
     });
     out.push(MatrixScene {
-        name: "default+fog".into(),
+        name: "default+fog+point-lights".into(),
+        scene: dark,
+        fog_gate: false,
+    });
+    out.push(MatrixScene {
+        name: "default+fog+studio".into(),
         scene: foggy(default.clone()),
+        fog_gate: false,
     });
     let probes: &[&str] = if quick { &["park"] } else { &["park", "hall"] };
     let brdfs: &[(&str, &str)] = if quick {
@@ -125,6 +155,7 @@ fn matrix(quick: bool) -> Result<Vec<MatrixScene>> {
             out.push(MatrixScene {
                 name: format!("{probe}/{bname}/default-objects"),
                 scene: s,
+                fog_gate: false,
             });
             if let Some(mesh) = &bunny_mesh {
                 let objects = vec![Object::new(mesh.clone(), b.clone())];
@@ -133,11 +164,13 @@ fn matrix(quick: bool) -> Result<Vec<MatrixScene>> {
                 out.push(MatrixScene {
                     name: format!("{probe}/{bname}/bunny"),
                     scene: s.clone(),
+                    fog_gate: false,
                 });
                 s.visibility = true;
                 out.push(MatrixScene {
                     name: format!("{probe}/{bname}/bunny+visibility"),
                     scene: s,
+                    fog_gate: false,
                 });
             }
         }

@@ -36,6 +36,12 @@ pub struct MatrixScene {
     /// Short name: environment, BRDF, mesh and features, e.g. `park/ggx0.1/bunny+vis`.
     pub name: String,
     pub scene: Scene,
+    /// Gate the fog method on this scene (issue 10's fog gate). Meant for
+    /// scenes in a medium lit by point lights alone with Lambert surfaces,
+    /// which the analytic model renders without approximation beyond its
+    /// tables: its Phong lobe drops the cos θᵢ foreshortening (sun-thesis
+    /// §3.4.2) and its environment is the PSF model, both reported instead.
+    pub fog_gate: bool,
 }
 
 /// Settings of [`verify_methods`].
@@ -54,7 +60,7 @@ impl VerifyMethodsOptions {
     #[must_use]
     pub fn new(quick: bool) -> Self {
         Self {
-            reference_spp: if quick { 64 } else { 1024 },
+            reference_spp: if quick { 64 } else { 256 },
             aa: 4,
             methods: MethodKind::ALL
                 .into_iter()
@@ -79,9 +85,11 @@ pub struct MethodsRow {
     pub status: String,
     /// Relative RMS error over object pixels against the reference.
     pub rel_rms_error: Option<f64>,
-    /// The reference's relative standard error over the same pixels.
+    /// The reference's relative RMS noise over the compared pixels (object
+    /// pixels; all pixels for the fog gate).
     pub reference_noise: f64,
-    /// What the reference rendered (`full` or `single scattering`).
+    /// What the reference rendered (`multiple scattering`, or `single
+    /// scattering` for the fog method's gate).
     pub reference_mode: String,
     /// One lighting change, ms.
     pub lighting_ms: Option<f64>,
@@ -130,16 +138,22 @@ pub fn verify_methods(
         let mask = coverage.object_mask();
         let object_pixels = mask.iter().filter(|&&m| m).count();
         let foggy = SceneFeature::of_scene(scene).contains(&SceneFeature::Medium);
-        let reference = |mode: MediumMode| -> Result<(Image, f64), MethodError> {
+        let all = vec![true; mask.len()];
+        // The reference, its render time, and its noise over object pixels
+        // and over all pixels.
+        let reference = |mode: MediumMode| -> Result<(Image, f64, f64, f64), MethodError> {
             let ro = ReferenceOptions {
                 spp: opts.reference_spp,
                 medium_mode: mode,
                 ..ReferenceOptions::default()
             };
+            let t = Instant::now();
             let r = relight_render::reference::render_reference(scene, &ro, progress)
                 .map_err(|e| MethodError::failed("reference", e))?;
+            let ms = t.elapsed().as_secs_f64() * 1e3;
             let noise = masked_noise(&r.image, &r.std_error, &mask);
-            Ok((r.image, noise))
+            let noise_all = masked_noise(&r.image, &r.std_error, &all);
+            Ok((r.image, noise, noise_all, ms))
         };
         let full = reference(MediumMode::MultipleScattering)?;
         let single = if foggy {
@@ -147,34 +161,48 @@ pub fn verify_methods(
         } else {
             None
         };
+        let base_row = |method: &str, mode: &str, noise: f64| MethodsRow {
+            scene: ms.name.clone(),
+            method: method.to_string(),
+            width: camera.width,
+            height: camera.height,
+            status: "ok".into(),
+            rel_rms_error: None,
+            reference_noise: noise,
+            reference_mode: mode.into(),
+            lighting_ms: None,
+            view_ms: None,
+            data_mb: None,
+            object_pixels,
+            pass: None,
+            target: None,
+            source: None,
+        };
+        // The judge's own row: its noise and its time per frame.
+        for (r, mode) in [
+            (Some(&full), "multiple scattering"),
+            (single.as_ref(), "single scattering"),
+        ] {
+            if let Some((_, noise, _, ms_ref)) = r {
+                let mut row = base_row("reference", mode, *noise);
+                row.status = "the judge".into();
+                row.view_ms = Some(*ms_ref);
+                row.data_mb = Some(0.0);
+                rows.push(row);
+            }
+        }
         for mo in &opts.methods {
             let mut method = create(mo)?;
             let name = method.name();
             let judged_single = foggy && mo.kind() == MethodKind::Fog;
-            let (ref_image, noise) = match (&single, judged_single) {
+            let (ref_image, noise, noise_all, _) = match (&single, judged_single) {
                 (Some(s), true) => s,
                 _ => &full,
             };
-            let mut row = MethodsRow {
-                scene: ms.name.clone(),
-                method: name.to_string(),
-                width: camera.width,
-                height: camera.height,
-                status: "ok".into(),
-                rel_rms_error: None,
-                reference_noise: *noise,
-                reference_mode: if judged_single {
-                    "single scattering".into()
-                } else {
-                    "full".into()
-                },
-                lighting_ms: None,
-                view_ms: None,
-                data_mb: None,
-                object_pixels,
-                pass: None,
-                target: None,
-                source: None,
+            let mut row = if judged_single {
+                base_row(name, "single scattering", *noise_all)
+            } else {
+                base_row(name, "multiple scattering", *noise)
             };
             if let Err(e) = check_scene(method.as_ref(), scene, false) {
                 row.status = e.to_string();
@@ -190,10 +218,15 @@ pub fn verify_methods(
             let out = render_frame(method.as_mut(), scene, &request, progress)?;
             row.view_ms = Some(t.elapsed().as_secs_f64() * 1e3);
             row.data_mb = Some(method.data_bytes() as f64 / 1e6);
-            let err = out.image.relative_rms_error(ref_image, Some(&mask));
+            // Fog against single scattering: over every pixel (the glow is in
+            // the medium, mostly off the objects); else over object pixels.
+            let region = if judged_single { &all } else { &mask };
+            let err = out.image.relative_rms_error(ref_image, Some(region));
             row.rel_rms_error = Some(err);
-            if judged_single {
-                let target = 2.0 * noise + FOG_GATE_MARGIN;
+            // The gate judges the analytic single-scattering model where it
+            // is exact up to its tables (MatrixScene::fog_gate).
+            if judged_single && ms.fog_gate {
+                let target = 2.0 * noise_all + FOG_GATE_MARGIN;
                 row.target = Some(target);
                 row.pass = Some(err <= target);
                 row.source = Some(

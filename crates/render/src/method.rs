@@ -316,7 +316,11 @@ pub struct Rendered {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Noise {
     pub spp: u32,
+    /// Mean per-pixel standard error ÷ mean luminance.
     pub relative_std_error: f64,
+    /// √(Σ se²) / √(Σ L²): the relative RMS error the noise alone gives,
+    /// the σ_MC a relative RMS error is read against.
+    pub rms_relative_std_error: f64,
 }
 
 /// A rendering method (see the module docs).

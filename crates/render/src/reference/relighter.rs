@@ -199,6 +199,7 @@ impl Relighter for ReferenceRenderer {
             noise: Some(Noise {
                 spp: r.spp,
                 relative_std_error: r.relative_std_error,
+                rms_relative_std_error: r.rms_relative_std_error,
             }),
         })
     }

@@ -27,6 +27,10 @@ pub struct ReferenceImage {
     pub spp: u32,
     /// Mean over pixels of `std_error` divided by the mean pixel luminance.
     pub relative_std_error: f64,
+    /// √(Σ std_error²) / √(Σ luminance²): the relative RMS error the
+    /// image's own noise gives against the truth — the σ_MC to read a
+    /// relative RMS error (`relight compare`, verify) against.
+    pub rms_relative_std_error: f64,
     /// Rays traced (camera, shadow and scattered).
     pub rays: u64,
     /// Wall-clock time of the sampling (excluding BVH build), seconds.
@@ -164,6 +168,7 @@ impl Accumulator {
         let mut image = Image::new(self.width, self.height);
         let mut std_error = vec![0.0f32; self.width * self.height];
         let (mut se_sum, mut lum_sum) = (0.0f64, 0.0f64);
+        let (mut se_sq, mut lum_sq) = (0.0f64, 0.0f64);
         for (i, a) in self.pixels.iter().enumerate() {
             image.pixels[i] = Vec3::new(
                 (a.rgb[0] / n) as f32,
@@ -180,12 +185,19 @@ impl Accumulator {
             std_error[i] = se as f32;
             se_sum += se;
             lum_sum += mean;
+            se_sq += se * se;
+            lum_sq += mean * mean;
         }
         ReferenceImage {
             image,
             std_error,
             spp: self.spp,
             relative_std_error: if lum_sum > 0.0 { se_sum / lum_sum } else { 0.0 },
+            rms_relative_std_error: if lum_sq > 0.0 {
+                (se_sq / lum_sq).sqrt()
+            } else {
+                0.0
+            },
             rays: self.rays,
             seconds: self.seconds,
         }
