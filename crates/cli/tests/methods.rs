@@ -218,8 +218,13 @@ fn exrs_carry_coverage_and_compare_uses_regions() {
         "--mesh sphere --env studio --size 32x24 --method wavelet --n 16 --ntess 4",
         "reg-b.png",
     );
-    // One background for all methods.
+    let r = rendered(
+        "--mesh sphere --env studio --size 32x24 --method reference --spp 4",
+        "reg-r.png",
+    );
+    // One background for all methods, the reference included.
     assert!(compared(&a, &b, "background") < 1e-6);
+    assert!(compared(&r, &a, "background") < 1e-6);
     assert!(compared(&a, &b, "object") > 0.0);
     // A PNG against an EXR is refused.
     let out = relight(&[

@@ -60,7 +60,7 @@ impl VerifyMethodsOptions {
     #[must_use]
     pub fn new(quick: bool) -> Self {
         Self {
-            reference_spp: if quick { 64 } else { 256 },
+            reference_spp: if quick { 64 } else { 1024 },
             aa: 4,
             methods: MethodKind::ALL
                 .into_iter()
