@@ -512,14 +512,22 @@ pub fn encode_exr_with(
     );
     let image = Image::from_layer(layer);
     let mut out = Cursor::new(Vec::new());
-    image.write().to_buffered(&mut out).map_err(|e| match e {
+    image
+        .write()
+        .to_buffered(&mut out)
+        .map_err(|e| exr_write_error(path, e))?;
+    Ok(out.into_inner())
+}
+
+/// An `exr` encoder failure as the error naming `path`.
+pub(crate) fn exr_write_error(path: &Path, e: exr::error::Error) -> AssetError {
+    match e {
         exr::error::Error::Io(source) => AssetError::Write {
             path: path.to_path_buf(),
             source,
         },
         other => AssetError::corrupt(path, format!("OpenEXR encoding failed: {other}")),
-    })?;
-    Ok(out.into_inner())
+    }
 }
 
 /// Encodes linear RGB as run-length-encoded Radiance RGBE in memory.

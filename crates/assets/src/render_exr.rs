@@ -13,7 +13,7 @@
 //! (every EXR viewer) ignore the extra channels.
 
 use crate::AssetError;
-use crate::image_io::{check_pixels, exr_error, write_atomic};
+use crate::image_io::{check_pixels, exr_error, exr_write_error, write_atomic};
 use glam::Vec3;
 use std::io::Cursor;
 use std::path::Path;
@@ -87,13 +87,7 @@ pub fn encode_render_exr(
     Image::from_layer(layer)
         .write()
         .to_buffered(&mut out)
-        .map_err(|e| match e {
-            exr::error::Error::Io(source) => AssetError::Write {
-                path: path.to_path_buf(),
-                source,
-            },
-            other => AssetError::corrupt(path, format!("OpenEXR encoding failed: {other}")),
-        })?;
+        .map_err(|e| exr_write_error(path, e))?;
     Ok(out.into_inner())
 }
 

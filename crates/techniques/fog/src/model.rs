@@ -67,24 +67,9 @@ pub const GAUSS6_W: [f32; 6] = [
 /// Smallest distance (world units) used anywhere in the model.
 pub const MIN_DISTANCE: f32 = 1e-6;
 
-/// An isotropic point light.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PointLight {
-    /// World-space position.
-    pub position: Vec3,
-    /// Radiant intensity I₀ per RGB channel (≥ 0).
-    pub intensity: Vec3,
-}
-
-impl PointLight {
-    #[must_use]
-    pub fn new(position: Vec3, intensity: Vec3) -> Self {
-        Self {
-            position,
-            intensity,
-        }
-    }
-}
+/// An isotropic point light (the scene model's: position, radiant intensity
+/// I₀ per RGB channel).
+pub use relight_render::PointLight;
 
 /// Particle phase function k(α) as a polynomial in cos α (eq. 3.18).
 ///
