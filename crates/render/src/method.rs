@@ -482,11 +482,18 @@ pub fn rasterize_coverage(
     }
     .fit_depth(&big, &draws);
     r.rasterize(&big, &draws, &opts)?;
+    Ok(coverage_of_raster(&r, camera.width, camera.height, k))
+}
+
+/// [`Coverage`] at `width × height` of a rasterizer's last visibility buffer,
+/// drawn at `k × k` samples per pixel with draw call `i` = object `i` (the
+/// layout every raster method uses).
+#[must_use]
+pub fn coverage_of_raster(r: &Rasterizer, width: usize, height: usize, k: usize) -> Coverage {
     let g = r.gbuffer();
-    Ok(coverage_from_ids(camera.width, camera.height, k, |x, y| {
-        r.locate(g.triangle[y * g.width + x])
-            .map(|(d, _)| draws[d].object_id)
-    }))
+    coverage_from_ids(width, height, k, |x, y| {
+        r.locate(g.triangle[y * g.width + x]).map(|(d, _)| d as u32)
+    })
 }
 
 /// Box-reduces per-sample object ids (`None` = empty) of a `k`× supersampled

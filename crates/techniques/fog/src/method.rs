@@ -49,8 +49,8 @@ use crate::table::{FogTables, Interp};
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use relight_render::method::{
-    Coverage, FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
-    coverage_from_ids,
+    FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
+    coverage_of_raster,
 };
 use relight_render::raster::{NO_TRIANGLE, Rasterizer};
 use relight_render::{Image, Progress, Scene};
@@ -519,20 +519,12 @@ impl Relighter for FogRelighter {
                 });
         }
         // Coverage from this frame's own visibility buffer.
-        let coverage = {
-            let r = &self.rasterizer;
-            let g = r.gbuffer();
-            let bw = g.width;
-            let c: Coverage =
-                coverage_from_ids(request.camera.width, request.camera.height, k, |x, y| {
-                    let id = g.triangle[y * bw + x];
-                    (id != NO_TRIANGLE)
-                        .then(|| r.locate(id))
-                        .flatten()
-                        .map(|(d, _)| d as u32)
-                });
-            c
-        };
+        let coverage = coverage_of_raster(
+            &self.rasterizer,
+            request.camera.width,
+            request.camera.height,
+            k,
+        );
         let image = image.box_downsample(k);
         timings.view_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(Rendered {

@@ -34,7 +34,7 @@ use crate::{NormalMap, ShLightError, ShRenderer, ShRotationMethod};
 use relight_geom::Mesh;
 use relight_render::method::{
     FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
-    check_scene, coverage_from_ids,
+    check_scene, coverage_of_raster,
 };
 use relight_render::raster::Rasterizer;
 use relight_render::{Image, Progress, Scene};
@@ -299,13 +299,7 @@ impl Relighter for ShMethod {
             )
             .map_err(fail)?;
         let image = if k == 1 { hi } else { hi.box_downsample(k) };
-        let raster = &self.raster;
-        let g = raster.gbuffer();
-        let coverage = coverage_from_ids(w, h, k, |x, y| {
-            raster
-                .locate(g.triangle[y * g.width + x])
-                .map(|(d, _)| d as u32)
-        });
+        let coverage = coverage_of_raster(&self.raster, w, h, k);
         Ok(Rendered {
             image,
             coverage: Some(coverage),

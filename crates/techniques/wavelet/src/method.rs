@@ -33,7 +33,7 @@ use glam::Mat3;
 use relight_geom::Mesh;
 use relight_render::method::{
     FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
-    check_scene, coverage_from_ids,
+    check_scene, coverage_of_raster,
 };
 use relight_render::raster::Rasterizer;
 use relight_render::{Image, Progress, Scene, SceneBvh};
@@ -401,13 +401,7 @@ impl Relighter for WaveletMethod {
             .render_into(scene, &refs, &camera, ao, &mut self.raster, &mut hi)
             .map_err(fail)?;
         let image = if k == 1 { hi } else { hi.box_downsample(k) };
-        let raster = &self.raster;
-        let g = raster.gbuffer();
-        let coverage = coverage_from_ids(w, h, k, |x, y| {
-            raster
-                .locate(g.triangle[y * g.width + x])
-                .map(|(d, _)| d as u32)
-        });
+        let coverage = coverage_of_raster(&self.raster, w, h, k);
         Ok(Rendered {
             image,
             coverage: Some(coverage),
