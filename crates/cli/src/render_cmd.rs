@@ -155,10 +155,10 @@ pub fn view(a: ViewArgs, bar: &Bar) -> Result<()> {
         aa: a.aa.unwrap_or(relight_viewer::state::DEFAULT_STILL_AA),
         approximate: a.approximate,
     };
-    let mut viewer = relight_viewer::Viewer::new(built.scene, kind_of(a.method), opts)?;
+    let viewer = relight_viewer::Viewer::new(built.scene, kind_of(a.method), opts)?;
     relight_viewer::check_display()?;
-    eprintln!("relight: view: preparing {} …", viewer.method());
-    viewer.prepare(bar)?;
-    relight_viewer::run(viewer, w as u32, h as u32)?;
+    // The window opens at once; the method prepares behind it, with its
+    // progress in the window and on stderr.
+    relight_viewer::run(viewer, w as u32, h as u32, bar)?;
     Ok(())
 }

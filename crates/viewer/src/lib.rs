@@ -22,8 +22,10 @@
 //! While a mouse button is held frames are drawn without antialiasing
 //! (preview); a still view is drawn with `aa × aa` samples per pixel.
 
+pub mod hud;
 pub mod orbit;
 pub mod state;
+pub mod text;
 pub mod window;
 
 pub use orbit::Orbit;

@@ -360,6 +360,32 @@ impl Viewer {
         )?;
         Ok(())
     }
+
+    /// The scene as loaded (before the lighting rotation).
+    #[must_use]
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The options of the method shown.
+    #[must_use]
+    pub fn method_options(&self) -> &MethodOptions {
+        &self.slots[self.current].options
+    }
+
+    /// True once the method shown has been created, checked and prepared
+    /// (or refused): the next [`Viewer::frame`] will not bake.
+    #[must_use]
+    pub fn is_prepared(&self) -> bool {
+        let slot = &self.slots[self.current];
+        slot.method.is_some() || slot.refused.is_some()
+    }
+
+    /// Why the method shown cannot render the scene, once checked.
+    #[must_use]
+    pub fn refusal(&self) -> Option<&str> {
+        self.slots[self.current].refused.as_deref()
+    }
 }
 
 /// Tone-maps `image` (ACES, sRGB) into 0x00RRGGBB words for a window.

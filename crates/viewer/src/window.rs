@@ -1,18 +1,29 @@
 //! The window: winit events drive a [`Viewer`]; frames are tone-mapped into
-//! a softbuffer surface (CPU pixels, no GPU needed).
+//! a softbuffer surface (CPU pixels, no GPU needed) with the HUD
+//! ([`crate::hud`]) drawn over them.
 //!
 //! Controls: left drag orbits the camera, right drag turns the lighting,
 //! the wheel zooms; `1`–`4` switch to wavelet / sh / fog / reference (which
-//! refines while the view is still), `a` toggles
-//! antialiasing, `r` resets, `s` saves the frame as PNG + EXR, `Esc`/`q`
-//! quits. While a button is held frames skip antialiasing (preview); the
-//! title shows the method and the frame time.
+//! refines while the view is still), `a` toggles antialiasing, `h` the HUD,
+//! `r` resets, `s` saves the frame as PNG + EXR, `Esc`/`q` quits. While a
+//! button is held frames skip antialiasing (preview).
+//!
+//! A method prepares (bakes or loads its data) on a worker thread the first
+//! time it is shown: the window keeps drawing, with the phase and a progress
+//! bar in the frame and the same progress on stderr, and `Esc`/`q` cancels
+//! the bake and quits.
 
+use crate::hud::{ErrorMeter, HudInfo, PrepareStatus, draw_hud, draw_progress};
 use crate::state::{Frame, Viewer, ViewerError};
-use relight_render::NoProgress;
+use crate::text::Canvas;
+use relight_render::{NoProgress, Progress};
 use std::num::NonZeroU32;
 use std::path::PathBuf;
 use std::rc::Rc;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::thread::{Scope, ScopedJoinHandle};
+use std::time::{Duration, Instant};
 use winit::application::ApplicationHandler;
 use winit::dpi::{PhysicalPosition, PhysicalSize};
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
@@ -23,14 +34,61 @@ use winit::window::{Window, WindowId};
 /// Degrees of turn per pixel of mouse drag.
 const DEG_PER_PIXEL: f32 = 0.3;
 
-struct App {
-    viewer: Viewer,
+/// How often the window redraws its progress panel while a method prepares.
+const PROGRESS_PERIOD: Duration = Duration::from_millis(100);
+
+/// Progress of a preparation on the worker thread, read by the window and
+/// forwarded to the caller's progress (stderr).
+struct SharedProgress<'e> {
+    stderr: &'e dyn Progress,
+    phase: Mutex<String>,
+    done: AtomicU64,
+    total: AtomicU64,
+    cancel: AtomicBool,
+}
+
+impl Progress for SharedProgress<'_> {
+    fn start(&self, what: &str, total: u64) {
+        *self.phase.lock().unwrap_or_else(|e| e.into_inner()) = what.to_string();
+        self.done.store(0, Ordering::Relaxed);
+        self.total.store(total, Ordering::Relaxed);
+        self.stderr.start(what, total);
+    }
+    fn inc(&self, n: u64) {
+        self.done.fetch_add(n, Ordering::Relaxed);
+        self.stderr.inc(n);
+    }
+    fn finish(&self) {
+        self.stderr.finish();
+    }
+    fn is_cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed) || self.stderr.is_cancelled()
+    }
+}
+
+/// A preparation running on the worker thread.
+struct Preparing<'s> {
+    method: String,
+    started: Instant,
+    handle: ScopedJoinHandle<'s, (Viewer, Result<(), ViewerError>)>,
+}
+
+struct App<'s, 'e> {
+    /// `None` while a worker thread prepares a method.
+    viewer: Option<Viewer>,
+    preparing: Option<Preparing<'s>>,
+    scope: &'s Scope<'s, 'e>,
+    progress: &'e SharedProgress<'e>,
     size: (u32, u32),
     window: Option<Rc<Window>>,
     surface: Option<softbuffer::Surface<Rc<Window>, Rc<Window>>>,
     drag: Option<MouseButton>,
     cursor: Option<PhysicalPosition<f64>>,
     last: Option<Frame>,
+    meter: ErrorMeter,
+    show_hud: bool,
+    /// Milliseconds of the last whole redraw (frame, display, HUD, present).
+    redraw_ms: f64,
     shots: usize,
     error: Option<ViewerError>,
 }
@@ -55,79 +113,215 @@ pub fn check_display() -> Result<(), ViewerError> {
     }
 }
 
+/// Opens a `width × height` window on `viewer` and runs until it closes;
+/// methods prepare on a worker thread, reporting to the window and to
+/// `stderr` (the caller's progress: the CLI's bars and Ctrl-C).
+///
 /// # Errors
 /// No display (e.g. no `DISPLAY`/`WAYLAND_DISPLAY`), or a method's error.
-pub fn run(viewer: Viewer, width: u32, height: u32) -> Result<(), ViewerError> {
+pub fn run(
+    viewer: Viewer,
+    width: u32,
+    height: u32,
+    stderr: &dyn Progress,
+) -> Result<(), ViewerError> {
     let event_loop = EventLoop::new().map_err(|e| {
         ViewerError::Window(format!(
             "cannot open a window (needs DISPLAY or WAYLAND_DISPLAY; `relight render` works without one): {e}"
         ))
     })?;
     event_loop.set_control_flow(ControlFlow::Wait);
-    let mut app = App {
-        viewer,
-        size: (width.max(1), height.max(1)),
-        window: None,
-        surface: None,
-        drag: None,
-        cursor: None,
-        last: None,
-        shots: 0,
-        error: None,
+    let progress = SharedProgress {
+        stderr,
+        phase: Mutex::new(String::new()),
+        done: AtomicU64::new(0),
+        total: AtomicU64::new(0),
+        cancel: AtomicBool::new(false),
     };
-    event_loop
-        .run_app(&mut app)
-        .map_err(|e| ViewerError::Window(e.to_string()))?;
-    app.error.map_or(Ok(()), Err)
+    std::thread::scope(|scope| {
+        let mut app = App {
+            viewer: Some(viewer),
+            preparing: None,
+            scope,
+            progress: &progress,
+            size: (width.max(1), height.max(1)),
+            window: None,
+            surface: None,
+            drag: None,
+            cursor: None,
+            last: None,
+            meter: ErrorMeter::default(),
+            show_hud: true,
+            redraw_ms: 0.0,
+            shots: 0,
+            error: None,
+        };
+        let ran = event_loop.run_app(&mut app);
+        // Closed while a method prepared: stop the bake and wait for it.
+        if let Some(p) = app.preparing.take() {
+            progress.cancel.store(true, Ordering::Relaxed);
+            let _ = p.handle.join();
+        }
+        ran.map_err(|e| ViewerError::Window(e.to_string()))?;
+        app.error.map_or(Ok(()), Err)
+    })
 }
 
-impl App {
+impl<'s, 'e> App<'s, 'e> {
     fn fail(&mut self, event_loop: &ActiveEventLoop, e: ViewerError) {
         self.error = Some(e);
         event_loop.exit();
     }
 
-    fn redraw(&mut self) -> Result<(), ViewerError> {
-        let (Some(window), Some(surface)) = (self.window.as_ref(), self.surface.as_mut()) else {
-            return Ok(());
+    fn quit(&mut self, event_loop: &ActiveEventLoop) {
+        self.progress.cancel.store(true, Ordering::Relaxed);
+        event_loop.exit();
+    }
+
+    /// Starts preparing the current method on a worker thread.
+    fn start_preparing(&mut self) {
+        let Some(mut viewer) = self.viewer.take() else {
+            return;
         };
-        let (w, h) = self.size;
+        let method = viewer.method().name().to_string();
+        eprintln!("relight: view: preparing {method} …");
+        self.progress.done.store(0, Ordering::Relaxed);
+        self.progress.total.store(0, Ordering::Relaxed);
+        *self
+            .progress
+            .phase
+            .lock()
+            .unwrap_or_else(|e| e.into_inner()) = "starting".into();
+        let progress: &'e SharedProgress<'e> = self.progress;
+        let handle = self.scope.spawn(move || {
+            let r = viewer.prepare(progress);
+            (viewer, r)
+        });
+        self.preparing = Some(Preparing {
+            method,
+            started: Instant::now(),
+            handle,
+        });
+    }
+
+    /// Takes the viewer back once its worker thread has finished.
+    fn poll_preparing(&mut self) -> Result<(), ViewerError> {
+        if !self
+            .preparing
+            .as_ref()
+            .is_some_and(|p| p.handle.is_finished())
+        {
+            return Ok(());
+        }
+        let p = self.preparing.take().expect("checked above");
+        let (viewer, result) = p
+            .handle
+            .join()
+            .map_err(|_| ViewerError::Window(format!("preparing {} panicked", p.method)))?;
+        self.viewer = Some(viewer);
+        eprintln!(
+            "relight: view: {} prepared in {:.1} s",
+            p.method,
+            p.started.elapsed().as_secs_f64()
+        );
+        result
+    }
+
+    fn present(
+        surface: &mut softbuffer::Surface<Rc<Window>, Rc<Window>>,
+        (w, h): (u32, u32),
+        draw: impl FnOnce(&mut [u32]),
+    ) -> Result<(), ViewerError> {
         let (Some(nw), Some(nh)) = (NonZeroU32::new(w), NonZeroU32::new(h)) else {
             return Ok(());
         };
-        let frame = self
-            .viewer
-            .frame(w as usize, h as usize, self.drag.is_some(), &NoProgress)?;
         surface
             .resize(nw, nh)
             .map_err(|e| ViewerError::Window(e.to_string()))?;
         let mut buffer = surface
             .buffer_mut()
             .map_err(|e| ViewerError::Window(e.to_string()))?;
-        crate::state::to_display(&frame.image, &mut buffer);
+        draw(&mut buffer);
         buffer
             .present()
-            .map_err(|e| ViewerError::Window(e.to_string()))?;
-        let quality = if frame.spp > 0 {
-            format!(" ({} spp)", frame.spp)
-        } else if frame.aa > 1 {
-            format!(" ({}×{} AA)", frame.aa, frame.aa)
-        } else {
-            String::new()
+            .map_err(|e| ViewerError::Window(e.to_string()))
+    }
+
+    /// The progress screen: the last frame (or black) under the panel.
+    fn redraw_progress(&mut self) -> Result<(), ViewerError> {
+        let (Some(p), Some(surface)) = (self.preparing.as_ref(), self.surface.as_mut()) else {
+            return Ok(());
         };
-        let note = frame
-            .message
-            .as_deref()
-            .map_or(String::new(), |m| format!(" — {m}"));
+        let status = PrepareStatus {
+            method: p.method.clone(),
+            phase: self
+                .progress
+                .phase
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .clone(),
+            done: self.progress.done.load(Ordering::Relaxed),
+            total: self.progress.total.load(Ordering::Relaxed),
+            elapsed_s: p.started.elapsed().as_secs(),
+        };
+        let (w, h) = (self.size.0 as usize, self.size.1 as usize);
+        let last = self.last.as_ref();
+        Self::present(surface, self.size, |buf| {
+            match last {
+                Some(f) if f.image.width == w && f.image.height == h => {
+                    crate::state::to_display(&f.image, buf);
+                }
+                _ => buf.fill(0),
+            }
+            draw_progress(&mut Canvas::new(buf, w, h), &status);
+        })?;
+        if let Some(win) = &self.window {
+            win.set_title(&format!("relight — preparing {}", status.method));
+        }
+        Ok(())
+    }
+
+    fn redraw(&mut self) -> Result<(), ViewerError> {
+        self.poll_preparing()?;
+        if self.preparing.is_some() {
+            return self.redraw_progress();
+        }
+        if self.viewer.as_ref().is_some_and(|v| !v.is_prepared()) {
+            self.start_preparing();
+            return self.redraw_progress();
+        }
+        let (Some(window), Some(surface), Some(viewer)) = (
+            self.window.as_ref(),
+            self.surface.as_mut(),
+            self.viewer.as_mut(),
+        ) else {
+            return Ok(());
+        };
+        let t = Instant::now();
+        let (w, h) = self.size;
+        if w == 0 || h == 0 {
+            return Ok(());
+        }
+        let frame = viewer.frame(w as usize, h as usize, self.drag.is_some(), &NoProgress)?;
+        let error = self.meter.observe(viewer, &frame);
+        let info = HudInfo::new(viewer, &frame, error, self.redraw_ms);
+        let show_hud = self.show_hud;
+        Self::present(surface, self.size, |buf| {
+            crate::state::to_display(&frame.image, buf);
+            if show_hud {
+                draw_hud(&mut Canvas::new(buf, w as usize, h as usize), &info);
+            }
+        })?;
+        self.redraw_ms = t.elapsed().as_secs_f64() * 1e3;
         window.set_title(&format!(
-            "relight — {} — {:.1} ms{quality}{note} — drag: orbit, right drag: light, 1-{}: method, a: AA, s: save",
-            self.viewer.method().name(),
-            frame.ms,
-            self.viewer.methods().len(),
+            "relight — {} — {:.1} ms",
+            viewer.method().name(),
+            frame.ms
         ));
+        let refining = viewer.refining();
         self.last = Some(frame);
         // The reference keeps adding samples while the view is still.
-        if self.drag.is_none() && self.viewer.refining() {
+        if self.drag.is_none() && refining {
             window.request_redraw();
         }
         Ok(())
@@ -141,26 +335,36 @@ impl App {
 
     fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) -> Result<(), ViewerError> {
         match key {
-            Key::Named(NamedKey::Escape) => event_loop.exit(),
-            Key::Character(c) => match c.as_str() {
-                "q" => event_loop.exit(),
-                "1" | "2" | "3" | "4" | "5" | "6" | "7" | "8" | "9" => {
-                    let i: usize = c.parse().unwrap_or(1);
-                    self.viewer.select(i - 1);
-                }
-                "a" => self.viewer.antialias = !self.viewer.antialias,
-                "r" => self.viewer.reset(),
-                "s" => {
-                    if let Some(f) = &self.last {
-                        self.shots += 1;
-                        let stem = PathBuf::from(format!("relight-view-{}", self.shots));
-                        Viewer::save(f, &stem)?;
-                        eprintln!("relight view: wrote {}.png and .exr", stem.display());
-                    }
+            Key::Named(NamedKey::Escape) => self.quit(event_loop),
+            Key::Character(c) => {
+                if c.as_str() == "q" {
+                    self.quit(event_loop);
                     return Ok(());
                 }
-                _ => return Ok(()),
-            },
+                // Input other than quitting waits for a preparation to end.
+                let Some(viewer) = self.viewer.as_mut() else {
+                    return Ok(());
+                };
+                match c.as_str() {
+                    "1" | "2" | "3" | "4" | "5" | "6" | "7" | "8" | "9" => {
+                        let i: usize = c.parse().unwrap_or(1);
+                        viewer.select(i - 1);
+                    }
+                    "a" => viewer.antialias = !viewer.antialias,
+                    "h" => self.show_hud = !self.show_hud,
+                    "r" => viewer.reset(),
+                    "s" => {
+                        if let Some(f) = &self.last {
+                            self.shots += 1;
+                            let stem = PathBuf::from(format!("relight-view-{}", self.shots));
+                            Viewer::save(f, &stem)?;
+                            eprintln!("relight view: wrote {}.png and .exr", stem.display());
+                        }
+                        return Ok(());
+                    }
+                    _ => return Ok(()),
+                }
+            }
             _ => return Ok(()),
         }
         self.request_redraw();
@@ -168,7 +372,7 @@ impl App {
     }
 }
 
-impl ApplicationHandler for App {
+impl ApplicationHandler for App<'_, '_> {
     fn resumed(&mut self, event_loop: &ActiveEventLoop) {
         if self.window.is_some() {
             return;
@@ -200,7 +404,7 @@ impl ApplicationHandler for App {
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let result = match event {
             WindowEvent::CloseRequested => {
-                event_loop.exit();
+                self.quit(event_loop);
                 Ok(())
             }
             WindowEvent::Resized(s) => {
@@ -216,16 +420,18 @@ impl ApplicationHandler for App {
                 Ok(())
             }
             WindowEvent::CursorMoved { position, .. } => {
-                if let (Some(b), Some(last)) = (self.drag, self.cursor) {
+                if let (Some(b), Some(last), Some(viewer)) =
+                    (self.drag, self.cursor, self.viewer.as_mut())
+                {
                     let (dx, dy) = (
                         (position.x - last.x) as f32 * DEG_PER_PIXEL,
                         (position.y - last.y) as f32 * DEG_PER_PIXEL,
                     );
                     match b {
-                        MouseButton::Left => self.viewer.orbit.rotate(-dx, dy),
+                        MouseButton::Left => viewer.orbit.rotate(-dx, dy),
                         MouseButton::Right => {
-                            self.viewer.light_yaw_deg += dx;
-                            self.viewer.light_pitch_deg += dy;
+                            viewer.light_yaw_deg += dx;
+                            viewer.light_pitch_deg += dy;
                         }
                         _ => {}
                     }
@@ -239,9 +445,11 @@ impl ApplicationHandler for App {
                     MouseScrollDelta::LineDelta(_, y) => y,
                     MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
                 };
-                let min = 0.05 * self.viewer.home_distance();
-                self.viewer.orbit.zoom(steps, min);
-                self.request_redraw();
+                if let Some(viewer) = self.viewer.as_mut() {
+                    let min = 0.05 * viewer.home_distance();
+                    viewer.orbit.zoom(steps, min);
+                    self.request_redraw();
+                }
                 Ok(())
             }
             WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
@@ -251,6 +459,16 @@ impl ApplicationHandler for App {
         };
         if let Err(e) = result {
             self.fail(event_loop, e);
+        }
+    }
+
+    /// While a method prepares, wake up to redraw its progress.
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        if self.preparing.is_some() {
+            self.request_redraw();
+            event_loop.set_control_flow(ControlFlow::WaitUntil(Instant::now() + PROGRESS_PERIOD));
+        } else {
+            event_loop.set_control_flow(ControlFlow::Wait);
         }
     }
 }
