@@ -18,7 +18,9 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Render the embedded default scene (no files needed) with the best method available.
+    /// Render the embedded scene (no files needed) with the reference and every
+    /// real-time method, side by side in one labelled image: ms per frame and
+    /// error against the reference.
     Demo(DemoArgs),
     /// Render a scene file, or a mesh under an environment map.
     Render(Box<RenderArgs>),
@@ -65,18 +67,21 @@ pub enum Command {
 
 #[derive(Args, Debug)]
 pub struct DemoArgs {
-    /// Output image (PNG, tone-mapped); an EXR (linear, with coverage and
-    /// object-id channels) is written beside it.
+    /// Composite image (PNG, tone-mapped, labelled); beside it the composite
+    /// EXR (linear, no labels) and one EXR per method, `STEM-METHOD.exr`
+    /// (linear, with coverage and object-id channels).
     #[arg(long, default_value = "demo.png")]
     pub out: PathBuf,
-    /// Image size WIDTHxHEIGHT.
-    #[arg(long, default_value = "960x540")]
-    pub size: String,
-    /// Rendering method.
-    #[arg(long, value_enum, default_value_t = Method::Reference)]
-    pub method: Method,
-    /// Antialiasing: K × K samples per pixel, box-filtered like the
-    /// reference's pixels (1…8; the reference integrates pixels itself).
+    /// Size of each method's tile, WIDTHxHEIGHT [default: 480x270].
+    #[arg(long)]
+    pub size: Option<String>,
+    /// Methods shown, one tile each (repeat the flag) [default: reference,
+    /// wavelet, sh, fog]; errors are measured against the reference when it
+    /// is among them.
+    #[arg(long, value_enum)]
+    pub method: Vec<Method>,
+    /// Antialiasing of the raster methods: K × K samples per pixel,
+    /// box-filtered like the reference's pixels (1…8) [default: 2].
     #[arg(long)]
     pub aa: Option<usize>,
     #[command(flatten)]

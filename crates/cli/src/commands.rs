@@ -4,10 +4,11 @@ use crate::args::{
     BakeCommand, BenchArgs, Cli, Command, ConvertArgs, FogCommand, ParamKind, ShCommand, Suite,
     VerifyArgs, VerifySuite,
 };
+use crate::demo::demo;
 use crate::output::{warn_all, write_outputs};
 use crate::plot::PlotSpec;
 use crate::progress::Bar;
-use crate::render_cmd::{demo, render, view};
+use crate::render_cmd::{render, view};
 use crate::scene_args::load_normal_map;
 use crate::table::Report;
 use anyhow::{Context, Result, anyhow, bail, ensure};

@@ -7,6 +7,7 @@
 mod args;
 mod commands;
 mod compare;
+mod demo;
 mod method_args;
 mod output;
 mod parse;

@@ -36,7 +36,7 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 11] = [
 ];
 
 /// The flags of `f` that are set, by name.
-fn given(f: &MethodFlags) -> Vec<&'static str> {
+pub fn given(f: &MethodFlags) -> Vec<&'static str> {
     let set = [
         f.spp.is_some(),
         f.seed.is_some(),

@@ -1,11 +1,11 @@
-//! `relight render`, `relight demo` and `relight view`: a scene, a method and
-//! its options, through the method interface — the same calls the viewer
-//! makes (`relight_viewer::Viewer`), so both give the same image.
+//! `relight render` and `relight view`: a scene, a method and its options,
+//! through the method interface — the same calls the viewer makes
+//! (`relight_viewer::Viewer`), so both give the same image. `relight demo`
+//! is in [`crate::demo`].
 
-use crate::args::{DemoArgs, MethodFlags, RenderArgs, ViewArgs};
+use crate::args::{MethodFlags, RenderArgs, ViewArgs};
 use crate::method_args::{kind_of, options_for};
 use crate::output::{output_paths, warn_all, write_outputs};
-use crate::parse::parse_size;
 use crate::progress::Bar;
 use crate::scene_args::build_scene;
 use anyhow::{Result, anyhow, bail};
@@ -100,28 +100,6 @@ pub fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
         "relight render: {}×{}, method {kind}, wrote {} and {} in {:.2} s",
         out.image.width,
         out.image.height,
-        png.display(),
-        exr.display(),
-        start.elapsed().as_secs_f64()
-    );
-    Ok(())
-}
-
-/// Samples per pixel side of `demo`'s raster methods unless `--aa` says otherwise.
-pub const DEMO_AA: usize = 2;
-
-pub fn demo(a: DemoArgs, bar: &Bar) -> Result<()> {
-    output_paths(&a.out)?;
-    let (w, h) = parse_size(&a.size, "--size")?;
-    let start = Instant::now();
-    let scene = relight_scene::default_scene(w, h);
-    let kind = kind_of(a.method);
-    let options = options_for(kind, &a.options)?;
-    let aa = aa_for(kind, a.aa, DEMO_AA)?;
-    let out = render_with(&options, &scene, aa, false, bar)?;
-    let (png, exr) = write_outputs(&out.image, out.coverage.as_ref(), &a.out)?;
-    println!(
-        "relight demo: {w}×{h}, method {kind}, wrote {} and {} in {:.2} s",
         png.display(),
         exr.display(),
         start.elapsed().as_secs_f64()

@@ -37,32 +37,42 @@ fn assert_clean_error(out: &Output, needle: &str) {
 }
 
 #[test]
-fn demo_writes_a_non_black_png_and_exr() {
+fn demo_writes_a_labelled_composite_and_an_exr_per_method() {
     let png = tmp("demo.png");
-    let out = relight(&[
-        "-q",
-        "demo",
-        "--size",
-        "96x54",
-        "--spp",
-        "4",
-        "--out",
-        png.to_str().unwrap(),
-    ]);
+    let cache = tmp("demo-cache");
+    // Small tiles and a small wavelet bake; every method, as `relight demo`.
+    let out = Command::new(env!("CARGO_BIN_EXE_relight"))
+        .args([
+            "-q", "demo", "--size", "96x54", "--spp", "4", "--n", "16", "--ntess", "4", "--terms",
+            "64", "--ao", "4", "--out",
+        ])
+        .arg(&png)
+        .env("RELIGHT_CACHE", &cache)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run relight");
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let (img, _) =
+    let (sheet, _) =
         relight_assets::read_image(&png.with_extension("exr")).expect("demo.exr readable");
-    assert_eq!((img.width, img.height), (96, 54));
-    let mean: f32 =
-        img.pixels.iter().map(|p| p.x + p.y + p.z).sum::<f32>() / (3.0 * img.pixels.len() as f32);
-    assert!(
-        mean > 0.05 && mean.is_finite(),
-        "demo image mean {mean} looks black or broken"
-    );
+    let header = relight_viewer::sheet::header_height(96);
+    assert_eq!((sheet.width, sheet.height), (2 * 96, 2 * (header + 54)));
+    for method in ["reference", "wavelet", "sh", "fog"] {
+        let exr = png.with_file_name(format!("demo-{method}.exr"));
+        let (img, _) = relight_assets::read_image(&exr).expect("per-method EXR readable");
+        assert_eq!((img.width, img.height), (96, 54), "{method}");
+        let mean: f32 = img.pixels.iter().map(|p| p.x + p.y + p.z).sum::<f32>()
+            / (3.0 * img.pixels.len() as f32);
+        assert!(
+            mean > 0.05 && mean.is_finite(),
+            "{method}: mean {mean} looks black or broken"
+        );
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("4 tiles"), "{text}");
     assert!(
         std::fs::metadata(&png).unwrap().len() > 1000,
         "png too small"

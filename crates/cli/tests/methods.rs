@@ -249,7 +249,8 @@ fn cli_and_viewer_make_the_same_image() {
         args.extend(flags.iter().copied());
         let o = relight(&args);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let cli = pixels(&out.with_extension("exr"));
+        // The demo writes each method's linear EXR as STEM-METHOD.exr.
+        let cli = pixels(&out.with_file_name(format!("same-{method}-{method}.exr")));
         let mut options = relight_viewer::ViewerOptions::default();
         for m in &mut options.methods {
             if let relight_methods::MethodOptions::Sh(s) = m {

@@ -24,12 +24,15 @@ pub mod studio;
 mod textures;
 
 pub use embedded::{
-    BUILTIN_MESHES, STUDIO_HEIGHT, builtin_mesh, default_camera, default_scene, framing_camera,
-    with_brdf,
+    BUILTIN_MESHES, FLOOR_BRDF, FLOOR_HALF_SIDE, STUDIO_HEIGHT, builtin_mesh, default_camera,
+    default_scene, floor_mesh, framing_camera, with_brdf,
 };
 pub use error::SceneError;
 pub use file::{SceneFile, parse_scene_file};
 pub use load::{LoadedScene, load_environment, load_mesh, load_scene_file, load_scene_text};
 pub use relight_sphere::rotation_from_yaw_pitch_roll;
-pub use studio::{studio_environment, studio_radiance, studio_sun_direction};
+pub use studio::{
+    SUN_RADIANCE, SUN_RADIUS_DEG, studio_environment, studio_radiance, studio_sun_direction,
+    studio_sun_irradiance,
+};
 pub use textures::{TextureFileError, load_normal_map, load_texture, load_weight_texture};

@@ -17,13 +17,21 @@
 //!   draws a [`Frame`] for the current camera, lighting and method —
 //!   headless, so tests and scripts can drive it;
 //! * [`window`]: winit events → [`Viewer`], frames → a softbuffer surface.
-//!   Only this module touches a display.
+//!   Only this module touches a display;
+//! * [`hud`]: the heads-up display drawn into each frame (method, ms, fps,
+//!   settings, error against the reference, refusals, progress, keys);
+//! * [`text`]: bitmap text and panels over display words — the one text
+//!   path, shared by the HUD and the demo's labels;
+//! * [`sheet`] and [`demo`]: `relight demo`, every method's tile of the
+//!   embedded scene composed into one labelled image.
 //!
 //! While a mouse button is held frames are drawn without antialiasing
 //! (preview); a still view is drawn with `aa × aa` samples per pixel.
 
+pub mod demo;
 pub mod hud;
 pub mod orbit;
+pub mod sheet;
 pub mod state;
 pub mod text;
 pub mod window;

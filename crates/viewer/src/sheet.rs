@@ -1,0 +1,254 @@
+//! A contact sheet: rendered images side by side, each under a labelled
+//! header drawn with the HUD's text ([`crate::text`]) — what `relight demo`
+//! writes as `demo.png`.
+//!
+//! Layout: tiles of one size in rows of [`SHEET_COLUMNS`], each cell a header
+//! strip of [`header_height`] pixels over its image. The sheet is kept twice:
+//! as display words (tone-mapped like the viewer's frames, labels drawn in)
+//! for the PNG, and as linear radiance at the same places (headers and
+//! refused tiles black, no text) for the EXR, so a pixel of either file
+//! means the same spot of the same render.
+
+use crate::text::{Canvas, GLYPH, GREY, Line, RED, Rect, WHITE, line_height, wrap};
+use glam::Vec3;
+use relight_render::Image;
+
+/// Tiles per row.
+pub const SHEET_COLUMNS: usize = 2;
+
+/// Header text lines under the title line.
+pub const DETAIL_LINES: usize = 3;
+
+/// Background of the headers and of refused tiles.
+const HEADER: u32 = 0x18_18_1c;
+
+/// One cell of the sheet.
+#[derive(Clone, Debug)]
+pub struct Cell {
+    /// Drawn large: the method's name and its time.
+    pub title: String,
+    /// Up to [`DETAIL_LINES`] lines under it (more are dropped).
+    pub details: Vec<Line>,
+    /// The image, or why there is none (shown across the tile in red).
+    pub image: Result<Image, String>,
+}
+
+/// Glyph scale of a sheet whose tiles are `tile_width` pixels wide.
+#[must_use]
+pub fn text_scale(tile_width: usize) -> usize {
+    (tile_width / 480).max(1)
+}
+
+/// Height of a cell's header for tiles `tile_width` wide.
+#[must_use]
+pub fn header_height(tile_width: usize) -> usize {
+    let s = text_scale(tile_width);
+    let pad = 4 * s;
+    2 * pad + line_height(2 * s) + DETAIL_LINES * line_height(s)
+}
+
+/// A composed sheet.
+pub struct Sheet {
+    pub width: usize,
+    pub height: usize,
+    /// 0x00RRGGBB sRGB words, labels drawn in.
+    pub words: Vec<u32>,
+    /// Linear radiance of the tiles at the same places (no labels).
+    pub linear: Image,
+    /// Where each cell's image lies.
+    pub tiles: Vec<Rect>,
+}
+
+/// Composes `cells` of `tile_width × tile_height` images.
+///
+/// # Panics
+/// When an image is not `tile_width × tile_height`.
+#[must_use]
+pub fn compose(cells: &[Cell], tile_width: usize, tile_height: usize) -> Sheet {
+    let cols = SHEET_COLUMNS.min(cells.len()).max(1);
+    let rows = cells.len().div_ceil(cols).max(1);
+    let hh = header_height(tile_width);
+    let (cw, ch) = (tile_width, hh + tile_height);
+    let (width, height) = (cols * cw, rows * ch);
+    let mut words = vec![HEADER; width * height];
+    let mut linear = Image::new(width, height);
+    let mut tiles = Vec::new();
+    let s = text_scale(tile_width);
+    let pad = 4 * s;
+    let mut tile_words = vec![0u32; tile_width * tile_height];
+    for (i, cell) in cells.iter().enumerate() {
+        let (x0, y0) = ((i % cols) * cw, (i / cols) * ch);
+        let tile = Rect {
+            x: x0,
+            y: y0 + hh,
+            w: tile_width,
+            h: tile_height,
+        };
+        tiles.push(tile);
+        match &cell.image {
+            Ok(img) => {
+                assert_eq!((img.width, img.height), (tile_width, tile_height));
+                crate::state::to_display(img, &mut tile_words);
+                for y in 0..tile_height {
+                    let dst = (tile.y + y) * width + tile.x;
+                    words[dst..dst + tile_width]
+                        .copy_from_slice(&tile_words[y * tile_width..(y + 1) * tile_width]);
+                    linear.pixels[dst..dst + tile_width]
+                        .copy_from_slice(&img.pixels[y * tile_width..(y + 1) * tile_width]);
+                }
+            }
+            Err(why) => {
+                let mut c = Canvas::new(&mut words, width, height);
+                c.fill(tile, 0x0c_0c_0e, 1.0);
+                let chars = (tile_width - 2 * pad) / (GLYPH * s);
+                let lines = wrap(why, chars);
+                let lh = line_height(s);
+                let top = tile.y + tile_height.saturating_sub(lines.len() * lh) / 2;
+                for (k, l) in lines.iter().enumerate() {
+                    c.text(tile.x + pad, top + k * lh, s, RED, l);
+                }
+            }
+        }
+        let mut c = Canvas::new(&mut words, width, height);
+        c.text(x0 + pad, y0 + pad, 2 * s, WHITE, &cell.title);
+        let mut y = y0 + pad + line_height(2 * s);
+        for l in cell.details.iter().take(DETAIL_LINES) {
+            c.text(x0 + pad, y, s, l.color, &l.text);
+            y += line_height(s);
+        }
+        // A one-pixel rule between cells.
+        c.fill(
+            Rect {
+                x: x0,
+                y: y0,
+                w: cw,
+                h: 1,
+            },
+            GREY,
+            0.25,
+        );
+        c.fill(
+            Rect {
+                x: x0,
+                y: y0,
+                w: 1,
+                h: ch,
+            },
+            GREY,
+            0.25,
+        );
+    }
+    Sheet {
+        width,
+        height,
+        words,
+        linear,
+        tiles,
+    }
+}
+
+/// The sheet's words as display-referred linear RGB in [0, 1] (the sRGB
+/// curve undone), for a PNG writer that re-encodes sRGB without tone mapping.
+#[must_use]
+pub fn words_to_display_linear(words: &[u32]) -> Vec<Vec3> {
+    let lut: Vec<f32> = (0..256)
+        .map(|v| relight_assets::image_io::srgb_to_linear(v as f32 / 255.0))
+        .collect();
+    words
+        .iter()
+        .map(|w| {
+            Vec3::new(
+                lut[((w >> 16) & 0xff) as usize],
+                lut[((w >> 8) & 0xff) as usize],
+                lut[(w & 0xff) as usize],
+            )
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::text::GREEN;
+
+    fn flat(w: usize, h: usize, v: f32) -> Image {
+        let mut img = Image::new(w, h);
+        img.pixels.fill(Vec3::splat(v));
+        img
+    }
+
+    #[test]
+    fn cells_are_placed_in_rows_with_labels_above_and_refusals_inside() {
+        let (tw, th) = (96, 40);
+        let cells = vec![
+            Cell {
+                title: "reference".into(),
+                details: vec![Line::new("64 spp", GREY)],
+                image: Ok(flat(tw, th, 0.5)),
+            },
+            Cell {
+                title: "sh".into(),
+                details: vec![Line::new("error 3 %", GREEN)],
+                image: Ok(flat(tw, th, 2.0)),
+            },
+            Cell {
+                title: "fog".into(),
+                details: vec![],
+                image: Err("method fog cannot render area lights".into()),
+            },
+        ];
+        let s = compose(&cells, tw, th);
+        let hh = header_height(tw);
+        assert_eq!((s.width, s.height), (2 * tw, 2 * (hh + th)));
+        assert_eq!(
+            s.tiles[2],
+            Rect {
+                x: 0,
+                y: 2 * hh + th,
+                w: tw,
+                h: th
+            }
+        );
+        // The linear copy holds the renders where the PNG shows them.
+        let at = |img: &Image, x: usize, y: usize| img.pixels[y * s.width + x];
+        assert_eq!(at(&s.linear, tw + 10, hh + 10), Vec3::splat(2.0));
+        assert_eq!(at(&s.linear, 10, hh + 10), Vec3::splat(0.5));
+        assert_eq!(at(&s.linear, 10, 5), Vec3::ZERO);
+        // Tile pixels are the tone-mapped render, untouched by the labels.
+        let mut tone = vec![0u32; tw * th];
+        crate::state::to_display(&flat(tw, th, 0.5), &mut tone);
+        for y in 0..th {
+            for x in 0..tw {
+                assert_eq!(s.words[(hh + y) * s.width + x], tone[y * tw + x]);
+            }
+        }
+        // Titles are white text in the headers; the refusal is red in its tile.
+        let count = |r: Rect, c: u32| {
+            (r.y..r.y + r.h)
+                .flat_map(|y| (r.x..r.x + r.w).map(move |x| (x, y)))
+                .filter(|&(x, y)| s.words[y * s.width + x] == c)
+                .count()
+        };
+        let header = Rect {
+            x: 0,
+            y: 0,
+            w: tw,
+            h: hh,
+        };
+        assert!(count(header, WHITE) > 30);
+        assert!(count(s.tiles[2], RED) > 30);
+        assert_eq!(count(s.tiles[0], RED), 0);
+    }
+
+    #[test]
+    fn display_words_round_trip_through_the_srgb_curve() {
+        let words = [0x00_00_00, 0xff_80_01];
+        let lin = words_to_display_linear(&words);
+        assert_eq!(lin[0], Vec3::ZERO);
+        let back = |v: f32| (relight_assets::linear_to_srgb(v) * 255.0).round() as u32;
+        assert_eq!(
+            (back(lin[1].x), back(lin[1].y), back(lin[1].z)),
+            (255, 128, 1)
+        );
+    }
+}
