@@ -304,7 +304,13 @@ impl<'s, 'e> App<'s, 'e> {
         }
         let frame = viewer.frame(w as usize, h as usize, self.drag.is_some(), &NoProgress)?;
         let error = self.meter.observe(viewer, &frame);
-        let info = HudInfo::new(viewer, &frame, error, self.redraw_ms);
+        // The fps of the last whole redraw (this frame's work on the first).
+        let redraw_ms = if self.redraw_ms > 0.0 {
+            self.redraw_ms
+        } else {
+            frame.ms
+        };
+        let info = HudInfo::new(viewer, &frame, error, redraw_ms);
         let show_hud = self.show_hud;
         Self::present(surface, self.size, |buf| {
             crate::state::to_display(&frame.image, buf);
