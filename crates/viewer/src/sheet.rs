@@ -116,7 +116,7 @@ pub fn compose(cells: &[Cell], tile_width: usize, tile_height: usize) -> Sheet {
             c.text(x0 + pad, y, s, l.color, &l.text);
             y += line_height(s);
         }
-        // A one-pixel rule between cells.
+        // A one-pixel rule between headers (the images stay untouched).
         c.fill(
             Rect {
                 x: x0,
@@ -132,7 +132,7 @@ pub fn compose(cells: &[Cell], tile_width: usize, tile_height: usize) -> Sheet {
                 x: x0,
                 y: y0,
                 w: 1,
-                h: ch,
+                h: hh,
             },
             GREY,
             0.25,
