@@ -346,6 +346,16 @@ fn bench(a: BenchArgs) -> Result<()> {
                     series: &["rotation", "normal_map"],
                     log_y: false,
                 }],
+            )?;
+            let frames = relight_shlight::bench_sh_frames(
+                &relight_scene::default_scene(960, 540),
+                if a.quick { 2 } else { 9 },
+                if a.quick { 0.25 } else { 1.0 },
+            )?;
+            report.table(
+                "relight bench sh: the sh method's frame (render_frame, normal-mapped, aa 1)",
+                &frames,
+                &[],
             )
         }
         Suite::Wavelet => {

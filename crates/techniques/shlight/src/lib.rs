@@ -59,13 +59,17 @@ pub mod bake;
 pub mod bench;
 pub mod method;
 pub mod relight;
+mod shade;
 pub mod verify;
 
 pub use bake::{BakeOptions, BrdfShTable};
-pub use bench::{ShRenderBenchRow, bench_sh_render};
+pub use bench::{
+    FRAME_TARGETS, ShFrameBenchRow, ShRenderBenchRow, bench_sh_frames, bench_sh_render,
+};
 pub use method::{SH_METHOD_NAME, ShMethod, ShOptions};
 pub use relight::{LightingFilter, ShImage, ShRenderer, ShRotationMethod};
 pub use relight_render::NormalMap;
+pub use relight_sh::window::{ChosenWindow, WindowChoice};
 pub use verify::{ShVerifyRow, VerifyOptions, VerifyScene, verify_sh};
 
 use relight_render::Cancelled;

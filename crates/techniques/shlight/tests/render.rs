@@ -10,7 +10,8 @@ use relight_render::reference::{
 use relight_render::sampling::EnvFilter;
 use relight_render::{Camera, Image, NoProgress, Object, Scene};
 use relight_shlight::{
-    NormalMap, ShLightError, ShRenderer, ShRotationMethod, VerifyOptions, VerifyScene, verify_sh,
+    NormalMap, ShLightError, ShRenderer, ShRotationMethod, VerifyOptions, VerifyScene,
+    WindowChoice, verify_sh,
 };
 use relight_sphere::{EnvMap, Param};
 use std::sync::Arc;
@@ -94,8 +95,11 @@ fn render(
     m: ShRotationMethod,
     nm: Option<&NormalMap>,
 ) -> (Image, Vec<bool>) {
+    // The unwindowed transfer: these tests compare the band-limited integral
+    // itself with the reference (windows are tested on their own).
     let r = ShRenderer::new(order, m)
         .unwrap()
+        .with_window(WindowChoice::None)
         .with_supersampling(2)
         .render(scene, nm, &NoProgress)
         .unwrap();
