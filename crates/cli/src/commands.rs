@@ -471,7 +471,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                         name: "verify-sh",
                         x: "order",
                         y: "rel_rms_error",
-                        series: &["scene", "normal_map", "rotation"],
+                        series: &["scene", "normal_map", "rotation", "window"],
                         log_y: true,
                     },
                     PlotSpec {

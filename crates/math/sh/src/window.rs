@@ -45,6 +45,7 @@
 use crate::project::Window;
 use crate::quadrature::SphereQuadrature;
 use crate::{ShError, check_order};
+use rayon::prelude::*;
 
 /// The window a caller asks for (`--window`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
@@ -231,6 +232,7 @@ impl LobeSet {
     #[must_use]
     pub fn nonneg(&self, h: &[f64]) -> bool {
         (0..self.lobes)
+            .into_par_iter()
             .all(|k| self.peak[k] == 0.0 || (0..self.dirs).all(|d| self.value(k, d, h) >= 0.0))
     }
 
@@ -325,7 +327,7 @@ impl LobeSet {
 
 /// Dual coordinate-ascent sweeps per cutting-plane round, and rounds.
 const SWEEPS: usize = 60;
-const ROUNDS: usize = 25;
+const ROUNDS: usize = 16;
 /// Constraints added per round (the most violated nodes).
 const CUTS: usize = 64;
 
@@ -373,18 +375,17 @@ pub fn dering(set: &LobeSet) -> Vec<f64> {
     let mut lambda = vec![0.0f64; rows.len()];
     let mut h = ones.clone();
     for _ in 0..ROUNDS {
-        let mut worst: Vec<(f64, usize, usize)> = Vec::new();
-        for k in 0..set.lobes {
-            if set.peak[k] == 0.0 {
-                continue;
-            }
-            for d in 0..set.dirs {
-                let v = set.value(k, d, &h) / set.peak[k];
-                if v < -1e-9 {
-                    worst.push((v, k, d));
-                }
-            }
-        }
+        // The most negative node of each lobe (in parallel), then the CUTS worst lobes.
+        let mut worst: Vec<(f64, usize, usize)> = (0..set.lobes)
+            .into_par_iter()
+            .filter(|&k| set.peak[k] > 0.0)
+            .filter_map(|k| {
+                let (v, d) = (0..set.dirs)
+                    .map(|d| (set.value(k, d, &h) / set.peak[k], d))
+                    .min_by(|a, b| a.0.total_cmp(&b.0))?;
+                (v < -1e-9).then_some((v, k, d))
+            })
+            .collect();
         if worst.is_empty() {
             break;
         }
@@ -432,7 +433,7 @@ pub fn dering(set: &LobeSet) -> Vec<f64> {
         1.0
     } else {
         let (mut lo, mut hi) = (0.0f64, 1.0f64);
-        for _ in 0..40 {
+        for _ in 0..24 {
             let mid = 0.5 * (lo + hi);
             if set.nonneg(&scaled(mid)) {
                 lo = mid

@@ -97,8 +97,12 @@ pub struct ShFrameBenchRow {
     pub window: String,
     pub normal_map: bool,
     pub aa: usize,
-    /// `render_frame` after a camera-orbit step, median (ms).
+    /// `render_frame` after a camera-orbit step, median (ms): the method's
+    /// `render` plus the shared coverage and background of `render_frame`.
     pub view_change_ms: f64,
+    /// The method's own `render` of the same step, median (ms): raster and
+    /// per-pixel shading, without `render_frame`'s shared background.
+    pub method_render_ms: f64,
     /// `set_lighting` after a lighting rotation step, median (ms).
     pub light_change_ms: f64,
     /// The view change's target (ms).
@@ -150,6 +154,7 @@ pub fn bench_sh_frames(
         let base = scene.camera;
         let mut view = Vec::new();
         let mut light = Vec::new();
+        let mut own = Vec::new();
         let world_from_env = scene.world_from_env;
         for i in 0..=frames.max(1) {
             let q = Quat::from_rotation_y((2.0 * i as f32).to_radians());
@@ -159,6 +164,9 @@ pub fn bench_sh_frames(
             let t = Instant::now();
             render_frame(&mut m, &scene, &req, &NoProgress)?;
             let ms = t.elapsed().as_secs_f64() * 1e3;
+            let t = Instant::now();
+            m.render(&scene, &req, &NoProgress)?;
+            let rms = t.elapsed().as_secs_f64() * 1e3;
             scene.world_from_env = glam::Mat3::from_quat(q) * world_from_env;
             let t = Instant::now();
             m.set_lighting(&scene, &NoProgress)?;
@@ -166,6 +174,7 @@ pub fn bench_sh_frames(
             if i > 0 {
                 // The first frame warms caches and thread pools.
                 view.push(ms);
+                own.push(rms);
                 light.push(lms);
             }
         }
@@ -185,6 +194,7 @@ pub fn bench_sh_frames(
             normal_map: true,
             aa: 1,
             view_change_ms: view_ms,
+            method_render_ms: median(&mut own),
             light_change_ms: median(&mut light),
             target_ms: target,
             pass: view_ms <= target,

@@ -44,6 +44,10 @@ use relight_sphere::EnvMap;
 use std::sync::Arc;
 use std::time::Instant;
 
+/// Relative L2 change of a lobe by its window above which
+/// [`ShMethod::warnings`] says the order cannot represent it.
+pub const LOBE_CHANGE_WARNING: f64 = 0.25;
+
 /// The method's name on the command line.
 pub const SH_METHOD_NAME: &str = "sh";
 
@@ -191,6 +195,27 @@ impl ShMethod {
     #[must_use]
     pub fn windows(&self) -> &[ChosenWindow] {
         self.state.as_ref().map_or(&[], |s| &s.lit.windows)
+    }
+
+    /// One line per object whose lobe `order` bands cannot represent: its
+    /// window changed it by more than [`LOBE_CHANGE_WARNING`] (relative L2),
+    /// so its highlight is blurred; empty before `prepare`.
+    #[must_use]
+    pub fn warnings(&self) -> Vec<String> {
+        self.windows()
+            .iter()
+            .enumerate()
+            .filter(|(_, w)| w.change > LOBE_CHANGE_WARNING)
+            .map(|(i, w)| {
+                format!(
+                    "sh: object {i}: order {} cannot represent this BRDF's lobe (it rings to {:.0} % of its peak below zero); the {} window changes it by {:.0} % — raise --order or use the wavelet method for sharp highlights",
+                    self.options.order,
+                    -100.0 * w.raw_min_ratio,
+                    w.applied,
+                    100.0 * w.change
+                )
+            })
+            .collect()
     }
 
     fn check_same_meshes(state: &State, scene: &Scene) -> Result<(), MethodError> {

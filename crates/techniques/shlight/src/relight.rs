@@ -6,22 +6,26 @@
 //!    frame, RGB; `relight_sh::project::project_env`, no window).
 //! 2. **Per vertex** (parallel): a local frame `F_v` (z = vertex normal,
 //!    x = the vertex tangent made orthogonal to it) and the lighting in that
-//!    frame, `L_v = R(F_vᵀ) L` (exact Ivanic–Ruedenberg matrix, built per
-//!    vertex). Meshes **without tangents** get one frame per triangle corner
+//!    frame, `L_v = R(F_vᵀ) L` (exact, by the ZYZ decomposition of `F_vᵀ`:
+//!    three Z rotations and two fixed sparse X matrices per channel; no
+//!    per-vertex matrix is built). Meshes **without tangents** get one frame per triangle corner
 //!    instead (vertices are unshared), with x = the triangle's first edge made
 //!    orthogonal to the corner normal: the three frames of a triangle then
 //!    differ only by the small tilt between its normals, so linearly
 //!    interpolating their coefficient vectors is meaningful (frames with
 //!    unrelated tangent azimuths would not be).
-//! 3. **Per pixel** (the rasterizer's shading hook; attributes interpolated
-//!    perspective-correctly): the interpolated vertex frame `F_v` (from the
+//! 3. **Per pixel** ([`crate::shade`], over the rasterizer's visibility
+//!    buffer with its perspective-correct barycentrics): the interpolated vertex frame `F_v` (from the
 //!    interpolated normal and tangent, Gram–Schmidt) carries the interpolated
 //!    lighting `L_v`; the *perturbed* frame `F_p` has z = the normal-mapped
 //!    normal ([`NormalMap::perturb`]) and x = the same tangent. With the view
 //!    direction `ω_o` in `F_p` at polar angle θ_o and azimuth φ_o, the
 //!    transfer vector is `B_p = R_z(φ_o) B(θ_o)` ([`BrdfShTable::lookup`]); it is
 //!    rotated into `F_v` by `T = F_vᵀ F_p R_z(φ_o)` with the chosen
-//!    [`ShRotationMethod`] and the pixel is `L_o = ⟨L_v, T B(θ_o)⟩` per channel.
+//!    [`ShRotationMethod`] and the pixel is `L_o = ⟨L_v, T H B(θ_o)⟩` per
+//!    channel, `H` the BRDF's ringing window ([`ShRenderer::with_window`]).
+//!    Where the table is rank-1 (`B_c = ρ_c B̂`, every single-lobe BRDF with a
+//!    colour) one vector is rotated instead of three.
 //!    The Y angle β of `T`'s ZYZ decomposition is exactly the tilt between
 //!    the perturbed and the interpolated normal, so Taylor rotation is
 //!    accurate where normal maps are gentle.

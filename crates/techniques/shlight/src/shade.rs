@@ -114,15 +114,18 @@ fn dot3(l0: &[f32], l1: &[f32], l2: &[f32], lam: Vec3, b: &[f32]) -> f32 {
     let k = b.len();
     let (l0, l1, l2) = (&l0[..k], &l1[..k], &l2[..k]);
     let mut acc = [0.0f32; 8];
-    let full = k / 8 * 8;
-    for c in (0..full).step_by(8) {
-        for (j, a) in acc.iter_mut().enumerate() {
-            let i = c + j;
-            *a += (lam.x * l0[i] + lam.y * l1[i] + lam.z * l2[i]) * b[i];
+    let chunks = l0
+        .chunks_exact(8)
+        .zip(l1.chunks_exact(8))
+        .zip(l2.chunks_exact(8))
+        .zip(b.chunks_exact(8));
+    for (((a0, a1), a2), bb) in chunks {
+        for j in 0..8 {
+            acc[j] += (lam.x * a0[j] + lam.y * a1[j] + lam.z * a2[j]) * bb[j];
         }
     }
     let mut s: f32 = acc.iter().sum();
-    for i in full..k {
+    for i in k / 8 * 8..k {
         s += (lam.x * l0[i] + lam.y * l1[i] + lam.z * l2[i]) * b[i];
     }
     s
