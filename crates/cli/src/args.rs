@@ -156,9 +156,14 @@ pub struct MethodFlags {
     #[arg(long)]
     pub order: Option<usize>,
     /// Per-pixel SH rotation (sh): exact, zyz, taylor1, taylor15, taylor2, none
-    /// [default: exact].
+    /// [default: zyz].
     #[arg(long)]
     pub rotation: Option<String>,
+    /// Ringing window of each BRDF's SH transfer (sh): none, hann, lanczos,
+    /// dering (Sloan 2017: least change keeping the lobe non-negative), auto
+    /// (dering where a lobe would go negative) [default: auto].
+    #[arg(long)]
+    pub window: Option<String>,
     /// Octahedral source resolution n, N = n² (wavelet) [default: 64].
     #[arg(long)]
     pub n: Option<usize>,

@@ -347,6 +347,16 @@ fn bench(a: BenchArgs) -> Result<()> {
                     series: &["rotation", "normal_map"],
                     log_y: false,
                 }],
+            )?;
+            let frames = relight_shlight::bench_sh_frames(
+                &relight_scene::default_scene(960, 540),
+                if a.quick { 2 } else { 9 },
+                if a.quick { 0.25 } else { 1.0 },
+            )?;
+            report.table(
+                "relight bench sh: the sh method's frame (render_frame, normal-mapped, aa 1)",
+                &frames,
+                &[],
             )
         }
         Suite::Wavelet => {
@@ -462,7 +472,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                         name: "verify-sh",
                         x: "order",
                         y: "rel_rms_error",
-                        series: &["scene", "normal_map", "rotation"],
+                        series: &["scene", "normal_map", "rotation", "window"],
                         log_y: true,
                     },
                     PlotSpec {

@@ -21,12 +21,13 @@ pub fn kind_of(m: Method) -> MethodKind {
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 11] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 12] = [
     ("--spp", &[MethodKind::Reference]),
     ("--seed", &[MethodKind::Reference]),
     ("--scattering", &[MethodKind::Reference]),
     ("--order", &[MethodKind::Sh, MethodKind::Fog]),
     ("--rotation", &[MethodKind::Sh]),
+    ("--window", &[MethodKind::Sh]),
     ("--n", &[MethodKind::Wavelet]),
     ("--ntess", &[MethodKind::Wavelet]),
     ("--terms", &[MethodKind::Wavelet]),
@@ -43,6 +44,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.scattering.is_some(),
         f.order.is_some(),
         f.rotation.is_some(),
+        f.window.is_some(),
         f.n.is_some(),
         f.ntess.is_some(),
         f.terms.is_some(),
@@ -94,7 +96,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
     }
     clear!(
         spp => "--spp", seed => "--seed", scattering => "--scattering", order => "--order",
-        rotation => "--rotation", n => "--n", ntess => "--ntess", terms => "--terms",
+        rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
         ao => "--ao", cache => "--cache", fog => "--fog",
     );
 }
@@ -129,6 +131,9 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
             if let Some(r) = &f.rotation {
                 s.rotation = r.parse().map_err(|e| anyhow!("--rotation {r}: {e}"))?;
+            }
+            if let Some(w) = &f.window {
+                s.window = w.parse().map_err(|e| anyhow!("--window {w}: {e}"))?;
             }
         }
         MethodOptions::Wavelet(w) => {

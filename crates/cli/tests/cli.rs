@@ -102,6 +102,32 @@ fn scene_file_renders() {
 }
 
 #[test]
+fn window_flag_is_an_sh_option() {
+    let out_path = tmp("window.png");
+    let o = out_path.to_str().unwrap();
+    assert_clean_error(
+        &relight(&[
+            "render", "--mesh", "sphere", "--method", "sh", "--window", "hamming", "--out", o,
+        ]),
+        "--window",
+    );
+    assert_clean_error(
+        &relight(&[
+            "render",
+            "--mesh",
+            "sphere",
+            "--method",
+            "reference",
+            "--window",
+            "hann",
+            "--out",
+            o,
+        ]),
+        "--window",
+    );
+}
+
+#[test]
 fn bad_flags_give_one_line_errors() {
     let out_path = tmp("bad.png");
     let o = out_path.to_str().unwrap();

@@ -40,6 +40,8 @@
 //! * [`convolve`]: zonal kernels (clamped cosine, Phong, Blinn–Phong, any
 //!   radially symmetric function) and Ramamoorthi–Hanrahan irradiance.
 //! * [`product`]: triple-product tensor Γ, products, SH exponential and logarithm.
+//! * [`window`]: ringing windows chosen for a set of lobes (Hann, Lanczos
+//!   σ-factors, Sloan's deringing that keeps them non-negative).
 //! * [`mod@bench`]: `bench_sh` timings.
 //!
 //! # API map (for techniques and the CLI)
@@ -85,6 +87,7 @@ pub mod real;
 pub mod rotation;
 mod simd;
 pub mod taylor;
+pub mod window;
 
 pub use basis::{
     ShFloat as ShFloatExt, eval_sh, eval_sh_f64, eval_sh_into, try_eval_sh, try_eval_sh_into,

@@ -84,6 +84,44 @@ pub struct BrdfShTable {
     order: usize,
     theta_samples: usize,
     coeffs: Vec<f32>,
+    /// Rank-1 factorisation `B_c(θ) = ρ_c B̂(θ)` where it holds (every
+    /// single-lobe BRDF with a colour: Lambert, Phong, GGX, Ward…): the colour
+    /// ρ and `B̂` as `mono[j · n² + i]`. The shader then rotates one vector
+    /// per pixel instead of three.
+    mono: Option<([f32; 3], Vec<f32>)>,
+}
+
+/// Relative tolerance of the rank-1 test: `max |B_c − ρ_c B̂| ≤ MONO_TOL ·
+/// max |B̂|` over the whole table (f32 rounding of the bake is ~1e-7).
+const MONO_TOL: f32 = 1e-5;
+
+/// `B_c = ρ_c B̂` for the table `coeffs` (layout of the module docs), if it
+/// holds: `B̂` is the channel of largest norm, `ρ_c = ⟨B_c, B̂⟩ / ⟨B̂, B̂⟩`.
+fn factor_mono(nt: usize, nn: usize, coeffs: &[f32]) -> Option<([f32; 3], Vec<f32>)> {
+    let chan = |c: usize| (0..nt).flat_map(move |j| (0..nn).map(move |i| (j * 3 + c) * nn + i));
+    let norm2 = |c: usize| chan(c).map(|k| f64::from(coeffs[k]).powi(2)).sum::<f64>();
+    let g = (0..3).max_by(|&a, &b| norm2(a).total_cmp(&norm2(b)))?;
+    let gg = norm2(g);
+    if gg == 0.0 {
+        return Some(([0.0; 3], vec![0.0; nt * nn]));
+    }
+    let mut rho = [0.0f32; 3];
+    for (c, r) in rho.iter_mut().enumerate() {
+        let dot: f64 = chan(c)
+            .zip(chan(g))
+            .map(|(a, b)| f64::from(coeffs[a]) * f64::from(coeffs[b]))
+            .sum();
+        *r = (dot / gg) as f32;
+    }
+    let scale = chan(g).map(|k| coeffs[k].abs()).fold(0.0f32, f32::max);
+    for (c, r) in rho.iter().enumerate() {
+        for (a, b) in chan(c).zip(chan(g)) {
+            if (coeffs[a] - r * coeffs[b]).abs() > MONO_TOL * scale {
+                return None;
+            }
+        }
+    }
+    Some((rho, chan(g).map(|k| coeffs[k]).collect()))
 }
 
 /// Relative change of `f` under rotations about the normal, over fixed probe
@@ -209,11 +247,122 @@ impl BrdfShTable {
             "baked BRDF coefficients (the BRDF returned NaN/inf)",
             &coeffs,
         )?;
-        Ok(Self {
+        Ok(Self::from_coeffs(order, nt, coeffs))
+    }
+
+    /// A table from its raw coefficients (layout of the module docs); the
+    /// rank-1 factorisation is found here.
+    fn from_coeffs(order: usize, theta_samples: usize, coeffs: Vec<f32>) -> Self {
+        let mono = factor_mono(theta_samples, order * order, &coeffs);
+        Self {
             order,
-            theta_samples: nt,
+            theta_samples,
             coeffs,
-        })
+            mono,
+        }
+    }
+
+    /// The same table with band `l` of every transfer vector multiplied by
+    /// `h[l]` (a ringing window, [`relight_sh::window`]); bands past the end
+    /// of `h` are kept.
+    #[must_use]
+    pub fn windowed(&self, h: &[f64]) -> Self {
+        let nn = self.order * self.order;
+        let mut coeffs = self.coeffs.clone();
+        for row in coeffs.chunks_exact_mut(nn) {
+            for (l, &w) in h.iter().enumerate().take(self.order) {
+                for v in &mut row[l * l..(l + 1) * (l + 1)] {
+                    *v *= w as f32;
+                }
+            }
+        }
+        Self::from_coeffs(self.order, self.theta_samples, coeffs)
+    }
+
+    /// The transfer vector of channel `c` at polar sample `j` (all `n²`
+    /// coefficients, canonical frame).
+    #[must_use]
+    pub fn sample(&self, j: usize, c: usize) -> &[f32] {
+        let nn = self.order * self.order;
+        &self.coeffs[(j * 3 + c) * nn..(j * 3 + c + 1) * nn]
+    }
+
+    /// The outgoing polar angle of sample `j` (radians, cell centres of
+    /// `[0, π/2]`).
+    #[must_use]
+    pub fn sample_theta(&self, j: usize) -> f64 {
+        (j as f64 + 0.5) / self.theta_samples as f64 * 0.5 * PI
+    }
+
+    /// The transfer lobes at `order ≤ self.order()` bands for choosing a
+    /// window: every polar sample's `B̂` where the table is rank-1, else
+    /// every sample's three channels (each `order²` coefficients).
+    #[must_use]
+    pub fn lobes(&self, order: usize) -> Vec<Vec<f32>> {
+        let (nn, k) = (self.order * self.order, order.min(self.order).pow(2));
+        match &self.mono {
+            Some((_, m)) => m.chunks_exact(nn).map(|r| r[..k].to_vec()).collect(),
+            None => self
+                .coeffs
+                .chunks_exact(nn)
+                .map(|r| r[..k].to_vec())
+                .collect(),
+        }
+    }
+
+    /// The colour ρ of the rank-1 factorisation `B_c = ρ_c B̂`, where the
+    /// table has one.
+    #[must_use]
+    pub fn mono_colour(&self) -> Option<[f32; 3]> {
+        self.mono.as_ref().map(|m| m.0)
+    }
+
+    /// Interpolation position of `cos θ_o`: lower sample and weight, or
+    /// `None` below the horizon (also for NaN).
+    #[inline]
+    fn locate(&self, cos_theta_o: f32) -> Option<(usize, f32)> {
+        if cos_theta_o.is_nan() || cos_theta_o <= 0.0 {
+            return None;
+        }
+        let theta = cos_theta_o.min(1.0).acos();
+        let nt = self.theta_samples;
+        let t = (theta / std::f32::consts::FRAC_PI_2 * nt as f32 - 0.5).clamp(0.0, (nt - 1) as f32);
+        let j0 = (t as usize).min(nt - 2);
+        Some((j0, t - j0 as f32))
+    }
+
+    /// `B̂(θ_o)` of the rank-1 factorisation ([`BrdfShTable::mono_colour`]),
+    /// truncated to `order` bands into `out[..order²]`; `false` (and `out`
+    /// untouched) where the table has no such factorisation. Zero below the
+    /// horizon, as [`BrdfShTable::lookup`].
+    ///
+    /// # Panics
+    /// If `order > self.order()` or `out.len() < order²`.
+    #[inline]
+    pub fn lookup_mono(&self, cos_theta_o: f32, order: usize, out: &mut [f32]) -> bool {
+        assert!(
+            order <= self.order,
+            "lookup order {order} above the baked {}",
+            self.order
+        );
+        let Some((_, m)) = &self.mono else {
+            return false;
+        };
+        let k = order * order;
+        let out = &mut out[..k];
+        let Some((j0, a)) = self.locate(cos_theta_o) else {
+            out.fill(0.0);
+            return true;
+        };
+        let nn = self.order * self.order;
+        let (s0, s1) = (
+            &m[j0 * nn..j0 * nn + k],
+            &m[(j0 + 1) * nn..(j0 + 1) * nn + k],
+        );
+        for ((o, x), y) in out.iter_mut().zip(s0).zip(s1) {
+            *o = x + a * (y - x);
+        }
+        true
     }
 
     /// Number of bands.
@@ -250,16 +399,10 @@ impl BrdfShTable {
         );
         let k = order * order;
         let out = &mut out[..3 * k];
-        // Also catches NaN.
-        if cos_theta_o.is_nan() || cos_theta_o <= 0.0 {
+        let Some((j0, a)) = self.locate(cos_theta_o) else {
             out.fill(0.0);
             return;
-        }
-        let theta = cos_theta_o.min(1.0).acos();
-        let nt = self.theta_samples;
-        let t = (theta / std::f32::consts::FRAC_PI_2 * nt as f32 - 0.5).clamp(0.0, (nt - 1) as f32);
-        let j0 = (t as usize).min(nt - 2);
-        let a = t - j0 as f32;
+        };
         let nn = self.order * self.order;
         let r0 = &self.coeffs[j0 * 3 * nn..(j0 + 1) * 3 * nn];
         let r1 = &self.coeffs[(j0 + 1) * 3 * nn..(j0 + 2) * 3 * nn];

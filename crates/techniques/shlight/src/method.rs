@@ -29,7 +29,7 @@
 //! and [`FrameTimings::view_ms`] is the raster + shading time of the frame.
 
 use crate::bake::{BakeOptions, BrdfShTable};
-use crate::relight::{Lit, check_meshes};
+use crate::relight::{Background, Lit, check_meshes};
 use crate::{NormalMap, ShLightError, ShRenderer, ShRotationMethod};
 use relight_geom::Mesh;
 use relight_render::method::{
@@ -39,9 +39,14 @@ use relight_render::method::{
 use relight_render::raster::Rasterizer;
 use relight_render::{Image, Progress, Scene};
 use relight_sh::project::{ShRgb, Window, project_env};
+use relight_sh::window::{ChosenWindow, WindowChoice};
 use relight_sphere::EnvMap;
 use std::sync::Arc;
 use std::time::Instant;
+
+/// Relative L2 change of a lobe by its window above which
+/// [`ShMethod::warnings`] says the order cannot represent it.
+pub const LOBE_CHANGE_WARNING: f64 = 0.25;
 
 /// The method's name on the command line.
 pub const SH_METHOD_NAME: &str = "sh";
@@ -54,22 +59,34 @@ pub struct ShOptions {
     /// channel. Default 6.
     pub order: usize,
     /// Per-pixel rotation of the transfer vector into the vertex frame.
-    /// Default [`ShRotationMethod::Exact`].
+    /// Default [`ShOptions::DEFAULT_ROTATION`].
     pub rotation: ShRotationMethod,
     /// Resolution of the BRDF bake. Default [`BakeOptions::default`].
     pub bake: BakeOptions,
     /// Taylor rotations switch to exact ZYZ beyond this tilt, radians (≥ 0;
     /// Křivánek et al. §4.2). Default ∞ (pure Taylor).
     pub beta_lim: f32,
+    /// Ringing window of each BRDF's transfer (`relight_sh::window`).
+    /// Default [`WindowChoice::Auto`]: Sloan's deringing wherever a lobe
+    /// would go negative at `order` bands, so no pixel is negative.
+    pub window: WindowChoice,
+}
+
+impl ShOptions {
+    /// The default per-pixel rotation: exact, by the ZYZ decomposition
+    /// (three Z rotations and two fixed sparse X matrices per pixel, no
+    /// per-pixel matrix build).
+    pub const DEFAULT_ROTATION: ShRotationMethod = ShRotationMethod::Zyz;
 }
 
 impl Default for ShOptions {
     fn default() -> Self {
         Self {
             order: 6,
-            rotation: ShRotationMethod::Exact,
+            rotation: Self::DEFAULT_ROTATION,
             bake: BakeOptions::default(),
             beta_lim: f32::INFINITY,
+            window: WindowChoice::Auto,
         }
     }
 }
@@ -81,6 +98,8 @@ pub struct ShMethod {
     renderer: ShRenderer,
     state: Option<State>,
     raster: Rasterizer,
+    /// The supersampled frame, reused across frames.
+    image: Image,
     /// The last lighting change's ms, reported by the next frame.
     pending_lighting_ms: f64,
 }
@@ -144,6 +163,7 @@ impl ShMethod {
         let renderer = ShRenderer::new(options.order, options.rotation)
             .map_err(|e| invalid("order", e))?
             .with_bake_options(options.bake)
+            .with_window(options.window)
             .with_beta_lim(options.beta_lim)
             .map_err(|e| invalid("beta_lim", e))?;
         Ok(Self {
@@ -151,6 +171,7 @@ impl ShMethod {
             renderer,
             state: None,
             raster: Rasterizer::new(),
+            image: Image::new(1, 1),
             pending_lighting_ms: 0.0,
         })
     }
@@ -166,6 +187,35 @@ impl ShMethod {
     #[must_use]
     pub fn tables(&self) -> &[Arc<BrdfShTable>] {
         self.state.as_ref().map_or(&[], |s| &s.lit.tables)
+    }
+
+    /// The window chosen for each object of the prepared scene at the
+    /// method's order (empty before `prepare`): which one, how much it
+    /// changed the lobe, and how negative the lobe was without it.
+    #[must_use]
+    pub fn windows(&self) -> &[ChosenWindow] {
+        self.state.as_ref().map_or(&[], |s| &s.lit.windows)
+    }
+
+    /// One line per object whose lobe `order` bands cannot represent: its
+    /// window changed it by more than [`LOBE_CHANGE_WARNING`] (relative L2),
+    /// so its highlight is blurred; empty before `prepare`.
+    #[must_use]
+    pub fn warnings(&self) -> Vec<String> {
+        self.windows()
+            .iter()
+            .enumerate()
+            .filter(|(_, w)| w.change > LOBE_CHANGE_WARNING)
+            .map(|(i, w)| {
+                format!(
+                    "sh: object {i}: order {} cannot represent this BRDF's lobe (it rings to {:.0} % of its peak below zero); the {} window changes it by {:.0} % — raise --order or use the wavelet method for sharp highlights",
+                    self.options.order,
+                    -100.0 * w.raw_min_ratio,
+                    w.applied,
+                    100.0 * w.change
+                )
+            })
+            .collect()
     }
 
     fn check_same_meshes(state: &State, scene: &Scene) -> Result<(), MethodError> {
@@ -284,21 +334,33 @@ impl Relighter for ShMethod {
             .iter()
             .map(|o| o.normal_map.as_deref())
             .collect();
-        let mut hi = Image::new(camera.width, camera.height);
+        // `render_frame` paints every pixel no object touches; only the empty
+        // samples of partly covered pixels need the environment here.
+        let background = if k == 1 {
+            Background::Black
+        } else {
+            Background::Partial(k)
+        };
+        let hi = &mut self.image;
         state
             .lit
             .shade_into(
                 &self.raster,
+                &camera,
                 scene,
                 self.options.order,
                 self.options.rotation,
                 &maps,
                 self.options.beta_lim,
-                true,
-                &mut hi,
+                background,
+                hi,
             )
             .map_err(fail)?;
-        let image = if k == 1 { hi } else { hi.box_downsample(k) };
+        let image = if k == 1 {
+            hi.clone()
+        } else {
+            hi.box_downsample(k)
+        };
         let coverage = coverage_of_raster(&self.raster, w, h, k);
         Ok(Rendered {
             image,

@@ -6,22 +6,26 @@
 //!    frame, RGB; `relight_sh::project::project_env`, no window).
 //! 2. **Per vertex** (parallel): a local frame `F_v` (z = vertex normal,
 //!    x = the vertex tangent made orthogonal to it) and the lighting in that
-//!    frame, `L_v = R(F_vᵀ) L` (exact Ivanic–Ruedenberg matrix, built per
-//!    vertex). Meshes **without tangents** get one frame per triangle corner
+//!    frame, `L_v = R(F_vᵀ) L` (exact, by the ZYZ decomposition of `F_vᵀ`:
+//!    three Z rotations and two fixed sparse X matrices per channel; no
+//!    per-vertex matrix is built). Meshes **without tangents** get one frame per triangle corner
 //!    instead (vertices are unshared), with x = the triangle's first edge made
 //!    orthogonal to the corner normal: the three frames of a triangle then
 //!    differ only by the small tilt between its normals, so linearly
 //!    interpolating their coefficient vectors is meaningful (frames with
 //!    unrelated tangent azimuths would not be).
-//! 3. **Per pixel** (the rasterizer's shading hook; attributes interpolated
-//!    perspective-correctly): the interpolated vertex frame `F_v` (from the
+//! 3. **Per pixel** ([`crate::shade`], over the rasterizer's visibility
+//!    buffer with its perspective-correct barycentrics): the interpolated vertex frame `F_v` (from the
 //!    interpolated normal and tangent, Gram–Schmidt) carries the interpolated
 //!    lighting `L_v`; the *perturbed* frame `F_p` has z = the normal-mapped
 //!    normal ([`NormalMap::perturb`]) and x = the same tangent. With the view
 //!    direction `ω_o` in `F_p` at polar angle θ_o and azimuth φ_o, the
 //!    transfer vector is `B_p = R_z(φ_o) B(θ_o)` ([`BrdfShTable::lookup`]); it is
 //!    rotated into `F_v` by `T = F_vᵀ F_p R_z(φ_o)` with the chosen
-//!    [`ShRotationMethod`] and the pixel is `L_o = ⟨L_v, T B(θ_o)⟩` per channel.
+//!    [`ShRotationMethod`] and the pixel is `L_o = ⟨L_v, T H B(θ_o)⟩` per
+//!    channel, `H` the BRDF's ringing window ([`ShRenderer::with_window`]).
+//!    Where the table is rank-1 (`B_c = ρ_c B̂`, every single-lobe BRDF with a
+//!    colour) one vector is rotated instead of three.
 //!    The Y angle β of `T`'s ZYZ decomposition is exactly the tilt between
 //!    the perturbed and the interpolated normal, so Taylor rotation is
 //!    accurate where normal maps are gentle.
@@ -49,19 +53,53 @@
 //! are left out).
 
 use crate::bake::{BakeOptions, BrdfShTable};
+use crate::shade::{Bg, Pass};
 use crate::{MAX_SHADING_ORDER, NormalMap, ShLightError, check_shading_order};
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 use relight_brdf::Brdf;
-use relight_render::raster::{Background, DrawCall, Fragment, RasterOptions, Rasterizer};
+use relight_render::raster::{DrawCall, NO_TRIANGLE, RasterError, RasterOptions, Rasterizer};
 use relight_render::{Camera, Image, Progress, Scene};
 use relight_sh::project::{ShRgb, Window, project_env};
-use relight_sh::rotation::{IvanicRuedenberg, Rot3, ShRotation, ZyzRotation, rotate_z};
+use relight_sh::rotation::{IvanicRuedenberg, Rot3, ShRotation, ZyzRotation};
 use relight_sh::taylor::{TaylorOrder, TaylorRotation};
+use relight_sh::window::{ChosenWindow, LobeSet, WindowChoice};
 use relight_sphere::Frame;
-use std::cell::RefCell;
 use std::str::FromStr;
 use std::sync::{Arc, Mutex};
+
+/// Which empty samples of a frame get the environment (see [`crate::shade`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Background {
+    /// None: black.
+    Black,
+    /// Every empty sample.
+    All,
+    /// Only the empty samples of `k × k` blocks an object partly covers.
+    Partial(usize),
+}
+
+/// The window for `table` at `order` bands (Sloan's deringing, Hann,
+/// Lanczos or none; `relight_sh::window`), from its transfer lobes.
+///
+/// # Errors
+/// An order above the table's.
+pub(crate) fn choose_window(
+    table: &BrdfShTable,
+    order: usize,
+    choice: WindowChoice,
+) -> Result<ChosenWindow, ShLightError> {
+    check_shading_order(order)?;
+    if order > table.order() {
+        return Err(ShLightError::InvalidParameter {
+            what: "order",
+            why: format!("{order} exceeds the baked order {}", table.order()),
+        });
+    }
+    let lobes = table.lobes(order);
+    let refs: Vec<&[f32]> = lobes.iter().map(Vec::as_slice).collect();
+    Ok(LobeSet::new(order, &refs)?.choose(choice))
+}
 
 /// How the per-pixel transfer vector is rotated from the normal-mapped frame
 /// to the interpolated vertex frame (`--rotation`).
@@ -155,6 +193,7 @@ pub struct ShRenderer {
     supersampling: usize,
     beta_lim: f32,
     env_background: bool,
+    window: WindowChoice,
     filter: Option<LightingFilter>,
     /// `world_from_env` of the lighting, applied to its SH coefficients.
     lighting_rotation: Option<(Mat3, Rot3<f32>)>,
@@ -189,6 +228,8 @@ struct CacheEntry {
     order: usize,
     bake: BakeOptions,
     table: Arc<BrdfShTable>,
+    /// Windows chosen for this table: (order, choice, window).
+    windows: Vec<(usize, WindowChoice, ChosenWindow)>,
 }
 
 /// The camera-independent state at `order_max` bands: the BRDF tables, the
@@ -197,9 +238,11 @@ struct CacheEntry {
 /// camera by [`Lit::shade_into`] after [`Lit::rasterize`].
 pub(crate) struct Lit {
     pub(crate) order_max: usize,
-    stride: usize,
     draws: Vec<DrawData>,
     pub(crate) tables: Vec<Arc<BrdfShTable>>,
+    /// The window asked for, and per object the one chosen at `order_max`.
+    pub(crate) window: WindowChoice,
+    pub(crate) windows: Vec<ChosenWindow>,
     /// With a [`LightingFilter`]: its `direct` weight and the filtered
     /// lighting's SH (order_max², RGB), added to the background.
     filtered_background: Option<(f32, [Vec<f32>; 3])>,
@@ -216,34 +259,15 @@ pub(crate) struct Prepared {
     k: usize,
 }
 
-struct DrawData {
-    positions: Vec<Vec3>,
-    triangles: Vec<[u32; 3]>,
-    attributes: Vec<f32>,
-}
-
-/// Attribute layout: normal (3), tangent (4), uv (2), then `L_v` as 3 × N².
-const ATTR_HEADER: usize = 9;
-
-/// Per-thread shading buffers (allocated once per thread, reused per pixel).
-struct Scratch {
-    /// Transfer vector from the table, 3 × n².
-    b: Vec<f32>,
-    /// The rotated transfer vector, 3 × n².
-    bz: Vec<f32>,
-    /// ZYZ / Taylor intermediate, n².
-    tmp: Vec<f32>,
-    /// Exact rotation matrix of the current pixel.
-    exact: Option<ShRotation<f32>>,
-}
-
-thread_local! {
-    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch {
-        b: vec![0.0; 3 * MAX_SHADING_ORDER * MAX_SHADING_ORDER],
-        bz: vec![0.0; 3 * MAX_SHADING_ORDER * MAX_SHADING_ORDER],
-        tmp: vec![0.0; MAX_SHADING_ORDER * MAX_SHADING_ORDER],
-        exact: None,
-    });
+/// One object's geometry and vertex data (SoA by kind).
+pub(crate) struct DrawData {
+    pub(crate) positions: Vec<Vec3>,
+    pub(crate) triangles: Vec<[u32; 3]>,
+    /// Per vertex: normal (3), tangent (4, w = handedness), uv (2).
+    pub(crate) verts: Vec<[f32; 9]>,
+    /// Per vertex the lighting in its frame, `L_v`: 3 channels × `order_max²`
+    /// (`light[v · 3n² + c · n² + i]`).
+    pub(crate) light: Vec<f32>,
 }
 
 impl ShRenderer {
@@ -262,10 +286,20 @@ impl ShRenderer {
             supersampling: 1,
             beta_lim: f32::INFINITY,
             env_background: true,
+            window: WindowChoice::default(),
             filter: None,
             lighting_rotation: None,
             cache: Mutex::new(Vec::new()),
         })
+    }
+
+    /// The ringing window of the transfer ([`WindowChoice`], default
+    /// [`WindowChoice::Auto`]: Sloan's deringing where a lobe would go
+    /// negative).
+    #[must_use]
+    pub fn with_window(mut self, window: WindowChoice) -> Self {
+        self.window = window;
+        self
     }
 
     /// Bake resolution.
@@ -402,8 +436,42 @@ impl ShRenderer {
             order,
             bake: self.bake,
             table: table.clone(),
+            windows: Vec::new(),
         });
         Ok(table)
+    }
+
+    /// The window of [`ShRenderer::with_window`] for `table` (one of this
+    /// renderer's bakes) at `order` bands, chosen once and cached.
+    ///
+    /// # Errors
+    /// An order above the table's.
+    pub fn window_of(
+        &self,
+        table: &Arc<BrdfShTable>,
+        order: usize,
+    ) -> Result<ChosenWindow, ShLightError> {
+        let find = |cache: &Vec<CacheEntry>| {
+            cache
+                .iter()
+                .filter(|e| Arc::ptr_eq(&e.table, table))
+                .flat_map(|e| &e.windows)
+                .find(|(o, c, _)| *o == order && *c == self.window)
+                .map(|(_, _, w)| w.clone())
+        };
+        let lock = || {
+            self.cache
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+        };
+        if let Some(w) = find(&lock()) {
+            return Ok(w);
+        }
+        let w = choose_window(table, order, self.window)?;
+        if let Some(e) = lock().iter_mut().find(|e| Arc::ptr_eq(&e.table, table)) {
+            e.windows.push((order, self.window, w.clone()));
+        }
+        Ok(w)
     }
 
     /// Renders `scene` (environment lighting, no shadows), with an optional
@@ -486,8 +554,11 @@ impl ShRenderer {
             .map(|(i, o)| self.table(&o.brdf, order_max, i, progress))
             .collect::<Result<Vec<_>, _>>()?;
         progress.check()?;
+        let windows = tables
+            .iter()
+            .map(|t| self.window_of(t, order_max))
+            .collect::<Result<Vec<_>, _>>()?;
         let nn = order_max * order_max;
-        let stride = ATTR_HEADER + 3 * nn;
         let mut draws = Vec::with_capacity(scene.objects.len());
         for o in &scene.objects {
             progress.check()?;
@@ -509,26 +580,25 @@ impl ShRenderer {
             } else {
                 unshare_corners(m)
             };
-            let mut attributes = vec![0.0f32; positions.len() * stride];
-            attributes
-                .par_chunks_mut(stride)
-                .enumerate()
-                .for_each(|(v, a)| {
-                    a[0..3].copy_from_slice(&normals[v].to_array());
-                    a[3..7].copy_from_slice(&tangents[v].to_array());
-                    a[7..9].copy_from_slice(&uvs[v].to_array());
-                });
+            let verts = (0..positions.len())
+                .map(|v| {
+                    let (n, t, uv) = (normals[v], tangents[v], uvs[v]);
+                    [n.x, n.y, n.z, t.x, t.y, t.z, t.w, uv.x, uv.y]
+                })
+                .collect();
             draws.push(DrawData {
+                light: vec![0.0f32; positions.len() * 3 * nn],
                 positions,
                 triangles,
-                attributes,
+                verts,
             });
         }
         Ok(Lit {
             order_max,
-            stride,
             draws,
             tables,
+            window: self.window,
+            windows,
             filtered_background: None,
             env_from_world: Mat3::IDENTITY,
         })
@@ -581,28 +651,37 @@ impl ShRenderer {
             filtered_background = Some((f.direct, filtered.channels));
         }
         let nn = order_max * order_max;
-        let stride = lit.stride;
+        let zyz = ZyzRotation::<f32>::new(order_max)?;
         let total: u64 = lit.draws.iter().map(|d| d.positions.len() as u64).sum();
         progress.start("sh per-vertex lighting", total.max(1));
         for d in &mut lit.draws {
             progress.check()?;
-            d.attributes.par_chunks_mut(stride).for_each_init(
-                || ShRotation::<f32>::identity(order_max).expect("order checked"),
-                |rot, a| {
-                    let n = Vec3::new(a[0], a[1], a[2]);
-                    let t = Vec3::new(a[3], a[4], a[5]);
-                    let f = Frame::from_normal_tangent(n, t);
-                    // local_from_world: rows are the frame axes.
-                    plan.build(
-                        &Rot3::new_unchecked([f.x.to_array(), f.y.to_array(), f.z.to_array()]),
-                        rot,
-                    );
-                    for c in 0..3 {
-                        let dst = &mut a[ATTR_HEADER + c * nn..ATTR_HEADER + (c + 1) * nn];
-                        rot.apply(&light.channels[c], dst);
-                    }
-                },
-            );
+            let verts = &d.verts;
+            d.light
+                .par_chunks_mut(3 * nn)
+                .zip(verts.par_iter())
+                .with_min_len(256)
+                .for_each_init(
+                    || vec![0.0f32; nn],
+                    |tmp, (dst, a)| {
+                        let n = Vec3::new(a[0], a[1], a[2]);
+                        let t = Vec3::new(a[3], a[4], a[5]);
+                        let f = Frame::from_normal_tangent(n, t);
+                        // local_from_world: rows are the frame axes (exact ZYZ:
+                        // three Z rotations and two fixed sparse X matrices).
+                        let e =
+                            Rot3::new_unchecked([f.x.to_array(), f.y.to_array(), f.z.to_array()])
+                                .euler_zyz();
+                        for c in 0..3 {
+                            zyz.apply_euler(
+                                &e,
+                                &light.channels[c],
+                                &mut dst[c * nn..(c + 1) * nn],
+                                tmp,
+                            );
+                        }
+                    },
+                );
             progress.inc(d.positions.len() as u64);
         }
         progress.finish();
@@ -644,15 +723,11 @@ pub(crate) fn check_meshes(
     Ok(())
 }
 
-fn draw_calls(draws: &[DrawData], stride: usize) -> Vec<DrawCall<'_>> {
+fn draw_calls(draws: &[DrawData]) -> Vec<DrawCall<'_>> {
     draws
         .iter()
         .enumerate()
-        .map(|(i, d)| {
-            DrawCall::new(&d.positions, &d.triangles)
-                .with_attributes(stride, &d.attributes)
-                .with_object_id(i as u32)
-        })
+        .map(|(i, d)| DrawCall::new(&d.positions, &d.triangles).with_object_id(i as u32))
         .collect()
 }
 
@@ -700,7 +775,7 @@ fn flip_sign(i: usize) -> f32 {
 }
 
 /// The rotation machinery of one (order, method).
-struct Rotator {
+pub(crate) struct Rotator {
     order: usize,
     method: ShRotationMethod,
     exact: Option<IvanicRuedenberg<f32>>,
@@ -726,11 +801,12 @@ impl Rotator {
         })
     }
 
-    /// `dst_c = T src_c` for the three channels (`order²` each, packed).
+    /// `dst_c = T src_c` for `channels` vectors (`order²` each, packed).
     #[inline]
-    fn rotate3(
+    pub(crate) fn rotate(
         &self,
         t: Mat3,
+        channels: usize,
         src: &[f32],
         dst: &mut [f32],
         scratch: &mut [f32],
@@ -746,14 +822,14 @@ impl Rotator {
                 }
                 let m = exact.as_mut().expect("set above");
                 plan.build(&rot, m);
-                for c in 0..3 {
+                for c in 0..channels {
                     m.apply(&src[c * k..(c + 1) * k], &mut dst[c * k..(c + 1) * k]);
                 }
             }
             ShRotationMethod::Zyz => {
                 let z = self.zyz.as_ref().expect("zyz plan");
                 let e = rot.euler_zyz();
-                for c in 0..3 {
+                for c in 0..channels {
                     z.apply_euler(
                         &e,
                         &src[c * k..(c + 1) * k],
@@ -765,7 +841,7 @@ impl Rotator {
             ShRotationMethod::Taylor1 | ShRotationMethod::Taylor15 | ShRotationMethod::Taylor2 => {
                 let tr = self.taylor.as_ref().expect("taylor plan");
                 let e = rot.euler_zyz();
-                for c in 0..3 {
+                for c in 0..channels {
                     tr.apply_euler(
                         &e,
                         &src[c * k..(c + 1) * k],
@@ -774,7 +850,7 @@ impl Rotator {
                     );
                 }
             }
-            ShRotationMethod::None => dst[..3 * k].copy_from_slice(&src[..3 * k]),
+            ShRotationMethod::None => dst[..channels * k].copy_from_slice(&src[..channels * k]),
         }
     }
 }
@@ -796,12 +872,17 @@ impl Prepared {
         let mut hi = Image::new(self.camera.width, self.camera.height);
         self.lit.shade_into(
             &self.raster,
+            &self.camera,
             scene,
             order,
             method,
             &maps,
             beta_lim,
-            env_background,
+            if env_background {
+                Background::All
+            } else {
+                Background::Black
+            },
             &mut hi,
         )?;
         if self.k == 1 {
@@ -839,15 +920,16 @@ impl Lit {
         camera: &Camera,
         raster: &mut Rasterizer,
     ) -> Result<(), ShLightError> {
-        let calls = draw_calls(&self.draws, self.stride);
+        let calls = draw_calls(&self.draws);
         let opts = RasterOptions::default().fit_depth(camera, &calls);
         raster.rasterize(camera, &calls, &opts)?;
         Ok(())
     }
 
     /// Step 3 at `order ≤ order_max` bands with `method` into `out` (at the
-    /// size `raster` was last rasterized at, from this geometry): object `i`
-    /// shades with `normal_maps[i]` (`None`: unperturbed).
+    /// size `raster` was last rasterized at, for `camera`, from this
+    /// geometry): object `i` shades with `normal_maps[i]` (`None`:
+    /// unperturbed); empty samples get `background`.
     ///
     /// # Errors
     /// Order out of range, `normal_maps` not one per object, a raster of other
@@ -856,12 +938,13 @@ impl Lit {
     pub(crate) fn shade_into(
         &self,
         raster: &Rasterizer,
+        camera: &Camera,
         scene: &Scene,
         order: usize,
         method: ShRotationMethod,
         normal_maps: &[Option<&NormalMap>],
         beta_lim: f32,
-        env_background: bool,
+        background: Background,
         out: &mut Image,
     ) -> Result<(), ShLightError> {
         if normal_maps.len() != self.draws.len() {
@@ -881,88 +964,44 @@ impl Lit {
                 why: format!("{order} exceeds the prepared order {}", self.order_max),
             });
         }
+        let g = raster.gbuffer();
+        let ntri: usize = self.draws.iter().map(|d| d.triangles.len()).sum();
+        if g.triangle
+            .iter()
+            .any(|&t| t != NO_TRIANGLE && t as usize >= ntri)
+        {
+            return Err(RasterError::DrawMismatch { draw: 0 }.into());
+        }
         let rotator = Rotator::new(order, method, beta_lim)?;
-        let nn_max = self.order_max * self.order_max;
         let k2 = order * order;
         let flip: Vec<f32> = (0..k2).map(flip_sign).collect();
-        let tables = &self.tables;
-        let shader = |f: &Fragment| -> Vec3 {
-            let normal_map = normal_maps[f.draw as usize];
-            let a = f.attributes;
-            let n_i = Vec3::new(a[0], a[1], a[2]).normalize_or(f.normal);
-            let t_i = Vec4::new(a[3], a[4], a[5], a[6]);
-            let uv = Vec2::new(a[7], a[8]);
-            let wo_world = f.to_eye;
-            let back = wo_world.dot(f.normal) < 0.0;
-            let s = if back { -1.0 } else { 1.0 };
-            let n_p = match normal_map {
-                Some(m) => m.perturb(n_i, t_i, uv),
-                None => n_i,
-            };
-            let fv = Frame::from_normal_tangent(s * n_i, t_i.truncate());
-            let fp = if normal_map.is_some() {
-                Frame::from_normal_tangent(s * n_p, t_i.truncate())
-            } else {
-                fv
-            };
-            let wo = fp.to_local(wo_world);
-            if wo.z <= 0.0 {
-                return Vec3::ZERO;
-            }
-            SCRATCH.with(|cell| {
-                let s = &mut *cell.borrow_mut();
-                let (b, bz) = (&mut s.b[..3 * k2], &mut s.bz[..3 * k2]);
-                tables[f.draw as usize].lookup(wo.z, order, b);
-                let rxy = (wo.x * wo.x + wo.y * wo.y).sqrt();
-                let (cphi, sphi) = if rxy > 1e-12 {
-                    (wo.x / rxy, wo.y / rxy)
+        // Window factors per coefficient: the prepared ones at order_max, else
+        // chosen for this order.
+        let windows = self
+            .tables
+            .iter()
+            .zip(&self.windows)
+            .map(|(t, w)| {
+                let h = if order == self.order_max {
+                    w.factors.clone()
                 } else {
-                    (1.0, 0.0)
+                    choose_window(t, order, self.window)?.factors
                 };
-                if method == ShRotationMethod::None || normal_map.is_none() {
-                    for c in 0..3 {
-                        rotate_z(
-                            order,
-                            cphi,
-                            sphi,
-                            &b[c * k2..(c + 1) * k2],
-                            &mut bz[c * k2..(c + 1) * k2],
-                        );
-                    }
-                } else {
-                    // T = F_vᵀ F_p R_z(φ_o): canonical → perturbed frame → vertex frame.
-                    let fv_m = Mat3::from_cols(fv.x, fv.y, fv.z);
-                    let fp_m = Mat3::from_cols(fp.x, fp.y, fp.z);
-                    let rz = Mat3::from_cols(
-                        Vec3::new(cphi, sphi, 0.0),
-                        Vec3::new(-sphi, cphi, 0.0),
-                        Vec3::Z,
-                    );
-                    rotator.rotate3(
-                        fv_m.transpose() * fp_m * rz,
-                        b,
-                        bz,
-                        &mut s.tmp,
-                        &mut s.exact,
-                    );
-                }
-                let lv = &a[ATTR_HEADER..ATTR_HEADER + 3 * nn_max];
-                let mut out = [0.0f32; 3];
-                for (c, o) in out.iter_mut().enumerate() {
-                    let l = &lv[c * nn_max..c * nn_max + k2];
-                    let bc = &bz[c * k2..(c + 1) * k2];
-                    *o = if back {
-                        l.iter()
-                            .zip(bc)
-                            .zip(&flip)
-                            .map(|((x, y), s)| x * y * s)
-                            .sum()
-                    } else {
-                        l.iter().zip(bc).map(|(x, y)| x * y).sum()
-                    };
-                }
-                Vec3::from_array(out)
+                Ok((0..k2)
+                    .map(|i| h[relight_sh::sh_lm(i).0] as f32)
+                    .collect::<Vec<f32>>())
             })
+            .collect::<Result<Vec<_>, ShLightError>>()?;
+        let pass = Pass {
+            draws: &self.draws,
+            tables: &self.tables,
+            windows: &windows,
+            normal_maps,
+            order,
+            nn_max: self.order_max * self.order_max,
+            method,
+            rotator: &rotator,
+            flip: &flip,
         };
         let env = &scene.env;
         let bg = |d: Vec3| match &self.filtered_background {
@@ -977,13 +1016,53 @@ impl Lit {
                     + Vec3::new(dot(&sh[0]), dot(&sh[1]), dot(&sh[2])).max(Vec3::ZERO)
             }
         };
-        let background = if env_background {
-            Background::Environment(&bg)
-        } else {
-            Background::Color(Vec3::ZERO)
+        let bg_fn: &(dyn Fn(Vec3) -> Vec3 + Sync) = &bg;
+        let bg = match background {
+            Background::Black => Bg::Black,
+            Background::All => Bg::All(bg_fn),
+            Background::Partial(k) => Bg::Partial(k, bg_fn),
         };
-        let calls = draw_calls(&self.draws, self.stride);
-        raster.shade(&calls, shader, background, out)?;
+        pass.run(raster, camera, bg, out);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The per-vertex lighting rotation (ZYZ from the frame's Euler angles)
+    /// equals the Ivanic–Ruedenberg matrix of the same frame.
+    #[test]
+    fn vertex_frame_rotation_zyz_equals_ivanic_ruedenberg() {
+        let order = 6;
+        let nn = order * order;
+        let src: Vec<f32> = (0..nn).map(|i| ((i * 7 + 3) % 11) as f32 - 5.0).collect();
+        let plan = IvanicRuedenberg::<f32>::new(order).unwrap();
+        let zyz = ZyzRotation::<f32>::new(order).unwrap();
+        let mut m = ShRotation::<f32>::identity(order).unwrap();
+        let (mut a, mut b, mut tmp) = (vec![0.0; nn], vec![0.0; nn], vec![0.0; nn]);
+        for k in 0..50 {
+            let t = k as f32 * 0.37;
+            let n = Vec3::new(
+                t.sin() * (2.0 * t).cos(),
+                t.cos(),
+                t.sin() * (2.0 * t).sin(),
+            )
+            .normalize();
+            let f = Frame::from_normal_tangent(n, Vec3::new(1.0, 0.2 * t, -0.3));
+            let r = Rot3::new_unchecked([f.x.to_array(), f.y.to_array(), f.z.to_array()]);
+            plan.build(&r, &mut m);
+            m.apply(&src, &mut a);
+            zyz.apply_euler(&r.euler_zyz(), &src, &mut b, &mut tmp);
+            for i in 0..nn {
+                assert!(
+                    (a[i] - b[i]).abs() < 1e-4,
+                    "frame {k} coefficient {i}: {} vs {}",
+                    a[i],
+                    b[i]
+                );
+            }
+        }
     }
 }

@@ -8,7 +8,11 @@
 //! for every order and rotation method with and without the normal map.
 //! Without a normal map the perturbed and vertex frames coincide and every
 //! rotation method gives the same image, so those rows carry
-//! `rotation = "any"`.
+//! `rotation = "any"`. Every row is computed twice: with the transfer
+//! unwindowed (`window = none`: ringing, `negative_pixels` counts it) and
+//! with the default window (`auto`: Sloan's deringing where a lobe would go
+//! negative), which trades some blur of the glossy lobes for no negative
+//! radiance.
 //!
 //! Error: `sqrt(Σ|sh − ref|²) / sqrt(Σ|ref|²)` over RGB, restricted to pixels
 //! fully covered by objects in the SH render ([`crate::ShImage::mask`]).
@@ -17,7 +21,7 @@
 //! error of the pixel's mean luminance Y): errors well above it are real.
 
 use crate::relight::ShRotationMethod;
-use crate::{NormalMap, ShLightError, ShRenderer};
+use crate::{NormalMap, ShLightError, ShRenderer, WindowChoice};
 use relight_render::bvh::SceneBvh;
 use relight_render::reference::{
     EnvLight, ReferenceImage, ReferenceOptions, render_reference_with,
@@ -95,6 +99,10 @@ pub struct ShVerifyRow {
     pub rotation: String,
     /// The normal map's name, or `none`.
     pub normal_map: String,
+    /// The ringing window of the transfer (`none` or `auto`, `--window`).
+    pub window: String,
+    /// Pixels of the SH image with a negative channel (ringing below zero).
+    pub negative_pixels: usize,
     /// Relative RMS error against the reference (object pixels).
     pub rel_rms_error: f64,
     /// Relative RMS difference from the exact per-pixel rotation at the same
@@ -209,9 +217,6 @@ pub fn verify_sh(
         let mut scene = vs.scene.clone();
         scene.camera.width = opts.width;
         scene.camera.height = opts.height;
-        let renderer = ShRenderer::new(order_max, ShRotationMethod::Exact)?
-            .with_supersampling(opts.supersampling);
-        let prepared = renderer.prepare(&scene, Some(nm), order_max, progress)?;
         let bvh = SceneBvh::from_scene(&scene);
         let light = EnvLight::new(&scene.env, EnvFilter::Nearest);
         let ropts = ReferenceOptions {
@@ -231,68 +236,81 @@ pub fn verify_sh(
             o.normal_map = Some(shared_nm.clone());
         }
         let bumped = render_reference_with(&bumped_scene, &bvh, &light, &ropts, progress)?;
-        for &order in &opts.orders {
-            progress.check()?;
-            let first = rows.len();
-            // The per-pixel exact rotation at this order: the best any rotation
-            // method can do with n bands, so `rel_rms_vs_exact` isolates the
-            // error of the rotation from that of the band limit.
-            let exact_nm = prepared.shade(
-                &scene,
-                order,
-                ShRotationMethod::Exact,
-                Some(nm),
-                f32::INFINITY,
-                false,
-            )?;
-            let mut push = |rotation: String,
-                            with_nm: bool,
-                            method: ShRotationMethod|
-             -> Result<(), ShLightError> {
-                let t0 = Instant::now();
-                let img = prepared.shade(
+        for window in [WindowChoice::None, WindowChoice::Auto] {
+            let renderer = ShRenderer::new(order_max, ShRotationMethod::Exact)?
+                .with_supersampling(opts.supersampling)
+                .with_window(window);
+            let prepared = renderer.prepare(&scene, Some(nm), order_max, progress)?;
+            for &order in &opts.orders {
+                progress.check()?;
+                let first = rows.len();
+                // The per-pixel exact rotation at this order: the best any rotation
+                // method can do with n bands, so `rel_rms_vs_exact` isolates the
+                // error of the rotation from that of the band limit.
+                let exact_nm = prepared.shade(
                     &scene,
                     order,
-                    method,
-                    with_nm.then_some(nm),
+                    ShRotationMethod::Exact,
+                    Some(nm),
                     f32::INFINITY,
                     false,
                 )?;
-                let ms_shade = t0.elapsed().as_secs_f64() * 1e3;
-                let reference = if with_nm { &bumped } else { &plain };
-                rows.push(ShVerifyRow {
-                    scene: vs.name.to_string(),
-                    order,
-                    rotation,
-                    normal_map: if with_nm {
-                        nm_name.to_string()
-                    } else {
-                        "none".to_string()
-                    },
-                    rel_rms_error: img
-                        .image
-                        .relative_rms_error(&reference.image, Some(&img.mask)),
-                    rel_rms_vs_exact: if with_nm {
-                        img.image
-                            .relative_rms_error(&exact_nm.image, Some(&img.mask))
-                    } else {
-                        0.0
-                    },
-                    reference_rel_std_error: masked_std_error(reference, &img.mask),
-                    reference_spp: reference.spp,
-                    pixels: img.mask.iter().filter(|&&m| m).count(),
-                    ms_shade,
-                    pass: None,
-                    target: None,
-                    source: None,
-                });
-                Ok(())
-            };
-            push("any".to_string(), false, ShRotationMethod::Exact)?;
-            for &m in &opts.methods {
-                push(m.name().to_string(), true, m)?;
+                let mut push = |rotation: String,
+                                with_nm: bool,
+                                method: ShRotationMethod|
+                 -> Result<(), ShLightError> {
+                    let t0 = Instant::now();
+                    let img = prepared.shade(
+                        &scene,
+                        order,
+                        method,
+                        with_nm.then_some(nm),
+                        f32::INFINITY,
+                        false,
+                    )?;
+                    let ms_shade = t0.elapsed().as_secs_f64() * 1e3;
+                    let reference = if with_nm { &bumped } else { &plain };
+                    rows.push(ShVerifyRow {
+                        scene: vs.name.to_string(),
+                        order,
+                        rotation,
+                        normal_map: if with_nm {
+                            nm_name.to_string()
+                        } else {
+                            "none".to_string()
+                        },
+                        window: window.name().to_string(),
+                        negative_pixels: img
+                            .image
+                            .pixels
+                            .iter()
+                            .filter(|p| p.min_element() < 0.0)
+                            .count(),
+                        rel_rms_error: img
+                            .image
+                            .relative_rms_error(&reference.image, Some(&img.mask)),
+                        rel_rms_vs_exact: if with_nm {
+                            img.image
+                                .relative_rms_error(&exact_nm.image, Some(&img.mask))
+                        } else {
+                            0.0
+                        },
+                        reference_rel_std_error: masked_std_error(reference, &img.mask),
+                        reference_spp: reference.spp,
+                        pixels: img.mask.iter().filter(|&&m| m).count(),
+                        ms_shade,
+                        pass: None,
+                        target: None,
+                        source: None,
+                    });
+                    Ok(())
+                };
+                push("any".to_string(), false, ShRotationMethod::Exact)?;
+                for &m in &opts.methods {
+                    push(m.name().to_string(), true, m)?;
+                }
+                judge(&mut rows[first..]);
             }
-            judge(&mut rows[first..]);
         }
     }
     Ok(rows)
@@ -308,6 +326,8 @@ mod tests {
             order: 5,
             rotation: rotation.into(),
             normal_map: normal_map.into(),
+            window: "auto".into(),
+            negative_pixels: 0,
             rel_rms_error: err,
             rel_rms_vs_exact: 0.0,
             reference_rel_std_error: 0.01,

@@ -10,7 +10,8 @@ use relight_render::reference::{
 use relight_render::sampling::EnvFilter;
 use relight_render::{Camera, Image, NoProgress, Object, Scene};
 use relight_shlight::{
-    NormalMap, ShLightError, ShRenderer, ShRotationMethod, VerifyOptions, VerifyScene, verify_sh,
+    NormalMap, ShLightError, ShRenderer, ShRotationMethod, VerifyOptions, VerifyScene,
+    WindowChoice, verify_sh,
 };
 use relight_sphere::{EnvMap, Param};
 use std::sync::Arc;
@@ -94,8 +95,11 @@ fn render(
     m: ShRotationMethod,
     nm: Option<&NormalMap>,
 ) -> (Image, Vec<bool>) {
+    // The unwindowed transfer: these tests compare the band-limited integral
+    // itself with the reference (windows are tested on their own).
     let r = ShRenderer::new(order, m)
         .unwrap()
+        .with_window(WindowChoice::None)
         .with_supersampling(2)
         .render(scene, nm, &NoProgress)
         .unwrap();
@@ -259,7 +263,19 @@ fn verify_quick_smoke() {
         &NoProgress,
     )
     .unwrap();
-    assert_eq!(rows.len(), 2 * (1 + 6));
+    // Two windows (none, auto) × two orders × (no normal map + 6 rotations).
+    assert_eq!(rows.len(), 2 * 2 * (1 + 6));
+    for w in ["none", "auto"] {
+        assert_eq!(rows.iter().filter(|r| r.window == w).count(), 2 * (1 + 6));
+    }
+    // The window removes the ringing below zero (rows with a normal map
+    // rotate exactly or approximately; the exact ones must be clean).
+    for r in rows
+        .iter()
+        .filter(|r| r.window == "auto" && (r.rotation == "exact" || r.rotation == "any"))
+    {
+        assert_eq!(r.negative_pixels, 0, "{r:?}");
+    }
     for r in &rows {
         assert!(
             r.rel_rms_error.is_finite() && r.rel_rms_error > 0.0 && r.pixels > 100,
@@ -275,7 +291,7 @@ fn verify_quick_smoke() {
     for order in [3, 5] {
         let vs = |m: &str| {
             rows.iter()
-                .find(|r| r.order == order && r.rotation == m)
+                .find(|r| r.order == order && r.rotation == m && r.window == "none")
                 .map(|r| r.rel_rms_vs_exact)
                 .unwrap()
         };
