@@ -369,6 +369,26 @@ fn every_readme_command_works_as_written() {
     let _ = std::fs::remove_dir_all(&root);
 }
 
+/// The README says how to install the binary and which Rust it needs, the
+/// version the workspace declares.
+#[test]
+fn readme_states_the_install_line_and_the_rust_version() {
+    let manifest = include_str!("../../../Cargo.toml");
+    let version = manifest
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("rust-version = "))
+        .expect("workspace rust-version")
+        .trim_matches('"');
+    assert!(
+        README.contains("cargo install --path crates/cli"),
+        "no install line"
+    );
+    assert!(
+        README.contains(&format!("Rust {version} or newer")),
+        "README must name Rust {version} (Cargo.toml's rust-version)"
+    );
+}
+
 #[test]
 fn the_ignore_matcher_reads_gitignore_patterns() {
     assert!(ignored("bunny-reference.png"));

@@ -8,7 +8,9 @@
 //! (`surface_vertex`) the shading normal is the interpolated vertex normal,
 //! perturbed by the object's normal map ([`NormalMap::perturb`] at the hit's
 //! uv and tangent, the lookup every method shares), then both normals are
-//! turned towards the viewer (surfaces are two-sided). The BSDF is the
+//! turned towards the viewer (surfaces are two-sided), and a shading normal
+//! that still faces away from the viewer is bent just enough to face it
+//! (`facing_viewer`: no black fringes at silhouettes). The BSDF is the
 //! object's BRDF, or with a [`BrdfBlend`] the mixture
 //! `f = (1 − w) f₁ + w f₂`, `w` = the blend weight at the hit's uv, sampled by
 //! picking lobe 2 with probability `w` and reporting the mixture density
@@ -41,6 +43,37 @@ use relight_sphere::Frame;
 
 #[cfg(doc)]
 use crate::NormalMap;
+
+#[cfg(test)]
+mod facing_tests {
+    use super::{MIN_COS_VIEW, facing_viewer};
+    use glam::Vec3;
+
+    /// Normals that face the viewer are untouched; others end at the bound,
+    /// unit length, in the plane of the normal and the viewer, on the
+    /// normal's side.
+    #[test]
+    fn bends_only_what_faces_away() {
+        let v = Vec3::new(0.0, 0.0, 1.0);
+        let ok = Vec3::new(0.6, 0.0, 0.8);
+        assert_eq!(facing_viewer(ok, v), ok);
+        for n in [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.6, 0.0, -0.8),
+            Vec3::new(0.0, 0.3, -1.0),
+        ] {
+            let n = n.normalize();
+            let b = facing_viewer(n, v);
+            assert!((b.length() - 1.0).abs() < 1e-5, "{b}");
+            assert!((b.dot(v) - MIN_COS_VIEW).abs() < 1e-5, "{b}");
+            assert!(
+                b.cross(v).normalize().dot(n.cross(v).normalize()) > 0.999,
+                "{n} → {b}"
+            );
+        }
+        assert_eq!(facing_viewer(-v, v), v);
+    }
+}
 
 use super::lights::EnvLight;
 
@@ -215,6 +248,7 @@ pub(crate) fn surface_vertex<'s>(
         ng = -ng;
         ns = -ns;
     }
+    let ns = facing_viewer(ns, -d);
     let frame = sp.frame(ns);
     let sc = Scatter::Surface {
         p: sp.position,
@@ -224,6 +258,35 @@ pub(crate) fn surface_vertex<'s>(
         bsdf: SurfaceBsdf::of_object(object, sp.uv),
     };
     (sp, sc)
+}
+
+/// Least `cos` between the shading normal and the direction to the viewer
+/// (`facing_viewer`): about 87°.
+pub(crate) const MIN_COS_VIEW: f32 = 0.05;
+
+/// `ns` turned towards the viewer `v` (unit) just enough that `v` lies at
+/// least [`MIN_COS_VIEW`] above its horizon, in the plane of `ns` and `v`.
+///
+/// An interpolated vertex normal (or a normal map) can face away from the
+/// viewer where the geometric normal does not: at silhouettes of coarse
+/// meshes, e.g. the thin ears of the Stanford bunny. There `ω_o` would lie
+/// below the BRDF's hemisphere, the BRDF is zero, and the silhouette gets a
+/// black fringe that no real surface has. Bending the normal keeps the
+/// shading continuous up to the silhouette and leaves every normal that
+/// already faces the viewer (almost all of them) unchanged.
+#[must_use]
+pub(crate) fn facing_viewer(ns: Vec3, v: Vec3) -> Vec3 {
+    let c = ns.dot(v);
+    if c >= MIN_COS_VIEW {
+        return ns;
+    }
+    let perp = ns - v * c;
+    let len = perp.length();
+    if len < 1e-6 {
+        // ns = −v exactly: any normal at the bound will do; take v's own.
+        return v;
+    }
+    (v * MIN_COS_VIEW + perp * ((1.0 - MIN_COS_VIEW * MIN_COS_VIEW).sqrt() / len)).normalize()
 }
 
 /// Direct light at `sc` from every light (point lights only when
