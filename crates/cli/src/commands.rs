@@ -313,17 +313,19 @@ fn bench(a: BenchArgs) -> Result<()> {
             } else {
                 relight_render::raster::bench_raster(1_000_000, 1920, 1080, 10)
             };
-            report.table(
+            report.table_plots(
                 "relight bench raster",
                 &rows,
-                &[PlotSpec {
+                &[Plot::new(PlotSpec {
                     name: "bench-raster",
                     x: "triangles",
                     y: "ms_per_frame",
                     series: &["mode"],
                     log_y: false,
-                }],
-            )
+                })
+                .labels("triangles", "ms per frame")],
+            )?;
+            Ok(())
         }
         Suite::Reference => {
             let rows = if a.quick {
@@ -623,7 +625,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                 .iter()
                 .zip(&titles)
                 .map(|(p, title)| {
-                    Plot::new(PlotSpec {
+                    let plot = Plot::new(PlotSpec {
                         name: p.name,
                         x: "param",
                         y: p.y,
@@ -632,7 +634,8 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                     })
                     .only("check", p.check)
                     .titled(title)
-                    .labels(p.x_label, p.y_label)
+                    .labels(p.x_label, p.y_label);
+                    if p.log_x { plot.log_x() } else { plot }
                 })
                 .collect();
             report.table_plots("relight verify fog", &rows, &plots)?;
@@ -669,6 +672,8 @@ struct FogPlot {
     y: &'static str,
     x_label: &'static str,
     y_label: &'static str,
+    /// The parameter spans decades (table sizes, optical thickness).
+    log_x: bool,
 }
 
 const FOG_PLOTS: [FogPlot; 7] = [
@@ -678,6 +683,7 @@ const FOG_PLOTS: [FogPlot; 7] = [
         y: "max_error",
         x_label: "F table size (texels per side)",
         y_label: "max relative error of the airlight",
+        log_x: true,
     },
     FogPlot {
         check: "airlight_paper_f",
@@ -685,6 +691,7 @@ const FOG_PLOTS: [FogPlot; 7] = [
         y: "max_error",
         x_label: "F table size (texels per side)",
         y_label: "max relative error (paper's F fit)",
+        log_x: true,
     },
     FogPlot {
         check: "glow_single",
@@ -692,6 +699,7 @@ const FOG_PLOTS: [FogPlot; 7] = [
         y: "mean_error",
         x_label: "T_sv, optical thickness from viewer to light",
         y_label: "relative RMS error vs Monte Carlo",
+        log_x: true,
     },
     FogPlot {
         check: "glow_multiple",
@@ -699,6 +707,7 @@ const FOG_PLOTS: [FogPlot; 7] = [
         y: "mean_error",
         x_label: "T_sv, optical thickness from viewer to light",
         y_label: "relative RMS error vs Monte Carlo",
+        log_x: true,
     },
     FogPlot {
         check: "surface_lambert",
@@ -706,6 +715,7 @@ const FOG_PLOTS: [FogPlot; 7] = [
         y: "max_error",
         x_label: "table size (texels per side)",
         y_label: "max relative error of surface radiance",
+        log_x: true,
     },
     FogPlot {
         check: "surface_phong",
@@ -713,6 +723,7 @@ const FOG_PLOTS: [FogPlot; 7] = [
         y: "max_error",
         x_label: "Phong exponent n",
         y_label: "max relative error of surface radiance",
+        log_x: false,
     },
     FogPlot {
         check: "psf_factorization",
@@ -720,5 +731,6 @@ const FOG_PLOTS: [FogPlot; 7] = [
         y: "mean_error",
         x_label: "γ, angle from the light (degrees)",
         y_label: "mean error over T",
+        log_x: false,
     },
 ];

@@ -477,6 +477,8 @@ const WIDTH: u32 = 900;
 const LEGEND_FONT: u32 = 13;
 const LEGEND_ROW: i32 = 18;
 const MAX_LEGEND_CHARS: usize = 60;
+/// Bars are labelled by their series names up to this length.
+const BAR_NAME_CHARS: usize = 14;
 
 fn legend_text(s: &str) -> String {
     if s.chars().count() > MAX_LEGEND_CHARS {
@@ -557,6 +559,14 @@ pub fn render_svg(title: &str, rows: &[Value], plot: &Plot) -> std::result::Resu
     let y_ticks: Vec<String> = y_axis.ticks.iter().map(|t| y_axis.tick_label(*t)).collect();
     let mut plot_area = (0, 0, 0, 0);
     let mut legend = None;
+    let short_names = names.iter().all(|n| n.chars().count() <= BAR_NAME_CHARS);
+    let bar_label = |i: usize| {
+        if short_names {
+            names.get(i).cloned().unwrap_or_default()
+        } else {
+            format!("#{}", i + 1)
+        }
+    };
     let mut svg = String::new();
     let draw = |svg: &mut String,
                 plot_area: &mut (i32, i32, i32, i32),
@@ -616,10 +626,11 @@ pub fn render_svg(title: &str, rows: &[Value], plot: &Plot) -> std::result::Resu
             let (xr, yr) = chart.plotting_area().get_pixel_range();
             *plot_area = (xr.start, yr.start, xr.end, yr.end);
         } else {
-            // Bars: one per series at x = 0, 1, …; labelled by number.
+            // Bars: one per series at x = 0, 1, …; labelled by name when
+            // the names are short, else by number (#k in the legend).
             let n = series.len();
             let keys: Vec<f64> = (0..n).map(|i| i as f64).collect();
-            *x_ticks = (1..=n).map(|i| format!("#{i}")).collect();
+            *x_ticks = (0..n).map(&bar_label).collect();
             let x_range = Ticked {
                 range: (-0.6, n as f64 - 0.4),
                 ticks: keys,
@@ -631,7 +642,7 @@ pub fn render_svg(title: &str, rows: &[Value], plot: &Plot) -> std::result::Resu
                 spec.series.join(", "),
                 format_tick(all[0].0)
             );
-            let xf = |v: &f64| format!("#{}", v.round() as i64 + 1);
+            let xf = |v: &f64| bar_label(v.round().max(0.0) as usize);
             let yf = |v: &f64| y_axis.tick_label(*v);
             chart
                 .configure_mesh()
@@ -685,7 +696,7 @@ pub fn render_svg(title: &str, rows: &[Value], plot: &Plot) -> std::result::Resu
                     [(lx, yy), (lx + 18, yy)],
                     c.stroke_width(3),
                 ))?;
-                let text = if bars {
+                let text = if bars && !short_names {
                     format!("#{} {}", i + 1, legend_text(n))
                 } else {
                     legend_text(n)
@@ -897,7 +908,7 @@ mod tests {
         });
         let d = render_svg("t", &quick, &plot).unwrap();
         assert!(d.bars);
-        assert_eq!(d.x_ticks, ["#1", "#2"]);
+        assert_eq!(d.x_ticks, ["32", "64"], "short names label the bars");
         assert!(d.y_ticks.len() >= 2, "{:?}", d.y_ticks);
         assert!(d.svg.contains("at terms = 256"), "the x value is stated");
         assert!(

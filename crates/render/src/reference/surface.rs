@@ -8,9 +8,11 @@
 //! (`surface_vertex`) the shading normal is the interpolated vertex normal,
 //! perturbed by the object's normal map ([`NormalMap::perturb`] at the hit's
 //! uv and tangent, the lookup every method shares), then both normals are
-//! turned towards the viewer (surfaces are two-sided), and a shading normal
-//! that still faces away from the viewer is bent just enough to face it
-//! (`facing_viewer`: no black fringes at silhouettes). The BSDF is the
+//! turned towards the viewer (surfaces are two-sided). Where an
+//! interpolated shading normal (no normal map) still faces away from the
+//! viewer, the BRDF sees the view at the horizon (`above_horizon`: no black
+//! fringes at silhouettes). A normal map that turns the normal away keeps
+//! the convention the SH method shares: the BRDF is zero there. The BSDF is the
 //! object's BRDF, or with a [`BrdfBlend`] the mixture
 //! `f = (1 − w) f₁ + w f₂`, `w` = the blend weight at the hit's uv, sampled by
 //! picking lobe 2 with probability `w` and reporting the mixture density
@@ -44,38 +46,36 @@ use relight_sphere::Frame;
 #[cfg(doc)]
 use crate::NormalMap;
 
+use super::lights::EnvLight;
+
 #[cfg(test)]
-mod facing_tests {
-    use super::{MIN_COS_VIEW, facing_viewer};
+mod horizon_tests {
+    use super::{MIN_COS_VIEW, above_horizon};
     use glam::Vec3;
 
-    /// Normals that face the viewer are untouched; others end at the bound,
-    /// unit length, in the plane of the normal and the viewer, on the
-    /// normal's side.
+    /// Views above the horizon are untouched; others end at the bound,
+    /// unit length, with their azimuth.
     #[test]
-    fn bends_only_what_faces_away() {
-        let v = Vec3::new(0.0, 0.0, 1.0);
+    fn raises_only_views_below_the_horizon() {
         let ok = Vec3::new(0.6, 0.0, 0.8);
-        assert_eq!(facing_viewer(ok, v), ok);
-        for n in [
+        assert_eq!(above_horizon(ok), ok);
+        for wo in [
             Vec3::new(1.0, 0.0, 0.0),
             Vec3::new(0.6, 0.0, -0.8),
-            Vec3::new(0.0, 0.3, -1.0),
+            Vec3::new(0.3, -0.4, -1.0),
         ] {
-            let n = n.normalize();
-            let b = facing_viewer(n, v);
-            assert!((b.length() - 1.0).abs() < 1e-5, "{b}");
-            assert!((b.dot(v) - MIN_COS_VIEW).abs() < 1e-5, "{b}");
+            let wo = wo.normalize();
+            let w = above_horizon(wo);
+            assert!((w.length() - 1.0).abs() < 1e-5, "{w}");
+            assert!((w.z - MIN_COS_VIEW).abs() < 1e-6, "{w}");
             assert!(
-                b.cross(v).normalize().dot(n.cross(v).normalize()) > 0.999,
-                "{n} → {b}"
+                (w.y.atan2(w.x) - wo.y.atan2(wo.x)).abs() < 1e-5,
+                "{wo} → {w}"
             );
         }
-        assert_eq!(facing_viewer(-v, v), v);
+        assert!((above_horizon(-Vec3::Z).z - MIN_COS_VIEW).abs() < 1e-6);
     }
 }
-
-use super::lights::EnvLight;
 
 /// The BSDF at one surface point: a BRDF, or two blended by a weight.
 #[derive(Clone, Copy, Debug)]
@@ -248,45 +248,55 @@ pub(crate) fn surface_vertex<'s>(
         ng = -ng;
         ns = -ns;
     }
-    let ns = facing_viewer(ns, -d);
     let frame = sp.frame(ns);
+    let wo = frame.to_local(-d);
     let sc = Scatter::Surface {
         p: sp.position,
         ng,
         frame,
-        wo: frame.to_local(-d),
+        // Normal-mapped surfaces keep the shared convention of the methods
+        // (zero where the map turns the normal away from the viewer).
+        wo: if object.normal_map.is_some() {
+            wo
+        } else {
+            above_horizon(wo)
+        },
         bsdf: SurfaceBsdf::of_object(object, sp.uv),
     };
     (sp, sc)
 }
 
-/// Least `cos` between the shading normal and the direction to the viewer
-/// (`facing_viewer`): about 87°.
+/// Least `cos θ_o` of the view direction in the shading frame
+/// ([`above_horizon`]): about 87°.
 pub(crate) const MIN_COS_VIEW: f32 = 0.05;
 
-/// `ns` turned towards the viewer `v` (unit) just enough that `v` lies at
-/// least [`MIN_COS_VIEW`] above its horizon, in the plane of `ns` and `v`.
+/// The local view direction `wo` (unit), raised to at least
+/// [`MIN_COS_VIEW`] above the shading horizon, keeping its azimuth.
 ///
 /// An interpolated vertex normal (or a normal map) can face away from the
 /// viewer where the geometric normal does not: at silhouettes of coarse
-/// meshes, e.g. the thin ears of the Stanford bunny. There `ω_o` would lie
-/// below the BRDF's hemisphere, the BRDF is zero, and the silhouette gets a
-/// black fringe that no real surface has. Bending the normal keeps the
-/// shading continuous up to the silhouette and leaves every normal that
-/// already faces the viewer (almost all of them) unchanged.
+/// meshes, e.g. the thin ears of the Stanford bunny. There `ω_o` lies below
+/// the BRDF's hemisphere, every BRDF is zero, and the silhouette gets a
+/// black fringe that no real surface has. Evaluating the BRDF for the
+/// grazing view at the horizon instead keeps the shading continuous up to
+/// the silhouette; the shading normal itself is kept, so a Lambert surface
+/// shows the irradiance about its shading normal, as the SH and wavelet
+/// methods (which shade by the normal) do. Views above the horizon (almost
+/// every pixel) are unchanged.
 #[must_use]
-pub(crate) fn facing_viewer(ns: Vec3, v: Vec3) -> Vec3 {
-    let c = ns.dot(v);
-    if c >= MIN_COS_VIEW {
-        return ns;
+pub(crate) fn above_horizon(wo: Vec3) -> Vec3 {
+    if wo.z >= MIN_COS_VIEW {
+        return wo;
     }
-    let perp = ns - v * c;
-    let len = perp.length();
+    let xy = Vec2::new(wo.x, wo.y);
+    let len = xy.length();
+    let s = (1.0 - MIN_COS_VIEW * MIN_COS_VIEW).sqrt();
     if len < 1e-6 {
-        // ns = −v exactly: any normal at the bound will do; take v's own.
-        return v;
+        // Straight from below: any azimuth will do.
+        return Vec3::new(s, 0.0, MIN_COS_VIEW);
     }
-    (v * MIN_COS_VIEW + perp * ((1.0 - MIN_COS_VIEW * MIN_COS_VIEW).sqrt() / len)).normalize()
+    let h = xy * (s / len);
+    Vec3::new(h.x, h.y, MIN_COS_VIEW)
 }
 
 /// Direct light at `sc` from every light (point lights only when

@@ -45,10 +45,9 @@ fn white_furnace() {
 /// estimator integrates `f cos` over the whole hemisphere of the *shading*
 /// normal `n_s` with `L ≡ 1` and `V ≡ 1`, so a white Lambert gives exactly 1
 /// wherever the viewer is above the perturbed hemisphere (`ω_o·n_s > 0`), for
-/// any normal map — and 1 also where the map turns `n_s` away from the
-/// viewer, because the reference then bends `n_s` to face it (no black
-/// fringes; issue 11). The test sorts pixels by `ω_o·n_s` on a 4 × 4
-/// sub-pixel grid, checks that some face away, and checks both groups. With visibility on,
+/// any normal map — and 0 where the map turns `n_s` away from the viewer
+/// (the BRDF is zero for `ω_o` below its horizon). The test sorts pixels by
+/// `ω_o·n_s` on a 4 × 4 sub-pixel grid and checks both. With visibility on,
 /// a tilted shading hemisphere reaches below the geometric surface, where
 /// the sphere itself blocks the light: the value can only drop (≤ 1 per
 /// pixel), and must drop on average.
@@ -103,14 +102,7 @@ fn furnace_with_normal_maps() {
     assert!(n > 200);
     assert!((mean - 1.0).abs() < 0.005, "mean {mean}");
     assert!(worst < 6.0, "a pixel is {worst} σ from 1");
-    assert!(
-        expect_all < 0.99,
-        "the map turns some normals away: {expect_all}"
-    );
-    assert!(
-        (all_mean - 1.0).abs() < 4.0 * all_sigma + 3e-3,
-        "every object pixel is 1, facing the viewer or not: {all_mean}"
-    );
+    assert!((all_mean - expect_all).abs() < 4.0 * all_sigma + 3e-3);
 
     scene.visibility = true;
     let s = render_reference(&scene, &opts(64, 5), &NoProgress).unwrap();
@@ -138,11 +130,9 @@ fn furnace_with_normal_maps() {
         lambert(0.8),
         32,
     );
-    // 512 spp: the noise must sit well below the map's effect, which is
-    // smaller since back-facing normals are bent (no black pixels).
-    let plain = render_reference(&sky, &opts(512, 1), &NoProgress).unwrap();
+    let plain = render_reference(&sky, &opts(128, 1), &NoProgress).unwrap();
     sky.objects[0].normal_map = Some(nm);
-    let bumped = render_reference(&sky, &opts(512, 1), &NoProgress).unwrap();
+    let bumped = render_reference(&sky, &opts(128, 1), &NoProgress).unwrap();
     let diff = bumped.image.relative_rms_error(&plain.image, Some(&mask));
     eprintln!(
         "normal map under a sky: relative RMS difference {diff:.3} (noise {:.3})",
@@ -156,7 +146,7 @@ fn furnace_with_normal_maps() {
 /// vertex normals already face away. Here a quad seen at 70° from its
 /// geometric normal carries vertex normals tilted 25° further (95° from the
 /// viewer). Under a white furnace (visibility off) every pixel of it must
-/// be 1 (±4σ), as for any white Lambert surface; without the bend they were
+/// be 1 (±4σ), as for any white Lambert surface; before the fix they were
 /// black (the BRDF is zero for `ω_o` below its horizon).
 #[test]
 fn back_facing_shading_normals_have_no_dark_fringe() {
