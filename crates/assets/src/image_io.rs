@@ -173,7 +173,9 @@ impl ImageFormat {
             Self::Jpeg => b.starts_with(&[0xff, 0xd8]),
         }
     }
-    fn name(self) -> &'static str {
+    /// The format's name in messages (`OpenEXR`, `Radiance HDR`, …).
+    #[must_use]
+    pub fn name(self) -> &'static str {
         match self {
             Self::Exr => "OpenEXR",
             Self::Hdr => "Radiance HDR",
@@ -398,8 +400,46 @@ fn check_dims(path: &Path, w: u32, h: u32, len: usize) -> Result<(), AssetError>
     Ok(())
 }
 
+/// Checks that a Radiance header is complete before the image crate reads
+/// it: header lines, one empty line, then the resolution line
+/// (`-Y H +X W`). A file cut inside the header is truncated; the decoder
+/// would otherwise report a half-read `FORMAT=` line as an unsupported
+/// format.
+fn check_hdr_header(bytes: &[u8], path: &Path) -> Result<(), AssetError> {
+    let n = bytes.len();
+    let Some(end) = bytes.windows(2).position(|w| w == b"\n\n") else {
+        return Err(AssetError::truncated(
+            path,
+            format!("Radiance HDR: the file ends inside its header ({n} bytes)"),
+        ));
+    };
+    let rest = &bytes[end + 2..];
+    let Some(eol) = rest.iter().position(|&b| b == b'\n') else {
+        return Err(AssetError::truncated(
+            path,
+            format!("Radiance HDR: the file ends inside its resolution line ({n} bytes)"),
+        ));
+    };
+    let line = String::from_utf8_lossy(&rest[..eol]);
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let axis = |w: &str| matches!(w, "-Y" | "+Y" | "-X" | "+X");
+    let ok = words.len() == 4
+        && axis(words[0])
+        && axis(words[2])
+        && words[1].parse::<u32>().is_ok()
+        && words[3].parse::<u32>().is_ok();
+    if !ok {
+        return Err(AssetError::corrupt(
+            path,
+            format!("Radiance HDR: bad resolution line `{line}` (expected e.g. `-Y 256 +X 512`)"),
+        ));
+    }
+    Ok(())
+}
+
 fn decode_hdr(bytes: &[u8], path: &Path) -> Result<RgbImage, AssetError> {
     use image::ImageDecoder;
+    check_hdr_header(bytes, path)?;
     let dec = image::codecs::hdr::HdrDecoder::new(Cursor::new(bytes))
         .map_err(|e| image_error(path, "Radiance HDR", e))?;
     let (w, h) = dec.dimensions();
@@ -785,6 +825,30 @@ mod tests {
             let tol = b.max_element() / 128.0;
             assert!((*a - *b).abs().max_element() <= tol, "{a} vs {b}");
         }
+    }
+
+    /// A Radiance file cut anywhere in its header or pixels is a truncated
+    /// (or corrupt) file, never "format '32' not supported"; the 20-byte
+    /// cut of issue 11 says the file is truncated.
+    #[test]
+    fn hdr_cut_anywhere_is_truncated_or_corrupt() {
+        let (w, h) = (16, 4);
+        let p = Path::new("cut.hdr");
+        let bytes = encode_hdr(w, h, &ramp(w, h), p).unwrap();
+        for cut in 4..bytes.len() {
+            let e = decode_image(&bytes[..cut], ImageFormat::Hdr, ColorEncoding::Srgb, p)
+                .expect_err("a cut file is an error");
+            assert!(
+                matches!(e, AssetError::Truncated { .. } | AssetError::Corrupt { .. }),
+                "cut {cut}: {e}"
+            );
+        }
+        let e = decode_image(&bytes[..20], ImageFormat::Hdr, ColorEncoding::Srgb, p).unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("truncated") && msg.contains("header") && !msg.contains("'32'"),
+            "{msg}"
+        );
     }
 
     #[test]

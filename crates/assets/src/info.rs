@@ -165,13 +165,18 @@ fn image_info(img: RgbImage, format: ImageFormat, path: &Path) -> ImageInfo {
         && let Ok((env, _)) = env_map_from_image(img, layout, path)
     {
         param_guess = Some(env.param);
-        let best = env
-            .texels
-            .iter()
-            .enumerate()
-            .filter(|(_, t)| t.dot(LUMA).is_finite())
-            .max_by(|a, b| a.1.dot(LUMA).total_cmp(&b.1.dot(LUMA)))
-            .map(|(i, _)| i);
+        // The direction of the peak pixel itself: texel i is pixel i in the
+        // single-image layouts; a cube cross is reordered, so there the first
+        // texel of the peak's value (ties resolve to the same pixel value).
+        let same_order = matches!(
+            env.param,
+            Param::LatLong { .. } | Param::Octahedral { .. } | Param::HemiOctahedral { .. }
+        ) && env.texels.len() == width * height;
+        let best = if same_order {
+            (peak_l > f32::NEG_INFINITY).then_some(peak_i)
+        } else {
+            env.texels.iter().position(|t| *t == peak_value)
+        };
         peak_direction = best.map(|i| env.param.dir_from_texel(i));
     }
     ImageInfo {
@@ -190,6 +195,11 @@ fn image_info(img: RgbImage, format: ImageFormat, path: &Path) -> ImageInfo {
         peak_value,
         peak_direction,
     }
+}
+
+/// `1 triangle`, `2 triangles`.
+fn counted(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
 }
 
 impl fmt::Display for FileInfo {
@@ -229,10 +239,10 @@ impl fmt::Display for FileInfo {
             Self::Mesh(m) => {
                 writeln!(
                     f,
-                    "{}: mesh, {} vertices, {} triangles",
+                    "{}: mesh, {}, {}",
                     m.path.display(),
-                    m.vertices,
-                    m.triangles
+                    counted(m.vertices, "vertex", "vertices"),
+                    counted(m.triangles, "triangle", "triangles")
                 )?;
                 let (a, b) = (m.bounds.min, m.bounds.max);
                 writeln!(
@@ -281,6 +291,27 @@ impl fmt::Display for FileInfo {
 mod tests {
     use super::*;
 
+    /// Two pixels of equal peak value: the pixel and the direction printed
+    /// are the same pixel's (the first in row order).
+    #[test]
+    fn peak_pixel_and_direction_agree_on_ties() {
+        let dir = std::env::temp_dir().join(format!("relight-info-tie-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (w, h) = (16, 8);
+        let mut px = vec![Vec3::splat(0.5); w * h];
+        px[2 * w + 3] = Vec3::splat(7.0);
+        px[6 * w + 12] = Vec3::splat(7.0);
+        let p = dir.join("tie.exr");
+        crate::write_exr(&p, w, h, &px).unwrap();
+        let FileInfo::Image(i) = describe(&p).unwrap() else {
+            panic!("not an image")
+        };
+        assert_eq!(i.peak_pixel, (3, 2));
+        let param = i.param_guess.unwrap();
+        assert_eq!(i.peak_direction, Some(param.dir_from_texel(2 * w + 3)));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     #[test]
     fn describes_images_meshes_and_merl() {
         let dir = std::env::temp_dir().join(format!("relight-info-{}", std::process::id()));
@@ -328,6 +359,8 @@ mod tests {
         };
         assert_eq!((m.vertices, m.triangles), (3, 1)); // tobj keeps used vertices only
         assert_eq!(m.repair.degenerate_triangles, 1);
+        let text = describe(&obj).unwrap().to_string();
+        assert!(text.contains("3 vertices, 1 triangle\n"), "{text}");
         assert!(!m.had_normals);
         assert!((m.surface_area - 0.5).abs() < 1e-9);
 

@@ -490,19 +490,63 @@ const UNDECODABLE_EXTENSIONS: [&str; 3] = [
     "KHR_mesh_quantization",
 ];
 
+/// A GLB container error in words (the gltf crate's `Display` names no
+/// numbers, its `Debug` is Rust syntax).
+fn glb_error(path: &Path, b: &gltf::binary::Error) -> AssetError {
+    use gltf::binary::{ChunkType, Error as E};
+    let chunk = |ty: &ChunkType| match ty {
+        ChunkType::Json => "JSON",
+        ChunkType::Bin => "BIN",
+    };
+    match b {
+        E::Length {
+            length,
+            length_read,
+        } => AssetError::truncated(
+            path,
+            format!("GLB header says {length} bytes, the file has {length_read}"),
+        ),
+        E::ChunkLength {
+            ty,
+            length,
+            length_read,
+        } => AssetError::truncated(
+            path,
+            format!(
+                "GLB {} chunk says {length} bytes, {length_read} are left",
+                chunk(ty)
+            ),
+        ),
+        E::Io(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            AssetError::truncated(path, "GLB ends inside its 12-byte header")
+        }
+        E::Io(io) => AssetError::corrupt(path, format!("GLB: {io}")),
+        E::Version(v) => {
+            AssetError::unsupported(path, format!("GLB version {v} (relight reads version 2)"))
+        }
+        E::Magic(m) => AssetError::corrupt(
+            path,
+            format!(
+                "not a GLB file (starts with {:?}, not \"glTF\")",
+                String::from_utf8_lossy(m)
+            ),
+        ),
+        E::ChunkType(ty) => {
+            AssetError::corrupt(path, format!("GLB: unexpected {} chunk", chunk(ty)))
+        }
+        E::UnknownChunkType(t) => AssetError::corrupt(
+            path,
+            format!("GLB: unknown chunk type {:?}", String::from_utf8_lossy(t)),
+        ),
+    }
+}
+
 fn decode_gltf(bytes: &[u8], path: &Path, warnings: &mut Vec<String>) -> Result<Mesh, AssetError> {
     let gerr = |e: gltf::Error| match e {
         gltf::Error::Io(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
             AssetError::truncated(path, format!("glTF: {io}"))
         }
-        gltf::Error::Binary(b) => {
-            let m = format!("{b:?}");
-            if m.contains("Length") || m.contains("length") {
-                AssetError::truncated(path, format!("GLB: {m}"))
-            } else {
-                AssetError::corrupt(path, format!("GLB: {m}"))
-            }
-        }
+        gltf::Error::Binary(b) => glb_error(path, &b),
         other => AssetError::corrupt(path, format!("glTF: {other}")),
     };
     let g = gltf::Gltf::from_slice_without_validation(bytes).map_err(gerr)?;

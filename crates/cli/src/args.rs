@@ -63,6 +63,32 @@ pub enum Command {
     Bench(BenchArgs),
     /// Accuracy against the reference renderer: print a table (or JSON).
     Verify(VerifyArgs),
+    /// The wavelet bake cache: list its entries or delete them.
+    #[command(subcommand)]
+    Cache(CacheCommand),
+}
+
+/// `relight cache list|clear` (crate::cache).
+#[derive(Subcommand, Debug)]
+pub enum CacheCommand {
+    /// List cached bakes: kind, configuration, size and date.
+    List {
+        /// Only entries whose file name or configuration contains this text
+        /// (e.g. `rot-n128`, `Ggx`, `terms=128`).
+        pattern: Option<String>,
+        /// Cache folder [default: $RELIGHT_CACHE/wavelet, else
+        /// $XDG_CACHE_HOME/relight/wavelet, else ~/.cache/relight/wavelet].
+        #[arg(long)]
+        cache: Option<PathBuf>,
+    },
+    /// Delete cached bakes: every entry, or those matching PATTERN.
+    Clear {
+        /// Only entries whose file name or configuration contains this text.
+        pattern: Option<String>,
+        /// Cache folder [default: as for `cache list`].
+        #[arg(long)]
+        cache: Option<PathBuf>,
+    },
 }
 
 #[derive(Args, Debug)]
@@ -112,7 +138,8 @@ pub struct SceneArgs {
     /// world_from_env; every method rotates in its own domain).
     #[arg(long)]
     pub light_rotate: Option<String>,
-    /// Tangent-space normal map (PNG) on every object.
+    /// Tangent-space normal map (PNG or JPEG, +Z out of the surface) on
+    /// every object; HDR and EXR images are refused (they hold radiance).
     #[arg(long)]
     pub normal_map: Option<PathBuf>,
     /// Point light `x,y,z,intensity` (radiant intensity; repeatable).
@@ -177,7 +204,8 @@ pub struct MethodFlags {
     /// Renders visibility approximately (needs --approximate with --visibility).
     #[arg(long)]
     pub ao: Option<u32>,
-    /// Bake cache folder (wavelet) [default: $RELIGHT_CACHE or ~/.cache/relight].
+    /// Bake cache folder (wavelet) [default: $RELIGHT_CACHE/wavelet, else
+    /// ~/.cache/relight/wavelet; see `relight cache list`].
     #[arg(long)]
     pub cache: Option<PathBuf>,
     /// Fog model (fog): `analytic` or `opengl` (classic exponential fog)
@@ -189,7 +217,9 @@ pub struct MethodFlags {
 /// Media transport of the reference renderer.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Scattering {
+    /// Single scattering only (the fog model's light paths).
     Single,
+    /// Full multiple-scattering transport.
     Multiple,
 }
 
@@ -248,8 +278,11 @@ pub struct RenderArgs {
 /// Which pixels `relight compare` measures.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Region {
+    /// Pixels fully covered by objects in both images.
     Object,
+    /// Pixels no object touches in either image.
     Background,
+    /// Every pixel.
     All,
 }
 
@@ -283,9 +316,13 @@ pub struct ConvertArgs {
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ParamKind {
+    /// Equirectangular, 2:1.
     Latlong,
+    /// Six square faces.
     Cube,
+    /// Octahedral map of the whole sphere.
     Octahedral,
+    /// Hemi-octahedral map of the upper hemisphere.
     HemiOctahedral,
 }
 
@@ -293,6 +330,7 @@ pub enum ParamKind {
 pub enum ShCommand {
     /// Project an environment map onto real SH and print or write the coefficients.
     Project {
+        /// Environment map to project (EXR, HDR, PNG; any parameterization).
         file: PathBuf,
         /// Number of bands n (n² coefficients).
         #[arg(long, default_value_t = 3)]
@@ -309,10 +347,12 @@ pub enum ShCommand {
     },
     /// Irradiance environment map (Ramamoorthi–Hanrahan): 9 coefficients and an image.
     Irradiance {
+        /// Environment map (EXR, HDR, PNG; any parameterization).
         file: PathBuf,
         /// Irradiance map image to write (lat-long).
         #[arg(long, default_value = "irradiance.png")]
         out: PathBuf,
+        /// Print the 9 coefficients as JSON instead of a table.
         #[arg(long)]
         json: bool,
     },
@@ -322,10 +362,13 @@ pub enum ShCommand {
 pub enum BakeCommand {
     /// Wavelet rotation matrices (wavelet-rotation-2006 §2–3).
     Rotation {
+        /// Octahedral source resolution n (a power of two; N = n² texels).
         #[arg(long, default_value_t = 64)]
         n: usize,
+        /// Normal tessellation side: ntess² sampled normals, one matrix each.
         #[arg(long, default_value_t = 32)]
         ntess: usize,
+        /// Coarsest Haar level kept by the truncated transform (§3).
         #[arg(long, default_value_t = 1)]
         ntrunc: u16,
         /// Target hemi-octahedral side m (default n/2).
@@ -334,19 +377,25 @@ pub enum BakeCommand {
         /// Samples per target texel side of the area integral (1…32).
         #[arg(long, default_value_t = 8)]
         supersample: usize,
+        /// Output file of the baked matrices (binary, versioned, with a CRC).
         #[arg(long)]
         out: PathBuf,
     },
     /// Wavelet BRDF slices (wavelet-rotation-2006 §3, "Precomputing BRDFs").
     Brdf {
+        /// BRDF to bake, e.g. `ggx:0.2`, `phong:50`, `ward:0.1,0.3`.
         #[arg(long)]
         brdf: String,
+        /// Hemi-octahedral side m of each slice (m² outgoing texels).
         #[arg(long, default_value_t = 32)]
         m: usize,
+        /// View directions per side: views² slices over the hemisphere.
         #[arg(long, default_value_t = 64)]
         views: usize,
+        /// Wavelet terms kept per slice (largest magnitudes).
         #[arg(long, default_value_t = 128)]
         terms: usize,
+        /// Output file of the baked slices (binary, versioned, with a CRC).
         #[arg(long)]
         out: PathBuf,
     },
@@ -356,8 +405,10 @@ pub enum BakeCommand {
 pub enum FogCommand {
     /// Write the special-function tables F, G0, Gn as EXR images.
     Tables {
+        /// Table side in texels (at least 2): SIZE × SIZE samples per table.
         #[arg(long, default_value_t = 64)]
         size: usize,
+        /// Output name: one EXR per table, NAME-F.exr, NAME-G0.exr, ….
         #[arg(long, default_value = "fog-tables.exr")]
         out: PathBuf,
     },
@@ -365,15 +416,21 @@ pub enum FogCommand {
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Suite {
+    /// The tiled rasterizer: G-buffer, Gouraud and per-pixel passes.
     Raster,
+    /// The Monte Carlo reference renderer: rays and samples per second.
     Reference,
+    /// SH rotations and the SH shading frame.
     Sh,
+    /// Wavelet view and lighting changes.
     Wavelet,
+    /// Analytic fog shading.
     Fog,
 }
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
+    /// Which benchmark to run.
     #[arg(value_enum)]
     pub suite: Suite,
     /// Print JSON instead of a table.
@@ -390,10 +447,13 @@ pub struct BenchArgs {
 /// Accuracy suites of `relight verify`.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum VerifySuite {
-    Raster,
+    /// The reference renderer's BRDF sampling: sampled against quadrature albedo.
     Reference,
+    /// SH shading and rotation against the reference.
     Sh,
+    /// Wavelet shading and rotated lighting against the reference.
     Wavelet,
+    /// Analytic fog against quadrature and Monte Carlo.
     Fog,
     /// Every method on a matrix of scenes against one reference.
     Methods,
@@ -401,13 +461,62 @@ pub enum VerifySuite {
 
 #[derive(Args, Debug)]
 pub struct VerifyArgs {
+    /// Which accuracy suite to run.
     #[arg(value_enum)]
     pub suite: VerifySuite,
+    /// Print JSON instead of a table (the verdict summary goes to stderr).
     #[arg(long)]
     pub json: bool,
+    /// Fewer scenes, orders and samples (a smoke run; looser noise).
     #[arg(long)]
     pub quick: bool,
     /// Also write an SVG plot of each table into this directory.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::CommandFactory;
+
+    /// Every subcommand, argument and value of `relight` has help text.
+    #[test]
+    fn every_flag_has_help() {
+        fn walk(cmd: &clap::Command, path: &str, missing: &mut Vec<String>) {
+            let path = format!("{path} {}", cmd.get_name());
+            if cmd.get_about().is_none() && cmd.get_long_about().is_none() {
+                missing.push(format!("{path}: command without about"));
+            }
+            for arg in cmd.get_arguments() {
+                let id = arg.get_id().as_str();
+                if id == "help" || id == "version" {
+                    continue;
+                }
+                if arg.get_help().is_none() && arg.get_long_help().is_none() {
+                    missing.push(format!("{path} {id}"));
+                }
+                let values = if arg.get_action().takes_values() {
+                    arg.get_possible_values()
+                } else {
+                    Vec::new()
+                };
+                for v in values {
+                    if v.get_help().is_none() && !v.is_hide_set() {
+                        missing.push(format!("{path} {id}={}", v.get_name()));
+                    }
+                }
+            }
+            for sub in cmd.get_subcommands() {
+                if sub.get_name() != "help" {
+                    walk(sub, &path, missing);
+                }
+            }
+        }
+        let cmd = Cli::command();
+        cmd.clone().debug_assert();
+        let mut missing = Vec::new();
+        walk(&cmd, "", &mut missing);
+        assert!(missing.is_empty(), "no help text: {missing:#?}");
+    }
 }

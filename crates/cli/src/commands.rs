@@ -5,13 +5,15 @@ use crate::args::{
     VerifyArgs, VerifySuite,
 };
 use crate::demo::demo;
-use crate::output::{warn_all, write_outputs};
-use crate::plot::PlotSpec;
+use crate::output::{
+    check_output, check_plot_dir, output_paths, output_paths_for, warn_all, write_outputs,
+};
+use crate::plot::{Plot, PlotSpec};
 use crate::progress::Bar;
 use crate::render_cmd::{render, view};
 use crate::scene_args::load_normal_map;
 use crate::table::Report;
-use anyhow::{Context, Result, anyhow, bail, ensure};
+use anyhow::{Result, anyhow, bail, ensure};
 use glam::Vec3;
 use relight_assets::{ToneMap, write_exr};
 use relight_brdf::BrdfSpec;
@@ -32,13 +34,19 @@ pub fn run(cli: Cli) -> Result<()> {
             reference,
             region,
             diff,
-        } => crate::compare::compare(&image, &reference, region, diff.as_deref()),
+        } => {
+            if let Some(d) = &diff {
+                output_paths_for(d, "--diff")?;
+            }
+            crate::compare::compare(&image, &reference, region, diff.as_deref())
+        }
         Command::Convert(a) => convert(a),
         Command::Sh(c) => sh(c),
         Command::Bake(c) => bake(c, &bar),
         Command::Fog(c) => fog(c),
         Command::Bench(a) => bench(a),
         Command::Verify(a) => verify(a, &bar),
+        Command::Cache(c) => crate::cache::run(c),
     }
 }
 
@@ -62,6 +70,7 @@ fn info(files: &[PathBuf]) -> Result<()> {
 }
 
 fn convert(a: ConvertArgs) -> Result<()> {
+    check_output(&a.output, "output", &["exr", "hdr", "png"])?;
     let (env, report) = relight_assets::load_env_map(&a.input)?;
     warn_all(&report.warnings);
     ensure!(
@@ -87,8 +96,7 @@ fn convert(a: ConvertArgs) -> Result<()> {
         ParamKind::HemiOctahedral => Param::HemiOctahedral { n: size },
     };
     let out = env.resample(target, a.supersample);
-    relight_assets::write_env_map(&a.output, &out, ToneMap::default())
-        .with_context(|| format!("writing {}", a.output.display()))?;
+    relight_assets::write_env_map(&a.output, &out, ToneMap::default())?;
     println!(
         "relight convert: {} ({}×{}) → {} ({}×{}, {:?})",
         a.input.display(),
@@ -137,6 +145,9 @@ fn sh(c: ShCommand) -> Result<()> {
                 (1..=30).contains(&order),
                 "--order must be 1…30 bands (got {order})"
             );
+            if let Some(out) = &out {
+                check_output(out, "--out", &[])?;
+            }
             let (env, report) = relight_assets::load_env_map(&file)?;
             warn_all(&report.warnings);
             let w = parse_window(&window)?;
@@ -176,6 +187,7 @@ fn sh(c: ShCommand) -> Result<()> {
             Ok(())
         }
         ShCommand::Irradiance { file, out, json } => {
+            output_paths(&out)?;
             let (env, report) = relight_assets::load_env_map(&file)?;
             warn_all(&report.warnings);
             let (coeffs, map) = relight_shlight::irradiance_map(
@@ -229,6 +241,7 @@ fn bake(c: BakeCommand, bar: &Bar) -> Result<()> {
             }
             p.supersample = supersample;
             p.validate()?;
+            check_output(&out, "--out", &[])?;
             let rot = relight_wavelet::bake_rotation(&p, bar)?;
             rot.save(&out)?;
             println!(
@@ -250,6 +263,7 @@ fn bake(c: BakeCommand, bar: &Bar) -> Result<()> {
             let spec = brdf
                 .parse::<BrdfSpec>()
                 .map_err(|e| anyhow!("--brdf {brdf}: {e}"))?;
+            check_output(&out, "--out", &[])?;
             let b = spec.build();
             let p = relight_wavelet::BrdfBakeParams::new(&spec.to_string(), m, views, terms);
             let bake = relight_wavelet::bake_brdf(&p, b.as_ref(), bar)?;
@@ -269,6 +283,7 @@ fn fog(c: FogCommand) -> Result<()> {
     match c {
         FogCommand::Tables { size, out } => {
             ensure!(size >= 2, "--size must be at least 2 (got {size})");
+            check_output(&out, "--out", &["exr"])?;
             let t = Instant::now();
             let tables = relight_fog::FogTables::build(size)?;
             let stem = out.with_extension("");
@@ -287,6 +302,7 @@ fn fog(c: FogCommand) -> Result<()> {
 }
 
 fn bench(a: BenchArgs) -> Result<()> {
+    check_plot_dir(a.plot.as_deref())?;
     let report = Report {
         json: a.json,
         plot_dir: a.plot.clone(),
@@ -298,7 +314,19 @@ fn bench(a: BenchArgs) -> Result<()> {
             } else {
                 relight_render::raster::bench_raster(1_000_000, 1920, 1080, 10)
             };
-            report.table("relight bench raster", &rows, &[])
+            report.table_plots(
+                "relight bench raster",
+                &rows,
+                &[Plot::new(PlotSpec {
+                    name: "bench-raster",
+                    x: "triangles",
+                    y: "ms_per_frame",
+                    series: &["mode"],
+                    log_y: false,
+                })
+                .labels("triangles", "ms per frame")],
+            )?;
+            Ok(())
         }
         Suite::Reference => {
             let rows = if a.quick {
@@ -306,19 +334,33 @@ fn bench(a: BenchArgs) -> Result<()> {
             } else {
                 relight_render::reference::bench_reference(640, 360, 16)
             };
-            report.table("relight bench reference", &rows, &[])
+            report.table_plots(
+                "relight bench reference",
+                &rows,
+                &[Plot::new(PlotSpec {
+                    name: "bench-reference",
+                    x: "spp",
+                    y: "samples_per_s",
+                    series: &["scene", "visibility"],
+                    log_y: false,
+                })
+                .labels("samples per pixel", "pixel samples per second")],
+            )?;
+            Ok(())
         }
         Suite::Sh => {
-            report.table(
+            report.table_plots(
                 "relight bench sh (single thread, f32, ns)",
                 &relight_sh::bench_sh(a.quick),
-                &[PlotSpec {
+                &[Plot::new(PlotSpec {
                     name: "bench-sh",
                     x: "order",
                     y: "ns_total",
                     series: &["method"],
                     log_y: true,
-                }],
+                })
+                .titled("relight bench sh: one SH rotation (build + apply, single thread)")
+                .labels("SH order (bands)", "ns per rotation")],
             )?;
             let (w, h, orders): (usize, usize, &[usize]) = if a.quick {
                 (320, 180, &[3, 6])
@@ -337,16 +379,20 @@ fn bench(a: BenchArgs) -> Result<()> {
                 &relight_shlight::ShRotationMethod::ALL,
                 if a.quick { 1 } else { 3 },
             )?;
-            report.table(
+            report.table_plots(
                 "relight bench sh: SH shading frame time",
                 &rows,
-                &[PlotSpec {
+                &[Plot::new(PlotSpec {
                     name: "bench-sh-frame",
                     x: "order",
                     y: "ms_frame",
                     series: &["rotation", "normal_map"],
                     log_y: false,
-                }],
+                })
+                .titled(&format!(
+                    "relight bench sh: SH shading frame time at {w}×{h}"
+                ))
+                .labels("SH order (bands)", "ms per frame")],
             )?;
             let frames = relight_shlight::bench_sh_frames(
                 &relight_scene::default_scene(960, 540),
@@ -380,32 +426,45 @@ fn bench(a: BenchArgs) -> Result<()> {
                 );
             }
             let rows = relight_wavelet::bench_wavelet(&opts, &meshes, &Bar::new(true))?;
-            report.table(
+            report.table_plots(
                 "relight bench wavelet",
                 &rows,
                 &[
-                    PlotSpec {
+                    Plot::new(PlotSpec {
                         name: "bench-wavelet-view",
                         x: "vertices",
                         y: "view_change_ms",
                         series: &["n", "ntess"],
                         log_y: false,
-                    },
-                    PlotSpec {
+                    })
+                    .titled("relight bench wavelet: view change (per-vertex BRDF slices)")
+                    .labels("mesh vertices", "ms per view change")
+                    .log_x(),
+                    Plot::new(PlotSpec {
                         name: "bench-wavelet-light",
                         x: "terms",
                         y: "light_change_ms",
                         series: &["n", "ntess", "layout"],
                         log_y: true,
-                    },
+                    })
+                    .titled("relight bench wavelet: lighting change (rotation matrices × lighting)")
+                    .labels("wavelet terms kept", "ms per lighting change")
+                    .log_x(),
                 ],
-            )
+            )?;
+            Ok(())
         }
         Suite::Fog => {
             report.table(
                 "relight bench fog (fog bench scene: floor + 9 spheres, 4 lights)",
                 &relight_fog::bench_fog(a.quick),
-                &[],
+                &[PlotSpec {
+                    name: "bench-fog",
+                    x: "width",
+                    y: "frame_ms",
+                    series: &["interp"],
+                    log_y: false,
+                }],
             )?;
             let (w, h) = if a.quick { (320, 180) } else { (1280, 720) };
             let scene = relight_scene::default_scene(w, h);
@@ -415,7 +474,17 @@ fn bench(a: BenchArgs) -> Result<()> {
                 &scene.camera,
                 &relight_fog::default_scene_lights(4),
             );
-            report.table("relight bench fog (default scene, 4 lights)", &rows, &[])
+            report.table(
+                "relight bench fog (default scene, 4 lights)",
+                &rows,
+                &[PlotSpec {
+                    name: "bench-fog-default-scene",
+                    x: "width",
+                    y: "frame_ms",
+                    series: &["interp"],
+                    log_y: false,
+                }],
+            )
         }
     }
 }
@@ -426,6 +495,7 @@ pub fn data_dir() -> PathBuf {
 }
 
 fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
+    check_plot_dir(a.plot.as_deref())?;
     let report = Report {
         json: a.json,
         plot_dir: a.plot.clone(),
@@ -464,26 +534,33 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                 .collect();
             let rows =
                 relight_shlight::verify_sh(&vs, nm.as_ref().map(|m| ("0000.png", m)), &opts, bar)?;
-            report.table(
+            report.table_plots(
                 "relight verify sh: relative RMS error vs the reference renderer",
                 &rows,
                 &[
-                    PlotSpec {
+                    Plot::new(PlotSpec {
                         name: "verify-sh",
                         x: "order",
                         y: "rel_rms_error",
                         series: &["scene", "normal_map", "rotation", "window"],
                         log_y: true,
-                    },
-                    PlotSpec {
+                    })
+                    .labels("SH order (bands)", "relative RMS error vs the reference"),
+                    Plot::new(PlotSpec {
                         name: "verify-sh-rotation",
                         x: "order",
                         y: "rel_rms_vs_exact",
                         series: &["scene", "rotation"],
                         log_y: true,
-                    },
+                    })
+                    .titled("relight verify sh: per-pixel rotation methods against exact rotation")
+                    .labels(
+                        "SH order (bands)",
+                        "relative RMS difference from exact rotation",
+                    ),
                 ],
-            )
+            )?;
+            Ok(())
         }
         VerifySuite::Wavelet => {
             let opts = if a.quick {
@@ -506,16 +583,18 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
                 }
             }
             let (rows, compare) = relight_wavelet::verify_wavelet_with_sh(&scenes, &opts, bar)?;
-            report.table(
+            report.table_plots(
                 "relight verify wavelet: relative RMS error vs the reference renderer",
                 &rows,
-                &[PlotSpec {
+                &[Plot::new(PlotSpec {
                     name: "verify-wavelet",
                     x: "terms",
                     y: "rel_rms_error",
                     series: &["scene", "brdf", "n", "ntess", "ntrunc"],
                     log_y: true,
-                }],
+                })
+                .labels("wavelet terms kept", "relative RMS error vs the reference")
+                .log_x()],
             )?;
             report.table(
                 "relight verify wavelet: wavelets beside SH (antialiased, same reference)",
@@ -528,42 +607,140 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
             for &n in if a.quick { &[32][..] } else { &[64, 128][..] } {
                 rows.extend(relight_wavelet::verify_rotation("studio", &light, n, bar)?);
             }
-            report.table(
+            report.table_plots(
                 "relight verify wavelet: rotated lighting (Figure 7)",
                 &rows,
-                &[PlotSpec {
+                &[Plot::new(PlotSpec {
                     name: "verify-wavelet-rotation",
                     x: "terms",
                     y: "rel_rms_error",
                     series: &["lighting", "n", "method"],
                     log_y: true,
-                }],
-            )
+                })
+                .labels(
+                    "wavelet terms kept",
+                    "relative RMS error of the rotated lighting",
+                )
+                .log_x()],
+            )?;
+            Ok(())
         }
-        VerifySuite::Fog => report.table(
-            "relight verify fog",
-            &relight_fog::verify_fog(a.quick),
-            &[PlotSpec {
-                name: "verify-fog",
-                x: "param",
-                y: "max_error",
-                series: &["check", "variant"],
-                log_y: true,
-            }],
-        ),
-        VerifySuite::Raster | VerifySuite::Reference => {
+        VerifySuite::Fog => {
+            let rows = relight_fog::verify_fog(a.quick);
+            let titles: Vec<String> = FOG_PLOTS
+                .iter()
+                .map(|p| format!("relight verify fog: {}", p.check))
+                .collect();
+            let plots: Vec<Plot> = FOG_PLOTS
+                .iter()
+                .zip(&titles)
+                .map(|(p, title)| {
+                    let plot = Plot::new(PlotSpec {
+                        name: p.name,
+                        x: "param",
+                        y: p.y,
+                        series: &["variant"],
+                        log_y: true,
+                    })
+                    .only("check", p.check)
+                    .titled(title)
+                    .labels(p.x_label, p.y_label);
+                    if p.log_x { plot.log_x() } else { plot }
+                })
+                .collect();
+            report.table_plots("relight verify fog", &rows, &plots)?;
+            Ok(())
+        }
+        VerifySuite::Reference => {
             let rows = relight_brdf::verify::verify_brdfs(if a.quick { 20_000 } else { 200_000 });
-            report.table(
-                "relight verify: BRDF sampling used by the reference renderer",
+            report.table_plots(
+                "relight verify reference: BRDF sampling used by the reference renderer",
                 &rows,
-                &[PlotSpec {
+                &[Plot::new(PlotSpec {
                     name: "verify-brdf",
                     x: "theta_o_deg",
-                    y: "albedo_quadrature",
+                    y: "albedo_z_score",
                     series: &["spec"],
                     log_y: false,
-                }],
-            )
+                })
+                .titled("relight verify reference: sampled against quadrature albedo per BRDF")
+                .labels(
+                    "viewing angle θo (degrees)",
+                    "|sampled − quadrature albedo| / standard error",
+                )],
+            )?;
+            Ok(())
         }
     }
 }
+
+/// One `verify fog` plot: the rows of one check, whose `param` means
+/// something of its own (the fog crate's `VerifyRow::param`).
+struct FogPlot {
+    check: &'static str,
+    name: &'static str,
+    y: &'static str,
+    x_label: &'static str,
+    y_label: &'static str,
+    /// The parameter spans decades (table sizes, optical thickness).
+    log_x: bool,
+}
+
+const FOG_PLOTS: [FogPlot; 7] = [
+    FogPlot {
+        check: "airlight",
+        name: "verify-fog-airlight",
+        y: "max_error",
+        x_label: "F table size (texels per side)",
+        y_label: "max relative error of the airlight",
+        log_x: true,
+    },
+    FogPlot {
+        check: "airlight_paper_f",
+        name: "verify-fog-airlight-paper-f",
+        y: "max_error",
+        x_label: "F table size (texels per side)",
+        y_label: "max relative error (paper's F fit)",
+        log_x: true,
+    },
+    FogPlot {
+        check: "glow_single",
+        name: "verify-fog-glow-single",
+        y: "mean_error",
+        x_label: "T_sv, optical thickness from viewer to light",
+        y_label: "relative RMS error vs Monte Carlo",
+        log_x: true,
+    },
+    FogPlot {
+        check: "glow_multiple",
+        name: "verify-fog-glow-multiple",
+        y: "mean_error",
+        x_label: "T_sv, optical thickness from viewer to light",
+        y_label: "relative RMS error vs Monte Carlo",
+        log_x: true,
+    },
+    FogPlot {
+        check: "surface_lambert",
+        name: "verify-fog-surface-lambert",
+        y: "max_error",
+        x_label: "table size (texels per side)",
+        y_label: "max relative error of surface radiance",
+        log_x: true,
+    },
+    FogPlot {
+        check: "surface_phong",
+        name: "verify-fog-surface-phong",
+        y: "max_error",
+        x_label: "Phong exponent n",
+        y_label: "max relative error of surface radiance",
+        log_x: false,
+    },
+    FogPlot {
+        check: "psf_factorization",
+        name: "verify-fog-psf",
+        y: "mean_error",
+        x_label: "γ, angle from the light (degrees)",
+        y_label: "mean error over T",
+        log_x: false,
+    },
+];

@@ -5,6 +5,7 @@
 //! 130 cancelled). Every message on stderr starts with `relight:`.
 
 mod args;
+mod cache;
 mod commands;
 mod compare;
 mod demo;
@@ -30,8 +31,64 @@ fn main() {
                 eprintln!("relight: cancelled; no output was written");
                 std::process::exit(130);
             }
-            eprintln!("relight: {err:#}");
+            eprintln!("relight: {}", message(&err));
             std::process::exit(1);
         }
+    }
+}
+
+/// The error and its causes on one line, each cause once: library errors
+/// often quote their source in their own message (`FILE: KEY: {source}`),
+/// so a cause already contained in the text so far is not repeated (as
+/// anyhow's `{:#}` would).
+fn message(err: &anyhow::Error) -> String {
+    let mut text = err.to_string();
+    for cause in err.chain().skip(1) {
+        let c = cause.to_string();
+        if !text.contains(&c) {
+            text.push_str(": ");
+            text.push_str(&c);
+        }
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::message;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("{path}: file not found")]
+    struct Missing {
+        path: String,
+    }
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("{context}: {source}")]
+    struct Keyed {
+        context: String,
+        #[source]
+        source: Missing,
+    }
+
+    /// A source its wrapper already quotes is printed once; a context that
+    /// does not quote it keeps it.
+    #[test]
+    fn each_cause_once() {
+        let e = anyhow::Error::new(Keyed {
+            context: "a.toml: environment.file".into(),
+            source: Missing {
+                path: "x.exr".into(),
+            },
+        });
+        assert_eq!(
+            message(&e),
+            "a.toml: environment.file: x.exr: file not found"
+        );
+        let e = anyhow::Error::new(Missing {
+            path: "x.exr".into(),
+        })
+        .context("loading");
+        assert_eq!(message(&e), "loading: x.exr: file not found");
     }
 }

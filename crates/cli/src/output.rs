@@ -20,6 +20,14 @@ pub fn warn_all(warnings: &[String]) {
 /// Another extension, or a folder that does not exist (checked before any
 /// work starts).
 pub fn output_paths(out: &Path) -> Result<(PathBuf, PathBuf)> {
+    output_paths_for(out, "--out")
+}
+
+/// [`output_paths`] for an output given by `flag` (named in the errors).
+///
+/// # Errors
+/// As [`output_paths`].
+pub fn output_paths_for(out: &Path, flag: &str) -> Result<(PathBuf, PathBuf)> {
     let ext = out
         .extension()
         .and_then(|e| e.to_str())
@@ -29,21 +37,66 @@ pub fn output_paths(out: &Path) -> Result<(PathBuf, PathBuf)> {
         "png" => (out.to_path_buf(), out.with_extension("exr")),
         "exr" => (out.with_extension("png"), out.to_path_buf()),
         _ => bail!(
-            "--out {}: the output must end in .png or .exr",
+            "{flag} {}: the output must end in .png or .exr",
             out.display()
         ),
     };
-    if let Some(dir) = out.parent()
+    check_output(out, flag, &[])?;
+    Ok(paths)
+}
+
+/// Checks, before any work starts, that `path` can be written later: its
+/// extension is one of `extensions` (lowercase, without the dot; empty:
+/// any), it is not a folder, and its folder exists.
+///
+/// # Errors
+/// A one-line error naming `flag` and `path`.
+pub fn check_output(path: &Path, flag: &str, extensions: &[&str]) -> Result<()> {
+    if !extensions.is_empty() {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        ensure!(
+            extensions.contains(&ext.as_str()),
+            "{flag} {}: the output must end in .{}",
+            path.display(),
+            extensions.join(", .")
+        );
+    }
+    ensure!(
+        !path.is_dir(),
+        "{flag} {}: is a folder, not a file",
+        path.display()
+    );
+    if let Some(dir) = path.parent()
         && !dir.as_os_str().is_empty()
     {
         ensure!(
             dir.is_dir(),
-            "--out {}: folder {} does not exist",
-            out.display(),
+            "{flag} {}: folder {} does not exist",
+            path.display(),
             dir.display()
         );
     }
-    Ok(paths)
+    Ok(())
+}
+
+/// Checks a `--plot DIR` before any work starts: it is a folder, or can be
+/// created (it is created now).
+///
+/// # Errors
+/// A file of that name, or a folder that cannot be created.
+pub fn check_plot_dir(dir: Option<&Path>) -> Result<()> {
+    let Some(dir) = dir else { return Ok(()) };
+    ensure!(
+        !dir.exists() || dir.is_dir(),
+        "--plot {}: is a file, not a folder",
+        dir.display()
+    );
+    std::fs::create_dir_all(dir)
+        .map_err(|e| anyhow::anyhow!("--plot {}: cannot create the folder: {e}", dir.display()))
 }
 
 /// Writes `image` as a tone-mapped PNG and a linear EXR (see

@@ -24,8 +24,24 @@ pub struct BuiltScene {
     pub render: Option<RenderDesc>,
 }
 
-/// Loads a tangent-space normal map (PNG, decoded linearly).
+/// Loads a tangent-space normal map (PNG or JPEG, decoded linearly: each
+/// 8-bit channel c maps to 2c − 1).
+///
+/// # Errors
+/// A linear HDR image (EXR, Radiance HDR) is refused: its values are
+/// radiance, not encoded unit vectors, and an environment map given by
+/// mistake would otherwise shade as a noisy bump pattern.
 pub fn load_normal_map(path: &Path) -> Result<relight_render::NormalMap> {
+    let format = relight_assets::ImageFormat::from_path(path)?;
+    ensure!(
+        !matches!(
+            format,
+            relight_assets::ImageFormat::Exr | relight_assets::ImageFormat::Hdr
+        ),
+        "--normal-map {}: a {} image is linear radiance, not a normal map (give a tangent-space PNG or JPEG)",
+        path.display(),
+        format.name()
+    );
     let (img, report) =
         relight_assets::read_image_with(path, relight_assets::ColorEncoding::Linear)?;
     warn_all(&report.warnings);
@@ -60,6 +76,12 @@ pub fn build_scene(
             .build();
         let mut objects = Vec::new();
         for m in &a.mesh {
+            let builtin = relight_scene::BUILTIN_MESHES.contains(&m.as_str());
+            ensure!(
+                builtin || Path::new(m).exists(),
+                "--mesh {m}: no such file, and not a built-in shape ({})",
+                relight_scene::BUILTIN_MESHES.join(", ")
+            );
             let (mesh, warnings) = relight_scene::load_mesh(m)?;
             warn_all(
                 &warnings

@@ -14,7 +14,7 @@
 //! document. Tables whose rows have no `pass` field (benchmarks) print no
 //! summary.
 
-use crate::plot::{PlotSpec, write_plot};
+use crate::plot::{Plot, PlotSpec, write_plot};
 use anyhow::Result;
 use serde::Serialize;
 use serde_json::Value;
@@ -47,6 +47,18 @@ impl Report {
         rows: &[T],
         plots: &[PlotSpec],
     ) -> Result<Option<Verdicts>> {
+        let plots: Vec<Plot> = plots.iter().copied().map(Plot::from).collect();
+        self.table_plots(title, rows, &plots)
+    }
+
+    /// [`Report::table_verdicts`] with plots that carry their own titles,
+    /// axis labels or row filters ([`Plot`]).
+    pub fn table_plots<T: Serialize>(
+        &self,
+        title: &str,
+        rows: &[T],
+        plots: &[Plot],
+    ) -> Result<Option<Verdicts>> {
         let values = to_values(rows)?;
         let verdicts = Verdicts::of(&values);
         if self.json {
@@ -58,9 +70,10 @@ impl Report {
             print!("{}", render_text(title, &values));
         }
         if let Some(dir) = &self.plot_dir {
-            for spec in plots {
-                let path = write_plot(dir, title, &values, spec)?;
-                eprintln!("relight: wrote {}", path.display());
+            for plot in plots {
+                if let Some(path) = write_plot(dir, title, &values, plot)? {
+                    eprintln!("relight: wrote {}", path.display());
+                }
             }
         }
         Ok(verdicts)

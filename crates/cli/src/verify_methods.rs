@@ -12,7 +12,7 @@
 
 use crate::args::VerifyArgs;
 use crate::commands::data_dir;
-use crate::plot::{PlotSpec, write_plot};
+use crate::plot::{Plot, PlotSpec};
 use crate::progress::Bar;
 use crate::scene_args::load_normal_map;
 use crate::table::Report;
@@ -185,40 +185,58 @@ pub fn verify_methods(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> 
         opts = quick_options(opts);
     }
     let rows = relight_methods::verify::verify_methods(&scenes, &opts, bar)?;
-    report.table(
-        "relight verify methods: relative RMS error over object pixels vs one reference",
-        &rows,
-        &[],
-    )?;
-    if let Some(dir) = &report.plot_dir {
+    // One plot per scene that some real-time method renders: error against
+    // frame time, one point per method.
+    let names: Vec<(String, String, String)> = scenes
+        .iter()
+        .filter(|s| {
+            rows.iter()
+                .any(|r| r.scene == s.name && r.rel_rms_error.is_some_and(f64::is_finite))
+        })
+        .map(|s| {
+            (
+                s.name.clone(),
+                format!("verify-methods-{}", s.name.replace(['/', '+'], "-")),
+                format!(
+                    "relight verify methods, scene {}: error against frame time",
+                    s.name
+                ),
+            )
+        })
+        .collect();
+    if report.plot_dir.is_some() {
         for s in &scenes {
-            let values: Vec<serde_json::Value> = rows
-                .iter()
-                .filter(|r| r.scene == s.name)
-                .map(serde_json::to_value)
-                .collect::<Result<_, _>>()?;
-            if !values.iter().any(|v| v["rel_rms_error"].is_number()) {
+            if !names.iter().any(|n| n.0 == s.name) {
                 eprintln!(
                     "relight: no plot for scene {}: no method but the reference renders it",
                     s.name
                 );
-                continue;
             }
-            let name = format!("verify-methods-{}", s.name.replace(['/', '+'], "-"));
-            let path = write_plot(
-                dir,
-                &format!("verify methods, scene {}: error against frame time", s.name),
-                &values,
-                &PlotSpec {
-                    name: &name,
-                    x: "view_ms",
-                    y: "rel_rms_error",
-                    series: &["method"],
-                    log_y: true,
-                },
-            )?;
-            eprintln!("relight: wrote {}", path.display());
         }
     }
+    let plots: Vec<Plot> = names
+        .iter()
+        .map(|(scene, name, title)| {
+            Plot::new(PlotSpec {
+                name,
+                x: "view_ms",
+                y: "rel_rms_error",
+                series: &["method"],
+                log_y: true,
+            })
+            .only("scene", scene)
+            .titled(title)
+            .labels(
+                "ms per frame (view change)",
+                "relative RMS error vs the reference",
+            )
+            .log_x()
+        })
+        .collect();
+    report.table_plots(
+        "relight verify methods: relative RMS error over object pixels vs one reference",
+        &rows,
+        &plots,
+    )?;
     Ok(())
 }

@@ -207,7 +207,7 @@ fn verify_writes_json_and_an_svg_plot() {
     let out = relight(&[
         "-q",
         "verify",
-        "raster",
+        "reference",
         "--quick",
         "--json",
         "--plot",
@@ -222,7 +222,7 @@ fn verify_writes_json_and_an_svg_plot() {
     let rows = rows.as_array().expect("a JSON array of rows");
     assert!(!rows.is_empty());
     let svg = std::fs::read_to_string(dir.join("verify-brdf.svg")).expect("plot written");
-    assert!(svg.starts_with("<svg") && svg.contains("theta_o_deg"));
+    assert!(svg.starts_with("<svg") && svg.contains("viewing angle"));
     // One legend entry per BRDF in the table.
     let spec = rows[0]["spec"].as_str().unwrap();
     assert!(svg.contains(spec), "legend lacks {spec}");

@@ -1,12 +1,12 @@
 //! Procedural meshes for the embedded default scene and for tests: spheres,
-//! a torus, a detailed displaced sphere and ground planes.
+//! a torus, a trefoil torus knot (the detailed shape) and ground planes.
 //!
 //! All shapes are centred at the origin in object space (+Y up), wound
 //! counter-clockwise seen from outside, and come out of
 //! [`Mesh::validate_and_repair`] (unit normals; tangents where there are
 //! uvs). Seam vertices (the `u = 0` / `u = 1` column, pole fans) are exact
 //! copies of their partners' positions, so position-welded topology is
-//! closed: spheres have Euler characteristic 2, the torus 0.
+//! closed: spheres have Euler characteristic 2, the torus and the knot 0.
 //!
 //! uv convention: `u` runs with the azimuth `φ ∈ [0, 2π)` (from +Z towards
 //! +X), `v` from the top (+Y) down.
@@ -182,39 +182,80 @@ pub fn torus(major: f32, minor: f32, segments: usize, sides: usize) -> Mesh {
     m
 }
 
-/// The default scene's detailed shape: [`detailed_shape_with`] at mean
-/// radius 1 and resolution 512 (513 × 257 = 131 841 vertices). That many
-/// because per-vertex (Gouraud) methods must sample its glossy highlights:
-/// at resolution 256 the wavelet renderer's antialiased image error on the
-/// default scene is 0.200 on this object, at 512 it is 0.078 (wavelet-rotation-2006 §3
+/// The default scene's detailed shape (the `knot` built-in):
+/// [`detailed_shape_with`] at bounding radius 1 and resolution 512
+/// (513 × 257 = 131 841 vertices). That many because per-vertex (Gouraud)
+/// methods must sample its glossy highlights (wavelet-rotation-2006 §3
 /// shades models of 30–120 K vertices).
 #[must_use]
 pub fn detailed_shape() -> Mesh {
     detailed_shape_with(1.0, 512)
 }
 
-/// Radial displacement of the detailed shape at unit direction `d`:
-/// a sum of sinusoids from low to high frequency (relative to radius 1).
-fn detail_displacement(d: Vec3) -> f32 {
-    0.06 * (5.0 * d.x).sin() * (4.0 * d.y).sin() * (6.0 * d.z).sin()
-        + 0.025 * (17.0 * (d.x + d.z)).sin() * (13.0 * d.y).cos()
-        + 0.01 * (41.0 * d.y + 7.0 * d.x).sin() * (37.0 * d.z).sin()
+/// Winding numbers of the detailed shape's trefoil: the curve goes
+/// `KNOT_P` times around the knot's axis and `KNOT_Q` times through its hole.
+pub const KNOT_P: u32 = 2;
+/// See [`KNOT_P`].
+pub const KNOT_Q: u32 = 3;
+
+/// Tube radius of the detailed shape, as a fraction of its bounding radius.
+/// The (2, 3) centreline (scaled to fit) has a minimum radius of curvature
+/// of about 0.39 and strands at least 0.45 apart, so a tube of 0.18 neither
+/// folds nor touches itself.
+pub const KNOT_TUBE: f32 = 0.18;
+
+/// The centreline `c(t)` of the (p, q) = (2, 3) torus knot and its first
+/// two derivatives, unscaled: `r = 2 + cos qt`,
+/// `c = (r cos pt, r sin pt, sin qt)`, `t ∈ [0, 2π)`. The knot's axis is
+/// +Z (it faces a camera on the +Z axis); `|c| ≤ 3`.
+fn knot_curve(t: f32) -> [Vec3; 3] {
+    let (p, q) = (KNOT_P as f32, KNOT_Q as f32);
+    let (sq, cq) = (q * t).sin_cos();
+    let (sp, cp) = (p * t).sin_cos();
+    let (r, r1, r2) = (2.0 + cq, -q * sq, -q * q * cq);
+    [
+        Vec3::new(r * cp, r * sp, sq),
+        Vec3::new(r1 * cp - p * r * sp, r1 * sp + p * r * cp, q * cq),
+        Vec3::new(
+            r2 * cp - 2.0 * p * r1 * sp - p * p * r * cp,
+            r2 * sp + 2.0 * p * r1 * cp - p * p * r * sp,
+            -q * q * sq,
+        ),
+    ]
 }
 
-/// The "detailed shape" of the default scene: a sphere of mean radius
-/// `radius` with a three-octave sinusoidal displacement (features down to
-/// ~1/40 of the radius, all-frequency geometry for normal-map filtering and
-/// shadowing tests). `resolution` segments around (rings = resolution/2);
-/// smooth normals are computed from the displaced surface.
+/// The "detailed shape" of the default scene: a trefoil (2, 3) torus knot,
+/// a tube of radius [`KNOT_TUBE`]` × radius` around the scaled centreline
+/// of `knot_curve`, fitting in a sphere of radius `radius` about the
+/// origin. It shadows and occludes itself from every side (all-frequency
+/// visibility for the shadowing and ambient-occlusion tests).
+///
+/// The tube is swept along the centreline's Frenet frame (T, N, B), which
+/// is periodic, so the seam closes exactly (Euler characteristic 0, like a
+/// torus); normals are the analytic tube normals `cos θ N + sin θ B`.
+/// `resolution` segments along the curve (≥ 8) and `resolution / 2` around
+/// the tube; uvs run with the curve (u) and around the tube (v).
 #[must_use]
 pub fn detailed_shape_with(radius: f32, resolution: usize) -> Mesh {
     let segments = resolution.max(8);
-    let rings = (segments / 2).max(4);
-    let mut m = grid(segments, rings, true, |u, v| {
-        let d = sphere_dir(u, v);
-        (d * radius * (1.0 + detail_displacement(d)), d)
+    let sides = (segments / 2).max(4);
+    let tube = KNOT_TUBE * radius;
+    let scale = (radius - tube) / 3.0;
+    let mut m = grid(segments, sides, true, |u, v| {
+        let [c, d1, d2] = knot_curve(TAU * u);
+        let t = d1.normalize();
+        let b = d1.cross(d2).normalize();
+        let n = b.cross(t);
+        let (st, ct) = if v >= 1.0 {
+            (0.0, 1.0)
+        } else {
+            (TAU * v).sin_cos()
+        };
+        let normal = n * ct + b * st;
+        (c * scale + normal * tube, normal)
     });
-    m.normals = m.smooth_normals();
+    // θ runs from N towards B = T × N, so the grid's (u, v) order winds
+    // the triangles outward as they are (unlike the torus').
     m.tangents = m.compute_tangents();
     m
 }
@@ -328,28 +369,64 @@ mod tests {
     }
 
     #[test]
-    fn detailed_shape_is_closed_and_bumpy() {
-        let m = detailed_shape_with(1.0, 128);
+    fn detailed_shape_is_a_closed_trefoil_knot() {
+        let m = detailed_shape_with(1.0, 256);
         assert_eq!(detailed_shape().vertex_count(), 513 * 257);
         check_common("detailed_shape", &m);
-        assert_eq!(m.euler_characteristic(), 2);
+        assert_eq!(m.euler_characteristic(), 0, "a knotted tube is a torus");
         assert_eq!(m.edge_counts().1, 0);
+        // It fits the unit sphere and leaves the knot's hole empty.
         let (lo, hi) = m.positions.iter().fold((f32::MAX, 0f32), |(lo, hi), p| {
             (lo.min(p.length()), hi.max(p.length()))
         });
+        assert!(hi <= 1.0 + 1e-5 && hi > 0.97, "bounding radius {hi}");
+        assert!(lo > 0.05 && lo < 0.5, "nearest point to the centre {lo}");
+        // Tube area 2π r L (Weyl's tube formula; the tube neither folds nor
+        // meets itself), L the scaled centreline length by quadrature.
+        let scale = (1.0 - KNOT_TUBE) / 3.0;
+        let n = 20_000;
+        let length: f64 = (0..n)
+            .map(|i| f64::from(knot_curve(TAU * (i as f32 + 0.5) / n as f32)[1].length()))
+            .sum::<f64>()
+            * std::f64::consts::TAU
+            / f64::from(n)
+            * f64::from(scale);
+        let want = std::f64::consts::TAU * f64::from(KNOT_TUBE) * length;
         assert!(
-            lo < 0.95 && hi > 1.05 && lo > 0.85 && hi < 1.15,
-            "radius range {lo}..{hi}"
+            (m.area() - want).abs() / want < 5e-3,
+            "area {} vs 2πrL = {want}",
+            m.area()
         );
-        // High-frequency detail: normals deviate from the radial direction.
-        let mean_dev = m
-            .positions
+        // Knotted as a (2, 3) torus knot: the centreline turns twice about
+        // the axis and crosses the knot's mid-plane 2q = 6 times.
+        let (mut turns, mut crossings) = (0.0f32, 0);
+        let steps = 4096;
+        for i in 0..steps {
+            // Half-step offsets keep samples off the zeros of sin qt.
+            let a = knot_curve(TAU * (i as f32 + 0.5) / steps as f32)[0];
+            let b = knot_curve(TAU * (i as f32 + 1.5) / steps as f32)[0];
+            let mut d = b.y.atan2(b.x) - a.y.atan2(a.x);
+            if d > PI {
+                d -= TAU;
+            } else if d < -PI {
+                d += TAU;
+            }
+            turns += d;
+            crossings += usize::from((a.z > 0.0) != (b.z > 0.0));
+        }
+        assert!((turns / TAU - KNOT_P as f32).abs() < 1e-3, "{turns}");
+        assert_eq!(crossings, 2 * KNOT_Q as usize);
+        // Analytic normals agree with freshly computed smooth ones.
+        let mut fresh = m.clone();
+        fresh.normals.clear();
+        fresh.validate_and_repair();
+        let agree = m
+            .normals
             .iter()
-            .zip(&m.normals)
-            .map(|(p, n)| 1.0 - p.normalize().dot(*n))
-            .sum::<f32>()
-            / m.vertex_count() as f32;
-        assert!(mean_dev > 1e-3, "mean normal deviation {mean_dev}");
+            .zip(&fresh.normals)
+            .filter(|(a, b)| a.dot(**b) > 0.999)
+            .count();
+        assert!(agree as f32 > 0.99 * m.vertex_count() as f32, "{agree}");
     }
 
     #[test]

@@ -8,7 +8,11 @@
 //! (`surface_vertex`) the shading normal is the interpolated vertex normal,
 //! perturbed by the object's normal map ([`NormalMap::perturb`] at the hit's
 //! uv and tangent, the lookup every method shares), then both normals are
-//! turned towards the viewer (surfaces are two-sided). The BSDF is the
+//! turned towards the viewer (surfaces are two-sided). Where an
+//! interpolated shading normal (no normal map) still faces away from the
+//! viewer, the BRDF sees the view at the horizon (`above_horizon`: no black
+//! fringes at silhouettes). A normal map that turns the normal away keeps
+//! the convention the SH method shares: the BRDF is zero there. The BSDF is the
 //! object's BRDF, or with a [`BrdfBlend`] the mixture
 //! `f = (1 − w) f₁ + w f₂`, `w` = the blend weight at the hit's uv, sampled by
 //! picking lobe 2 with probability `w` and reporting the mixture density
@@ -43,6 +47,35 @@ use relight_sphere::Frame;
 use crate::NormalMap;
 
 use super::lights::EnvLight;
+
+#[cfg(test)]
+mod horizon_tests {
+    use super::{MIN_COS_VIEW, above_horizon};
+    use glam::Vec3;
+
+    /// Views above the horizon are untouched; others end at the bound,
+    /// unit length, with their azimuth.
+    #[test]
+    fn raises_only_views_below_the_horizon() {
+        let ok = Vec3::new(0.6, 0.0, 0.8);
+        assert_eq!(above_horizon(ok), ok);
+        for wo in [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.6, 0.0, -0.8),
+            Vec3::new(0.3, -0.4, -1.0),
+        ] {
+            let wo = wo.normalize();
+            let w = above_horizon(wo);
+            assert!((w.length() - 1.0).abs() < 1e-5, "{w}");
+            assert!((w.z - MIN_COS_VIEW).abs() < 1e-6, "{w}");
+            assert!(
+                (w.y.atan2(w.x) - wo.y.atan2(wo.x)).abs() < 1e-5,
+                "{wo} → {w}"
+            );
+        }
+        assert!((above_horizon(-Vec3::Z).z - MIN_COS_VIEW).abs() < 1e-6);
+    }
+}
 
 /// The BSDF at one surface point: a BRDF, or two blended by a weight.
 #[derive(Clone, Copy, Debug)]
@@ -216,14 +249,54 @@ pub(crate) fn surface_vertex<'s>(
         ns = -ns;
     }
     let frame = sp.frame(ns);
+    let wo = frame.to_local(-d);
     let sc = Scatter::Surface {
         p: sp.position,
         ng,
         frame,
-        wo: frame.to_local(-d),
+        // Normal-mapped surfaces keep the shared convention of the methods
+        // (zero where the map turns the normal away from the viewer).
+        wo: if object.normal_map.is_some() {
+            wo
+        } else {
+            above_horizon(wo)
+        },
         bsdf: SurfaceBsdf::of_object(object, sp.uv),
     };
     (sp, sc)
+}
+
+/// Least `cos θ_o` of the view direction in the shading frame
+/// ([`above_horizon`]): about 87°.
+pub(crate) const MIN_COS_VIEW: f32 = 0.05;
+
+/// The local view direction `wo` (unit), raised to at least
+/// [`MIN_COS_VIEW`] above the shading horizon, keeping its azimuth.
+///
+/// An interpolated vertex normal (or a normal map) can face away from the
+/// viewer where the geometric normal does not: at silhouettes of coarse
+/// meshes, e.g. the thin ears of the Stanford bunny. There `ω_o` lies below
+/// the BRDF's hemisphere, every BRDF is zero, and the silhouette gets a
+/// black fringe that no real surface has. Evaluating the BRDF for the
+/// grazing view at the horizon instead keeps the shading continuous up to
+/// the silhouette; the shading normal itself is kept, so a Lambert surface
+/// shows the irradiance about its shading normal, as the SH and wavelet
+/// methods (which shade by the normal) do. Views above the horizon (almost
+/// every pixel) are unchanged.
+#[must_use]
+pub(crate) fn above_horizon(wo: Vec3) -> Vec3 {
+    if wo.z >= MIN_COS_VIEW {
+        return wo;
+    }
+    let xy = Vec2::new(wo.x, wo.y);
+    let len = xy.length();
+    let s = (1.0 - MIN_COS_VIEW * MIN_COS_VIEW).sqrt();
+    if len < 1e-6 {
+        // Straight from below: any azimuth will do.
+        return Vec3::new(s, 0.0, MIN_COS_VIEW);
+    }
+    let h = xy * (s / len);
+    Vec3::new(h.x, h.y, MIN_COS_VIEW)
 }
 
 /// Direct light at `sc` from every light (point lights only when

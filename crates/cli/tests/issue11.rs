@@ -1,0 +1,245 @@
+//! Issue 11's "smaller things", end to end through the `relight` binary:
+//! outputs checked before any work, the bake cache, and one-line messages
+//! that name the problem once (bad files, typos, wrong kinds of image).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn relight(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_relight"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run relight")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("relight-issue11-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn data(rel: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data")
+        .join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI is set and {} is missing",
+            p.display()
+        );
+        eprintln!("skipping: {} is absent", p.display());
+        None
+    }
+}
+
+/// Exit code 1, one line on stderr starting `relight: `, containing every needle.
+fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "exit code; stderr: {err}");
+    assert!(!err.contains("panicked"), "panic: {err}");
+    assert!(err.starts_with("relight: "), "stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    for n in needles {
+        assert!(err.contains(n), "stderr should mention `{n}`: {err}");
+    }
+    err
+}
+
+/// Every command that writes a file refuses a path in a missing folder
+/// before it starts (the render would take seconds, the bake minutes, and
+/// nothing is printed about them).
+#[test]
+fn r11_output_paths_are_checked_before_work_starts() {
+    let missing = "/nonexistent-relight-dir/x";
+    let png = format!("{missing}.png");
+    let exr = format!("{missing}.exr");
+    let bin = format!("{missing}.bin");
+    let json = format!("{missing}.json");
+    let exr_in = tmp("in.exr");
+    relight_assets::write_exr(&exr_in, 8, 4, &vec![glam::Vec3::ONE; 32]).unwrap();
+    let exr_in = exr_in.to_str().unwrap();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["render", "--mesh", "sphere", "--out", &png], "--out"),
+        (vec!["demo", "--out", &png], "--out"),
+        (vec!["bake", "rotation", "--out", &bin], "--out"),
+        (
+            vec!["bake", "brdf", "--brdf", "ggx:0.2", "--out", &bin],
+            "--out",
+        ),
+        (vec!["fog", "tables", "--out", &exr], "--out"),
+        (vec!["convert", exr_in, &exr], "output"),
+        (vec!["sh", "irradiance", exr_in, "--out", &png], "--out"),
+        (vec!["sh", "project", exr_in, "--out", &json], "--out"),
+        (vec!["compare", exr_in, exr_in, "--diff", &png], "--diff"),
+    ];
+    for (args, flag) in cases {
+        let out = relight(&args);
+        let err =
+            assert_one_line_error(&out, &[flag, "/nonexistent-relight-dir", "does not exist"]);
+        assert!(
+            !err.contains("prepared") && out.stdout.is_empty(),
+            "{args:?} did work before failing: {err}"
+        );
+    }
+    // A --plot folder that is a file.
+    let file = tmp("not-a-folder");
+    std::fs::write(&file, b"x").unwrap();
+    let out = relight(&[
+        "bench",
+        "raster",
+        "--quick",
+        "--plot",
+        file.to_str().unwrap(),
+    ]);
+    assert_one_line_error(&out, &["--plot", "is a file"]);
+    assert!(out.stdout.is_empty(), "bench ran before the check");
+}
+
+#[test]
+fn r11_cache_lists_and_clears_entries() {
+    let dir = tmp("cache");
+    std::fs::create_dir_all(&dir).unwrap();
+    let rot = "rot-n16-m8-t4-q1-v1-0123456789abcdef.bin";
+    let brdf = "brdf-Ggx___alpha_x__0.2-m8-v8-k128-v1-fedcba9876543210.bin";
+    std::fs::write(dir.join(rot), vec![0u8; 2_000_000]).unwrap();
+    std::fs::write(dir.join(brdf), vec![0u8; 500_000]).unwrap();
+    std::fs::write(dir.join("notes.txt"), b"not a cache entry").unwrap();
+    let d = dir.to_str().unwrap();
+    let out = relight(&["cache", "list", "--cache", d]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for want in [
+        "rotation",
+        "n=16 m=8 ntess=4 ntrunc=1",
+        "2.0 MB",
+        "brdf",
+        "views=8 terms=128",
+        "0.5 MB",
+        "2 entries, 2.5 MB",
+    ] {
+        assert!(text.contains(want), "`{want}` missing from:\n{text}");
+    }
+    assert!(!text.contains("notes.txt"), "{text}");
+    // The date column is today's (UTC), as YYYY-MM-DD HH:MM.
+    let row = text.lines().find(|l| l.contains(rot)).unwrap();
+    assert!(
+        row.split_whitespace()
+            .any(|w| w.len() == 10 && w.as_bytes()[4] == b'-' && w.starts_with("20")),
+        "{row}"
+    );
+    // Filtered list and clear.
+    let out = relight(&["cache", "list", "rot-", "--cache", d]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1 entries"));
+    let out = relight(&["cache", "clear", "rot-", "--cache", d]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("deleted 1 of 2 entries (2.0 MB)"));
+    assert!(!dir.join(rot).exists() && dir.join(brdf).exists());
+    let out = relight(&["cache", "clear", "--cache", d]);
+    assert!(out.status.success());
+    assert!(
+        !dir.join(brdf).exists(),
+        "clear without a pattern clears all"
+    );
+    assert!(dir.join("notes.txt").exists(), "other files are left alone");
+    let out = relight(&["cache", "list", "--cache", d]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("(no entries)"));
+}
+
+#[test]
+fn r11_messages_name_the_problem_once() {
+    // A mistyped built-in lists the built-ins.
+    let out = relight(&[
+        "render",
+        "--mesh",
+        "spere",
+        "--out",
+        tmp("s.png").to_str().unwrap(),
+    ]);
+    assert_one_line_error(&out, &["--mesh spere", "sphere, torus, knot, ground"]);
+
+    // A Radiance file cut after 20 bytes is truncated, not "format '32'".
+    let short = tmp("short.hdr");
+    std::fs::write(
+        &short,
+        &b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 8\n"[..20],
+    )
+    .unwrap();
+    let out = relight(&["info", short.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("short.hdr: truncated file") && !err.contains("'32'"),
+        "{err}"
+    );
+
+    // A scene file naming a missing environment says so once.
+    let scene = tmp("missing-env.toml");
+    std::fs::write(
+        &scene,
+        "[environment]\nfile = \"nothere.exr\"\n\n[[object]]\nbuiltin = \"sphere\"\n",
+    )
+    .unwrap();
+    let out = relight(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        tmp("m.png").to_str().unwrap(),
+    ]);
+    let err = assert_one_line_error(&out, &["missing-env.toml", "nothere.exr: file not found"]);
+    assert_eq!(err.matches("not found").count(), 1, "{err}");
+    assert_eq!(err.matches("nothere.exr").count(), 1, "{err}");
+
+    // An HDR image is not a normal map.
+    let hdr = tmp("env.hdr");
+    std::fs::write(&hdr, b"#?RADIANCE\n").unwrap();
+    let out = relight(&[
+        "render",
+        "--mesh",
+        "sphere",
+        "--method",
+        "sh",
+        "--normal-map",
+        hdr.to_str().unwrap(),
+        "--out",
+        tmp("n.png").to_str().unwrap(),
+    ]);
+    assert_one_line_error(&out, &["--normal-map", "env.hdr", "not a normal map"]);
+
+    // One triangle is "1 triangle".
+    let obj = tmp("one.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let out = relight(&["info", obj.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("3 vertices, 1 triangle\n"), "{text}");
+
+    // `verify raster` was `verify reference` twice: it is gone.
+    let out = relight(&["verify", "raster", "--quick"]);
+    assert_eq!(out.status.code(), Some(2), "clap refuses the value");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("invalid value 'raster'"));
+}
+
+/// The truncated GLB of ../shared/data (the first 3000 bytes of the bunny)
+/// is reported in words, not as Rust `Debug` output.
+#[test]
+fn r11_truncated_glb_error_is_words() {
+    let Some(glb) = data("mesh/bunny.glb") else {
+        return;
+    };
+    let cut = tmp("cut.glb");
+    std::fs::write(&cut, &std::fs::read(glb).unwrap()[..3000]).unwrap();
+    let out = relight(&["info", cut.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("cut.glb: truncated file: GLB header says"),
+        "{err}"
+    );
+    for debug in ["{", "length_read", "Length"] {
+        assert!(!err.contains(debug), "Debug output `{debug}` in: {err}");
+    }
+}
