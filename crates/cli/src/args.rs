@@ -355,6 +355,8 @@ pub enum FogCommand {
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Suite {
+    /// The viewer's frame path per method at 960×540 and 1280×720.
+    Frames,
     Raster,
     Reference,
     Sh,

@@ -360,6 +360,25 @@ pub trait Relighter: Send {
     fn data_bytes(&self) -> u64 {
         0
     }
+
+    /// The arithmetic of one frame of `request` on `scene` (as prepared),
+    /// counted by the method from its own loops, for `relight bench frames`
+    /// to read against the machine's rate; `None` when the method does not
+    /// count it.
+    fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
+        let _ = (scene, request);
+        None
+    }
+}
+
+/// The f32 fused multiply-adds (an add or multiply alone counts as one) of
+/// one frame, by the method's own count of its inner loops.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct FrameWork {
+    /// A view change: everything [`Relighter::render`] computes.
+    pub view_fma: f64,
+    /// A lighting change: [`Relighter::set_lighting`].
+    pub lighting_fma: f64,
 }
 
 /// Checks that `method` renders every feature of `scene`: `Ok(warnings)`

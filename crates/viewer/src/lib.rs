@@ -22,6 +22,7 @@
 //! While a mouse button is held frames are drawn without antialiasing
 //! (preview); a still view is drawn with `aa × aa` samples per pixel.
 
+pub mod bench;
 pub mod orbit;
 pub mod state;
 pub mod window;

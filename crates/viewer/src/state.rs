@@ -15,7 +15,7 @@
 use crate::orbit::Orbit;
 use glam::Mat3;
 use relight_methods::{MethodKind, MethodOptions};
-use relight_render::method::{FrameRequest, MAX_AA, MethodError, check_scene, render_frame};
+use relight_render::method::{FrameRequest, FrameWork, MAX_AA, MethodError, check_scene, render_frame};
 use relight_render::{Camera, Image, Progress, Relighter, Scene};
 use std::time::Instant;
 
@@ -337,6 +337,21 @@ impl Viewer {
             MethodOptions::Reference(r) => slot.spp < r.spp,
             _ => false,
         }
+    }
+
+    /// Why the current method cannot render the scene, once it was checked.
+    #[must_use]
+    pub fn refusal(&self) -> Option<String> {
+        self.slots[self.current].refused.clone()
+    }
+
+    /// The current method's own count of one frame's arithmetic at
+    /// `width × height` ([`Relighter::frame_work`]), once prepared.
+    #[must_use]
+    pub fn frame_work(&self, width: usize, height: usize) -> Option<FrameWork> {
+        let slot = &self.slots[self.current];
+        let request = FrameRequest::new(self.camera(width, height));
+        slot.method.as_ref()?.frame_work(&self.lit_scene, &request)
     }
 
     /// Writes `frame` as `stem.png` (tone-mapped) and `stem.exr` (linear).
