@@ -377,6 +377,9 @@ pub struct BenchArgs {
     /// Also write an SVG plot of each table into this directory.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
+    /// `bench frames` only: run only the rows of these methods (repeatable).
+    #[arg(long = "method", value_name = "NAME")]
+    pub methods: Vec<String>,
 }
 
 /// Accuracy suites of `relight verify`.

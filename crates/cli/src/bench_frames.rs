@@ -5,7 +5,8 @@
 use crate::args::BenchArgs;
 use crate::plot::PlotSpec;
 use crate::table::Report;
-use anyhow::Result;
+use anyhow::{Result, anyhow};
+use relight_methods::MethodKind;
 use relight_viewer::bench::{FrameBenchOptions, MACHINE_GFMA, bench_frames};
 
 /// One plot per timed column: ms against image size, one line per method and case.
@@ -27,11 +28,22 @@ const fn spec(name: &'static str, y: &'static str) -> PlotSpec<'static> {
 }
 
 pub fn run(a: &BenchArgs, bar: &crate::progress::Bar) -> Result<()> {
-    let opts = if a.quick {
+    let mut opts = if a.quick {
         FrameBenchOptions::quick()
     } else {
         FrameBenchOptions::full()
     };
+    if !a.methods.is_empty() {
+        let kinds = a
+            .methods
+            .iter()
+            .map(|m| {
+                m.parse::<MethodKind>()
+                    .map_err(|e| anyhow!("--method {m}: {e}"))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        opts.cases.retain(|c| kinds.contains(&c.options.kind()));
+    }
     let rows = bench_frames(&opts, bar)?;
     let report = Report {
         json: a.json,

@@ -290,6 +290,9 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
         json: a.json,
         plot_dir: a.plot.clone(),
     };
+    if a.suite != Suite::Frames && !a.methods.is_empty() {
+        bail!("--method applies to `bench frames` only");
+    }
     match a.suite {
         Suite::Frames => crate::bench_frames::run(&a, bar),
         Suite::Raster => {

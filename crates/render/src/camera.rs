@@ -1,9 +1,17 @@
 //! [`Camera`]: a pinhole perspective camera.
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 
 /// A pinhole camera looking from `eye` at `target`, `up` roughly up,
 /// vertical field of view `vfov_deg` (degrees, (0, 180)), image `width × height` pixels.
+///
+/// `image_offset` shifts the image plane within itself (an off-axis shear,
+/// not a turn of the camera): the point seen at image position `(px, py)` is
+/// the one the unshifted camera sees at `(px + ox·width, py + oy·height)`.
+/// It is a fraction of the image size, so a method that renders the camera
+/// at `k ×` its size shifts by the same fraction of a pixel of the original
+/// image. Progressive antialiasing renders one pass per sub-pixel offset
+/// ([`Camera::with_pixel_offset`]); `Vec2::ZERO` is the plain camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub eye: Vec3,
@@ -12,9 +20,22 @@ pub struct Camera {
     pub vfov_deg: f32,
     pub width: usize,
     pub height: usize,
+    /// Offset of the image plane, fractions of `width` and `height` (see above).
+    pub image_offset: Vec2,
 }
 
 impl Camera {
+    /// The same camera with its image shifted by `(dx, dy)` pixels of its
+    /// own size (see [`Camera::image_offset`]).
+    #[must_use]
+    pub fn with_pixel_offset(mut self, dx: f32, dy: f32) -> Self {
+        self.image_offset = Vec2::new(
+            dx / self.width.max(1) as f32,
+            dy / self.height.max(1) as f32,
+        );
+        self
+    }
+
     /// `view_from_world` (right-handed, looking down −Z).
     #[must_use]
     pub fn view_from_world(&self) -> Mat4 {
@@ -25,8 +46,25 @@ impl Camera {
     #[must_use]
     pub fn clip_from_world(&self, near: f32, far: f32) -> Mat4 {
         let aspect = self.width as f32 / self.height as f32;
-        glam::camera::rh::proj::directx::perspective(self.vfov_deg.to_radians(), aspect, near, far)
-            * self.view_from_world()
+        let proj = glam::camera::rh::proj::directx::perspective(
+            self.vfov_deg.to_radians(),
+            aspect,
+            near,
+            far,
+        );
+        // The image offset as a shear in clip space: NDC x − 2·ox, y + 2·oy.
+        let o = self.image_offset;
+        let shift = if o == Vec2::ZERO {
+            Mat4::IDENTITY
+        } else {
+            Mat4::from_cols(
+                Vec4::X,
+                Vec4::Y,
+                Vec4::Z,
+                Vec4::new(-2.0 * o.x, 2.0 * o.y, 0.0, 1.0),
+            )
+        };
+        shift * proj * self.view_from_world()
     }
 
     /// World-space ray (origin, unit direction) through the image point
@@ -53,6 +91,7 @@ impl Camera {
             up: up * tan,
             inv_width: 1.0 / self.width as f32,
             inv_height: 1.0 / self.height as f32,
+            offset: self.image_offset,
         }
     }
 }
@@ -67,6 +106,7 @@ pub struct CameraRays {
     up: Vec3,
     inv_width: f32,
     inv_height: f32,
+    offset: Vec2,
 }
 
 impl CameraRays {
@@ -82,8 +122,8 @@ impl CameraRays {
     #[inline]
     #[must_use]
     pub fn dir(&self, px: f32, py: f32) -> Vec3 {
-        let sx = 2.0 * px * self.inv_width - 1.0;
-        let sy = 1.0 - 2.0 * py * self.inv_height;
+        let sx = 2.0 * (px * self.inv_width + self.offset.x) - 1.0;
+        let sy = 1.0 - 2.0 * (py * self.inv_height + self.offset.y);
         (self.fwd + self.right * sx + self.up * sy).normalize()
     }
 }

@@ -20,9 +20,9 @@
 //!
 //! # One background
 //! Every method shows the same pixels where no object is seen: the
-//! environment read bilinearly ([`Scene::env_radiance`]) and averaged over a
-//! fixed [`BACKGROUND_SUBSAMPLES`]² grid of sub-pixel directions
-//! ([`background_pixel`]). [`render_frame`] writes it into every pixel whose
+//! environment read bilinearly ([`Scene::env_radiance`]) and averaged over the
+//! pixel's four corners, the trapezoid rule of the box filter
+//! ([`background_pixel`], one lookup per pixel since neighbours share corners). [`render_frame`] writes it into every pixel whose
 //! coverage is zero, so that two methods differ only where they shade. In a
 //! scene with a medium the background is the foggy sky (attenuated and
 //! in-scattered environment), which is part of what a method computes: there
@@ -419,27 +419,32 @@ pub fn check_scene(
     Ok(warnings)
 }
 
-/// Sub-pixel grid side of the shared background ([`background_pixel`]).
-pub const BACKGROUND_SUBSAMPLES: usize = 4;
+/// Sample points per pixel side of the shared background
+/// ([`background_pixel`]): the pixel's corners, 2 × 2, shared with its
+/// neighbours.
+pub const BACKGROUND_SUBSAMPLES: usize = 2;
 
-/// The background of pixel `(x, y)`: the environment ([`Scene::env_radiance`],
-/// bilinear) plus the front of any area light in the way, averaged over a
-/// [`BACKGROUND_SUBSAMPLES`]² grid of sub-pixel centres — the box-filtered
-/// pixel the reference integrates, by quadrature.
+/// The radiance the camera sees where no object is, along `d` from `o`: the
+/// environment ([`Scene::env_radiance`], bilinear) plus the front of any area
+/// light in the way.
+#[inline]
+fn background_radiance(scene: &Scene, o: Vec3, d: Vec3) -> Vec3 {
+    scene.env_radiance(d) + area_lights_seen(scene, o, d)
+}
+
+/// The background of pixel `(x, y)`: the trapezoid rule of the box-filtered
+/// pixel the reference integrates — the mean of the [`background_radiance`]
+/// at the pixel's four corners. The corners are shared with the neighbouring
+/// pixels, so a frame costs one environment lookup per pixel
+/// ([`fill_background`]), where a midpoint grid of the same order costs four;
+/// both are exact for radiance affine across the pixel, which a bilinear
+/// environment is wherever its texels are larger than a pixel.
 #[must_use]
 pub fn background_pixel(scene: &Scene, rays: &crate::CameraRays, x: usize, y: usize) -> Vec3 {
-    let k = BACKGROUND_SUBSAMPLES;
-    let mut sum = Vec3::ZERO;
-    for j in 0..k {
-        for i in 0..k {
-            let d = rays.dir(
-                x as f32 + (i as f32 + 0.5) / k as f32,
-                y as f32 + (j as f32 + 0.5) / k as f32,
-            );
-            sum += scene.env_radiance(d) + area_lights_seen(scene, rays.origin(), d);
-        }
-    }
-    sum / (k * k) as f32
+    let o = rays.origin();
+    let (x, y) = (x as f32, y as f32);
+    let c = |i: f32, j: f32| background_radiance(scene, o, rays.dir(x + i, y + j));
+    0.25 * (c(0.0, 0.0) + c(1.0, 0.0) + c(0.0, 1.0) + c(1.0, 1.0))
 }
 
 /// Radiance the camera sees directly from area lights along `d` from `o`: the
@@ -454,10 +459,15 @@ fn area_lights_seen(scene: &Scene, o: Vec3, d: Vec3) -> Vec3 {
         .sum()
 }
 
-/// Writes the shared background into every pixel of `image` whose coverage
-/// is zero (all rows in parallel).
+/// Writes the shared background ([`background_pixel`]) into every pixel of
+/// `image` whose coverage is zero. Rows run in parallel; each row evaluates
+/// only the pixel corners its empty pixels need, the upper row of corners
+/// once per run of empty pixels and then reused along it (one lookup per
+/// empty pixel and row of corners: about two per pixel, against sixteen for
+/// a 4 × 4 grid).
 pub fn fill_background(scene: &Scene, camera: &Camera, coverage: &Coverage, image: &mut Image) {
     let rays = camera.ray_frame();
+    let o = rays.origin();
     let w = image.width;
     image
         .pixels
@@ -465,10 +475,20 @@ pub fn fill_background(scene: &Scene, camera: &Camera, coverage: &Coverage, imag
         .zip(coverage.coverage.par_chunks(w))
         .enumerate()
         .for_each(|(y, (row, cov))| {
+            let (y0, y1) = (y as f32, y as f32 + 1.0);
+            let corner = |x: usize, yy: f32| background_radiance(scene, o, rays.dir(x as f32, yy));
+            // The left corners of the previous pixel's right edge, while a
+            // run of empty pixels continues.
+            let mut left: Option<(Vec3, Vec3)> = None;
             for (x, (p, &c)) in row.iter_mut().zip(cov).enumerate() {
-                if c <= 0.0 {
-                    *p = background_pixel(scene, &rays, x, y);
+                if c > 0.0 {
+                    left = None;
+                    continue;
                 }
+                let (a, b) = left.unwrap_or_else(|| (corner(x, y0), corner(x, y1)));
+                let (r0, r1) = (corner(x + 1, y0), corner(x + 1, y1));
+                *p = 0.25 * (a + b + r0 + r1);
+                left = Some((r0, r1));
             }
         });
 }
@@ -516,7 +536,8 @@ pub fn coverage_of_raster(r: &Rasterizer, width: usize, height: usize, k: usize)
 }
 
 /// Box-reduces per-sample object ids (`None` = empty) of a `k`× supersampled
-/// buffer to [`Coverage`] at `width × height`.
+/// buffer to [`Coverage`] at `width × height` (rows in parallel, no
+/// allocation per pixel; ties go to the lower object id).
 #[must_use]
 pub fn coverage_from_ids(
     width: usize,
@@ -525,35 +546,59 @@ pub fn coverage_from_ids(
     id_at: impl Fn(usize, usize) -> Option<u32> + Sync,
 ) -> Coverage {
     let n = width * height;
-    let per: Vec<(f32, u32)> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let (px, py) = (i % width, i / width);
-            let mut counts: Vec<(u32, u32)> = Vec::new();
-            let mut hit = 0u32;
-            for sy in 0..k {
-                for sx in 0..k {
-                    if let Some(id) = id_at(px * k + sx, py * k + sy) {
-                        hit += 1;
-                        match counts.iter_mut().find(|(o, _)| *o == id) {
-                            Some(c) => c.1 += 1,
-                            None => counts.push((id, 1)),
+    let k = k.max(1);
+    let mut coverage = vec![0.0f32; n];
+    let mut object_id = vec![0u32; n];
+    if width == 0 {
+        return Coverage {
+            width,
+            height,
+            coverage,
+            object_id,
+        };
+    }
+    let inv = 1.0 / (k * k) as f32;
+    coverage
+        .par_chunks_mut(width)
+        .zip(object_id.par_chunks_mut(width))
+        .enumerate()
+        .for_each(|(py, (cov, ids))| {
+            // (object id, samples) of the objects seen in one pixel, at most k².
+            let mut counts = [(0u32, 0u32); MAX_AA * MAX_AA];
+            for (px, (c, o)) in cov.iter_mut().zip(ids.iter_mut()).enumerate() {
+                if k == 1 {
+                    let id = id_at(px, py);
+                    *c = if id.is_some() { 1.0 } else { 0.0 };
+                    *o = id.map_or(0, |i| i + 1);
+                    continue;
+                }
+                let mut used = 0usize;
+                let mut hit = 0u32;
+                for sy in 0..k {
+                    for sx in 0..k {
+                        if let Some(id) = id_at(px * k + sx, py * k + sy) {
+                            hit += 1;
+                            if let Some(e) = counts[..used].iter_mut().find(|(o, _)| *o == id) {
+                                e.1 += 1;
+                            } else if used < MAX_AA * MAX_AA {
+                                counts[used] = (id, 1);
+                                used += 1;
+                            }
                         }
                     }
                 }
+                *o = counts[..used]
+                    .iter()
+                    .max_by_key(|(o, c)| (*c, std::cmp::Reverse(*o)))
+                    .map_or(0, |(o, _)| o + 1);
+                *c = hit as f32 * inv;
             }
-            let id = counts
-                .iter()
-                .max_by_key(|(o, c)| (*c, std::cmp::Reverse(*o)))
-                .map_or(0, |(o, _)| o + 1);
-            (hit as f32 / (k * k) as f32, id)
-        })
-        .collect();
+        });
     Coverage {
         width,
         height,
-        coverage: per.iter().map(|p| p.0).collect(),
-        object_id: per.iter().map(|p| p.1).collect(),
+        coverage,
+        object_id,
     }
 }
 

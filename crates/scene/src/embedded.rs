@@ -60,6 +60,7 @@ pub fn default_camera(width: usize, height: usize) -> Camera {
         vfov_deg: 38.0,
         width,
         height,
+        image_offset: glam::Vec2::ZERO,
     }
 }
 
@@ -132,6 +133,7 @@ pub fn framing_camera(objects: &[Object], width: usize, height: usize, vfov_deg:
         vfov_deg,
         width,
         height,
+        image_offset: glam::Vec2::ZERO,
     }
 }
 

@@ -22,8 +22,8 @@
 
 use crate::state::{Viewer, ViewerError, ViewerOptions, to_display};
 use relight_methods::{MethodKind, MethodOptions};
-use relight_render::texture::NormalMap;
 use relight_render::method::MethodError;
+use relight_render::texture::NormalMap;
 use relight_render::{Medium, NoProgress, Progress, Scene};
 use serde::Serialize;
 use std::sync::Arc;
@@ -109,7 +109,13 @@ impl FrameBenchOptions {
     /// rotation at 1280×720, fog with four lights).
     #[must_use]
     pub fn full() -> Self {
-        Self::with_sizes(&[(960, 540), (1280, 720)], 7, 3, 1, MethodOptions::default_for)
+        Self::with_sizes(
+            &[(960, 540), (1280, 720)],
+            7,
+            3,
+            1,
+            MethodOptions::default_for,
+        )
     }
 
     /// A smoke run: the same cases at 160×90 with few steps.
