@@ -22,7 +22,8 @@
 //! Every method shows the same pixels where no object is seen: the
 //! environment read bilinearly ([`Scene::env_radiance`]) and averaged over the
 //! pixel's four corners, the trapezoid rule of the box filter
-//! ([`background_pixel`], one lookup per pixel since neighbours share corners). [`render_frame`] writes it into every pixel whose
+//! ([`background_pixel`], about one lookup per pixel since neighbours share
+//! corners). [`render_frame`] writes it into every pixel whose
 //! coverage is zero, so that two methods differ only where they shade. In a
 //! scene with a medium the background is the foggy sky (attenuated and
 //! in-scattered environment), which is part of what a method computes: there
@@ -459,38 +460,69 @@ fn area_lights_seen(scene: &Scene, o: Vec3, d: Vec3) -> Vec3 {
         .sum()
 }
 
+/// Rows per task of [`fill_background`]: a band of `B` pixel rows evaluates
+/// `B + 1` rows of corners.
+const BACKGROUND_BAND: usize = 8;
+
 /// Writes the shared background ([`background_pixel`]) into every pixel of
-/// `image` whose coverage is zero. Rows run in parallel; each row evaluates
-/// only the pixel corners its empty pixels need, the upper row of corners
-/// once per run of empty pixels and then reused along it (one lookup per
-/// empty pixel and row of corners: about two per pixel, against sixteen for
-/// a 4 × 4 grid).
+/// `image` whose coverage is zero. Bands of rows run in parallel; a band
+/// evaluates each pixel corner its empty pixels need once and shares it
+/// with the (up to four) pixels that meet there: about `1 + 1/8` lookups
+/// per empty pixel, against sixteen for a 4 × 4 grid.
 pub fn fill_background(scene: &Scene, camera: &Camera, coverage: &Coverage, image: &mut Image) {
     let rays = camera.ray_frame();
     let o = rays.origin();
     let w = image.width;
+    if w == 0 {
+        return;
+    }
+    /// One row of corners: radiance and whether it was evaluated.
+    #[derive(Default)]
+    struct Corners {
+        value: Vec<Vec3>,
+        done: Vec<bool>,
+    }
+    impl Corners {
+        fn reset(&mut self, n: usize) {
+            self.value.resize(n, Vec3::ZERO);
+            self.done.clear();
+            self.done.resize(n, false);
+        }
+    }
+    let corner = |x: usize, y: usize| background_radiance(scene, o, rays.dir(x as f32, y as f32));
     image
         .pixels
-        .par_chunks_mut(w)
-        .zip(coverage.coverage.par_chunks(w))
+        .par_chunks_mut(w * BACKGROUND_BAND)
+        .zip(coverage.coverage.par_chunks(w * BACKGROUND_BAND))
         .enumerate()
-        .for_each(|(y, (row, cov))| {
-            let (y0, y1) = (y as f32, y as f32 + 1.0);
-            let corner = |x: usize, yy: f32| background_radiance(scene, o, rays.dir(x as f32, yy));
-            // The left corners of the previous pixel's right edge, while a
-            // run of empty pixels continues.
-            let mut left: Option<(Vec3, Vec3)> = None;
-            for (x, (p, &c)) in row.iter_mut().zip(cov).enumerate() {
-                if c > 0.0 {
-                    left = None;
-                    continue;
+        .for_each_init(
+            || (Corners::default(), Corners::default()),
+            |(top, bottom), (band, (rows, covs))| {
+                let y0 = band * BACKGROUND_BAND;
+                top.reset(w + 1);
+                for (r, (row, cov)) in rows.chunks_mut(w).zip(covs.chunks(w)).enumerate() {
+                    let y = y0 + r;
+                    bottom.reset(w + 1);
+                    for (x, (p, &c)) in row.iter_mut().zip(cov).enumerate() {
+                        if c > 0.0 {
+                            continue;
+                        }
+                        let mut sum = Vec3::ZERO;
+                        for (line, yy) in [(&mut *top, y), (&mut *bottom, y + 1)] {
+                            for xx in [x, x + 1] {
+                                if !line.done[xx] {
+                                    line.value[xx] = corner(xx, yy);
+                                    line.done[xx] = true;
+                                }
+                                sum += line.value[xx];
+                            }
+                        }
+                        *p = 0.25 * sum;
+                    }
+                    std::mem::swap(top, bottom);
                 }
-                let (a, b) = left.unwrap_or_else(|| (corner(x, y0), corner(x, y1)));
-                let (r0, r1) = (corner(x + 1, y0), corner(x + 1, y1));
-                *p = 0.25 * (a + b + r0 + r1);
-                left = Some((r0, r1));
-            }
-        });
+            },
+        );
 }
 
 /// Coverage and object ids of `scene`'s objects seen by `camera`, from a
