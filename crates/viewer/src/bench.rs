@@ -333,6 +333,8 @@ pub fn bench_case(
         v.orbit.rotate(4.0, 1.0);
         view.push(timed_frame(&mut v, w, h, true, &mut words)?);
     }
+    // The method's count of the view change just drawn.
+    row.work_fma = v.frame_work(w, h).map(|f| f.view_fma);
     let mut light = Vec::new();
     for _ in 0..steps {
         progress.check().map_err(MethodError::from)?;
@@ -365,7 +367,6 @@ pub fn bench_case(
     row.first_still_ms = median(first_still);
     row.refined_ms = median(refined);
     row.passes = passes;
-    row.work_fma = v.frame_work(w, h).map(|f| f.view_fma);
     row.machine_fraction = row
         .work_fma
         .zip(row.view_change_ms)

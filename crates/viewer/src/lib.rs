@@ -205,6 +205,27 @@ mod tests {
         assert_eq!(v.frame(40, 24, false, &NoProgress).unwrap().passes, 1);
     }
 
+    /// Issue 11: fog on a scene without lights or medium (the default
+    /// scene) was a black frame. It draws the environment lighting (its
+    /// environment part with no medium is plain SH shading).
+    #[test]
+    fn fog_without_lights_draws_the_environment_lighting() {
+        let scene = relight_scene::default_scene(48, 27);
+        assert!(scene.point_lights.is_empty() && scene.medium.is_none());
+        let mut v = small_viewer(MethodKind::Fog, scene);
+        v.frame(48, 27, true, &NoProgress).unwrap();
+        let f = v.frame(48, 27, false, &NoProgress).unwrap();
+        assert!(f.message.is_none(), "{:?}", f.message);
+        // The knot fills the centre of the default view: lit, not black.
+        let centre: f32 = (12..15)
+            .flat_map(|y| (22..27).map(move |x| (x, y)))
+            .map(|(x, y)| f.image.get(x, y).element_sum())
+            .sum::<f32>()
+            / 15.0;
+        assert!(centre > 0.03, "knot radiance {centre}");
+        assert!(mean(&f) > 0.01);
+    }
+
     #[test]
     fn a_method_that_cannot_render_the_scene_says_why() {
         let mut scene = relight_scene::default_scene(32, 18);
