@@ -127,3 +127,48 @@ impl CameraRays {
         (self.fwd + self.right * sx + self.up * sy).normalize()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A shifted camera sees at `(px, py)` what the plain one sees at
+    /// `(px + dx, py + dy)`, both through its rays and its projection.
+    #[test]
+    fn image_offset_shifts_rays_and_projection_alike() {
+        let c = Camera {
+            eye: Vec3::new(0.3, 1.0, 4.0),
+            target: Vec3::new(0.0, 0.5, 0.0),
+            up: Vec3::Y,
+            vfov_deg: 40.0,
+            width: 160,
+            height: 90,
+            image_offset: Vec2::ZERO,
+        };
+        let (dx, dy) = (0.25, -0.375);
+        let s = c.with_pixel_offset(dx, dy);
+        for (px, py) in [(0.5, 0.5), (80.0, 45.0), (159.5, 10.25)] {
+            let a = s.ray_frame().dir(px, py);
+            let b = c.ray_frame().dir(px + dx, py + dy);
+            assert!((a - b).length() < 1e-6, "{a} vs {b}");
+        }
+        let pixel = |cam: &Camera, p: Vec3| {
+            let q = cam.clip_from_world(0.1, 100.0) * p.extend(1.0);
+            let n = q.truncate() / q.w;
+            Vec2::new(
+                (n.x + 1.0) * 0.5 * cam.width as f32,
+                (1.0 - n.y) * 0.5 * cam.height as f32,
+            )
+        };
+        let p = Vec3::new(0.4, 0.7, -0.2);
+        let shift = pixel(&c, p) - pixel(&s, p);
+        assert!((shift - Vec2::new(dx, dy)).length() < 1e-3, "{shift}");
+        // A camera of k× the size shifts by the same fraction of the image.
+        let mut big = s;
+        big.width *= 2;
+        big.height *= 2;
+        let b = big.ray_frame().dir(2.0 * 40.0, 2.0 * 20.0);
+        let want = c.ray_frame().dir(40.0 + dx, 20.0 + dy);
+        assert!((b - want).length() < 1e-6);
+    }
+}
