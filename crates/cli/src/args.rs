@@ -416,6 +416,8 @@ pub enum FogCommand {
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Suite {
+    /// The viewer's frame path per method at 960×540 and 1280×720.
+    Frames,
     /// The tiled rasterizer: G-buffer, Gouraud and per-pixel passes.
     Raster,
     /// The Monte Carlo reference renderer: rays and samples per second.
@@ -442,6 +444,9 @@ pub struct BenchArgs {
     /// Also write an SVG plot of each table into this directory.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
+    /// `bench frames` only: run only the rows of these methods (repeatable).
+    #[arg(long = "method", value_name = "NAME")]
+    pub methods: Vec<String>,
 }
 
 /// Accuracy suites of `relight verify`.

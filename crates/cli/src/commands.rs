@@ -44,7 +44,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Sh(c) => sh(c),
         Command::Bake(c) => bake(c, &bar),
         Command::Fog(c) => fog(c),
-        Command::Bench(a) => bench(a),
+        Command::Bench(a) => bench(a, &bar),
         Command::Verify(a) => verify(a, &bar),
         Command::Cache(c) => crate::cache::run(c),
     }
@@ -301,13 +301,17 @@ fn fog(c: FogCommand) -> Result<()> {
     }
 }
 
-fn bench(a: BenchArgs) -> Result<()> {
+fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
     check_plot_dir(a.plot.as_deref())?;
     let report = Report {
         json: a.json,
         plot_dir: a.plot.clone(),
     };
+    if a.suite != Suite::Frames && !a.methods.is_empty() {
+        bail!("--method applies to `bench frames` only");
+    }
     match a.suite {
+        Suite::Frames => crate::bench_frames::run(&a, bar),
         Suite::Raster => {
             let rows = if a.quick {
                 relight_render::raster::bench_raster(100_000, 640, 360, 3)

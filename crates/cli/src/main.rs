@@ -5,6 +5,7 @@
 //! 130 cancelled). Every message on stderr starts with `relight:`.
 
 mod args;
+mod bench_frames;
 mod cache;
 mod commands;
 mod compare;

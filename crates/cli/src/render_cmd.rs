@@ -32,6 +32,7 @@ pub fn render_with(
     let t = Instant::now();
     method.prepare(scene, bar)?;
     let prepare_s = t.elapsed().as_secs_f64();
+    warn_all(&method.warnings());
     let request = FrameRequest::new(scene.camera).with_aa(aa);
     let out = render_frame(method.as_mut(), scene, &request, bar)?;
     let noise = out.noise.map_or(String::new(), |n| {

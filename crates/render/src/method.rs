@@ -20,9 +20,10 @@
 //!
 //! # One background
 //! Every method shows the same pixels where no object is seen: the
-//! environment read bilinearly ([`Scene::env_radiance`]) and averaged over a
-//! fixed [`BACKGROUND_SUBSAMPLES`]² grid of sub-pixel directions
-//! ([`background_pixel`]). [`render_frame`] writes it into every pixel whose
+//! environment read bilinearly ([`Scene::env_radiance`]) and averaged over the
+//! pixel's four corners, the trapezoid rule of the box filter
+//! ([`background_pixel`], about one lookup per pixel since neighbours share
+//! corners). [`render_frame`] writes it into every pixel whose
 //! coverage is zero, so that two methods differ only where they shade. In a
 //! scene with a medium the background is the foggy sky (attenuated and
 //! in-scattered environment), which is part of what a method computes: there
@@ -356,10 +357,37 @@ pub trait Relighter: Send {
         progress: &dyn Progress,
     ) -> Result<Rendered, MethodError>;
 
+    /// What the prepared method renders differently from the scene it was
+    /// given (e.g. a lobe its band limit cannot hold, so it is windowed),
+    /// one line each naming the method; the CLI prints them and the viewer
+    /// shows them on screen. Empty by default and before `prepare`.
+    fn warnings(&self) -> Vec<String> {
+        Vec::new()
+    }
+
     /// Bytes of precomputed data the method holds (0 when none).
     fn data_bytes(&self) -> u64 {
         0
     }
+
+    /// The arithmetic of one frame of `request` on `scene` (as prepared),
+    /// counted by the method from its own loops, for `relight bench frames`
+    /// to read against the machine's rate; `None` when the method does not
+    /// count it.
+    fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
+        let _ = (scene, request);
+        None
+    }
+}
+
+/// The f32 fused multiply-adds (an add or multiply alone counts as one) of
+/// one frame, by the method's own count of its inner loops.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct FrameWork {
+    /// A view change: everything [`Relighter::render`] computes.
+    pub view_fma: f64,
+    /// A lighting change: [`Relighter::set_lighting`].
+    pub lighting_fma: f64,
 }
 
 /// Checks that `method` renders every feature of `scene`: `Ok(warnings)`
@@ -400,27 +428,32 @@ pub fn check_scene(
     Ok(warnings)
 }
 
-/// Sub-pixel grid side of the shared background ([`background_pixel`]).
-pub const BACKGROUND_SUBSAMPLES: usize = 4;
+/// Sample points per pixel side of the shared background
+/// ([`background_pixel`]): the pixel's corners, 2 × 2, shared with its
+/// neighbours.
+pub const BACKGROUND_SUBSAMPLES: usize = 2;
 
-/// The background of pixel `(x, y)`: the environment ([`Scene::env_radiance`],
-/// bilinear) plus the front of any area light in the way, averaged over a
-/// [`BACKGROUND_SUBSAMPLES`]² grid of sub-pixel centres — the box-filtered
-/// pixel the reference integrates, by quadrature.
+/// The radiance the camera sees where no object is, along `d` from `o`: the
+/// environment ([`Scene::env_radiance`], bilinear) plus the front of any area
+/// light in the way.
+#[inline]
+fn background_radiance(scene: &Scene, o: Vec3, d: Vec3) -> Vec3 {
+    scene.env_radiance(d) + area_lights_seen(scene, o, d)
+}
+
+/// The background of pixel `(x, y)`: the trapezoid rule of the box-filtered
+/// pixel the reference integrates — the mean of the [`background_radiance`]
+/// at the pixel's four corners. The corners are shared with the neighbouring
+/// pixels, so a frame costs one environment lookup per pixel
+/// ([`fill_background`]), where a midpoint grid of the same order costs four;
+/// both are exact for radiance affine across the pixel, which a bilinear
+/// environment is wherever its texels are larger than a pixel.
 #[must_use]
 pub fn background_pixel(scene: &Scene, rays: &crate::CameraRays, x: usize, y: usize) -> Vec3 {
-    let k = BACKGROUND_SUBSAMPLES;
-    let mut sum = Vec3::ZERO;
-    for j in 0..k {
-        for i in 0..k {
-            let d = rays.dir(
-                x as f32 + (i as f32 + 0.5) / k as f32,
-                y as f32 + (j as f32 + 0.5) / k as f32,
-            );
-            sum += scene.env_radiance(d) + area_lights_seen(scene, rays.origin(), d);
-        }
-    }
-    sum / (k * k) as f32
+    let o = rays.origin();
+    let (x, y) = (x as f32, y as f32);
+    let c = |i: f32, j: f32| background_radiance(scene, o, rays.dir(x + i, y + j));
+    0.25 * (c(0.0, 0.0) + c(1.0, 0.0) + c(0.0, 1.0) + c(1.0, 1.0))
 }
 
 /// Radiance the camera sees directly from area lights along `d` from `o`: the
@@ -435,23 +468,69 @@ fn area_lights_seen(scene: &Scene, o: Vec3, d: Vec3) -> Vec3 {
         .sum()
 }
 
-/// Writes the shared background into every pixel of `image` whose coverage
-/// is zero (all rows in parallel).
+/// Rows per task of [`fill_background`]: a band of `B` pixel rows evaluates
+/// `B + 1` rows of corners.
+const BACKGROUND_BAND: usize = 8;
+
+/// Writes the shared background ([`background_pixel`]) into every pixel of
+/// `image` whose coverage is zero. Bands of rows run in parallel; a band
+/// evaluates each pixel corner its empty pixels need once and shares it
+/// with the (up to four) pixels that meet there: about `1 + 1/8` lookups
+/// per empty pixel, against sixteen for a 4 × 4 grid.
 pub fn fill_background(scene: &Scene, camera: &Camera, coverage: &Coverage, image: &mut Image) {
     let rays = camera.ray_frame();
+    let o = rays.origin();
     let w = image.width;
+    if w == 0 {
+        return;
+    }
+    /// One row of corners: radiance and whether it was evaluated.
+    #[derive(Default)]
+    struct Corners {
+        value: Vec<Vec3>,
+        done: Vec<bool>,
+    }
+    impl Corners {
+        fn reset(&mut self, n: usize) {
+            self.value.resize(n, Vec3::ZERO);
+            self.done.clear();
+            self.done.resize(n, false);
+        }
+    }
+    let corner = |x: usize, y: usize| background_radiance(scene, o, rays.dir(x as f32, y as f32));
     image
         .pixels
-        .par_chunks_mut(w)
-        .zip(coverage.coverage.par_chunks(w))
+        .par_chunks_mut(w * BACKGROUND_BAND)
+        .zip(coverage.coverage.par_chunks(w * BACKGROUND_BAND))
         .enumerate()
-        .for_each(|(y, (row, cov))| {
-            for (x, (p, &c)) in row.iter_mut().zip(cov).enumerate() {
-                if c <= 0.0 {
-                    *p = background_pixel(scene, &rays, x, y);
+        .for_each_init(
+            || (Corners::default(), Corners::default()),
+            |(top, bottom), (band, (rows, covs))| {
+                let y0 = band * BACKGROUND_BAND;
+                top.reset(w + 1);
+                for (r, (row, cov)) in rows.chunks_mut(w).zip(covs.chunks(w)).enumerate() {
+                    let y = y0 + r;
+                    bottom.reset(w + 1);
+                    for (x, (p, &c)) in row.iter_mut().zip(cov).enumerate() {
+                        if c > 0.0 {
+                            continue;
+                        }
+                        let mut sum = Vec3::ZERO;
+                        for (line, yy) in [(&mut *top, y), (&mut *bottom, y + 1)] {
+                            for xx in [x, x + 1] {
+                                if !line.done[xx] {
+                                    line.value[xx] = corner(xx, yy);
+                                    line.done[xx] = true;
+                                }
+                                sum += line.value[xx];
+                            }
+                        }
+                        *p = 0.25 * sum;
+                    }
+                    std::mem::swap(top, bottom);
                 }
-            }
-        });
+            },
+        );
 }
 
 /// Coverage and object ids of `scene`'s objects seen by `camera`, from a
@@ -497,7 +576,8 @@ pub fn coverage_of_raster(r: &Rasterizer, width: usize, height: usize, k: usize)
 }
 
 /// Box-reduces per-sample object ids (`None` = empty) of a `k`× supersampled
-/// buffer to [`Coverage`] at `width × height`.
+/// buffer to [`Coverage`] at `width × height` (rows in parallel, no
+/// allocation per pixel; ties go to the lower object id).
 #[must_use]
 pub fn coverage_from_ids(
     width: usize,
@@ -506,35 +586,59 @@ pub fn coverage_from_ids(
     id_at: impl Fn(usize, usize) -> Option<u32> + Sync,
 ) -> Coverage {
     let n = width * height;
-    let per: Vec<(f32, u32)> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let (px, py) = (i % width, i / width);
-            let mut counts: Vec<(u32, u32)> = Vec::new();
-            let mut hit = 0u32;
-            for sy in 0..k {
-                for sx in 0..k {
-                    if let Some(id) = id_at(px * k + sx, py * k + sy) {
-                        hit += 1;
-                        match counts.iter_mut().find(|(o, _)| *o == id) {
-                            Some(c) => c.1 += 1,
-                            None => counts.push((id, 1)),
+    let k = k.max(1);
+    let mut coverage = vec![0.0f32; n];
+    let mut object_id = vec![0u32; n];
+    if width == 0 {
+        return Coverage {
+            width,
+            height,
+            coverage,
+            object_id,
+        };
+    }
+    let inv = 1.0 / (k * k) as f32;
+    coverage
+        .par_chunks_mut(width)
+        .zip(object_id.par_chunks_mut(width))
+        .enumerate()
+        .for_each(|(py, (cov, ids))| {
+            // (object id, samples) of the objects seen in one pixel, at most k².
+            let mut counts = [(0u32, 0u32); MAX_AA * MAX_AA];
+            for (px, (c, o)) in cov.iter_mut().zip(ids.iter_mut()).enumerate() {
+                if k == 1 {
+                    let id = id_at(px, py);
+                    *c = if id.is_some() { 1.0 } else { 0.0 };
+                    *o = id.map_or(0, |i| i + 1);
+                    continue;
+                }
+                let mut used = 0usize;
+                let mut hit = 0u32;
+                for sy in 0..k {
+                    for sx in 0..k {
+                        if let Some(id) = id_at(px * k + sx, py * k + sy) {
+                            hit += 1;
+                            if let Some(e) = counts[..used].iter_mut().find(|(o, _)| *o == id) {
+                                e.1 += 1;
+                            } else if used < MAX_AA * MAX_AA {
+                                counts[used] = (id, 1);
+                                used += 1;
+                            }
                         }
                     }
                 }
+                *o = counts[..used]
+                    .iter()
+                    .max_by_key(|(o, c)| (*c, std::cmp::Reverse(*o)))
+                    .map_or(0, |(o, _)| o + 1);
+                *c = hit as f32 * inv;
             }
-            let id = counts
-                .iter()
-                .max_by_key(|(o, c)| (*c, std::cmp::Reverse(*o)))
-                .map_or(0, |(o, _)| o + 1);
-            (hit as f32 / (k * k) as f32, id)
-        })
-        .collect();
+        });
     Coverage {
         width,
         height,
-        coverage: per.iter().map(|p| p.0).collect(),
-        object_id: per.iter().map(|p| p.1).collect(),
+        coverage,
+        object_id,
     }
 }
 

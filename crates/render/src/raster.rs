@@ -948,6 +948,7 @@ impl Rasterizer {
             vfov_deg: 45.0,
             width: self.gbuffer.width,
             height: self.gbuffer.height,
+            image_offset: glam::Vec2::ZERO,
         });
         ResolveContext::new(camera, self.gbuffer.width, self.gbuffer.height)
     }
@@ -1449,6 +1450,7 @@ pub fn bench_raster(
         vfov_deg: 45.0,
         width: width.clamp(1, MAX_IMAGE_SIDE),
         height: height.clamp(1, MAX_IMAGE_SIDE),
+        image_offset: glam::Vec2::ZERO,
     };
     let options = RasterOptions::default()
         .cull_back()
@@ -1513,6 +1515,7 @@ mod tests {
             vfov_deg: 90.0,
             width: size,
             height: size,
+            image_offset: glam::Vec2::ZERO,
         }
     }
 
@@ -1679,6 +1682,7 @@ mod tests {
             vfov_deg: 60.0,
             width: 160,
             height: 120,
+            image_offset: glam::Vec2::ZERO,
         };
         // Floor quad y = 0, x ∈ [−2, 2], z ∈ [−10, 1]: strongly foreshortened.
         let positions = [
@@ -1770,6 +1774,7 @@ mod tests {
             vfov_deg: 70.0,
             width: 200,
             height: 150,
+            image_offset: glam::Vec2::ZERO,
         };
         // A large floor triangle reaching behind the camera, and a wall
         // triangle that crosses the camera plane beside the eye.
@@ -1959,6 +1964,7 @@ mod tests {
             vfov_deg: 60.0,
             width: 173,
             height: 97,
+            image_offset: glam::Vec2::ZERO,
         };
         let mut single = Rasterizer::new();
         let whole = RasterOptions {
@@ -2026,6 +2032,7 @@ mod tests {
             vfov_deg: 50.0,
             width: 96,
             height: 64,
+            image_offset: glam::Vec2::ZERO,
         };
         let env = |d: Vec3| d * 0.5 + Vec3::splat(0.5);
         let mut r = Rasterizer::new();

@@ -62,6 +62,7 @@ pub fn default_camera(width: usize, height: usize) -> Camera {
         vfov_deg: 38.0,
         width,
         height,
+        image_offset: glam::Vec2::ZERO,
     }
 }
 
@@ -205,6 +206,7 @@ pub fn framing_camera(objects: &[Object], width: usize, height: usize, vfov_deg:
         vfov_deg,
         width,
         height,
+        image_offset: glam::Vec2::ZERO,
     }
 }
 

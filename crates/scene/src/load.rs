@@ -439,5 +439,6 @@ fn camera(
         vfov_deg: fov,
         width: w,
         height: h,
+        image_offset: glam::Vec2::ZERO,
     })
 }

@@ -28,6 +28,7 @@
 //! While a mouse button is held frames are drawn without antialiasing
 //! (preview); a still view is drawn with `aa × aa` samples per pixel.
 
+pub mod bench;
 pub mod demo;
 pub mod hud;
 pub mod orbit;
@@ -121,6 +122,8 @@ mod tests {
             (MethodKind::Fog, foggy),
         ] {
             let mut v = small_viewer(method, scene);
+            // A still view after dragging: its first antialiasing pass.
+            v.frame(48, 27, true, &NoProgress).unwrap();
             let still = v.frame(48, 27, false, &NoProgress).unwrap();
             assert!(still.message.is_none(), "{method}: {:?}", still.message);
             assert_eq!(
@@ -145,6 +148,92 @@ mod tests {
                 "{method}: reset"
             );
         }
+    }
+
+    /// The mean of the aa² offset passes is the aa × aa box-filtered frame
+    /// the method renders in one go (wavelet: deterministic), up to the
+    /// background's quadrature and float rounding.
+    #[test]
+    fn progressive_antialiasing_equals_the_direct_aa_frame() {
+        let scene = relight_scene::default_scene(40, 24);
+        let mut v = small_viewer(MethodKind::Wavelet, scene.clone());
+        v.frame(40, 24, true, &NoProgress).unwrap();
+        let mut passes = 0;
+        let mut last = v.frame(40, 24, false, &NoProgress).unwrap();
+        while v.refining() {
+            last = v.frame(40, 24, false, &NoProgress).unwrap();
+            passes += 1;
+            assert!(passes <= 4, "refines past aa² passes");
+        }
+        assert_eq!((last.aa, last.passes), (2, 4));
+        // Refined: another still frame is the same image, without a pass.
+        let again = v.frame(40, 24, false, &NoProgress).unwrap();
+        assert_eq!(again.image.pixels, last.image.pixels);
+        let opts = small_options().methods[0].clone();
+        let mut m = relight_methods::create(&opts).unwrap();
+        m.prepare(&scene, &NoProgress).unwrap();
+        let request = relight_render::method::FrameRequest::new(v.camera(40, 24)).with_aa(2);
+        let direct =
+            relight_render::method::render_frame(m.as_mut(), &scene, &request, &NoProgress)
+                .unwrap();
+        let plain = relight_render::method::render_frame(
+            m.as_mut(),
+            &scene,
+            &relight_render::method::FrameRequest::new(v.camera(40, 24)),
+            &NoProgress,
+        )
+        .unwrap();
+        let cov = direct.coverage.unwrap();
+        // Relative RMS difference to the direct frame over fully covered
+        // pixels (the same sample points either way; at this size triangles
+        // are smaller than a pixel, so the rasterizer's 8 sub-pixel bits,
+        // snapped at 1× instead of 2×, move barycentrics visibly), and over
+        // edges and background (the background's quadrature differs).
+        let rel = |img: &relight_render::Image, full: bool| {
+            let (mut num, mut den) = (0.0f64, 0.0f64);
+            for (i, (a, b)) in img.pixels.iter().zip(&direct.image.pixels).enumerate() {
+                if (cov.coverage[i] >= 1.0) == full {
+                    num += f64::from((*a - *b).length_squared());
+                    den += f64::from(b.length_squared());
+                }
+            }
+            assert!(den > 0.0);
+            (num / den).sqrt()
+        };
+        let (obj, bg) = (rel(&last.image, true), rel(&last.image, false));
+        assert!(obj < 1e-2, "objects: relative RMS {obj}");
+        assert!(bg < 0.02, "edges and background: relative RMS {bg}");
+        // … and much closer than one sample per pixel is.
+        let (obj1, bg1) = (rel(&plain.image, true), rel(&plain.image, false));
+        assert!(
+            obj < 0.5 * obj1 && bg < 0.5 * bg1,
+            "{obj} vs {obj1}, {bg} vs {bg1}"
+        );
+        // Moving the camera starts again.
+        v.orbit.rotate(5.0, 0.0);
+        assert!(v.refining());
+        assert_eq!(v.frame(40, 24, false, &NoProgress).unwrap().passes, 1);
+    }
+
+    /// Issue 11: fog on a scene without lights or medium (the default
+    /// scene) was a black frame. It draws the environment lighting (its
+    /// environment part with no medium is plain SH shading).
+    #[test]
+    fn fog_without_lights_draws_the_environment_lighting() {
+        let scene = relight_scene::default_scene(48, 27);
+        assert!(scene.point_lights.is_empty() && scene.medium.is_none());
+        let mut v = small_viewer(MethodKind::Fog, scene);
+        v.frame(48, 27, true, &NoProgress).unwrap();
+        let f = v.frame(48, 27, false, &NoProgress).unwrap();
+        assert!(f.message.is_none(), "{:?}", f.message);
+        // The knot fills the centre of the default view: lit, not black.
+        let centre: f32 = (12..15)
+            .flat_map(|y| (22..27).map(move |x| (x, y)))
+            .map(|(x, y)| f.image.get(x, y).element_sum())
+            .sum::<f32>()
+            / 15.0;
+        assert!(centre > 0.03, "knot radiance {centre}");
+        assert!(mean(&f) > 0.01);
     }
 
     #[test]
@@ -179,6 +268,75 @@ mod tests {
         }
         assert!(!v.refining());
         assert_eq!(v.frame(32, 18, false, &NoProgress).unwrap().spp, 64);
+    }
+
+    /// The bench's rows at a tiny size with small settings: one per case,
+    /// every timing present and finite, targets only where the issue sets
+    /// them (not at this size), refinement of aa² passes.
+    #[test]
+    fn bench_frames_rows_have_the_issue_columns() {
+        let small = small_options();
+        let of = |k: MethodKind| {
+            small
+                .methods
+                .iter()
+                .find(|m| m.kind() == k)
+                .cloned()
+                .unwrap()
+        };
+        let mut opts = bench::FrameBenchOptions::with_sizes(&[(24, 14)], 1, 1, 1, of);
+        // One case per method and scene (the SH variants differ by options only).
+        opts.cases.retain(|c| {
+            c.options.kind() != MethodKind::Sh || c.scene == bench::BenchScene::Default
+        });
+        for c in &mut opts.cases {
+            if let MethodOptions::Sh(o) = &mut c.options {
+                o.order = 3;
+            }
+            if let MethodOptions::Reference(r) = &mut c.options {
+                r.spp = 8;
+            }
+        }
+        let rows = bench::bench_frames(&opts, &NoProgress).unwrap();
+        assert_eq!(rows.len(), opts.cases.len());
+        let names: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
+        for m in ["wavelet", "sh", "fog", "reference"] {
+            assert!(names.contains(&m), "{names:?}");
+        }
+        for r in &rows {
+            assert_eq!((r.width, r.height), (24, 14));
+            assert!(r.note.is_none(), "{}: {:?}", r.method, r.note);
+            for (what, v) in [
+                ("view", r.view_change_ms),
+                ("light", r.light_change_ms),
+                ("first still", r.first_still_ms),
+                ("refined", r.refined_ms),
+            ] {
+                let v = v.unwrap_or(f64::NAN);
+                assert!(v.is_finite() && v >= 0.0, "{} {what}: {v}", r.method);
+            }
+            assert!(r.refined_ms >= r.first_still_ms);
+            assert_eq!((r.target, r.pass, r.source.as_deref()), (None, None, None));
+            // The reference's preview frame before the still view is its
+            // first pass already.
+            let want = if r.method == "reference" { 1 } else { 4 };
+            assert_eq!(r.passes, want, "{}", r.method);
+        }
+        let json = serde_json::to_value(&rows[0]).unwrap();
+        for k in [
+            "method",
+            "width",
+            "height",
+            "view_change_ms",
+            "light_change_ms",
+            "first_still_ms",
+            "refined_ms",
+            "target",
+            "pass",
+            "source",
+        ] {
+            assert!(json.get(k).is_some(), "no {k} in {json}");
+        }
     }
 
     #[test]

@@ -60,6 +60,7 @@ impl Orbit {
             vfov_deg: self.vfov_deg,
             width,
             height,
+            image_offset: glam::Vec2::ZERO,
         }
     }
 

@@ -10,12 +10,21 @@
 //! |---|---|
 //! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target |
 //! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera |
-//! | still view | [`render_frame`] with `aa × aa` samples; progressive methods (the reference) add a pass per frame |
+//! | still view | progressive antialiasing: each [`Viewer::frame`] adds one pass of one sample per pixel at the next sub-pixel offset of an `aa × aa` grid ([`Camera::with_pixel_offset`]) to a running mean, until `aa²` passes ([`Viewer::refining`]); Monte Carlo methods (the reference) instead add a pass of their own samples per frame |
+//!
+//! The mean of the `aa²` offset passes is the `aa × aa` box-filtered frame
+//! (`FrameRequest::aa`): sample `(i, j)` of pixel `(x, y)` sees the same
+//! point, `(x + (i + ½)/aa, y + (j + ½)/aa)`, either way. Only the shared
+//! background differs, by quadrature (four corners per pass instead of four
+//! per pixel). A pass costs one preview frame, so input is never blocked
+//! for longer than that.
 
 use crate::orbit::Orbit;
-use glam::Mat3;
+use glam::{Mat3, Vec3};
 use relight_methods::{MethodKind, MethodOptions};
-use relight_render::method::{FrameRequest, MAX_AA, MethodError, check_scene, render_frame};
+use relight_render::method::{
+    FrameRequest, FrameWork, MAX_AA, MethodError, check_scene, render_frame,
+};
 use relight_render::{Camera, Image, Progress, Relighter, Scene};
 use std::time::Instant;
 
@@ -74,8 +83,11 @@ pub struct Frame {
     pub image: Image,
     /// Time of the per-frame work (ms), lighting update included.
     pub ms: f64,
-    /// Samples per pixel side it was drawn with (raster methods).
+    /// Samples per pixel side it is refining to (raster methods; 1 while
+    /// dragging).
     pub aa: usize,
+    /// Antialiasing passes accumulated so far (of `aa²`).
+    pub passes: usize,
     /// Monte Carlo samples per pixel accumulated so far (0 for deterministic
     /// methods).
     pub spp: u32,
@@ -95,6 +107,25 @@ struct Slot {
     lit: Option<Mat3>,
     /// Samples accumulated in the last frame (progressive methods).
     spp: u32,
+    /// Whether the method integrates pixels itself (Monte Carlo), learned
+    /// from its first frame.
+    monte_carlo: Option<bool>,
+}
+
+/// What a run of antialiasing passes accumulates for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct AccumKey {
+    method: usize,
+    camera: Camera,
+    rotation: Mat3,
+}
+
+/// The running sum of the antialiasing passes of one still view.
+#[derive(Debug, Default)]
+struct Accumulation {
+    key: Option<AccumKey>,
+    sum: Vec<Vec3>,
+    passes: usize,
 }
 
 /// The viewer's state: everything a frame needs, input applied by the
@@ -118,6 +149,9 @@ pub struct Viewer {
     aa: usize,
     approximate: bool,
     slots: Vec<Slot>,
+    accum: Accumulation,
+    /// Size of the last frame drawn.
+    last_size: Option<(usize, usize)>,
 }
 
 impl Viewer {
@@ -166,8 +200,11 @@ impl Viewer {
                     warnings: Vec::new(),
                     lit: None,
                     spp: 0,
+                    monte_carlo: None,
                 })
                 .collect(),
+            accum: Accumulation::default(),
+            last_size: None,
         })
     }
 
@@ -236,17 +273,17 @@ impl Viewer {
         if r == self.lit_rotation {
             return;
         }
+        // Only the lighting changes: no copy of meshes or environment.
         let target = self.home.target;
-        let mut s = self.scene.clone();
-        s.world_from_env = r * self.scene.world_from_env;
-        for l in &mut s.point_lights {
-            l.position = target + r * (l.position - target);
+        let (src, s) = (&self.scene, &mut self.lit_scene);
+        s.world_from_env = r * src.world_from_env;
+        for (l, l0) in s.point_lights.iter_mut().zip(&src.point_lights) {
+            l.position = target + r * (l0.position - target);
         }
-        for l in &mut s.area_lights {
-            l.center = target + r * (l.center - target);
-            l.world_from_light = r * l.world_from_light;
+        for (l, l0) in s.area_lights.iter_mut().zip(&src.area_lights) {
+            l.center = target + r * (l0.center - target);
+            l.world_from_light = r * l0.world_from_light;
         }
-        self.lit_scene = s;
         self.lit_rotation = r;
     }
 
@@ -269,13 +306,15 @@ impl Viewer {
             Ok(w) => slot.warnings = w,
         }
         m.prepare(&self.lit_scene, progress)?;
+        slot.warnings.extend(m.warnings());
         slot.lit = Some(self.lit_rotation);
         slot.method = Some(m);
         Ok(())
     }
 
     /// Draws a `width × height` frame; `preview` (while the user drags)
-    /// skips antialiasing.
+    /// skips antialiasing. A still view adds one antialiasing pass per call
+    /// (module docs) until [`Viewer::refining`] is false.
     ///
     /// # Errors
     /// The method's errors (bad sizes, cancellation of a first bake).
@@ -288,6 +327,7 @@ impl Viewer {
     ) -> Result<Frame, ViewerError> {
         let t = Instant::now();
         self.prepare(progress)?;
+        self.last_size = Some((width, height));
         let aa = if preview || !self.antialias {
             1
         } else {
@@ -295,12 +335,18 @@ impl Viewer {
         };
         let camera = self.camera(width, height);
         let rotation = self.lit_rotation;
+        let key = AccumKey {
+            method: self.current,
+            camera,
+            rotation,
+        };
         let slot = &mut self.slots[self.current];
         let Some(method) = slot.method.as_mut() else {
             return Ok(Frame {
                 image: Image::new(width, height),
                 ms: t.elapsed().as_secs_f64() * 1e3,
                 aa,
+                passes: 0,
                 spp: 0,
                 message: slot.refused.clone(),
             });
@@ -309,34 +355,119 @@ impl Viewer {
             method.set_lighting(&self.lit_scene, progress)?;
             slot.lit = Some(rotation);
         }
+        let message = (!slot.warnings.is_empty()).then(|| slot.warnings.join("; "));
+        // A method's first frame says whether it is Monte Carlo; until then
+        // (and for Monte Carlo methods) frames are not offset.
+        let accumulate = aa > 1 && slot.monte_carlo == Some(false);
+        let acc = &mut self.accum;
+        if !accumulate || acc.key != Some(key) {
+            acc.key = None;
+            acc.passes = 0;
+        }
+        if accumulate && acc.passes >= aa * aa {
+            // Refined: the view has every pass already.
+            return Ok(Frame {
+                image: mean_image(width, height, &acc.sum, acc.passes),
+                ms: t.elapsed().as_secs_f64() * 1e3,
+                aa,
+                passes: acc.passes,
+                spp: 0,
+                message,
+            });
+        }
+        // Pass i of a still view samples the i-th point of the aa × aa grid.
+        let i = acc.passes;
+        let request_camera = if accumulate {
+            let offset = |k: usize| (k as f32 + 0.5) / aa as f32 - 0.5;
+            camera.with_pixel_offset(offset(i % aa), offset(i / aa))
+        } else {
+            camera
+        };
         // Progressive methods restart on any change and add a pass per
         // frame while nothing changes, up to their own `spp`.
         let request = FrameRequest {
-            camera,
-            aa,
+            camera: request_camera,
+            aa: 1,
             progressive: true,
         };
         let out = render_frame(method.as_mut(), &self.lit_scene, &request, progress)?;
         let spp = out.noise.map_or(0, |n| n.spp);
         slot.spp = spp;
+        slot.monte_carlo = Some(out.noise.is_some());
+        if out.noise.is_some() || !accumulate {
+            acc.key = None;
+            return Ok(Frame {
+                image: out.image,
+                ms: t.elapsed().as_secs_f64() * 1e3,
+                aa: if out.noise.is_some() { 1 } else { aa },
+                passes: 1,
+                spp,
+                message,
+            });
+        }
+        if acc.key.is_none() {
+            acc.key = Some(key);
+            acc.sum.clear();
+            acc.sum.resize(width * height, Vec3::ZERO);
+        }
+        {
+            use rayon::prelude::*;
+            acc.sum
+                .par_chunks_mut(width.max(1))
+                .zip(out.image.pixels.par_chunks(width.max(1)))
+                .for_each(|(s, p)| {
+                    for (s, p) in s.iter_mut().zip(p) {
+                        *s += *p;
+                    }
+                });
+        }
+        acc.passes += 1;
         Ok(Frame {
-            image: out.image,
+            image: mean_image(width, height, &acc.sum, acc.passes),
             ms: t.elapsed().as_secs_f64() * 1e3,
-            aa: if out.noise.is_some() { 1 } else { aa },
-            spp,
-            message: (!slot.warnings.is_empty()).then(|| slot.warnings.join("; ")),
+            aa,
+            passes: acc.passes,
+            spp: 0,
+            message,
         })
     }
 
-    /// Whether the current method would still refine the current view (the
-    /// reference, until it has its `spp` samples per pixel).
+    /// Whether the current view would still refine: the next still frame
+    /// adds an antialiasing pass (fewer than `aa²` so far), or the Monte
+    /// Carlo reference has fewer than its `spp` samples per pixel.
     #[must_use]
     pub fn refining(&self) -> bool {
         let slot = &self.slots[self.current];
-        match &slot.options {
-            MethodOptions::Reference(r) => slot.spp < r.spp,
-            _ => false,
+        if slot.method.is_none() {
+            return false;
         }
+        if slot.monte_carlo == Some(true) {
+            return match &slot.options {
+                MethodOptions::Reference(r) => slot.spp < r.spp,
+                _ => false,
+            };
+        }
+        if !self.antialias || self.aa <= 1 {
+            return false;
+        }
+        let Some((w, h)) = self.last_size else {
+            return false;
+        };
+        let key = AccumKey {
+            method: self.current,
+            camera: self.camera(w, h),
+            rotation: self.light_rotation(),
+        };
+        self.accum.key != Some(key) || self.accum.passes < self.aa * self.aa
+    }
+
+    /// The current method's own count of one frame's arithmetic at
+    /// `width × height` ([`Relighter::frame_work`]), once prepared.
+    #[must_use]
+    pub fn frame_work(&self, width: usize, height: usize) -> Option<FrameWork> {
+        let slot = &self.slots[self.current];
+        let request = FrameRequest::new(self.camera(width, height));
+        slot.method.as_ref()?.frame_work(&self.lit_scene, &request)
     }
 
     /// Writes `frame` as `stem.png` (tone-mapped) and `stem.exr` (linear).
@@ -386,6 +517,16 @@ impl Viewer {
     pub fn refusal(&self) -> Option<&str> {
         self.slots[self.current].refused.as_deref()
     }
+}
+
+/// The mean of `passes` accumulated frames.
+fn mean_image(width: usize, height: usize, sum: &[Vec3], passes: usize) -> Image {
+    let inv = 1.0 / passes.max(1) as f32;
+    let mut img = Image::new(width, height);
+    for (p, s) in img.pixels.iter_mut().zip(sum) {
+        *p = *s * inv;
+    }
+    img
 }
 
 /// Tone-maps `image` (ACES, sRGB) into 0x00RRGGBB words for a window.

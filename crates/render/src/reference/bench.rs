@@ -109,6 +109,7 @@ fn bench_scene(width: usize, height: usize) -> Scene {
             vfov_deg: 45.0,
             width,
             height,
+            image_offset: glam::Vec2::ZERO,
         },
     )
 }

@@ -61,6 +61,7 @@ pub fn camera(eye: Vec3, target: Vec3, vfov_deg: f32, width: usize, height: usiz
         vfov_deg,
         width,
         height,
+        image_offset: glam::Vec2::ZERO,
     }
 }
 

@@ -156,6 +156,7 @@ pub fn bench_fog(quick: bool) -> Vec<BenchRow> {
         vfov_deg: 50.0,
         width: 1280,
         height: 720,
+        image_offset: glam::Vec2::ZERO,
     };
     bench_fog_scene(quick, &objects, &camera, &bench_lights())
 }

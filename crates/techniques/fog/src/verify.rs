@@ -343,6 +343,7 @@ pub fn glow_error(tables: &FogTables, g: &GlowSetup) -> GlowError {
         vfov_deg: g.vfov_deg,
         width: res,
         height: res,
+        image_offset: glam::Vec2::ZERO,
     };
     let phase = Phase::isotropic();
     let Ok(model) =

@@ -161,6 +161,7 @@ fn bad_input_gives_typed_errors() {
         vfov_deg: 50.0,
         width: 16,
         height: 12,
+        image_offset: glam::Vec2::ZERO,
     };
     let s = FogSettings::new(tables(), 0.1);
     let inside = [PointLight::new(Vec3::new(0.1, 0.2, 0.0), Vec3::ONE)];
@@ -196,6 +197,7 @@ fn render_fog_reduces_to_clear_shading_at_zero_beta() {
         vfov_deg: 50.0,
         width: 24,
         height: 16,
+        image_offset: glam::Vec2::ZERO,
     };
     let lights = [PointLight::new(Vec3::new(0.5, 1.5, 0.0), Vec3::splat(5.0))];
     let s = FogSettings::new(tables(), 0.0);

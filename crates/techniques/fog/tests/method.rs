@@ -23,6 +23,7 @@ fn camera(width: usize, height: usize) -> Camera {
         vfov_deg: 40.0,
         width,
         height,
+        image_offset: glam::Vec2::ZERO,
     }
 }
 

@@ -201,7 +201,7 @@ impl ShMethod {
     /// window changed it by more than [`LOBE_CHANGE_WARNING`] (relative L2),
     /// so its highlight is blurred; empty before `prepare`.
     #[must_use]
-    pub fn warnings(&self) -> Vec<String> {
+    pub fn lobe_warnings(&self) -> Vec<String> {
         self.windows()
             .iter()
             .enumerate()
@@ -238,6 +238,10 @@ impl ShMethod {
 impl Relighter for ShMethod {
     fn name(&self) -> &'static str {
         SH_METHOD_NAME
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.lobe_warnings()
     }
 
     fn supports(&self, feature: SceneFeature) -> Support {

@@ -27,6 +27,7 @@ fn camera() -> Camera {
         vfov_deg: 45.0,
         width: W,
         height: H,
+        image_offset: glam::Vec2::ZERO,
     }
 }
 

@@ -58,7 +58,7 @@ pub use brdf_bake::{BrdfBake, BrdfBakeParams, bake_brdf};
 pub use error::WaveletError;
 pub use figure7::{RotationRow, verify_rotation};
 pub use method::{AO_APPROXIMATION, WAVELET_METHOD_NAME, WaveletMethod, WaveletOptions};
-pub use render::{LightingStats, NormalInterp, WaveletRenderer};
+pub use render::{LightingStats, NormalInterp, VertexColors, WaveletRenderer};
 pub use rotation::{RotationMatrices, RotationParams, bake_rotation};
 pub use study::{
     BenchOptions, BenchRow, bake_or_load_brdf, bake_or_load_rotation, bake_or_load_scene_brdfs,

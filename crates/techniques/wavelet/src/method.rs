@@ -26,7 +26,7 @@
 
 use crate::WaveletError;
 use crate::brdf_bake::{BrdfBake, BrdfBakeParams};
-use crate::render::{NormalInterp, WaveletRenderer};
+use crate::render::{NormalInterp, VertexColors, WaveletRenderer};
 use crate::rotation::{RotationMatrices, RotationParams};
 use crate::study::{bake_or_load_brdf, bake_or_load_rotation, default_cache_dir};
 use glam::Mat3;
@@ -129,6 +129,10 @@ pub struct WaveletMethod {
     object_bakes: Vec<Arc<BrdfBake>>,
     ao: Option<AoCache>,
     raster: Rasterizer,
+    /// Step 2's vertex colours, kept for the same eye and lighting.
+    colors: VertexColors,
+    /// The supersampled frame, kept between frames.
+    frame: Image,
     pending_lighting_ms: f64,
     /// Bakes and loads done by `prepare` so far (rotation + BRDF), for tests
     /// and the viewer's status line.
@@ -204,6 +208,8 @@ impl WaveletMethod {
             object_bakes: Vec::new(),
             ao: None,
             raster: Rasterizer::new(),
+            colors: VertexColors::default(),
+            frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
             loads: 0,
         })
@@ -347,6 +353,7 @@ impl Relighter for WaveletMethod {
         }
         self.meshes = meshes;
         self.object_bakes = object_bakes;
+        self.colors.clear();
         self.set_lighting(scene, progress)?;
         Ok(())
     }
@@ -396,11 +403,26 @@ impl Relighter for WaveletMethod {
         camera.height *= k;
         let refs: Vec<&BrdfBake> = self.object_bakes.iter().map(|b| b.as_ref()).collect();
         let ao = self.ao.as_ref().map(|a| &a.values[..]);
-        let mut hi = Image::new(camera.width, camera.height);
+        // Empty pixels of a frame at one sample per pixel all get the shared
+        // background (`render_frame`); supersampled ones need the
+        // environment in their empty samples.
         renderer
-            .render_into(scene, &refs, &camera, ao, &mut self.raster, &mut hi)
+            .render_into(
+                scene,
+                &refs,
+                &camera,
+                ao,
+                &mut self.raster,
+                &mut self.colors,
+                k > 1,
+                &mut self.frame,
+            )
             .map_err(fail)?;
-        let image = if k == 1 { hi } else { hi.box_downsample(k) };
+        let image = if k == 1 {
+            self.frame.clone()
+        } else {
+            self.frame.box_downsample(k)
+        };
         let coverage = coverage_of_raster(&self.raster, w, h, k);
         Ok(Rendered {
             image,
@@ -410,6 +432,28 @@ impl Relighter for WaveletMethod {
                 view_ms: t.elapsed().as_secs_f64() * 1e3,
             },
             noise: None,
+        })
+    }
+
+    /// Step 2 of the last frame (the vertices it shaded: every visible one
+    /// after a view change) at 4 slices × their terms × RGB multiply-adds per
+    /// vertex, plus the Gouraud resolve (3 × RGB per pixel); step 1 as the
+    /// rotation-matrix entries the kept terms touch (nnz × terms / N) × RGB.
+    fn frame_work(
+        &self,
+        _scene: &Scene,
+        request: &FrameRequest,
+    ) -> Option<relight_render::method::FrameWork> {
+        let rot = self.rotation.as_ref()?;
+        let p = rot.params();
+        let slice_terms = self.options.brdf_terms.min(p.target_len()) as f64;
+        let pixels =
+            (request.camera.width * request.camera.height * request.aa * request.aa) as f64;
+        let view = self.colors.shaded_last as f64 * 4.0 * slice_terms * 3.0 + pixels * 9.0;
+        let lighting = rot.nnz() as f64 * self.options.terms as f64 / p.source_len() as f64 * 3.0;
+        Some(relight_render::method::FrameWork {
+            view_fma: view,
+            lighting_fma: lighting,
         })
     }
 

@@ -34,10 +34,11 @@ use crate::rotation::RotationMatrices;
 use glam::{Mat3, Vec3, Vec3A};
 use rayon::prelude::*;
 use relight_haar::{Ranking, SparseRgb, energy_fraction, top_k_rgb};
-use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
+use relight_render::raster::{Background, DrawCall, NO_TRIANGLE, RasterOptions, Rasterizer};
 use relight_render::{Camera, Image, Scene};
 use relight_sphere::EnvMap;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 /// How the local lighting of the four sampled normals around a vertex normal
@@ -101,6 +102,8 @@ pub struct WaveletRenderer {
     pub normal_interp: NormalInterp,
     /// Shading frames of the sampled normals (`ntess²`).
     frames: Vec<relight_sphere::Frame>,
+    /// Incremented by every lighting change (keys [`VertexColors`]).
+    lighting_generation: u64,
 }
 
 impl std::fmt::Debug for WaveletRenderer {
@@ -138,6 +141,7 @@ impl WaveletRenderer {
             frames: (0..p.normals())
                 .map(|k| shading_frame(grid_normal(k, p.ntess).as_vec3()))
                 .collect(),
+            lighting_generation: 0,
         })
     }
 
@@ -200,6 +204,7 @@ impl WaveletRenderer {
         self.light = top_k_rgb(&coeffs, n, self.terms, self.ranking);
         let energy = energy_fraction(&self.light, &coeffs);
         let t1 = Instant::now();
+        self.lighting_generation += 1;
         self.rot.local_lighting(&self.light, &mut self.local)?;
         Ok(LightingStats {
             terms: self.light.nnz(),
@@ -215,6 +220,7 @@ impl WaveletRenderer {
     /// Indices ≥ N.
     pub fn set_lighting_sparse(&mut self, light: SparseRgb) -> Result<(), WaveletError> {
         self.light = light;
+        self.lighting_generation += 1;
         self.rot.local_lighting(&self.light, &mut self.local)
     }
 
@@ -442,16 +448,36 @@ impl WaveletRenderer {
     ) -> Result<(Image, Vec<bool>), WaveletError> {
         let mut raster = Rasterizer::new();
         let mut img = Image::new(camera.width, camera.height);
-        self.render_into(scene, brdfs, camera, ao, &mut raster, &mut img)?;
+        let mut cache = VertexColors::default();
+        self.render_into(
+            scene,
+            brdfs,
+            camera,
+            ao,
+            &mut raster,
+            &mut cache,
+            true,
+            &mut img,
+        )?;
         Ok((img, raster.gbuffer().coverage_mask()))
     }
 
     /// [`WaveletRenderer::render`] into `out` with a caller-kept `raster`
-    /// (its buffers reused across frames; afterwards its visibility buffer
-    /// holds the frame's triangle ids, draw `i` = object `i`).
+    /// and vertex-colour cache (their buffers reused across frames;
+    /// afterwards the rasterizer's visibility buffer holds the frame's
+    /// triangle ids, draw `i` = object `i`). `env_background` false leaves
+    /// empty pixels black (for a caller that fills them itself).
+    ///
+    /// Step 2 runs only for the vertices of triangles seen in this frame's
+    /// visibility buffer, and only once per eye position and lighting: a
+    /// vertex no visible triangle uses cannot change a pixel, and a pass that
+    /// moves the image by a sub-pixel offset reuses every colour already
+    /// computed ([`VertexColors`]). The image is the one shading every vertex
+    /// gives.
     ///
     /// # Errors
     /// As [`WaveletRenderer::render`].
+    #[allow(clippy::too_many_arguments)]
     pub fn render_into(
         &self,
         scene: &Scene,
@@ -459,6 +485,8 @@ impl WaveletRenderer {
         camera: &Camera,
         ao: Option<&[Vec<f32>]>,
         raster: &mut Rasterizer,
+        cache: &mut VertexColors,
+        env_background: bool,
         out: &mut Image,
     ) -> Result<(), WaveletError> {
         self.check_scene(scene, brdfs)?;
@@ -469,19 +497,15 @@ impl WaveletRenderer {
                 format!("need one AO list per object ({})", scene.objects.len()),
             ));
         }
-        let mut colors = Vec::with_capacity(scene.objects.len());
-        for (i, obj) in scene.objects.iter().enumerate() {
-            let mesh = &obj.mesh;
-            let mut c = vec![Vec3::ZERO; mesh.positions.len()];
-            self.shade_vertices(
-                &mesh.positions,
-                &mesh.normals,
-                brdfs[i],
-                camera.eye,
-                ao.map(|a| &a[i][..]),
-                &mut c,
-            )?;
-            colors.push(c);
+        for (i, a) in ao.iter().flat_map(|a| a.iter()).enumerate() {
+            let n = scene.objects[i].mesh.positions.len();
+            if a.len() != n {
+                return Err(bad(
+                    "ao",
+                    a.len(),
+                    format!("object {i} needs one value per vertex ({n})"),
+                ));
+            }
         }
         let draws: Vec<DrawCall> = scene
             .objects
@@ -491,21 +515,123 @@ impl WaveletRenderer {
                 DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32)
             })
             .collect();
-        let color_refs: Vec<&[Vec3]> = colors.iter().map(|c| &c[..]).collect();
+        let opts = RasterOptions::default().fit_depth(camera, &draws);
+        raster
+            .rasterize(camera, &draws, &opts)
+            .map_err(|e| bad("raster", e, "rasterization failed"))?;
+        let sizes: Vec<usize> = scene
+            .objects
+            .iter()
+            .map(|o| o.mesh.positions.len())
+            .collect();
+        let stamp = cache.begin(camera.eye, self.lighting_generation, &sizes);
+        // Vertices of visible triangles not yet shaded for this eye and lighting.
+        let todo = {
+            let r = &*raster;
+            let g = r.gbuffer();
+            let stamps = &cache.stamps;
+            g.triangle
+                .par_chunks(g.width.max(1))
+                .fold(Vec::new, |mut todo: Vec<(u32, u32)>, ids| {
+                    let mut last = NO_TRIANGLE;
+                    for &id in ids {
+                        if id == NO_TRIANGLE || id == last {
+                            continue;
+                        }
+                        last = id;
+                        let Some((d, t)) = r.locate(id) else { continue };
+                        for &v in &draws[d].triangles[t] {
+                            if stamps[d][v as usize].swap(stamp, Ordering::Relaxed) != stamp {
+                                todo.push((d as u32, v));
+                            }
+                        }
+                    }
+                    todo
+                })
+                .reduce(Vec::new, |mut a, mut b| {
+                    if a.len() < b.len() {
+                        std::mem::swap(&mut a, &mut b);
+                    }
+                    a.extend_from_slice(&b);
+                    a
+                })
+        };
+        let eye = camera.eye;
+        let shaded: Vec<Vec3> = todo
+            .par_iter()
+            .with_min_len(256)
+            .map(|&(d, v)| {
+                let (d, v) = (d as usize, v as usize);
+                let mesh = &scene.objects[d].mesh;
+                let n = mesh.normals[v];
+                let wo = (eye - mesh.positions[v]).normalize_or(n);
+                let a = ao.map_or(1.0, |a| a[d][v]);
+                Vec3::from(self.shade_point(n, wo, brdfs[d])) * a
+            })
+            .collect();
+        for (&(d, v), c) in todo.iter().zip(shaded) {
+            cache.colors[d as usize][v as usize] = c;
+        }
+        cache.shaded_last = todo.len();
+        let color_refs: Vec<&[Vec3]> = cache.colors.iter().map(|c| &c[..]).collect();
         let env = &scene.env;
         let env_from_world = self.world_from_env.transpose();
         let bg = |d: Vec3| env.eval(env_from_world * d);
-        let opts = RasterOptions::default().fit_depth(camera, &draws);
+        let background = if env_background {
+            Background::Environment(&bg)
+        } else {
+            Background::Color(Vec3::ZERO)
+        };
         raster
-            .render_gouraud(
-                camera,
-                &draws,
-                &color_refs,
-                Background::Environment(&bg),
-                &opts,
-                out,
-            )
+            .shade_gouraud(&draws, &color_refs, background, out)
             .map_err(|e| bad("raster", e, "rasterization failed"))?;
         Ok(())
+    }
+}
+
+/// Per-vertex colours kept between frames by [`WaveletRenderer::render_into`]:
+/// valid for one eye position and one lighting (a generation stamp per
+/// vertex says which were shaded for the current pair).
+#[derive(Debug, Default)]
+pub struct VertexColors {
+    key: Option<(Vec3, u64)>,
+    stamp: u32,
+    stamps: Vec<Vec<AtomicU32>>,
+    colors: Vec<Vec<Vec3>>,
+    /// Vertices step 2 shaded in the last frame.
+    pub shaded_last: usize,
+}
+
+impl VertexColors {
+    /// Starts a frame for `eye` and lighting `lighting` over meshes of
+    /// `sizes` vertices; returns the stamp of valid colours.
+    fn begin(&mut self, eye: Vec3, lighting: u64, sizes: &[usize]) -> u32 {
+        let same_sizes = self.colors.len() == sizes.len()
+            && self.colors.iter().zip(sizes).all(|(c, &n)| c.len() == n);
+        if !same_sizes {
+            self.colors = sizes.iter().map(|&n| vec![Vec3::ZERO; n]).collect();
+            self.stamps = sizes
+                .iter()
+                .map(|&n| (0..n).map(|_| AtomicU32::new(0)).collect())
+                .collect();
+            self.stamp = 0;
+            self.key = None;
+        }
+        if self.key != Some((eye, lighting)) {
+            self.key = Some((eye, lighting));
+            self.stamp = self.stamp.wrapping_add(1);
+            if self.stamp == 0 {
+                for s in self.stamps.iter().flatten() {
+                    s.store(0, Ordering::Relaxed);
+                }
+                self.stamp = 1;
+            }
+        }
+        self.stamp
+    }
+
+    /// Forgets every colour (the meshes or materials changed).
+    pub fn clear(&mut self) {
+        self.key = None;
     }
 }

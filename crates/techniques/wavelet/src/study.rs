@@ -459,6 +459,7 @@ pub fn sphere_scene(brdf: Arc<dyn Brdf>, width: usize, height: usize) -> Scene {
             vfov_deg: 45.0,
             width,
             height,
+            image_offset: glam::Vec2::ZERO,
         },
     )
 }
