@@ -261,18 +261,34 @@ fn cli_and_viewer_make_the_same_image() {
         let mut v =
             relight_viewer::Viewer::new(relight_scene::default_scene(48, 27), kind, options)
                 .unwrap();
-        let frame = v.frame(48, 27, false, &relight_render::NoProgress).unwrap();
+        // A still view refines by one sub-pixel pass per frame (aa² passes);
+        // the refined frame is the CLI's aa × aa box filter.
+        let mut frame = v.frame(48, 27, false, &relight_render::NoProgress).unwrap();
+        while v.refining() {
+            frame = v.frame(48, 27, false, &relight_render::NoProgress).unwrap();
+        }
+        assert_eq!(frame.passes, 4, "{method}: 2×2 AA is four passes");
         assert_eq!(frame.image.pixels.len(), cli.len());
-        // Reading an image clamps negative radiance to 0 (SH ringing makes
-        // some; relight_assets reports it), so compare the clamped frame.
-        let worst = frame
-            .image
-            .pixels
-            .iter()
-            .zip(&cli)
-            .map(|(a, b)| (a.max(glam::Vec3::ZERO) - *b).abs().max_element())
-            .fold(0.0f32, f32::max);
-        assert!(worst <= 1e-6, "{method}: viewer and CLI differ by {worst}");
+        // Reading an image clamps negative radiance to 0, so compare the
+        // clamped frame. Both sample the same sub-pixel positions; what
+        // differs is the rasterizer's 1/256-pixel vertex snapping, finer
+        // relative to the scene at the CLI's 2× resolution, which moves the
+        // barycentrics of these sub-pixel triangles slightly: a per-pixel
+        // tolerance of 2 % (floor 0.05) and a mean of 0.2 %.
+        let (mut worst, mut sum_d, mut sum_v) = (0.0f32, 0.0f64, 0.0f64);
+        for (a, b) in frame.image.pixels.iter().zip(&cli) {
+            let d = (a.max(glam::Vec3::ZERO) - *b).abs().max_element();
+            worst = worst.max(d / b.max_element().max(0.05));
+            sum_d += f64::from(d);
+            sum_v += f64::from(b.max_element());
+        }
+        assert!(
+            worst <= 0.02,
+            "{method}: viewer and CLI differ by {worst} (relative)"
+        );
+        let mean = sum_d / sum_v.max(1e-9);
+        assert!(mean <= 2e-3, "{method}: mean relative difference {mean}");
+        eprintln!("{method}: worst relative {worst:.2e}, mean {mean:.2e}");
     }
 }
 
