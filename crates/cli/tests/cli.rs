@@ -2,21 +2,10 @@
 //! files, and bad input (one-line error, non-zero exit, never a panic).
 
 use std::path::{Path, PathBuf};
+mod common;
+
+use common::{relight, tmp};
 use std::process::{Command, Output};
-
-fn relight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_relight"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run relight")
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("relight-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
 
 fn assert_clean_error(out: &Output, needle: &str) {
     let err = String::from_utf8_lossy(&out.stderr);

@@ -2,39 +2,10 @@
 //! outputs checked before any work, the bake cache, and one-line messages
 //! that name the problem once (bad files, typos, wrong kinds of image).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn relight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_relight"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run relight")
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("relight-issue11-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
-
-fn data(rel: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI is set and {} is missing",
-            p.display()
-        );
-        eprintln!("skipping: {} is absent", p.display());
-        None
-    }
-}
+use common::{data, relight, tmp};
+use std::process::Output;
 
 /// Exit code 1, one line on stderr starting `relight: `, containing every needle.
 fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {

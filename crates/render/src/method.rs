@@ -669,13 +669,7 @@ pub fn render_frame(
     };
     let fogged = scene.medium.is_some_and(|m| m.beta > 0.0);
     if !fogged {
-        // The background is already the pixel footprint's average (its
-        // corners), so a sub-pixel offset pass takes it unshifted: every pass
-        // of a progressive frame then gives the same background as one
-        // aa × aa frame, and their mean equals it.
-        let mut unshifted = request.camera;
-        unshifted.image_offset = glam::Vec2::ZERO;
-        fill_background(scene, &unshifted, &coverage, &mut out.image);
+        fill_background(scene, &request.camera, &coverage, &mut out.image);
     }
     out.coverage = Some(coverage);
     out.timings.view_ms += t.elapsed().as_secs_f64() * 1e3;
