@@ -4,21 +4,7 @@
 
 mod common;
 
-use common::{data, relight, tmp};
-use std::process::Output;
-
-/// Exit code 1, one line on stderr starting `relight: `, containing every needle.
-fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert_eq!(out.status.code(), Some(1), "exit code; stderr: {err}");
-    assert!(!err.contains("panicked"), "panic: {err}");
-    assert!(err.starts_with("relight: "), "stderr: {err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
-    for n in needles {
-        assert!(err.contains(n), "stderr should mention `{n}`: {err}");
-    }
-    err
-}
+use common::{assert_one_line_error, data, relight, tmp};
 
 /// Every command that writes a file refuses a path in a missing folder
 /// before it starts (the render would take seconds, the bake minutes, and

@@ -6,19 +6,12 @@
 use std::path::{Path, PathBuf};
 mod common;
 
-use common::{relight, tmp};
+use common::{assert_one_line_error, relight, tmp};
 use std::process::{Command, Output};
 
 fn assert_clean_error(out: &Output, needles: &[&str]) {
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "expected failure; stderr: {err}");
-    assert_eq!(out.status.code(), Some(1), "exit code; stderr: {err}");
-    assert!(!err.contains("panicked"), "panic: {err}");
-    assert!(err.starts_with("relight: "), "stderr: {err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
-    for n in needles {
-        assert!(err.contains(n), "stderr should mention `{n}`: {err}");
-    }
+    assert!(!out.status.success(), "expected failure");
+    assert_one_line_error(out, needles);
 }
 
 /// Runs `relight -q render ARGS --out <tmp>/NAME` (ARGS split at spaces),

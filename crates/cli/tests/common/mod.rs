@@ -45,3 +45,16 @@ pub fn data(rel: &str) -> Option<PathBuf> {
         None
     }
 }
+
+/// Exit code 1, one line on stderr starting `relight: `, containing every needle.
+pub fn assert_one_line_error(out: &Output, needles: &[&str]) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "exit code; stderr: {err}");
+    assert!(!err.contains("panicked"), "panic: {err}");
+    assert!(err.starts_with("relight: "), "stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    for n in needles {
+        assert!(err.contains(n), "stderr should mention `{n}`: {err}");
+    }
+    err
+}
