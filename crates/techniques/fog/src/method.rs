@@ -9,7 +9,7 @@
 //!    surface ([`FogMaterial::fit`]); an empty pixel gets the airlight along
 //!    its ray to the fog ball's edge (eq. 3.16 over the finite segment).
 //! 2. **The environment** by its PSF-convolved foggy version (§3.6.4,
-//!    eqs. 3.35–3.37): SH shading ([`relight_shlight::ShRenderer`]) of the
+//!    eqs. 3.35–3.37): SH shading ([`relight_shlight::LitScene`]) of the
 //!    lighting L′_lm = (e^{−T} + a·√(4π/(2l+1)) PSF_l) L_lm at T = β·R
 //!    ([`relight_render::Medium::env_thickness`]; a the albedo scales the
 //!    single-scattered part), so an empty pixel shows e^{−T} L(d) + (PSF ⊛ L)(d).
@@ -37,10 +37,11 @@
 //! inside it too. BRDFs other than Lambert + Phong are fitted, not evaluated.
 //!
 //! # Timings
-//! `set_lighting` (the PSF weights of eq. 3.35, light checks) is the
-//! lighting change; `render` — the SH projection and per-vertex rotation of
-//! the (filtered) environment, both rasterizations and the per-pixel shading
-//! — is the view change.
+//! `set_lighting` — the PSF weights of eq. 3.35, light checks, and (when the
+//! environment, its rotation or the medium changed) the filtered
+//! environment's SH rotated into every vertex frame
+//! ([`relight_shlight::LitScene::light`]) — is the lighting change; `render`
+//! — both rasterizations and the per-pixel shading — is the view change.
 
 use crate::FogError;
 use crate::model::{FogMaterial, Phase, PointLight};
@@ -53,8 +54,8 @@ use relight_render::method::{
     coverage_of_raster,
 };
 use relight_render::raster::{NO_TRIANGLE, Rasterizer};
-use relight_render::{Image, Progress, Scene};
-use relight_shlight::{LightingFilter, ShRenderer, ShRotationMethod};
+use relight_render::{Camera, Image, Progress, Scene};
+use relight_shlight::{Background, LightingFilter, LitScene, ShRenderer, ShRotationMethod};
 use std::time::Instant;
 
 /// The method's name on the command line.
@@ -165,7 +166,6 @@ struct Lighting {
     lights: Vec<PointLight>,
     /// The environment's mean radiance (1/4π)∫L dω (rotation invariant).
     env_mean: Vec3,
-    has_env: bool,
     /// (T, albedo, filter) of the environment part, cached.
     filter: (f32, f32, LightingFilter),
 }
@@ -176,7 +176,14 @@ pub struct FogRelighter {
     /// Fitted surface of each object, from [`Relighter::prepare`].
     materials: Vec<FogMaterial>,
     tables: Option<FogTables>,
-    sh: Option<ShRenderer>,
+    /// The SH renderer of the environment part: its BRDF bakes, the
+    /// lighting filter and rotation.
+    sh: ShRenderer,
+    /// The environment part's SH state between frames (scenes with an
+    /// environment), so a view change only rasterizes and shades it.
+    env: Option<LitScene>,
+    /// The environment part of the last frame (supersampled), reused.
+    env_image: Image,
     lighting: Option<Lighting>,
     rasterizer: Rasterizer,
     phase: Phase,
@@ -223,7 +230,9 @@ impl FogRelighter {
             options,
             materials: Vec::new(),
             tables: None,
-            sh: Some(sh),
+            sh,
+            env: None,
+            env_image: Image::new(1, 1),
             lighting: None,
             rasterizer: Rasterizer::new(),
             phase: Phase::isotropic(),
@@ -271,45 +280,52 @@ impl FogRelighter {
     }
 
     fn is_prepared_for(&self, scene: &Scene) -> bool {
-        self.tables.is_some() && self.materials.len() == scene.objects.len()
+        self.tables.is_some()
+            && self.materials.len() == scene.objects.len()
+            && match &self.env {
+                Some(e) => scene.has_environment() && e.is_built_for(scene),
+                None => !scene.has_environment(),
+            }
     }
 
-    /// The environment part at the supersampled camera of `scene` (image of
-    /// `scene.camera`'s size), before the view segment.
+    /// Whether the environment part runs in the OpenGL-fog mode (no PSF:
+    /// the plain environment, a black sky).
+    fn opengl(&self) -> bool {
+        matches!(self.options.mode, FogMode::OpenGl { .. })
+    }
+
+    /// The environment part at `camera` (the supersampled frame) into
+    /// `self.env_image`, before the view segment: `false` without an
+    /// environment.
     fn environment_image(
         &mut self,
         scene: &Scene,
-        lighting: &Lighting,
+        camera: &Camera,
         progress: &dyn Progress,
-    ) -> Result<Option<Image>, MethodError> {
-        if !lighting.has_env {
-            return Ok(None);
-        }
-        let opengl = matches!(self.options.mode, FogMode::OpenGl { .. });
-        let filter = if opengl {
-            LightingFilter {
-                direct: 1.0,
-                bands: Vec::new(),
-            }
+    ) -> Result<bool, MethodError> {
+        let opengl = self.opengl();
+        let Some(env) = self.env.as_mut() else {
+            return Ok(false);
+        };
+        progress.check()?;
+        let background = if opengl {
+            Background::Black
         } else {
-            lighting.filter.2.clone()
+            Background::All
         };
-        let sh = self.sh.take().expect("the SH renderer is always present");
-        let sh = sh
-            .with_lighting_filter(filter)
-            .and_then(|s| s.with_lighting_rotation(scene.world_from_env))
-            .map(|s| s.with_env_background(!opengl).with_supersampling(1));
-        let sh = match sh {
-            Ok(s) => s,
-            Err(e) => {
-                // Keep a renderer (its bake cache is lost only on this error).
-                self.sh = ShRenderer::new(self.options.env_order, self.options.env_rotation).ok();
-                return Err(failed(e));
-            }
-        };
-        let out = sh.render(scene, None, progress);
-        self.sh = Some(sh);
-        Ok(Some(out.map_err(failed)?.image))
+        let maps = vec![None; scene.objects.len()];
+        env.render_into(
+            scene,
+            camera,
+            self.options.env_order,
+            self.options.env_rotation,
+            &maps,
+            f32::INFINITY,
+            background,
+            &mut self.env_image,
+        )
+        .map_err(failed)?;
+        Ok(true)
     }
 }
 
@@ -354,12 +370,11 @@ impl Relighter for FogRelighter {
             );
         }
         progress.check()?;
+        let previous = self.env.take();
         if scene.has_environment() {
-            let sh = self.sh.as_ref().expect("the SH renderer is always present");
-            for (i, o) in scene.objects.iter().enumerate() {
-                sh.table(&o.brdf, self.options.env_order, i, progress)
-                    .map_err(failed)?;
-            }
+            self.env = Some(
+                LitScene::build(&self.sh, scene, &|_| false, previous, progress).map_err(failed)?,
+            );
         }
         self.set_lighting(scene, progress)?;
         Ok(())
@@ -420,11 +435,26 @@ impl Relighter for FogRelighter {
             Vec3::ZERO
         };
         check_rotation(scene.world_from_env)?;
+        let opengl = self.opengl();
+        if let Some(env) = self.env.as_mut() {
+            let filter = if opengl {
+                LightingFilter {
+                    direct: 1.0,
+                    bands: Vec::new(),
+                }
+            } else {
+                filter.2.clone()
+            };
+            self.sh.set_lighting_filter(Some(filter)).map_err(failed)?;
+            self.sh
+                .set_lighting_rotation(scene.world_from_env)
+                .map_err(failed)?;
+            env.light(&self.sh, scene, progress).map_err(failed)?;
+        }
         self.lighting = Some(Lighting {
             medium,
             lights,
             env_mean,
-            has_env,
             filter,
         });
         Ok(start.elapsed().as_secs_f64() * 1e3)
@@ -479,11 +509,9 @@ impl Relighter for FogRelighter {
         }
         progress.check()?;
         // 2. The environment, carried along each covered pixel's view segment.
-        let mut big_scene = scene.clone();
-        big_scene.camera = big;
-        if let Some(env) = self.environment_image(&big_scene, &lighting, progress)? {
-            let opengl = matches!(self.options.mode, FogMode::OpenGl { .. });
-            let ambient = if opengl {
+        if self.environment_image(scene, &big, progress)? {
+            let env = &self.env_image;
+            let ambient = if self.opengl() {
                 Vec3::ZERO
             } else {
                 lighting.env_mean * (m.albedo * (-m.env_thickness()).exp())

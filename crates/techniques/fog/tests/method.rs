@@ -151,6 +151,43 @@ fn without_fog_the_environment_part_is_plain_sh_shading() {
     }
 }
 
+/// The environment part is kept between frames (`LitScene`): after each
+/// lighting change — the sky tipped over, the medium thickened, only a
+/// point light moved — a frame of the kept method equals that of a method
+/// prepared afresh on the changed scene.
+#[test]
+fn kept_lighting_follows_every_lighting_change() {
+    let mut s = scene(sky(1.0), fog(0.08, 0.7, 12.0));
+    let mut kept = FogRelighter::new(FogOptions::default()).unwrap();
+    let first = render(&mut kept, &s, 1);
+    let frame = |m: &mut FogRelighter, s: &Scene| {
+        m.render(s, &FrameRequest::new(s.camera), &NoProgress)
+            .unwrap()
+            .image
+    };
+    let changes: [&dyn Fn(&mut Scene); 3] = [
+        &|s| s.world_from_env = glam::Mat3::from_rotation_x(1.1),
+        &|s| s.medium = fog(0.2, 0.7, 12.0),
+        &|s| s.point_lights[0].position = Vec3::new(1.0, 2.5, -1.0),
+    ];
+    for (i, change) in changes.iter().enumerate() {
+        change(&mut s);
+        kept.set_lighting(&s, &NoProgress).unwrap();
+        let got = frame(&mut kept, &s);
+        let want = render(
+            &mut FogRelighter::new(FogOptions::default()).unwrap(),
+            &s,
+            1,
+        );
+        let e = max_rel_diff(&got, &want);
+        assert!(e < 1e-6, "change {i}: kept vs fresh method differ by {e}");
+        assert!(
+            max_rel_diff(&got, &first) > 1e-3,
+            "change {i} changed nothing in the image"
+        );
+    }
+}
+
 /// A uniform sky L in fog, a Lambert sphere of albedo ρ alone: the sky seen
 /// through the fog is L (e^{−T} + a w₀) (w₀ the PSF's band-0 weight), and a
 /// sphere pixel at view distance D is e^{−βD} ρ L (e^{−T} + a w₀) +

@@ -72,6 +72,7 @@
 
 pub mod bake;
 pub mod bench;
+pub mod lit_scene;
 pub mod method;
 pub mod relight;
 mod shade;
@@ -81,8 +82,9 @@ pub use bake::{BakeOptions, BrdfShTable};
 pub use bench::{
     FRAME_TARGETS, ShFrameBenchRow, ShRenderBenchRow, bench_sh_frames, bench_sh_render,
 };
+pub use lit_scene::LitScene;
 pub use method::{SH_METHOD_NAME, ShMethod, ShOptions};
-pub use relight::{LightingFilter, ShImage, ShRenderer, ShRotationMethod};
+pub use relight::{Background, LightingFilter, ShImage, ShRenderer, ShRotationMethod};
 pub use relight_render::NormalMap;
 pub use relight_sh::window::{ChosenWindow, WindowChoice};
 pub use verify::{ShVerifyRow, VerifyOptions, VerifyScene, verify_sh};

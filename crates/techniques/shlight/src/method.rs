@@ -29,18 +29,14 @@
 //! and [`FrameTimings::view_ms`] is the raster + shading time of the frame.
 
 use crate::bake::{BakeOptions, BrdfShTable};
-use crate::relight::{Background, Lit, check_meshes};
-use crate::{NormalMap, ShLightError, ShRenderer, ShRotationMethod};
-use relight_geom::Mesh;
+use crate::relight::{Background, check_meshes};
+use crate::{LitScene, NormalMap, ShLightError, ShRenderer, ShRotationMethod};
 use relight_render::method::{
     FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
     check_scene, coverage_of_raster,
 };
-use relight_render::raster::Rasterizer;
 use relight_render::{Image, Progress, Scene};
-use relight_sh::project::{ShRgb, Window, project_env};
 use relight_sh::window::{ChosenWindow, WindowChoice};
-use relight_sphere::EnvMap;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -96,21 +92,12 @@ pub struct ShMethod {
     options: ShOptions,
     /// Holds the in-memory cache of BRDF tables and the lighting rotation.
     renderer: ShRenderer,
-    state: Option<State>,
-    raster: Rasterizer,
+    /// What `prepare` built for the scene.
+    state: Option<LitScene>,
     /// The supersampled frame, reused across frames.
     image: Image,
     /// The last lighting change's ms, reported by the next frame.
     pending_lighting_ms: f64,
-}
-
-/// What `prepare` built for one scene.
-struct State {
-    lit: Lit,
-    /// The meshes prepared for (identity compared with the rendered scene's).
-    meshes: Vec<Arc<Mesh>>,
-    /// Fingerprint of the projected environment and its projection (env frame).
-    env: (u64, ShRgb),
 }
 
 impl std::fmt::Debug for ShMethod {
@@ -131,22 +118,6 @@ fn stale(why: &str) -> MethodError {
         what: "scene",
         why: why.to_string(),
     })
-}
-
-/// A 64-bit fingerprint of the map's parameterization and every texel's bits
-/// (FNV-1a over 32-bit words): equal maps give equal fingerprints.
-fn env_fingerprint(env: &EnvMap) -> u64 {
-    const PRIME: u64 = 0x0000_0100_0000_01b3;
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in format!("{:?}", env.param).bytes() {
-        h = (h ^ u64::from(b)).wrapping_mul(PRIME);
-    }
-    for t in &env.texels {
-        for c in t.to_array() {
-            h = (h ^ u64::from(c.to_bits())).wrapping_mul(PRIME);
-        }
-    }
-    h
 }
 
 impl ShMethod {
@@ -170,7 +141,6 @@ impl ShMethod {
             options,
             renderer,
             state: None,
-            raster: Rasterizer::new(),
             image: Image::new(1, 1),
             pending_lighting_ms: 0.0,
         })
@@ -186,7 +156,7 @@ impl ShMethod {
     /// objects share a BRDF); empty before `prepare`.
     #[must_use]
     pub fn tables(&self) -> &[Arc<BrdfShTable>] {
-        self.state.as_ref().map_or(&[], |s| &s.lit.tables)
+        self.state.as_ref().map_or(&[], LitScene::tables)
     }
 
     /// The window chosen for each object of the prepared scene at the
@@ -194,7 +164,7 @@ impl ShMethod {
     /// changed the lobe, and how negative the lobe was without it.
     #[must_use]
     pub fn windows(&self) -> &[ChosenWindow] {
-        self.state.as_ref().map_or(&[], |s| &s.lit.windows)
+        self.state.as_ref().map_or(&[], LitScene::windows)
     }
 
     /// One line per object whose lobe `order` bands cannot represent: its
@@ -218,14 +188,8 @@ impl ShMethod {
             .collect()
     }
 
-    fn check_same_meshes(state: &State, scene: &Scene) -> Result<(), MethodError> {
-        let same = state.meshes.len() == scene.objects.len()
-            && state
-                .meshes
-                .iter()
-                .zip(&scene.objects)
-                .all(|(m, o)| Arc::ptr_eq(m, &o.mesh));
-        if same {
+    fn check_same_meshes(state: &LitScene, scene: &Scene) -> Result<(), MethodError> {
+        if state.is_built_for(scene) {
             Ok(())
         } else {
             Err(stale(
@@ -259,24 +223,10 @@ impl Relighter for ShMethod {
         // A feature it cannot render is never silently dropped.
         check_scene(self, scene, true)?;
         let needs_uvs = |i: usize| scene.objects[i].normal_map.is_some();
-        let lit = self
-            .renderer
-            .build(scene, self.options.order, &needs_uvs, progress)
-            .map_err(fail)?;
-        let fp = env_fingerprint(&scene.env);
-        let env = match self.state.take() {
-            Some(s) if s.env.0 == fp => s.env,
-            _ => (
-                fp,
-                project_env(&scene.env, self.options.order, Window::None)
-                    .map_err(|e| fail(e.into()))?,
-            ),
-        };
-        self.state = Some(State {
-            lit,
-            meshes: scene.objects.iter().map(|o| o.mesh.clone()).collect(),
-            env,
-        });
+        let previous = self.state.take();
+        self.state = Some(
+            LitScene::build(&self.renderer, scene, &needs_uvs, previous, progress).map_err(fail)?,
+        );
         self.set_lighting(scene, progress)?;
         Ok(())
     }
@@ -288,12 +238,6 @@ impl Relighter for ShMethod {
             .as_mut()
             .ok_or_else(|| stale("call prepare before set_lighting"))?;
         Self::check_same_meshes(state, scene)?;
-        let fp = env_fingerprint(&scene.env);
-        if fp != state.env.0 {
-            let light = project_env(&scene.env, self.options.order, Window::None)
-                .map_err(|e| fail(e.into()))?;
-            state.env = (fp, light);
-        }
         self.renderer
             .set_lighting_rotation(scene.world_from_env)
             .map_err(|e| MethodError::InvalidOption {
@@ -301,9 +245,7 @@ impl Relighter for ShMethod {
                 option: "world_from_env",
                 message: e.to_string(),
             })?;
-        self.renderer
-            .light(&mut state.lit, &state.env.1, progress)
-            .map_err(fail)?;
+        state.light(&self.renderer, scene, progress).map_err(fail)?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         self.pending_lighting_ms = ms;
         Ok(ms)
@@ -319,7 +261,7 @@ impl Relighter for ShMethod {
         let t = Instant::now();
         let state = self
             .state
-            .as_ref()
+            .as_mut()
             .ok_or_else(|| stale("call prepare before render"))?;
         Self::check_same_meshes(state, scene)?;
         check_meshes(scene, &|i| scene.objects[i].normal_map.is_some()).map_err(fail)?;
@@ -328,11 +270,6 @@ impl Relighter for ShMethod {
         let mut camera = request.camera;
         camera.width *= k;
         camera.height *= k;
-        state
-            .lit
-            .rasterize(&camera, &mut self.raster)
-            .map_err(fail)?;
-        progress.check()?;
         let maps: Vec<Option<&NormalMap>> = scene
             .objects
             .iter()
@@ -345,27 +282,26 @@ impl Relighter for ShMethod {
         } else {
             Background::Partial(k)
         };
-        let hi = &mut self.image;
         state
-            .lit
-            .shade_into(
-                &self.raster,
-                &camera,
+            .render_into(
                 scene,
+                &camera,
                 self.options.order,
                 self.options.rotation,
                 &maps,
                 self.options.beta_lim,
                 background,
-                hi,
+                &mut self.image,
             )
             .map_err(fail)?;
+        progress.check()?;
+        let hi = &self.image;
         let image = if k == 1 {
             hi.clone()
         } else {
             hi.box_downsample(k)
         };
-        let coverage = coverage_of_raster(&self.raster, w, h, k);
+        let coverage = coverage_of_raster(state.raster(), w, h, k);
         Ok(Rendered {
             image,
             coverage: Some(coverage),

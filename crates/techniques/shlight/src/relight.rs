@@ -68,9 +68,11 @@ use relight_sphere::Frame;
 use std::str::FromStr;
 use std::sync::{Arc, Mutex};
 
-/// Which empty samples of a frame get the environment (see [`crate::shade`]).
+/// Which empty samples of a frame get the environment
+/// ([`crate::LitScene::render_into`]; [`crate::shade`]'s docs), in the
+/// lighting's frame and through the lighting filter where there is one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Background {
+pub enum Background {
     /// None: black.
     Black,
     /// Every empty sample.
@@ -194,9 +196,9 @@ pub struct ShRenderer {
     beta_lim: f32,
     env_background: bool,
     window: WindowChoice,
-    filter: Option<LightingFilter>,
+    pub(crate) filter: Option<LightingFilter>,
     /// `world_from_env` of the lighting, applied to its SH coefficients.
-    lighting_rotation: Option<(Mat3, Rot3<f32>)>,
+    pub(crate) lighting_rotation: Option<(Mat3, Rot3<f32>)>,
     cache: Mutex<Vec<CacheEntry>>,
 }
 
@@ -346,8 +348,23 @@ impl ShRenderer {
     /// # Errors
     /// A negative or non-finite `direct`, or a non-finite band weight.
     pub fn with_lighting_filter(mut self, filter: LightingFilter) -> Result<Self, ShLightError> {
-        if !(filter.direct.is_finite() && filter.direct >= 0.0)
-            || filter.bands.iter().any(|w| !w.is_finite())
+        self.set_lighting_filter(Some(filter))?;
+        Ok(self)
+    }
+
+    /// Sets (or, with `None`, removes) the lighting filter of
+    /// [`ShRenderer::with_lighting_filter`]; it takes effect at the next
+    /// lighting change ([`crate::LitScene::light`]).
+    ///
+    /// # Errors
+    /// As [`ShRenderer::with_lighting_filter`]; the filter is then unchanged.
+    pub fn set_lighting_filter(
+        &mut self,
+        filter: Option<LightingFilter>,
+    ) -> Result<(), ShLightError> {
+        if let Some(filter) = &filter
+            && (!(filter.direct.is_finite() && filter.direct >= 0.0)
+                || filter.bands.iter().any(|w| !w.is_finite()))
         {
             return Err(ShLightError::InvalidParameter {
                 what: "lighting filter",
@@ -357,8 +374,8 @@ impl ShRenderer {
                 ),
             });
         }
-        self.filter = Some(filter);
-        Ok(self)
+        self.filter = filter;
+        Ok(())
     }
 
     /// Rotates the lighting by `world_from_env` (`L_world(d) =
