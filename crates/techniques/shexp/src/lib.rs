@@ -23,6 +23,7 @@ pub mod cap;
 pub mod exp;
 pub mod log_table;
 pub mod shade;
+pub mod spheres;
 pub mod union;
 pub mod verify;
 
