@@ -22,13 +22,17 @@ pub mod accumulate;
 pub mod cap;
 pub mod exp;
 pub mod log_table;
+pub mod method;
 pub mod shade;
 pub mod spheres;
 pub mod union;
 pub mod verify;
+pub mod verify_scene;
 
 pub use exp::{ExpKind, Exponentiator, MAX_SQUARINGS, OlFit, SquaringHistogram};
 pub use log_table::{DEFAULT_EIGEN_CLIP, DEFAULT_LOG_ENTRIES, LogTable};
+pub use method::{SHEXP_METHOD_NAME, ShExpMethod, ShExpOptions};
+pub use spheres::{FitOptions, Sphere, SphereSet, fit_spheres};
 
 /// Errors of this crate.
 #[derive(Debug, thiserror::Error)]
