@@ -19,6 +19,7 @@
 #![allow(clippy::needless_range_loop)] // index-heavy numerical kernels read better with explicit indices
 
 pub mod accumulate;
+pub mod bench;
 pub mod cap;
 pub mod exp;
 pub mod log_table;

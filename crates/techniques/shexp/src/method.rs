@@ -12,6 +12,12 @@
 //!   projected directly: `T_p = (1/K) Σ vis(s_k) y(s_k)`), and `g_dyn` the
 //!   exponentiated logs of the dynamic blockers only.
 //!
+//! A flat receiver with fewer than [`ShExpOptions::flat_receiver_vertices`]
+//! vertices (a ground quad) is refined by midpoint subdivision until it has
+//! at least that many, and the method shades and draws the refined mesh (the
+//! same surface): a per-vertex stand-in for the visibility texture of large
+//! flat receivers.
+//!
 //! Blockers are the sphere sets ([`crate::spheres`]) of every object that is
 //! not flat (a flat object — smallest box extent under 1 % of its largest —
 //! only receives). Each receiver object's vertices are grouped in clusters of
@@ -74,6 +80,9 @@ pub struct ShExpOptions {
     pub lod_angle_deg: f32,
     /// Strata per side of the static self-shadowing bake (rays = side²). Default 12.
     pub bake_strata: usize,
+    /// Flat receivers with fewer vertices are refined to at least this many
+    /// (0: never). Default 16 384.
+    pub flat_receiver_vertices: usize,
 }
 
 impl Default for ShExpOptions {
@@ -86,6 +95,7 @@ impl Default for ShExpOptions {
             min_angle_deg: 1.0,
             lod_angle_deg: 3.0,
             bake_strata: 12,
+            flat_receiver_vertices: 16_384,
         }
     }
 }
@@ -103,6 +113,8 @@ struct Cluster {
 #[derive(Debug)]
 struct ObjectState {
     mesh: Arc<Mesh>,
+    /// The mesh shaded and drawn (a refined flat receiver, or `mesh`).
+    receiver: Arc<Mesh>,
     dynamic: bool,
     /// Sphere set at `prepare` (None: not a blocker).
     spheres: Option<SphereSet>,
@@ -124,6 +136,8 @@ struct State {
     /// `L_H(N)` over the octahedral grid, RGB interleaved per texel (3·order²).
     lh_table: Vec<f32>,
     colors: Vec<Vec<Vec3>>,
+    /// The meshes the last colours belong to (what `render` draws).
+    drawn: Vec<Arc<Mesh>>,
     warnings: Vec<String>,
 }
 
@@ -615,6 +629,22 @@ impl ShExpMethod {
             .map(|(o, (m, s))| o.spheres.as_ref().map(|set| set.transformed(*m, *s)))
             .collect();
         let dynamic: Vec<bool> = state.objects.iter().map(|o| o.dynamic).collect();
+        // The receiver meshes now: the scene's, or the refined mesh moved.
+        let receivers: Vec<Arc<Mesh>> = state
+            .objects
+            .iter()
+            .zip(&scene.objects)
+            .zip(&moved)
+            .map(|((so, o), (m, _))| {
+                if Arc::ptr_eq(&so.receiver, &so.mesh) {
+                    o.mesh.clone()
+                } else if *m == Affine3A::IDENTITY {
+                    so.receiver.clone()
+                } else {
+                    Arc::new((*so.receiver).clone().transformed(*m))
+                }
+            })
+            .collect();
         let visibility = scene.visibility;
         let (sin_min, sin_lod) = (
             opts.min_angle_deg.to_radians().sin(),
@@ -623,10 +653,9 @@ impl ShExpMethod {
         let table = &*self.table;
         let factors = zonal_rotation_factors(n);
         let hist = Mutex::new(SquaringHistogram::new());
-        let mut colors: Vec<Vec<Vec3>> = scene
-            .objects
+        let mut colors: Vec<Vec<Vec3>> = receivers
             .iter()
-            .map(|o| vec![Vec3::ZERO; o.mesh.positions.len()])
+            .map(|m| vec![Vec3::ZERO; m.positions.len()])
             .collect();
         // Per cluster: blockers, then its vertices' colours.
         let results: Vec<Vec<(u32, Vec3)>> = state
@@ -659,7 +688,7 @@ impl ShExpMethod {
                             gather(set, cc, cr, sin_min, sin_lod, blockers);
                         }
                     }
-                    let mesh = &scene.objects[obj].mesh;
+                    let mesh = &receivers[obj];
                     let so = &state.objects[obj];
                     let mut local = SquaringHistogram::new();
                     let out: Vec<(u32, Vec3)> = cl
@@ -746,6 +775,7 @@ impl ShExpMethod {
             }
         }
         state.colors = colors;
+        state.drawn = receivers;
         self.histogram
             .merge(&hist.into_inner().expect("histogram lock"));
         Ok(())
@@ -859,8 +889,20 @@ impl Relighter for ShExpMethod {
                     .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?,
                 )
             };
+            let mut receiver = o.mesh.clone();
+            if is_flat(&o.mesh) && opts.flat_receiver_vertices > 0 {
+                let mut m = (*o.mesh).clone();
+                while m.positions.len() < opts.flat_receiver_vertices && !m.indices.is_empty() {
+                    m = m.subdivide_midpoint();
+                }
+                if m.normals.len() != m.positions.len() {
+                    m.normals = m.smooth_normals();
+                }
+                receiver = Arc::new(m);
+            }
             objects.push(ObjectState {
                 mesh: o.mesh.clone(),
+                receiver,
                 dynamic: o.animation.is_some(),
                 spheres,
                 refs: reference_vertices(&o.mesh.positions),
@@ -880,15 +922,15 @@ impl Relighter for ShExpMethod {
             let bvh = SceneBvh::build(&statics);
             for (i, o) in objects.iter_mut().enumerate() {
                 if !o.dynamic {
-                    o.transfer = self.bake_static(&bvh, &o.mesh, 0x5e0 + i as u64, progress)?;
+                    let r = o.receiver.clone();
+                    o.transfer = self.bake_static(&bvh, &r, 0x5e0 + i as u64, progress)?;
                 }
             }
         }
-        let clusters: Vec<Cluster> = scene
-            .objects
+        let clusters: Vec<Cluster> = objects
             .iter()
             .enumerate()
-            .flat_map(|(i, o)| cluster_vertices(i, &o.mesh, opts.cluster_vertices))
+            .flat_map(|(i, o)| cluster_vertices(i, &o.receiver, opts.cluster_vertices))
             .collect();
         let nn = opts.order * opts.order;
         self.state = Some(State {
@@ -897,6 +939,7 @@ impl Relighter for ShExpMethod {
             light: [vec![0.0; nn], vec![0.0; nn], vec![0.0; nn]],
             lh_table: Vec::new(),
             colors: Vec::new(),
+            drawn: Vec::new(),
             warnings,
         });
         self.set_lighting(scene, progress)?;
@@ -934,19 +977,17 @@ impl Relighter for ShExpMethod {
         let mut camera = request.camera;
         camera.width *= k;
         camera.height *= k;
-        let draws: Vec<DrawCall> = scene
-            .objects
-            .iter()
-            .enumerate()
-            .map(|(i, o)| {
-                DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32)
-            })
-            .collect();
-        let ropts = RasterOptions::default().fit_depth(&camera, &draws);
         let state = self
             .state
             .as_ref()
             .ok_or_else(|| failed("call prepare before render"))?;
+        let draws: Vec<DrawCall> = state
+            .drawn
+            .iter()
+            .enumerate()
+            .map(|(i, m)| DrawCall::new(&m.positions, &m.indices).with_object_id(i as u32))
+            .collect();
+        let ropts = RasterOptions::default().fit_depth(&camera, &draws);
         let refs: Vec<&[Vec3]> = state.colors.iter().map(|c| &c[..]).collect();
         let env_from_world = scene.world_from_env.transpose();
         let bg = |d: Vec3| scene.env.eval(env_from_world * d);

@@ -136,7 +136,11 @@ pub fn method_floor(
     scene: &Scene,
     options: ShExpOptions,
 ) -> Result<Vec<Vec3>, relight_render::method::MethodError> {
-    let mut m = ShExpMethod::new(options)?;
+    // The floor is dense already: shade its own vertices.
+    let mut m = ShExpMethod::new(ShExpOptions {
+        flat_receiver_vertices: 0,
+        ..options
+    })?;
     m.prepare(scene, &NoProgress)?;
     m.shade_vertices(scene)?;
     Ok(m.vertex_colors()[0].clone())
@@ -177,7 +181,7 @@ pub fn verify_scene(
         measured: format!("relative RMS {:.2} %", 100.0 * e),
         target: "≤ 5 %".into(),
         source: "issue 15 (reference: ray-traced visibility of the sphere meshes)".into(),
-        pass: e <= 0.05,
+        pass: Some(e <= 0.05),
     });
     // Ambient occlusion under a constant environment.
     let white = EnvMap::from_fn(
@@ -204,7 +208,7 @@ pub fn verify_scene(
         measured: format!("relative RMS {:.2} %", 100.0 * e),
         target: "≤ 3 %".into(),
         source: "issue 15 (reference: BVH vertex ambient occlusion)".into(),
-        pass: e <= 0.03,
+        pass: Some(e <= 0.03),
     });
     // A mesh blocker by 32 / 64 / 128 spheres against its own mesh shadow.
     if let Some(mesh) = mesh {
@@ -227,7 +231,7 @@ pub fn verify_scene(
             measured: format!("relative RMS {}", curve.join(", ")),
             target: "reported (a curve)".into(),
             source: "issue 15".into(),
-            pass: true,
+            pass: None,
         });
     }
     Ok(rows)
