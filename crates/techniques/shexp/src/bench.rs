@@ -286,7 +286,7 @@ pub fn bench_shexp(quick: bool) -> Result<BenchShExp, relight_render::method::Me
     let accumulation =
         bench_accumulation(&[3, 4, 5, 6], if quick { 200 } else { 4000 }, 60).map_err(fail)?;
     let mut scenes = Vec::new();
-    let (frames, s) = if quick { (2, 4) } else { (8, 1) };
+    let (frames, s) = if quick { (2, 4) } else { (3, 1) };
     // Battle-like: 41 K static floor + 24 K dynamic, 8 blockers × 30 = 240 spheres.
     let battle = thesis_like_scene(203 / s, 4, 110 / s, 4);
     scenes.push(bench_scene(

@@ -216,7 +216,7 @@ pub fn verify_scene(
         // Unit size, resting 0.3 above the floor's centre.
         m.normalize_to_unit_box();
         let b = m.bounds().expect("non-empty mesh");
-        let lift = glam::Affine3A::from_translation(Vec3::new(0.0, 0.3 - b.min.y, 0.0))
+        let lift = glam::Affine3A::from_translation(Vec3::new(0.0, 0.3 - 1.5 * b.min.y, 0.0))
             * glam::Affine3A::from_scale(Vec3::splat(1.5));
         let m = m.transformed(lift);
         let scene = floor_scene(vec![m], sky(), floor_n);
