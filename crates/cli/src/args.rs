@@ -21,7 +21,7 @@ pub enum Command {
     /// Render the embedded scene (no files needed) with the reference and every
     /// real-time method, side by side in one labelled image: ms per frame and
     /// error against the reference.
-    Demo(DemoArgs),
+    Demo(Box<DemoArgs>),
     /// Render a scene file, or a mesh under an environment map.
     Render(Box<RenderArgs>),
     /// Interactive window: drag to orbit, right-drag to turn the lighting,
@@ -63,6 +63,9 @@ pub enum Command {
     Bench(BenchArgs),
     /// Accuracy against the reference renderer: print a table (or JSON).
     Verify(VerifyArgs),
+    /// Sphere sets of meshes (shadow proxies).
+    #[command(subcommand)]
+    Spheres(crate::shexp::SpheresCommand),
     /// The wavelet bake cache: list its entries or delete them.
     #[command(subcommand)]
     Cache(CacheCommand),
@@ -179,7 +182,8 @@ pub struct MethodFlags {
     /// (single scattering only, the fog model's classes) [default: multiple].
     #[arg(long, value_enum)]
     pub scattering: Option<Scattering>,
-    /// SH order, number of bands (sh; fog's environment part) [default: 6].
+    /// SH order, number of bands (sh; fog's environment part) [default: 6;
+    /// shexp: 4].
     #[arg(long)]
     pub order: Option<usize>,
     /// Per-pixel SH rotation (sh): exact, zyz, taylor1, taylor15, taylor2, none
@@ -212,6 +216,13 @@ pub struct MethodFlags {
     /// [default: analytic].
     #[arg(long)]
     pub fog: Option<String>,
+    /// Visibility accumulation (shexp): ps*2, ps*4, hyb, ol (log space and
+    /// that exponential) or product (products of blocker visibilities) [default: ps*2].
+    #[arg(long)]
+    pub exp: Option<String>,
+    /// Leaf spheres per blocker object (shexp) [default: 32].
+    #[arg(long)]
+    pub spheres: Option<usize>,
 }
 
 /// Media transport of the reference renderer.
@@ -251,6 +262,8 @@ pub enum Method {
     Wavelet,
     /// Analytic single-scattering fog: point lights and the foggy environment.
     Fog,
+    /// Soft shadows of dynamic blockers by SH exponentiation (sphere sets).
+    Shexp,
 }
 
 #[derive(Args, Debug)]
@@ -345,6 +358,15 @@ pub enum ShCommand {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// The SH log of cap visibility by cap angle (sun-thesis §5.2.3), zonal.
+    LogTable {
+        /// Number of bands n.
+        #[arg(long, default_value_t = 4)]
+        order: usize,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Irradiance environment map (Ramamoorthi–Hanrahan): 9 coefficients and an image.
     Irradiance {
         /// Environment map (EXR, HDR, PNG; any parameterization).
@@ -428,6 +450,8 @@ pub enum Suite {
     Wavelet,
     /// Analytic fog shading.
     Fog,
+    /// SH exponentiation shadows: Fig. 5.5 table, thesis-like scenes, sphere fitting.
+    Shexp,
 }
 
 #[derive(Args, Debug)]
@@ -462,6 +486,8 @@ pub enum VerifySuite {
     Fog,
     /// Every method on a matrix of scenes against one reference.
     Methods,
+    /// SH exponentiation shadows: log table, round trips, log vs product, images.
+    Shexp,
 }
 
 #[derive(Args, Debug)]

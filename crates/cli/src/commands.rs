@@ -25,7 +25,7 @@ use std::time::Instant;
 pub fn run(cli: Cli) -> Result<()> {
     let bar = Bar::new(cli.quiet);
     match cli.command {
-        Command::Demo(a) => demo(a, &bar),
+        Command::Demo(a) => demo(*a, &bar),
         Command::Render(a) => render(*a, &bar),
         Command::View(a) => view(*a, &bar),
         Command::Info { files } => info(&files),
@@ -46,6 +46,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Fog(c) => fog(c),
         Command::Bench(a) => bench(a, &bar),
         Command::Verify(a) => verify(a, &bar),
+        Command::Spheres(c) => crate::shexp::spheres(c),
         Command::Cache(c) => crate::cache::run(c),
     }
 }
@@ -186,6 +187,7 @@ fn sh(c: ShCommand) -> Result<()> {
             }
             Ok(())
         }
+        ShCommand::LogTable { order, json } => crate::shexp::log_table(order, json),
         ShCommand::Irradiance { file, out, json } => {
             output_paths(&out)?;
             let (env, report) = relight_assets::load_env_map(&file)?;
@@ -312,6 +314,7 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
     }
     match a.suite {
         Suite::Frames => crate::bench_frames::run(&a, bar),
+        Suite::Shexp => crate::shexp::bench(&a, &report),
         Suite::Raster => {
             let rows = if a.quick {
                 relight_render::raster::bench_raster(100_000, 640, 360, 3)
@@ -506,6 +509,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
     };
     match a.suite {
         VerifySuite::Methods => crate::verify_methods::verify_methods(&a, &report, bar),
+        VerifySuite::Shexp => crate::shexp::verify(&a, &report),
         VerifySuite::Sh => {
             let opts = relight_shlight::VerifyOptions::new(a.quick);
             let default = relight_scene::default_scene(opts.width, opts.height);

@@ -17,6 +17,7 @@ mod plot;
 mod progress;
 mod render_cmd;
 mod scene_args;
+mod shexp;
 mod table;
 mod verify_methods;
 

@@ -17,15 +17,19 @@ pub fn kind_of(m: Method) -> MethodKind {
         Method::Sh => MethodKind::Sh,
         Method::Wavelet => MethodKind::Wavelet,
         Method::Fog => MethodKind::Fog,
+        Method::Shexp => MethodKind::ShExp,
     }
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 12] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 14] = [
     ("--spp", &[MethodKind::Reference]),
     ("--seed", &[MethodKind::Reference]),
     ("--scattering", &[MethodKind::Reference]),
-    ("--order", &[MethodKind::Sh, MethodKind::Fog]),
+    (
+        "--order",
+        &[MethodKind::Sh, MethodKind::Fog, MethodKind::ShExp],
+    ),
     ("--rotation", &[MethodKind::Sh]),
     ("--window", &[MethodKind::Sh]),
     ("--n", &[MethodKind::Wavelet]),
@@ -34,6 +38,8 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 12] = [
     ("--ao", &[MethodKind::Wavelet]),
     ("--cache", &[MethodKind::Wavelet]),
     ("--fog", &[MethodKind::Fog]),
+    ("--exp", &[MethodKind::ShExp]),
+    ("--spheres", &[MethodKind::ShExp]),
 ];
 
 /// The flags of `f` that are set, by name.
@@ -51,6 +57,8 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.ao.is_some(),
         f.cache.is_some(),
         f.fog.is_some(),
+        f.exp.is_some(),
+        f.spheres.is_some(),
     ];
     FLAG_METHODS
         .iter()
@@ -97,7 +105,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
     clear!(
         spp => "--spp", seed => "--seed", scattering => "--scattering", order => "--order",
         rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
-        ao => "--ao", cache => "--cache", fog => "--fog",
+        ao => "--ao", cache => "--cache", fog => "--fog", exp => "--exp", spheres => "--spheres",
     );
 }
 
@@ -151,6 +159,17 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
             if let Some(c) = &f.cache {
                 w.cache_dir = c.clone();
+            }
+        }
+        MethodOptions::ShExp(x) => {
+            if let Some(order) = f.order {
+                x.order = order;
+            }
+            if let Some(e) = &f.exp {
+                x.exp = e.parse().map_err(|m| anyhow!("--exp {e}: {m}"))?;
+            }
+            if let Some(k) = f.spheres {
+                x.spheres = k;
             }
         }
         MethodOptions::Fog(g) => {

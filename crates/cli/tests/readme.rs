@@ -149,7 +149,7 @@ fn shrink(cmd: &str, clone: &Path, plots: &Path) -> Result<Vec<Plan>, String> {
                     set(&mut a, "--n", "16");
                     set(&mut a, "--ntess", "4");
                 }
-                "sh" | "fog" => {}
+                "sh" | "fog" | "shexp" => {}
                 m => return Err(format!("render with method {m}")),
             }
             Ok(vec![Plan::Run(a)])
@@ -162,7 +162,7 @@ fn shrink(cmd: &str, clone: &Path, plots: &Path) -> Result<Vec<Plan>, String> {
         ("info", false) => Ok(vec![Plan::Run(
             words.iter().flat_map(|w| glob(w, clone)).collect(),
         )]),
-        ("compare" | "sh" | "cache", false) => Ok(vec![Plan::Run(words)]),
+        ("compare" | "sh" | "cache" | "spheres", false) => Ok(vec![Plan::Run(words)]),
         ("demo", false) => {
             // Whatever small-size flags the demo has.
             let help = relight(&["demo".into(), "--help".into()], clone);

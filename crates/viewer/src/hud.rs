@@ -204,6 +204,12 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             f.env_order
         ),
         MethodOptions::Reference(r) => format!("{}/{} spp", frame.spp, r.spp),
+        MethodOptions::ShExp(x) => format!(
+            "order {} · {} · {} spheres per blocker{quality}",
+            x.order,
+            x.exp.name(),
+            x.spheres
+        ),
     }
 }
 

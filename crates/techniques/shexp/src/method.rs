@@ -1,0 +1,1030 @@
+//! [`ShExpMethod`]: soft shadows of dynamic blockers by SH exponentiation
+//! behind the method interface ([`Relighter`], name `shexp`).
+//!
+//! # What it renders
+//! Per receiver vertex `p` with normal `N` (thesis §5.2.4):
+//! * **dynamic receivers** (objects with an animation at `prepare`):
+//!   `L_H(N) · g`, `L_H(N) = L ∗ H(N)` read bilinearly from a table over
+//!   normals (a corner-sampled octahedral grid of [`LH_TABLE_SIZE`]²), and
+//!   `g = exp(Σ_b log g_b)` over the blocker spheres of every *other* object;
+//! * **static receivers**: `(L ∗ T_p) · g_dyn` with `T_p = H(N_p)·g_static`
+//!   baked by ray tracing the static meshes (cosine-weighted stratified rays,
+//!   projected directly: `T_p = (1/K) Σ vis(s_k) y(s_k)`), and `g_dyn` the
+//!   exponentiated logs of the dynamic blockers only.
+//!
+//! A flat receiver with fewer than [`ShExpOptions::flat_receiver_vertices`]
+//! vertices (a ground quad) is refined by midpoint subdivision until it has
+//! at least that many, and the method shades and draws the refined mesh (the
+//! same surface): a per-vertex stand-in for the visibility texture of large
+//! flat receivers.
+//!
+//! Blockers are the sphere sets ([`crate::spheres`]) of every object that is
+//! not flat (a flat object — smallest box extent under 1 % of its largest —
+//! only receives). Each receiver object's vertices are grouped in clusters of
+//! about [`ShExpOptions::cluster_vertices`]; per cluster and frame the
+//! hierarchy of every other blocker is walked: a node whose largest possible
+//! half-angle seen from the cluster is under `min_angle` is dropped, one
+//! under `lod_angle` is used whole instead of its children (§5.2.4 culling),
+//! and per vertex a sphere entirely below the tangent plane is skipped.
+//!
+//! Blockers follow the scene's animated transforms: `render` takes the scene
+//! at the frame's time ([`Scene::at_time`]); each dynamic object's similarity
+//! transform since `prepare` is recovered from four reference vertices and
+//! moves its spheres and clusters. A static object that moved is an error
+//! (prepare again).
+//!
+//! Materials are shaded as diffuse: a Lambertian BRDF exactly; any other with
+//! its normal-incidence albedo, and [`Relighter::warnings`] says so.
+
+use crate::accumulate::{Scratch, add_blocker_log, mul_blocker_visibility, zonal_rotation_factors};
+use crate::exp::{ExpKind, Exponentiator, OlFit, SquaringHistogram};
+use crate::log_table::LogTable;
+use crate::shade::{irradiance_zonal, oct_decode, oct_encode};
+use crate::spheres::{FitOptions, Sphere, SphereSet, fit_spheres};
+use glam::{Affine3A, Mat3, Vec3};
+use rayon::prelude::*;
+use relight_geom::Mesh;
+use relight_render::method::{
+    FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
+    check_scene, coverage_of_raster,
+};
+use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
+use relight_render::{Image, Progress, Rng, Scene, SceneBvh};
+use relight_sh::product::TripleProduct;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+/// The method's name on the command line.
+pub const SHEXP_METHOD_NAME: &str = "shexp";
+
+/// Side of the `L_H(N)` table over normals.
+pub const LH_TABLE_SIZE: usize = 33;
+
+/// Largest SH order the method accepts.
+pub const MAX_SHEXP_ORDER: usize = 8;
+
+/// Settings of [`ShExpMethod`]; `Default` holds the defaults.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShExpOptions {
+    /// SH bands n (2..=[`MAX_SHEXP_ORDER`]). Default 4 (the thesis' scenes).
+    pub order: usize,
+    /// The exponential, or product accumulation. Default PS*-2 (Fig. 5.5).
+    pub exp: ExpKind,
+    /// Leaf spheres per blocker object. Default 32.
+    pub spheres: usize,
+    /// Receiver vertices per cluster. Default 512.
+    pub cluster_vertices: usize,
+    /// Blockers under this half-angle (degrees) from a cluster are dropped. Default 1°.
+    pub min_angle_deg: f32,
+    /// A hierarchy node under this half-angle is used instead of its children. Default 3°.
+    pub lod_angle_deg: f32,
+    /// Strata per side of the static self-shadowing bake (rays = side²). Default 12.
+    pub bake_strata: usize,
+    /// Flat receivers with fewer vertices are refined to at least this many
+    /// (0: never). Default 16 384.
+    pub flat_receiver_vertices: usize,
+}
+
+impl Default for ShExpOptions {
+    fn default() -> Self {
+        Self {
+            order: 4,
+            exp: ExpKind::PsStar(2),
+            spheres: 32,
+            cluster_vertices: 512,
+            min_angle_deg: 1.0,
+            lod_angle_deg: 3.0,
+            bake_strata: 12,
+            flat_receiver_vertices: 16_384,
+        }
+    }
+}
+
+/// One receiver cluster: an object's vertices and their bounding sphere
+/// (in the object's frame at `prepare`).
+#[derive(Clone, Debug)]
+struct Cluster {
+    object: usize,
+    vertices: Vec<u32>,
+    bound: Sphere,
+}
+
+/// Per object, what `prepare` built.
+#[derive(Debug)]
+struct ObjectState {
+    mesh: Arc<Mesh>,
+    /// The mesh shaded and drawn (a refined flat receiver, or `mesh`).
+    receiver: Arc<Mesh>,
+    dynamic: bool,
+    /// Sphere set at `prepare` (None: not a blocker).
+    spheres: Option<SphereSet>,
+    /// Reference vertices for the transform recovery.
+    refs: [u32; 4],
+    /// Diffuse albedo.
+    albedo: Vec3,
+    /// Static receivers: `T_p` per vertex (order² each).
+    transfer: Vec<f32>,
+    /// Static receivers: `L ∗ T_p`, RGB, per vertex (3·order² each).
+    lit_transfer: Vec<f32>,
+}
+
+struct State {
+    objects: Vec<ObjectState>,
+    clusters: Vec<Cluster>,
+    /// `L` (world frame), RGB, f64.
+    light: [Vec<f64>; 3],
+    /// `L_H(N)` over the octahedral grid, RGB interleaved per texel (3·order²).
+    lh_table: Vec<f32>,
+    colors: Vec<Vec<Vec3>>,
+    /// The meshes the last colours belong to (what `render` draws).
+    drawn: Vec<Arc<Mesh>>,
+    warnings: Vec<String>,
+}
+
+/// SH exponentiation soft shadows as a [`Relighter`] (module docs).
+pub struct ShExpMethod {
+    options: ShExpOptions,
+    table: Arc<LogTable>,
+    expo: Exponentiator<f32>,
+    state: Option<State>,
+    raster: Rasterizer,
+    histogram: SquaringHistogram,
+    pending_lighting_ms: f64,
+}
+
+impl std::fmt::Debug for ShExpMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ShExpMethod")
+            .field("options", &self.options)
+            .field("prepared", &self.state.is_some())
+            .finish_non_exhaustive()
+    }
+}
+
+fn invalid(option: &'static str, message: String) -> MethodError {
+    MethodError::InvalidOption {
+        method: SHEXP_METHOD_NAME,
+        option,
+        message,
+    }
+}
+
+fn failed(why: &str) -> MethodError {
+    MethodError::failed(
+        SHEXP_METHOD_NAME,
+        crate::ShExpError::InvalidParameter {
+            what: "scene",
+            why: why.to_string(),
+        },
+    )
+}
+
+/// A blocker sphere for one cluster, with its object.
+#[derive(Clone, Copy, Debug)]
+struct Blocker {
+    c: Vec3,
+    r: f32,
+}
+
+impl ShExpMethod {
+    /// A method with `options`.
+    ///
+    /// # Errors
+    /// [`MethodError::InvalidOption`] naming the option.
+    pub fn new(options: ShExpOptions) -> Result<Self, MethodError> {
+        if !(2..=MAX_SHEXP_ORDER).contains(&options.order) {
+            return Err(invalid(
+                "order",
+                format!("must be 2…{MAX_SHEXP_ORDER} (got {})", options.order),
+            ));
+        }
+        if options.spheres == 0 || options.cluster_vertices == 0 || options.bake_strata == 0 {
+            return Err(invalid(
+                "spheres",
+                "sphere, cluster and bake counts must be ≥ 1".into(),
+            ));
+        }
+        if !(options.min_angle_deg >= 0.0 && options.lod_angle_deg >= options.min_angle_deg) {
+            return Err(invalid(
+                "lod-angle",
+                format!(
+                    "need 0 ≤ min angle ({}) ≤ lod angle ({})",
+                    options.min_angle_deg, options.lod_angle_deg
+                ),
+            ));
+        }
+        let table = Arc::new(
+            LogTable::with_defaults(options.order).map_err(|e| invalid("order", e.to_string()))?,
+        );
+        let expo = Exponentiator::new(options.order, OlFit::fit(&table))
+            .map_err(|e| invalid("order", e.to_string()))?;
+        Ok(Self {
+            options,
+            table,
+            expo,
+            state: None,
+            raster: Rasterizer::new(),
+            histogram: SquaringHistogram::new(),
+            pending_lighting_ms: 0.0,
+        })
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &ShExpOptions {
+        &self.options
+    }
+
+    /// Squarings used by the exponentials since the last [`Self::take_histogram`].
+    pub fn take_histogram(&mut self) -> SquaringHistogram {
+        std::mem::replace(&mut self.histogram, SquaringHistogram::new())
+    }
+
+    /// Leaf spheres of every blocker object (as prepared), with the object index.
+    #[must_use]
+    pub fn sphere_sets(&self) -> Vec<(usize, &SphereSet)> {
+        self.state.as_ref().map_or(Vec::new(), |s| {
+            s.objects
+                .iter()
+                .enumerate()
+                .filter_map(|(i, o)| o.spheres.as_ref().map(|s| (i, s)))
+                .collect()
+        })
+    }
+
+    /// Number of receiver clusters.
+    #[must_use]
+    pub fn cluster_count(&self) -> usize {
+        self.state.as_ref().map_or(0, |s| s.clusters.len())
+    }
+
+    /// The last shaded per-vertex radiance of each object.
+    #[must_use]
+    pub fn vertex_colors(&self) -> &[Vec<Vec3>] {
+        self.state.as_ref().map_or(&[], |s| &s.colors)
+    }
+}
+
+/// Diffuse albedo of `brdf`: `π f(N, N)`, and whether it is Lambertian
+/// (constant over a few direction pairs).
+fn diffuse_albedo(brdf: &dyn relight_brdf::Brdf) -> (Vec3, bool) {
+    let n = Vec3::Z;
+    let f0 = brdf.eval(n, n);
+    let pairs = [
+        (Vec3::new(0.6, 0.0, 0.8), Vec3::new(-0.3, 0.4, 0.866)),
+        (Vec3::new(0.0, 0.8, 0.6), Vec3::new(0.8, 0.0, 0.6)),
+    ];
+    let lambert = pairs.iter().all(|(a, b)| {
+        (brdf.eval(*a, *b) - f0).abs().max_element() <= 1e-4 * (1.0 + f0.max_element())
+    });
+    if lambert {
+        return (f0 * std::f32::consts::PI, true);
+    }
+    // Directional albedo at normal incidence, by a fixed cosine-weighted grid.
+    let mut sum = Vec3::ZERO;
+    let k = 32;
+    for i in 0..k {
+        for j in 0..k {
+            let (u, v) = ((i as f32 + 0.5) / k as f32, (j as f32 + 0.5) / k as f32);
+            let r = u.sqrt();
+            let phi = 2.0 * std::f32::consts::PI * v;
+            let wi = Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u).max(0.0).sqrt());
+            sum += brdf.eval(n, wi) * std::f32::consts::PI;
+        }
+    }
+    ((sum / (k * k) as f32).min(Vec3::ONE), false)
+}
+
+/// Four well-spread vertex indices (for the similarity recovery).
+fn reference_vertices(p: &[Vec3]) -> [u32; 4] {
+    if p.is_empty() {
+        return [0; 4];
+    }
+    let far = |f: &dyn Fn(Vec3) -> f32| {
+        (0..p.len())
+            .max_by(|&a, &b| f(p[a]).total_cmp(&f(p[b])))
+            .unwrap_or(0) as u32
+    };
+    let a = 0u32;
+    let pa = p[0];
+    let b = far(&|q| q.distance_squared(pa));
+    let pb = p[b as usize];
+    let ab = (pb - pa).normalize_or_zero();
+    let c = far(&|q| (q - pa).reject_from_normalized(ab).length_squared());
+    let pc = p[c as usize];
+    let nrm = (pb - pa).cross(pc - pa).normalize_or_zero();
+    let d = far(&|q| (q - pa).dot(nrm).abs());
+    [a, b, c, d]
+}
+
+/// The similarity taking `old` to `new` (by the reference vertices): the map
+/// and its scale. Planar meshes use the normal as the third axis.
+fn recover_similarity(old: &Mesh, new: &Mesh, refs: [u32; 4]) -> Option<(Affine3A, f32)> {
+    let g = |m: &Mesh, i: u32| m.positions.get(i as usize).copied();
+    let (o0, o1, o2, o3) = (
+        g(old, refs[0])?,
+        g(old, refs[1])?,
+        g(old, refs[2])?,
+        g(old, refs[3])?,
+    );
+    let (n0, n1, n2, n3) = (
+        g(new, refs[0])?,
+        g(new, refs[1])?,
+        g(new, refs[2])?,
+        g(new, refs[3])?,
+    );
+    let (a1, a2) = (o1 - o0, o2 - o0);
+    let (b1, b2) = (n1 - n0, n2 - n0);
+    let mut a3 = o3 - o0;
+    let mut b3 = n3 - n0;
+    let vol = a1.cross(a2).dot(a3).abs();
+    if vol <= 1e-9 * a1.length().powi(3).max(1e-30) {
+        a3 = a1.cross(a2);
+        b3 = b1.cross(b2);
+        let s2 = b3.length() / a3.length().max(1e-30);
+        b3 /= s2.sqrt().max(1e-30);
+    }
+    let a = Mat3::from_cols(a1, a2, a3);
+    if a.determinant().abs() < 1e-20 {
+        return None;
+    }
+    let m = Mat3::from_cols(b1, b2, b3) * a.inverse();
+    let scale = m.determinant().abs().cbrt();
+    let t = n0 - m * o0;
+    Some((Affine3A::from_mat3_translation(m, t), scale))
+}
+
+/// Flat objects only receive.
+fn is_flat(mesh: &Mesh) -> bool {
+    mesh.bounds().is_none_or(|b| {
+        let e = b.extent();
+        e.min_element() < 0.01 * e.max_element()
+    })
+}
+
+/// Clusters of an object's vertices: k-means on positions.
+fn cluster_vertices(object: usize, mesh: &Mesh, per: usize) -> Vec<Cluster> {
+    let p = &mesh.positions;
+    if p.is_empty() {
+        return Vec::new();
+    }
+    let k = p.len().div_ceil(per).clamp(1, 256);
+    // Seeds: every (len/k)-th vertex, then Lloyd iterations.
+    let mut centers: Vec<Vec3> = (0..k).map(|i| p[i * p.len() / k]).collect();
+    let mut assign = vec![0u32; p.len()];
+    for _ in 0..6 {
+        assign.par_iter_mut().zip(p).for_each(|(a, q)| {
+            let mut best = (f32::MAX, 0u32);
+            for (j, c) in centers.iter().enumerate() {
+                let d = q.distance_squared(*c);
+                if d < best.0 {
+                    best = (d, j as u32);
+                }
+            }
+            *a = best.1;
+        });
+        let mut sum = vec![(Vec3::ZERO, 0u32); k];
+        for (a, q) in assign.iter().zip(p) {
+            sum[*a as usize].0 += *q;
+            sum[*a as usize].1 += 1;
+        }
+        for (c, s) in centers.iter_mut().zip(&sum) {
+            if s.1 > 0 {
+                *c = s.0 / s.1 as f32;
+            }
+        }
+    }
+    let mut groups = vec![Vec::new(); k];
+    for (v, a) in assign.iter().enumerate() {
+        groups[*a as usize].push(v as u32);
+    }
+    groups
+        .into_iter()
+        .zip(centers)
+        .filter(|(g, _)| !g.is_empty())
+        .map(|(vertices, c)| {
+            let r = vertices
+                .iter()
+                .map(|&v| p[v as usize].distance(c))
+                .fold(0.0f32, f32::max);
+            Cluster {
+                object,
+                vertices,
+                bound: Sphere {
+                    center: c.to_array(),
+                    radius: r,
+                },
+            }
+        })
+        .collect()
+}
+
+fn normals_of(mesh: &Mesh) -> Vec<Vec3> {
+    if mesh.normals.len() == mesh.positions.len() {
+        mesh.normals.clone()
+    } else {
+        mesh.smooth_normals()
+    }
+}
+
+/// Walks `set`'s hierarchy for a cluster bounded by `(cc, cr)` (culling rules
+/// in the module docs), pushing the spheres to use.
+fn gather(set: &SphereSet, cc: Vec3, cr: f32, sin_min: f32, sin_lod: f32, out: &mut Vec<Blocker>) {
+    let mut stack = [0u32; 64];
+    let mut top = 0;
+    if set.nodes.is_empty() {
+        return;
+    }
+    stack[0] = 0;
+    top += 1;
+    while top > 0 {
+        top -= 1;
+        let node = &set.nodes[stack[top] as usize];
+        let s = node.sphere;
+        let d = s.c().distance(cc) - cr;
+        // sin of the largest half-angle any point of the cluster sees.
+        let sin_max = if d <= s.radius { 1.0 } else { s.radius / d };
+        if sin_max < sin_min {
+            continue;
+        }
+        match node.children {
+            Some([a, b]) if sin_max >= sin_lod && top + 2 <= stack.len() => {
+                stack[top] = a;
+                stack[top + 1] = b;
+                top += 2;
+            }
+            _ => out.push(Blocker {
+                c: s.c(),
+                r: s.radius,
+            }),
+        }
+    }
+}
+
+impl ShExpMethod {
+    /// Projects the environment in world space by a product rule of degree
+    /// `4·order + 32` (the map is read bilinearly).
+    fn project_light(&self, scene: &Scene) -> [Vec<f64>; 3] {
+        let n = self.options.order;
+        let q = relight_sh::quadrature::SphereQuadrature::for_degree(4 * n + 60);
+        let mut out = [vec![0.0; n * n], vec![0.0; n * n], vec![0.0; n * n]];
+        let mut y = vec![0.0; n * n];
+        for (d, w) in q.dirs.iter().zip(&q.weights) {
+            let l = scene.env_radiance(d.as_vec3());
+            relight_sh::eval_sh_into(n, d.to_array(), &mut y);
+            for c in 0..3 {
+                let v = f64::from(l[c]) * w;
+                for (o, y) in out[c].iter_mut().zip(&y) {
+                    *o += v * y;
+                }
+            }
+        }
+        out
+    }
+
+    /// `L_H` over the octahedral grid and `L ∗ T_p` per static vertex.
+    fn light_tables(&self, state: &mut State) {
+        let n = self.options.order;
+        let nn = n * n;
+        let tp = TripleProduct::<f64>::new(n).expect("order checked in new");
+        let h = irradiance_zonal(n);
+        let m: Vec<nalgebra_free::Mat> = state
+            .light
+            .iter()
+            .map(|l| nalgebra_free::Mat::product_matrix(&tp, l))
+            .collect();
+        let size = LH_TABLE_SIZE;
+        let mut table = vec![0.0f32; size * size * 3 * nn];
+        table
+            .par_chunks_mut(3 * nn)
+            .enumerate()
+            .for_each(|(t, out)| {
+                let (i, j) = (t % size, t / size);
+                let uv = glam::Vec2::new(i as f32, j as f32) / (size - 1) as f32;
+                let nrm = oct_decode(uv).as_dvec3();
+                let mut hv = vec![0.0; nn];
+                relight_sh::rotation::rotate_zonal(n, &h, nrm.to_array(), &mut hv);
+                for c in 0..3 {
+                    let lh = m[c].apply(&hv);
+                    for k in 0..nn {
+                        out[c * nn + k] = lh[k] as f32;
+                    }
+                }
+            });
+        state.lh_table = table;
+        for o in &mut state.objects {
+            if o.transfer.is_empty() {
+                o.lit_transfer.clear();
+                continue;
+            }
+            let mut lt = vec![0.0f32; o.transfer.len() * 3];
+            lt.par_chunks_mut(3 * nn)
+                .zip(o.transfer.par_chunks(nn))
+                .for_each(|(out, t)| {
+                    let t: Vec<f64> = t.iter().map(|&v| f64::from(v)).collect();
+                    for c in 0..3 {
+                        let r = m[c].apply(&t);
+                        for k in 0..nn {
+                            out[c * nn + k] = r[k] as f32;
+                        }
+                    }
+                });
+            o.lit_transfer = lt;
+        }
+    }
+
+    /// Bakes `T_p = H(N_p)·g_static` for every static vertex of object `i`
+    /// against the static meshes.
+    fn bake_static(
+        &self,
+        bvh: &SceneBvh<'_>,
+        mesh: &Mesh,
+        seed: u64,
+        progress: &dyn Progress,
+    ) -> Result<Vec<f32>, MethodError> {
+        let n = self.options.order;
+        let nn = n * n;
+        let k = self.options.bake_strata;
+        let normals = normals_of(mesh);
+        let mut out = vec![0.0f32; mesh.positions.len() * nn];
+        let chunk = 1024;
+        for (ci, block) in out.chunks_mut(chunk * nn).enumerate() {
+            progress.check()?;
+            block.par_chunks_mut(nn).enumerate().for_each(|(vi, t)| {
+                let v = ci * chunk + vi;
+                let nrm = normals[v].normalize_or(Vec3::Y);
+                let frame = relight_sphere::Frame::from_z(nrm);
+                let o = relight_render::bvh::offset_ray_origin(mesh.positions[v], nrm);
+                let mut rng = Rng::new(seed, v as u64);
+                let mut y = vec![0.0f32; nn];
+                let w = 1.0 / (k * k) as f32;
+                for a in 0..k {
+                    for b in 0..k {
+                        let u = (a as f32 + rng.next_f32()) / k as f32;
+                        let s = (b as f32 + rng.next_f32()) / k as f32;
+                        let r = u.sqrt();
+                        let phi = 2.0 * std::f32::consts::PI * s;
+                        let local =
+                            Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u).max(0.0).sqrt());
+                        let d = frame.from_local(local).normalize();
+                        if bvh.occluded(o, d, f32::INFINITY) {
+                            continue;
+                        }
+                        relight_sh::eval_sh_into(n, d.to_array(), &mut y);
+                        for (t, y) in t.iter_mut().zip(&y) {
+                            *t += w * y;
+                        }
+                    }
+                }
+            });
+        }
+        Ok(out)
+    }
+
+    /// Shades every vertex of `scene` (as prepared, objects possibly moved by
+    /// their animation) into [`Self::vertex_colors`]; the per-frame shadow work.
+    ///
+    /// # Errors
+    /// Not prepared, other meshes than prepared, or a static object moved.
+    pub fn shade_vertices(&mut self, scene: &Scene) -> Result<(), MethodError> {
+        let opts = self.options;
+        let n = opts.order;
+        let nn = n * n;
+        let state = self
+            .state
+            .as_mut()
+            .ok_or_else(|| failed("call prepare before render"))?;
+        if scene.objects.len() != state.objects.len() {
+            return Err(failed(
+                "the objects changed since prepare; call prepare again",
+            ));
+        }
+        // Current transforms (prepare → now) of every object.
+        let mut moved: Vec<(Affine3A, f32)> = Vec::with_capacity(state.objects.len());
+        for (i, (o, so)) in scene.objects.iter().zip(&state.objects).enumerate() {
+            if Arc::ptr_eq(&o.mesh, &so.mesh) {
+                moved.push((Affine3A::IDENTITY, 1.0));
+                continue;
+            }
+            if o.mesh.positions.len() != so.mesh.positions.len() {
+                return Err(failed(&format!(
+                    "object {i} has another mesh than at prepare; call prepare again"
+                )));
+            }
+            let t = recover_similarity(&so.mesh, &o.mesh, so.refs)
+                .ok_or_else(|| failed(&format!("object {i}: cannot recover its motion")))?;
+            let still = t.0.matrix3.abs_diff_eq(glam::Mat3A::IDENTITY, 1e-5)
+                && t.0.translation.abs().max_element() < 1e-6;
+            if !so.dynamic && !still {
+                return Err(failed(&format!(
+                    "object {i} moved but was static at prepare (its shadows are baked); call prepare again"
+                )));
+            }
+            moved.push(t);
+        }
+        let sets: Vec<Option<SphereSet>> = state
+            .objects
+            .iter()
+            .zip(&moved)
+            .map(|(o, (m, s))| o.spheres.as_ref().map(|set| set.transformed(*m, *s)))
+            .collect();
+        let dynamic: Vec<bool> = state.objects.iter().map(|o| o.dynamic).collect();
+        // The receiver meshes now: the scene's, or the refined mesh moved.
+        let receivers: Vec<Arc<Mesh>> = state
+            .objects
+            .iter()
+            .zip(&scene.objects)
+            .zip(&moved)
+            .map(|((so, o), (m, _))| {
+                if Arc::ptr_eq(&so.receiver, &so.mesh) {
+                    o.mesh.clone()
+                } else if *m == Affine3A::IDENTITY {
+                    so.receiver.clone()
+                } else {
+                    Arc::new((*so.receiver).clone().transformed(*m))
+                }
+            })
+            .collect();
+        let visibility = scene.visibility;
+        let (sin_min, sin_lod) = (
+            opts.min_angle_deg.to_radians().sin(),
+            opts.lod_angle_deg.to_radians().sin(),
+        );
+        let table = &*self.table;
+        let factors = zonal_rotation_factors(n);
+        let hist = Mutex::new(SquaringHistogram::new());
+        let mut colors: Vec<Vec<Vec3>> = receivers
+            .iter()
+            .map(|m| vec![Vec3::ZERO; m.positions.len()])
+            .collect();
+        // Per cluster: blockers, then its vertices' colours.
+        let results: Vec<Vec<(u32, Vec3)>> = state
+            .clusters
+            .par_iter()
+            .map_init(
+                || {
+                    (
+                        Scratch::new(n),
+                        self.expo.clone(),
+                        Vec::new(),
+                        vec![0.0f32; nn],
+                        vec![0.0f32; nn],
+                    )
+                },
+                |(scr, expo, blockers, f, g), cl| {
+                    let obj = cl.object;
+                    let (m, s) = moved[obj];
+                    let cc = m.transform_point3(cl.bound.c());
+                    let cr = cl.bound.radius * s;
+                    blockers.clear();
+                    if visibility {
+                        for (b, set) in sets.iter().enumerate() {
+                            let Some(set) = set else { continue };
+                            // Never the receiver's own spheres; static receivers
+                            // have the static blockers baked in.
+                            if b == obj || (!dynamic[obj] && !dynamic[b]) {
+                                continue;
+                            }
+                            gather(set, cc, cr, sin_min, sin_lod, blockers);
+                        }
+                    }
+                    let mesh = &receivers[obj];
+                    let so = &state.objects[obj];
+                    let mut local = SquaringHistogram::new();
+                    let out: Vec<(u32, Vec3)> = cl
+                        .vertices
+                        .iter()
+                        .map(|&v| {
+                            let p = mesh.positions[v as usize];
+                            let nrm = mesh
+                                .normals
+                                .get(v as usize)
+                                .copied()
+                                .unwrap_or(Vec3::Y)
+                                .normalize_or(Vec3::Y);
+                            let any = blockers.iter().any(|b| (b.c - p).dot(nrm) > -b.r);
+                            let product = opts.exp == ExpKind::Product;
+                            if any {
+                                f.fill(0.0);
+                                if product {
+                                    f[0] = (4.0 * std::f32::consts::PI).sqrt();
+                                }
+                                for b in blockers.iter() {
+                                    let d = b.c - p;
+                                    if d.dot(nrm) <= -b.r {
+                                        continue;
+                                    }
+                                    let dist = d.length();
+                                    let (theta, dir) = if dist <= b.r {
+                                        (
+                                            std::f32::consts::FRAC_PI_2,
+                                            if dist > 0.0 { d / dist } else { nrm },
+                                        )
+                                    } else {
+                                        ((b.r / dist).asin(), d / dist)
+                                    };
+                                    if product {
+                                        mul_blocker_visibility(
+                                            expo.tensor(),
+                                            &factors,
+                                            theta,
+                                            dir.to_array(),
+                                            scr,
+                                            f,
+                                        );
+                                    } else {
+                                        add_blocker_log(
+                                            table,
+                                            &factors,
+                                            theta,
+                                            dir.to_array(),
+                                            scr,
+                                            f,
+                                        );
+                                    }
+                                }
+                                let (sq, capped) = expo.exp(opts.exp, f, g);
+                                local.counts[sq as usize] += 1;
+                                local.capped += u64::from(capped);
+                            } else {
+                                g.fill(0.0);
+                                g[0] = (4.0 * std::f32::consts::PI).sqrt();
+                            }
+                            let rgb = if so.lit_transfer.is_empty() {
+                                lh_dot(&state.lh_table, nn, nrm, g)
+                            } else {
+                                let lt = &so.lit_transfer
+                                    [v as usize * 3 * nn..(v as usize + 1) * 3 * nn];
+                                Vec3::new(
+                                    dot(&lt[..nn], g),
+                                    dot(&lt[nn..2 * nn], g),
+                                    dot(&lt[2 * nn..], g),
+                                )
+                            };
+                            (v, (rgb * so.albedo).max(Vec3::ZERO))
+                        })
+                        .collect();
+                    hist.lock().expect("histogram lock").merge(&local);
+                    out
+                },
+            )
+            .collect();
+        for (cl, r) in state.clusters.iter().zip(results) {
+            for (v, c) in r {
+                colors[cl.object][v as usize] = c;
+            }
+        }
+        state.colors = colors;
+        state.drawn = receivers;
+        self.histogram
+            .merge(&hist.into_inner().expect("histogram lock"));
+        Ok(())
+    }
+}
+
+#[inline]
+fn dot(a: &[f32], b: &[f32]) -> f32 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `L_H(N) · g` by bilinear lookup in the octahedral table.
+#[inline]
+fn lh_dot(table: &[f32], nn: usize, nrm: Vec3, g: &[f32]) -> Vec3 {
+    let size = LH_TABLE_SIZE;
+    let uv = oct_encode(nrm) * (size - 1) as f32;
+    let (i, j) = ((uv.x as usize).min(size - 2), (uv.y as usize).min(size - 2));
+    let (fx, fy) = (uv.x - i as f32, uv.y - j as f32);
+    let mut out = Vec3::ZERO;
+    for (di, dj, w) in [
+        (0, 0, (1.0 - fx) * (1.0 - fy)),
+        (1, 0, fx * (1.0 - fy)),
+        (0, 1, (1.0 - fx) * fy),
+        (1, 1, fx * fy),
+    ] {
+        let t = &table[((j + dj) * size + i + di) * 3 * nn..][..3 * nn];
+        out += w * Vec3::new(
+            dot(&t[..nn], g),
+            dot(&t[nn..2 * nn], g),
+            dot(&t[2 * nn..], g),
+        );
+    }
+    out
+}
+
+/// A dense product matrix without nalgebra in the hot path.
+mod nalgebra_free {
+    use relight_sh::product::TripleProduct;
+
+    pub struct Mat {
+        n: usize,
+        m: Vec<f64>,
+    }
+
+    impl Mat {
+        /// `(M_f)_{ij} = Σ_k Γ_{ijk} f_k` (eq. 5.10).
+        pub fn product_matrix(tp: &TripleProduct<f64>, f: &[f64]) -> Self {
+            let m = tp.product_matrix(f);
+            let n = m.nrows();
+            Self {
+                n,
+                m: (0..n * n).map(|k| m[(k / n, k % n)]).collect(),
+            }
+        }
+
+        pub fn apply(&self, v: &[f64]) -> Vec<f64> {
+            (0..self.n)
+                .map(|i| (0..self.n).map(|j| self.m[i * self.n + j] * v[j]).sum())
+                .collect()
+        }
+    }
+}
+
+impl Relighter for ShExpMethod {
+    fn name(&self) -> &'static str {
+        SHEXP_METHOD_NAME
+    }
+
+    fn supports(&self, feature: SceneFeature) -> Support {
+        match feature {
+            SceneFeature::Environment | SceneFeature::Visibility => Support::Full,
+            SceneFeature::PointLights
+            | SceneFeature::AreaLights
+            | SceneFeature::Medium
+            | SceneFeature::NormalMaps
+            | SceneFeature::SpatiallyVaryingBrdf => Support::No,
+        }
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.state
+            .as_ref()
+            .map_or(Vec::new(), |s| s.warnings.clone())
+    }
+
+    fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
+        check_scene(self, scene, false)?;
+        let opts = self.options;
+        let mut warnings = Vec::new();
+        let mut objects = Vec::with_capacity(scene.objects.len());
+        for (i, o) in scene.objects.iter().enumerate() {
+            progress.check()?;
+            let (albedo, lambert) = diffuse_albedo(o.brdf.as_ref());
+            if !lambert {
+                warnings.push(format!(
+                    "shexp: object {i}: its BRDF is not Lambertian; shaded as diffuse with albedo ({:.2}, {:.2}, {:.2})",
+                    albedo.x, albedo.y, albedo.z
+                ));
+            }
+            let spheres = if is_flat(&o.mesh) || o.mesh.indices.is_empty() {
+                None
+            } else {
+                Some(
+                    fit_spheres(
+                        &o.mesh,
+                        &FitOptions {
+                            spheres: opts.spheres,
+                            ..FitOptions::default()
+                        },
+                    )
+                    .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?,
+                )
+            };
+            let mut receiver = o.mesh.clone();
+            if is_flat(&o.mesh) && opts.flat_receiver_vertices > 0 {
+                let mut m = (*o.mesh).clone();
+                while m.positions.len() < opts.flat_receiver_vertices && !m.indices.is_empty() {
+                    m = m.subdivide_midpoint();
+                }
+                if m.normals.len() != m.positions.len() {
+                    m.normals = m.smooth_normals();
+                }
+                receiver = Arc::new(m);
+            }
+            objects.push(ObjectState {
+                mesh: o.mesh.clone(),
+                receiver,
+                dynamic: o.animation.is_some(),
+                spheres,
+                refs: reference_vertices(&o.mesh.positions),
+                albedo,
+                transfer: Vec::new(),
+                lit_transfer: Vec::new(),
+            });
+        }
+        // Static self-shadowing against the static meshes.
+        if scene.visibility {
+            let statics: Vec<&Mesh> = scene
+                .objects
+                .iter()
+                .filter(|o| o.animation.is_none())
+                .map(|o| o.mesh.as_ref())
+                .collect();
+            let bvh = SceneBvh::build(&statics);
+            for (i, o) in objects.iter_mut().enumerate() {
+                if !o.dynamic {
+                    let r = o.receiver.clone();
+                    o.transfer = self.bake_static(&bvh, &r, 0x5e0 + i as u64, progress)?;
+                }
+            }
+        }
+        let clusters: Vec<Cluster> = objects
+            .iter()
+            .enumerate()
+            .flat_map(|(i, o)| cluster_vertices(i, &o.receiver, opts.cluster_vertices))
+            .collect();
+        let nn = opts.order * opts.order;
+        self.state = Some(State {
+            objects,
+            clusters,
+            light: [vec![0.0; nn], vec![0.0; nn], vec![0.0; nn]],
+            lh_table: Vec::new(),
+            colors: Vec::new(),
+            drawn: Vec::new(),
+            warnings,
+        });
+        self.set_lighting(scene, progress)?;
+        Ok(())
+    }
+
+    fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError> {
+        let t = Instant::now();
+        progress.check()?;
+        let light = self.project_light(scene);
+        let mut state = self
+            .state
+            .take()
+            .ok_or_else(|| failed("call prepare before set_lighting"))?;
+        state.light = light;
+        self.light_tables(&mut state);
+        self.state = Some(state);
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        self.pending_lighting_ms = ms;
+        Ok(ms)
+    }
+
+    fn render(
+        &mut self,
+        scene: &Scene,
+        request: &FrameRequest,
+        progress: &dyn Progress,
+    ) -> Result<Rendered, MethodError> {
+        request.validate(SHEXP_METHOD_NAME)?;
+        let t = Instant::now();
+        progress.check()?;
+        self.shade_vertices(scene)?;
+        let k = request.aa;
+        let (w, h) = (request.camera.width, request.camera.height);
+        let mut camera = request.camera;
+        camera.width *= k;
+        camera.height *= k;
+        let state = self
+            .state
+            .as_ref()
+            .ok_or_else(|| failed("call prepare before render"))?;
+        let draws: Vec<DrawCall> = state
+            .drawn
+            .iter()
+            .enumerate()
+            .map(|(i, m)| DrawCall::new(&m.positions, &m.indices).with_object_id(i as u32))
+            .collect();
+        let ropts = RasterOptions::default().fit_depth(&camera, &draws);
+        let refs: Vec<&[Vec3]> = state.colors.iter().map(|c| &c[..]).collect();
+        let env_from_world = scene.world_from_env.transpose();
+        let bg = |d: Vec3| scene.env.eval(env_from_world * d);
+        let background = if k > 1 {
+            Background::Environment(&bg)
+        } else {
+            Background::Color(Vec3::ZERO)
+        };
+        let mut frame = Image::new(camera.width, camera.height);
+        self.raster
+            .render_gouraud(&camera, &draws, &refs, background, &ropts, &mut frame)
+            .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?;
+        let image = if k == 1 {
+            frame
+        } else {
+            frame.box_downsample(k)
+        };
+        let coverage = coverage_of_raster(&self.raster, w, h, k);
+        Ok(Rendered {
+            image,
+            coverage: Some(coverage),
+            timings: FrameTimings {
+                lighting_ms: std::mem::take(&mut self.pending_lighting_ms),
+                view_ms: t.elapsed().as_secs_f64() * 1e3,
+            },
+            noise: None,
+        })
+    }
+
+    fn data_bytes(&self) -> u64 {
+        let s = self.state.as_ref().map_or(0, |s| {
+            s.lh_table.len() * 4
+                + s.objects
+                    .iter()
+                    .map(|o| (o.transfer.len() + o.lit_transfer.len()) * 4)
+                    .sum::<usize>()
+        });
+        (s + self.table.bytes()) as u64
+    }
+}
