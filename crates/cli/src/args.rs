@@ -21,7 +21,7 @@ pub enum Command {
     /// Render the embedded scene (no files needed) with the reference and every
     /// real-time method, side by side in one labelled image: ms per frame and
     /// error against the reference.
-    Demo(DemoArgs),
+    Demo(Box<DemoArgs>),
     /// Render a scene file, or a mesh under an environment map.
     Render(Box<RenderArgs>),
     /// Interactive window: drag to orbit, right-drag to turn the lighting,
@@ -179,11 +179,17 @@ pub struct MethodFlags {
     /// (single scattering only, the fog model's classes) [default: multiple].
     #[arg(long, value_enum)]
     pub scattering: Option<Scattering>,
-    /// SH order, number of bands (sh; fog's environment part) [default: 6].
+    /// SH order, number of bands (sh; fog's environment part; radiance-cache
+    /// records) [default: 6].
     #[arg(long)]
     pub order: Option<usize>,
+    /// Allowed error a of the radiance cache's interpolation criterion
+    /// w_i(p) > 1/a, in (0, 1] (radiance-cache) [default: 0.2].
+    #[arg(long)]
+    pub error: Option<f32>,
     /// Per-pixel SH rotation (sh): exact, zyz, taylor1, taylor15, taylor2, none
-    /// [default: zyz].
+    /// [default: zyz]; the radiance cache's aligning rotation: ignore, taylor1,
+    /// taylor15, taylor2, zyz, ivanic [default: taylor15].
     #[arg(long)]
     pub rotation: Option<String>,
     /// Ringing window of each BRDF's SH transfer (sh): none, hann, lanczos,
@@ -251,6 +257,9 @@ pub enum Method {
     Wavelet,
     /// Analytic single-scattering fog: point lights and the foggy environment.
     Fog,
+    /// Radiance caching: reference direct light plus indirect light from
+    /// rotation-aligned SH records.
+    RadianceCache,
 }
 
 #[derive(Args, Debug)]
@@ -428,6 +437,8 @@ pub enum Suite {
     Wavelet,
     /// Analytic fog shading.
     Fog,
+    /// Radiance cache: time per aligning rotation by method (Table 1).
+    RadianceCache,
 }
 
 #[derive(Args, Debug)]
@@ -462,6 +473,8 @@ pub enum VerifySuite {
     Fog,
     /// Every method on a matrix of scenes against one reference.
     Methods,
+    /// The radiance cache's indirect light against the GI reference.
+    RadianceCache,
 }
 
 #[derive(Args, Debug)]

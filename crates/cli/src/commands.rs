@@ -25,7 +25,7 @@ use std::time::Instant;
 pub fn run(cli: Cli) -> Result<()> {
     let bar = Bar::new(cli.quiet);
     match cli.command {
-        Command::Demo(a) => demo(a, &bar),
+        Command::Demo(a) => demo(*a, &bar),
         Command::Render(a) => render(*a, &bar),
         Command::View(a) => view(*a, &bar),
         Command::Info { files } => info(&files),
@@ -312,6 +312,7 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
     }
     match a.suite {
         Suite::Frames => crate::bench_frames::run(&a, bar),
+        Suite::RadianceCache => crate::radcache::bench(a.quick, &report, bar),
         Suite::Raster => {
             let rows = if a.quick {
                 relight_render::raster::bench_raster(100_000, 640, 360, 3)
@@ -506,6 +507,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
     };
     match a.suite {
         VerifySuite::Methods => crate::verify_methods::verify_methods(&a, &report, bar),
+        VerifySuite::RadianceCache => crate::radcache::verify(a.quick, &report, bar),
         VerifySuite::Sh => {
             let opts = relight_shlight::VerifyOptions::new(a.quick);
             let default = relight_scene::default_scene(opts.width, opts.height);

@@ -17,16 +17,24 @@ pub fn kind_of(m: Method) -> MethodKind {
         Method::Sh => MethodKind::Sh,
         Method::Wavelet => MethodKind::Wavelet,
         Method::Fog => MethodKind::Fog,
+        Method::RadianceCache => MethodKind::RadianceCache,
     }
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 12] = [
-    ("--spp", &[MethodKind::Reference]),
-    ("--seed", &[MethodKind::Reference]),
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 13] = [
+    ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
+    (
+        "--seed",
+        &[MethodKind::Reference, MethodKind::RadianceCache],
+    ),
     ("--scattering", &[MethodKind::Reference]),
-    ("--order", &[MethodKind::Sh, MethodKind::Fog]),
-    ("--rotation", &[MethodKind::Sh]),
+    (
+        "--order",
+        &[MethodKind::Sh, MethodKind::Fog, MethodKind::RadianceCache],
+    ),
+    ("--error", &[MethodKind::RadianceCache]),
+    ("--rotation", &[MethodKind::Sh, MethodKind::RadianceCache]),
     ("--window", &[MethodKind::Sh]),
     ("--n", &[MethodKind::Wavelet]),
     ("--ntess", &[MethodKind::Wavelet]),
@@ -43,6 +51,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.seed.is_some(),
         f.scattering.is_some(),
         f.order.is_some(),
+        f.error.is_some(),
         f.rotation.is_some(),
         f.window.is_some(),
         f.n.is_some(),
@@ -96,7 +105,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
     }
     clear!(
         spp => "--spp", seed => "--seed", scattering => "--scattering", order => "--order",
-        rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
+        error => "--error", rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
         ao => "--ao", cache => "--cache", fog => "--fog",
     );
 }
@@ -151,6 +160,23 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
             if let Some(c) = &f.cache {
                 w.cache_dir = c.clone();
+            }
+        }
+        MethodOptions::RadianceCache(c) => {
+            if let Some(spp) = f.spp {
+                c.spp = spp;
+            }
+            if let Some(seed) = f.seed {
+                c.seed = seed;
+            }
+            if let Some(order) = f.order {
+                c.order = order;
+            }
+            if let Some(a) = f.error {
+                c.error = a;
+            }
+            if let Some(r) = &f.rotation {
+                c.rotation = r.parse().map_err(|e| anyhow!("--rotation {r}: {e}"))?;
             }
         }
         MethodOptions::Fog(g) => {

@@ -15,6 +15,7 @@
 pub mod verify;
 
 use relight_fog::{FogOptions, FogRelighter};
+use relight_radcache::{RadianceCacheOptions, RadianceCacheRelighter};
 use relight_render::method::{MethodError, Relighter, SceneFeature, Support};
 use relight_render::reference::{ReferenceOptions, ReferenceRenderer};
 use relight_shlight::{ShMethod, ShOptions};
@@ -33,11 +34,20 @@ pub enum MethodKind {
     Wavelet,
     /// Analytic single-scattering fog with point lights and a foggy environment.
     Fog,
+    /// Radiance caching: GI reference direct light plus indirect light
+    /// interpolated from rotation-aligned SH records.
+    RadianceCache,
 }
 
 impl MethodKind {
     /// Every method, the reference first.
-    pub const ALL: [MethodKind; 4] = [Self::Reference, Self::Sh, Self::Wavelet, Self::Fog];
+    pub const ALL: [MethodKind; 5] = [
+        Self::Reference,
+        Self::Sh,
+        Self::Wavelet,
+        Self::Fog,
+        Self::RadianceCache,
+    ];
 
     /// The name on the command line.
     #[must_use]
@@ -47,6 +57,7 @@ impl MethodKind {
             Self::Sh => "sh",
             Self::Wavelet => "wavelet",
             Self::Fog => "fog",
+            Self::RadianceCache => "radiance-cache",
         }
     }
 }
@@ -77,6 +88,7 @@ pub enum MethodOptions {
     Sh(ShOptions),
     Wavelet(WaveletOptions),
     Fog(FogOptions),
+    RadianceCache(RadianceCacheOptions),
 }
 
 impl MethodOptions {
@@ -88,6 +100,7 @@ impl MethodOptions {
             MethodKind::Sh => Self::Sh(ShOptions::default()),
             MethodKind::Wavelet => Self::Wavelet(WaveletOptions::default()),
             MethodKind::Fog => Self::Fog(FogOptions::default()),
+            MethodKind::RadianceCache => Self::RadianceCache(RadianceCacheOptions::default()),
         }
     }
 
@@ -99,6 +112,7 @@ impl MethodOptions {
             Self::Sh(_) => MethodKind::Sh,
             Self::Wavelet(_) => MethodKind::Wavelet,
             Self::Fog(_) => MethodKind::Fog,
+            Self::RadianceCache(_) => MethodKind::RadianceCache,
         }
     }
 }
@@ -113,6 +127,7 @@ pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError
         MethodOptions::Sh(o) => Box::new(ShMethod::new(*o)?),
         MethodOptions::Wavelet(o) => Box::new(WaveletMethod::new(o.clone())?),
         MethodOptions::Fog(o) => Box::new(FogRelighter::new(*o)?),
+        MethodOptions::RadianceCache(o) => Box::new(RadianceCacheRelighter::new(*o)?),
     })
 }
 

@@ -64,7 +64,10 @@ impl VerifyMethodsOptions {
             aa: 4,
             methods: MethodKind::ALL
                 .into_iter()
-                .filter(|k| *k != MethodKind::Reference)
+                // The radiance cache adds interreflection, which the default
+                // reference leaves out: `verify radiance-cache` judges it
+                // against the GI reference instead.
+                .filter(|k| !matches!(k, MethodKind::Reference | MethodKind::RadianceCache))
                 .map(MethodOptions::default_for)
                 .collect(),
         }

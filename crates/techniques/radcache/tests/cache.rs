@@ -135,3 +135,43 @@ fn bad_options_name_their_flag() {
         Ok(RotationMethod::Taylor15)
     );
 }
+
+#[test]
+fn lambert_table_reflects_uniform_light_by_its_albedo() {
+    let b = relight_brdf::Lambert::new(Vec3::new(0.2, 0.5, 0.8)).unwrap();
+    for order in [6, 10] {
+        let t = relight_radcache::brdf_sh::BrdfSh::new(&b, order);
+        let nn = order * order;
+        // Uniform radiance 1 over the sphere: λ₀₀ = 2√π, all else 0.
+        let mut lambda = vec![0.0f32; 3 * nn];
+        for c in 0..3 {
+            lambda[c * nn] = 2.0 * std::f32::consts::PI.sqrt();
+        }
+        for cos in [1.0, 0.7, 0.2] {
+            let l = t.shade(cos, &lambda);
+            assert!(
+                (l - Vec3::new(0.2, 0.5, 0.8)).abs().max_element() < 2e-3,
+                "order {order} cos {cos}: {l}"
+            );
+        }
+    }
+}
+
+#[test]
+fn images_do_not_depend_on_the_thread_count() {
+    let scene = glossy_scene(16, 12);
+    let tables = brdf_tables(&scene, 6);
+    let o = opts(0.3, RotationMethod::Taylor15);
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                render_radiance_cache(&scene, &scene.camera, &o, &tables, 0, &NoProgress).unwrap()
+            })
+    };
+    let (a, b) = (run(1), run(3));
+    assert_eq!(a.stats.records, b.stats.records);
+    assert_eq!(a.indirect.pixels, b.indirect.pixels);
+}
