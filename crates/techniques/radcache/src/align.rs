@@ -15,6 +15,9 @@ pub struct Aligner {
     ivanic: IvanicRuedenberg<f32>,
     matrix: ShRotation<f32>,
     scratch: Vec<f32>,
+    /// `relight_sh`'s fused matrix-form Taylor kernels run here (AVX-512F):
+    /// hand them the matrix; elsewhere decompose once for all three channels.
+    fused: bool,
 }
 
 impl Aligner {
@@ -38,6 +41,7 @@ impl Aligner {
             ivanic: IvanicRuedenberg::new(order)?,
             matrix: ShRotation::identity(order)?,
             scratch: vec![0.0; order * order],
+            fused: avx512f(),
         })
     }
 
@@ -54,13 +58,25 @@ impl Aligner {
             RotationMethod::Taylor1 | RotationMethod::Taylor15 | RotationMethod::Taylor2 => {
                 let t = self.taylor.as_ref().expect("Taylor plan");
                 let mut exact = false;
-                for c in 0..3 {
-                    exact |= !t.apply(
-                        rot,
-                        &src[c * nn..(c + 1) * nn],
-                        &mut dst[c * nn..(c + 1) * nn],
-                        &mut self.scratch,
-                    );
+                if self.fused {
+                    for c in 0..3 {
+                        exact |= !t.apply(
+                            rot,
+                            &src[c * nn..(c + 1) * nn],
+                            &mut dst[c * nn..(c + 1) * nn],
+                            &mut self.scratch,
+                        );
+                    }
+                } else {
+                    let e = rot.euler_zyz();
+                    for c in 0..3 {
+                        exact |= !t.apply_euler(
+                            &e,
+                            &src[c * nn..(c + 1) * nn],
+                            &mut dst[c * nn..(c + 1) * nn],
+                            &mut self.scratch,
+                        );
+                    }
                 }
                 exact
             }
@@ -85,5 +101,17 @@ impl Aligner {
                 false
             }
         }
+    }
+}
+
+/// True where `relight_sh`'s AVX-512F kernels run (detected at run time).
+fn avx512f() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx512f")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
