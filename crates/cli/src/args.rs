@@ -182,12 +182,17 @@ pub struct MethodFlags {
     /// (single scattering only, the fog model's classes) [default: multiple].
     #[arg(long, value_enum)]
     pub scattering: Option<Scattering>,
-    /// SH order, number of bands (sh; fog's environment part) [default: 6;
-    /// shexp: 4].
+    /// SH order, number of bands (sh; fog's environment part; radiance-cache
+    /// records) [default: 6; shexp: 4].
     #[arg(long)]
     pub order: Option<usize>,
+    /// Allowed error a of the radiance cache's interpolation criterion
+    /// w_i(p) > 1/a, in (0, 1] (radiance-cache) [default: 0.2].
+    #[arg(long)]
+    pub error: Option<f32>,
     /// Per-pixel SH rotation (sh): exact, zyz, taylor1, taylor15, taylor2, none
-    /// [default: zyz].
+    /// [default: zyz]; the radiance cache's aligning rotation: ignore, taylor1,
+    /// taylor15, taylor2, zyz, ivanic [default: taylor15].
     #[arg(long)]
     pub rotation: Option<String>,
     /// Ringing window of each BRDF's SH transfer (sh): none, hann, lanczos,
@@ -264,6 +269,9 @@ pub enum Method {
     Fog,
     /// Soft shadows of dynamic blockers by SH exponentiation (sphere sets).
     Shexp,
+    /// Radiance caching: reference direct light plus indirect light from
+    /// rotation-aligned SH records.
+    RadianceCache,
 }
 
 #[derive(Args, Debug)]
@@ -452,6 +460,8 @@ pub enum Suite {
     Fog,
     /// SH exponentiation shadows: Fig. 5.5 table, thesis-like scenes, sphere fitting.
     Shexp,
+    /// Radiance cache: time per aligning rotation by method (Table 1).
+    RadianceCache,
 }
 
 #[derive(Args, Debug)]
@@ -488,6 +498,8 @@ pub enum VerifySuite {
     Methods,
     /// SH exponentiation shadows: log table, round trips, log vs product, images.
     Shexp,
+    /// The radiance cache's indirect light against the GI reference.
+    RadianceCache,
 }
 
 #[derive(Args, Debug)]

@@ -315,6 +315,7 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
     match a.suite {
         Suite::Frames => crate::bench_frames::run(&a, bar),
         Suite::Shexp => crate::shexp::bench(&a, &report),
+        Suite::RadianceCache => crate::radcache::bench(a.quick, &report, bar),
         Suite::Raster => {
             let rows = if a.quick {
                 relight_render::raster::bench_raster(100_000, 640, 360, 3)
@@ -510,6 +511,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
     match a.suite {
         VerifySuite::Methods => crate::verify_methods::verify_methods(&a, &report, bar),
         VerifySuite::Shexp => crate::shexp::verify(&a, &report),
+        VerifySuite::RadianceCache => crate::radcache::verify(a.quick, &report, bar),
         VerifySuite::Sh => {
             let opts = relight_shlight::VerifyOptions::new(a.quick);
             let default = relight_scene::default_scene(opts.width, opts.height);

@@ -15,6 +15,7 @@ mod output;
 mod parse;
 mod plot;
 mod progress;
+mod radcache;
 mod render_cmd;
 mod scene_args;
 mod shexp;

@@ -18,19 +18,29 @@ pub fn kind_of(m: Method) -> MethodKind {
         Method::Wavelet => MethodKind::Wavelet,
         Method::Fog => MethodKind::Fog,
         Method::Shexp => MethodKind::ShExp,
+        Method::RadianceCache => MethodKind::RadianceCache,
     }
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 14] = [
-    ("--spp", &[MethodKind::Reference]),
-    ("--seed", &[MethodKind::Reference]),
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 15] = [
+    ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
+    (
+        "--seed",
+        &[MethodKind::Reference, MethodKind::RadianceCache],
+    ),
     ("--scattering", &[MethodKind::Reference]),
     (
         "--order",
-        &[MethodKind::Sh, MethodKind::Fog, MethodKind::ShExp],
+        &[
+            MethodKind::Sh,
+            MethodKind::Fog,
+            MethodKind::ShExp,
+            MethodKind::RadianceCache,
+        ],
     ),
-    ("--rotation", &[MethodKind::Sh]),
+    ("--error", &[MethodKind::RadianceCache]),
+    ("--rotation", &[MethodKind::Sh, MethodKind::RadianceCache]),
     ("--window", &[MethodKind::Sh]),
     ("--n", &[MethodKind::Wavelet]),
     ("--ntess", &[MethodKind::Wavelet]),
@@ -49,6 +59,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.seed.is_some(),
         f.scattering.is_some(),
         f.order.is_some(),
+        f.error.is_some(),
         f.rotation.is_some(),
         f.window.is_some(),
         f.n.is_some(),
@@ -104,7 +115,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
     }
     clear!(
         spp => "--spp", seed => "--seed", scattering => "--scattering", order => "--order",
-        rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
+        error => "--error", rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
         ao => "--ao", cache => "--cache", fog => "--fog", exp => "--exp", spheres => "--spheres",
     );
 }
@@ -170,6 +181,23 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
             if let Some(k) = f.spheres {
                 x.spheres = k;
+            }
+        }
+        MethodOptions::RadianceCache(c) => {
+            if let Some(spp) = f.spp {
+                c.spp = spp;
+            }
+            if let Some(seed) = f.seed {
+                c.seed = seed;
+            }
+            if let Some(order) = f.order {
+                c.order = order;
+            }
+            if let Some(a) = f.error {
+                c.error = a;
+            }
+            if let Some(r) = &f.rotation {
+                c.rotation = r.parse().map_err(|e| anyhow!("--rotation {r}: {e}"))?;
             }
         }
         MethodOptions::Fog(g) => {

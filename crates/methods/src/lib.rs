@@ -15,6 +15,7 @@
 pub mod verify;
 
 use relight_fog::{FogOptions, FogRelighter};
+use relight_radcache::{RadianceCacheOptions, RadianceCacheRelighter};
 use relight_render::method::{MethodError, Relighter, SceneFeature, Support};
 use relight_render::reference::{ReferenceOptions, ReferenceRenderer};
 use relight_shexp::{ShExpMethod, ShExpOptions};
@@ -36,16 +37,20 @@ pub enum MethodKind {
     Fog,
     /// Soft shadows of dynamic sphere-set blockers by SH exponentiation.
     ShExp,
+    /// Radiance caching: GI reference direct light plus indirect light
+    /// interpolated from rotation-aligned SH records.
+    RadianceCache,
 }
 
 impl MethodKind {
     /// Every method, the reference first.
-    pub const ALL: [MethodKind; 5] = [
+    pub const ALL: [MethodKind; 6] = [
         Self::Reference,
         Self::Sh,
         Self::Wavelet,
         Self::Fog,
         Self::ShExp,
+        Self::RadianceCache,
     ];
 
     /// The name on the command line.
@@ -57,6 +62,7 @@ impl MethodKind {
             Self::Wavelet => "wavelet",
             Self::Fog => "fog",
             Self::ShExp => "shexp",
+            Self::RadianceCache => "radiance-cache",
         }
     }
 }
@@ -88,6 +94,7 @@ pub enum MethodOptions {
     Wavelet(WaveletOptions),
     Fog(FogOptions),
     ShExp(ShExpOptions),
+    RadianceCache(RadianceCacheOptions),
 }
 
 impl MethodOptions {
@@ -100,6 +107,7 @@ impl MethodOptions {
             MethodKind::Wavelet => Self::Wavelet(WaveletOptions::default()),
             MethodKind::Fog => Self::Fog(FogOptions::default()),
             MethodKind::ShExp => Self::ShExp(ShExpOptions::default()),
+            MethodKind::RadianceCache => Self::RadianceCache(RadianceCacheOptions::default()),
         }
     }
 
@@ -112,6 +120,7 @@ impl MethodOptions {
             Self::Wavelet(_) => MethodKind::Wavelet,
             Self::Fog(_) => MethodKind::Fog,
             Self::ShExp(_) => MethodKind::ShExp,
+            Self::RadianceCache(_) => MethodKind::RadianceCache,
         }
     }
 }
@@ -127,6 +136,7 @@ pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError
         MethodOptions::Wavelet(o) => Box::new(WaveletMethod::new(o.clone())?),
         MethodOptions::Fog(o) => Box::new(FogRelighter::new(*o)?),
         MethodOptions::ShExp(o) => Box::new(ShExpMethod::new(*o)?),
+        MethodOptions::RadianceCache(o) => Box::new(RadianceCacheRelighter::new(*o)?),
     })
 }
 

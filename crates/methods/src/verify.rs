@@ -64,10 +64,17 @@ impl VerifyMethodsOptions {
             aa: 4,
             methods: MethodKind::ALL
                 .into_iter()
-                .filter(|k| *k != MethodKind::Reference)
                 // shexp is judged by `relight verify shexp`; its static bake of
                 // the default scene's 200 K vertices is beyond this table's budget.
-                .filter(|k| *k != MethodKind::ShExp)
+                // The radiance cache adds interreflection, which the default
+                // reference leaves out: `verify radiance-cache` judges it
+                // against the GI reference instead.
+                .filter(|k| {
+                    !matches!(
+                        k,
+                        MethodKind::Reference | MethodKind::ShExp | MethodKind::RadianceCache
+                    )
+                })
                 .map(MethodOptions::default_for)
                 .collect(),
         }

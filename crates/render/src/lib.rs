@@ -37,4 +37,5 @@ pub use reference::{
     ReferenceImage, ReferenceOptions, ReferenceRenderer, bench_reference, reference_radiance_at,
     render_reference, render_reference_with,
 };
+pub use reference::{GiImage, GiOptions, GiTracer, render_gi_reference};
 pub use sampling::{EnvFilter, EnvSampler, Rng};

@@ -328,7 +328,9 @@ mod tests {
                         wv.cache_dir = cache.clone();
                     }
                     MethodOptions::Sh(s) => s.order = 3,
-                    MethodOptions::Fog(_) | MethodOptions::ShExp(_) => {}
+                    MethodOptions::Fog(_)
+                    | MethodOptions::ShExp(_)
+                    | MethodOptions::RadianceCache(_) => {}
                 }
                 o
             })

@@ -193,6 +193,12 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             s.order * s.order,
             s.rotation
         ),
+        MethodOptions::RadianceCache(r) => format!(
+            "a {} · order {} · rotation {}{quality}",
+            r.error,
+            r.order,
+            r.rotation.name()
+        ),
         MethodOptions::Fog(f) => format!(
             "{} · environment order {}{quality}",
             // The mode's type is the fog crate's; its Debug name suffices here.

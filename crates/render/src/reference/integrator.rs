@@ -101,7 +101,7 @@ impl<'a> Tracer<'a> {
 
     /// Emission of every area light crossed by `o + t d`, `0 < t < t_end`,
     /// seen from its front side, times the transmittance.
-    fn area_emission(&self, o: Vec3, d: Vec3, t_end: f32) -> Vec3 {
+    pub(crate) fn area_emission(&self, o: Vec3, d: Vec3, t_end: f32) -> Vec3 {
         let mut l = Vec3::ZERO;
         for a in self.lights.areas {
             if let Some((t, uv)) = a.intersect(o, d, 0.0)

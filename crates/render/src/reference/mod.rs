@@ -17,7 +17,9 @@
 //!   directly from the environment, the point lights and the area lights —
 //!   attenuated by the medium and, with [`Scene::visibility`], shadowed by
 //!   every object. Light reflected from surface to surface is not followed
-//!   (no technique judged here models interreflection).
+//!   here (no technique judged by default models interreflection);
+//!   [`render_gi_reference`] (`gi.rs`) follows it, with the direct and
+//!   indirect images apart, for the radiance cache.
 //! * **Environment.** Read through `env_from_world = world_from_envᵀ`. Shading
 //!   reads it with [`ReferenceOptions::env_filter`] (default piecewise
 //!   constant, [`EnvFilter::Nearest`]: consistent with its luminance sampler
@@ -94,6 +96,7 @@
 //! [`ReferenceImage::relative_std_error`] = mean standard error / mean luminance.
 
 mod bench;
+mod gi;
 mod integrator;
 mod lights;
 pub mod medium;
@@ -104,6 +107,7 @@ pub mod surface;
 #[cfg(test)]
 pub(crate) use bench::floor_quad;
 pub use bench::{ReferenceBenchRow, bench_reference};
+pub use gi::{CameraHit, GiImage, GiOptions, GiTracer, GiVertex, render_gi_reference};
 pub use lights::EnvLight;
 pub use relighter::ReferenceRenderer;
 pub use render::{ReferenceImage, render_reference, render_reference_with};

@@ -110,6 +110,12 @@ impl<'a> SurfaceBsdf<'a> {
         )
     }
 
+    /// The lobes: base BRDF and, blended, the second with its weight.
+    #[inline]
+    pub fn lobes(&self) -> (&'a dyn Brdf, Option<(&'a dyn Brdf, f32)>) {
+        (self.base, self.second)
+    }
+
     /// `f(wo, wi)` (local frame, no cosine).
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {

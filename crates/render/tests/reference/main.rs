@@ -8,5 +8,6 @@
 
 mod basic;
 mod common;
+mod gi;
 mod lights;
 mod medium;
