@@ -212,6 +212,17 @@ pub struct MethodFlags {
     /// [default: analytic].
     #[arg(long)]
     pub fog: Option<String>,
+    /// How MIP texels of normal maps are shaded (ndf): none, unnormalized,
+    /// normalized, toksvig, sh, vmf [default: sh].
+    #[arg(long)]
+    pub normal_filter: Option<String>,
+    /// The BRDF the ndf method's effective forms shade (ndf): lambert,
+    /// blinn:S, ggx:A, beckmann:A; must match the scene's [default: lambert].
+    #[arg(long)]
+    pub ndf_brdf: Option<String>,
+    /// vMF lobes per texel J (ndf) [default: 6].
+    #[arg(long)]
+    pub lobes: Option<usize>,
 }
 
 /// Media transport of the reference renderer.
@@ -251,6 +262,8 @@ pub enum Method {
     Wavelet,
     /// Analytic single-scattering fog: point lights and the foggy environment.
     Fog,
+    /// Normal-map filtering: SH / vMF normal distributions per MIP texel.
+    Ndf,
 }
 
 #[derive(Args, Debug)]
@@ -428,6 +441,8 @@ pub enum Suite {
     Wavelet,
     /// Analytic fog shading.
     Fog,
+    /// Normal-map filtering: bakes, frames and memory.
+    Ndf,
 }
 
 #[derive(Args, Debug)]
@@ -462,6 +477,8 @@ pub enum VerifySuite {
     Fog,
     /// Every method on a matrix of scenes against one reference.
     Methods,
+    /// Normal-map filtering: identities, per-level and screen accuracy.
+    Ndf,
 }
 
 #[derive(Args, Debug)]

@@ -17,15 +17,19 @@ pub fn kind_of(m: Method) -> MethodKind {
         Method::Sh => MethodKind::Sh,
         Method::Wavelet => MethodKind::Wavelet,
         Method::Fog => MethodKind::Fog,
+        Method::Ndf => MethodKind::Ndf,
     }
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 12] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 15] = [
     ("--spp", &[MethodKind::Reference]),
     ("--seed", &[MethodKind::Reference]),
     ("--scattering", &[MethodKind::Reference]),
-    ("--order", &[MethodKind::Sh, MethodKind::Fog]),
+    (
+        "--order",
+        &[MethodKind::Sh, MethodKind::Fog, MethodKind::Ndf],
+    ),
     ("--rotation", &[MethodKind::Sh]),
     ("--window", &[MethodKind::Sh]),
     ("--n", &[MethodKind::Wavelet]),
@@ -34,6 +38,9 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 12] = [
     ("--ao", &[MethodKind::Wavelet]),
     ("--cache", &[MethodKind::Wavelet]),
     ("--fog", &[MethodKind::Fog]),
+    ("--normal-filter", &[MethodKind::Ndf]),
+    ("--ndf-brdf", &[MethodKind::Ndf]),
+    ("--lobes", &[MethodKind::Ndf]),
 ];
 
 /// The flags of `f` that are set, by name.
@@ -51,6 +58,9 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.ao.is_some(),
         f.cache.is_some(),
         f.fog.is_some(),
+        f.normal_filter.is_some(),
+        f.ndf_brdf.is_some(),
+        f.lobes.is_some(),
     ];
     FLAG_METHODS
         .iter()
@@ -97,7 +107,8 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
     clear!(
         spp => "--spp", seed => "--seed", scattering => "--scattering", order => "--order",
         rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
-        ao => "--ao", cache => "--cache", fog => "--fog",
+        ao => "--ao", cache => "--cache", fog => "--fog", normal_filter => "--normal-filter",
+        ndf_brdf => "--ndf-brdf", lobes => "--lobes",
     );
 }
 
@@ -167,6 +178,7 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
                 };
             }
         }
+        MethodOptions::Ndf(o) => crate::ndf::apply_flags(o, f)?,
     }
     Ok(o)
 }

@@ -15,6 +15,7 @@
 pub mod verify;
 
 use relight_fog::{FogOptions, FogRelighter};
+use relight_ndf::{NdfMethod, NdfOptions};
 use relight_render::method::{MethodError, Relighter, SceneFeature, Support};
 use relight_render::reference::{ReferenceOptions, ReferenceRenderer};
 use relight_shlight::{ShMethod, ShOptions};
@@ -33,11 +34,19 @@ pub enum MethodKind {
     Wavelet,
     /// Analytic single-scattering fog with point lights and a foggy environment.
     Fog,
+    /// Normal-map filtering: SH / vMF normal distributions per MIP texel.
+    Ndf,
 }
 
 impl MethodKind {
     /// Every method, the reference first.
-    pub const ALL: [MethodKind; 4] = [Self::Reference, Self::Sh, Self::Wavelet, Self::Fog];
+    pub const ALL: [MethodKind; 5] = [
+        Self::Reference,
+        Self::Sh,
+        Self::Wavelet,
+        Self::Fog,
+        Self::Ndf,
+    ];
 
     /// The name on the command line.
     #[must_use]
@@ -47,6 +56,7 @@ impl MethodKind {
             Self::Sh => "sh",
             Self::Wavelet => "wavelet",
             Self::Fog => "fog",
+            Self::Ndf => "ndf",
         }
     }
 }
@@ -77,6 +87,7 @@ pub enum MethodOptions {
     Sh(ShOptions),
     Wavelet(WaveletOptions),
     Fog(FogOptions),
+    Ndf(NdfOptions),
 }
 
 impl MethodOptions {
@@ -88,6 +99,7 @@ impl MethodOptions {
             MethodKind::Sh => Self::Sh(ShOptions::default()),
             MethodKind::Wavelet => Self::Wavelet(WaveletOptions::default()),
             MethodKind::Fog => Self::Fog(FogOptions::default()),
+            MethodKind::Ndf => Self::Ndf(NdfOptions::default()),
         }
     }
 
@@ -99,6 +111,7 @@ impl MethodOptions {
             Self::Sh(_) => MethodKind::Sh,
             Self::Wavelet(_) => MethodKind::Wavelet,
             Self::Fog(_) => MethodKind::Fog,
+            Self::Ndf(_) => MethodKind::Ndf,
         }
     }
 }
@@ -113,6 +126,7 @@ pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError
         MethodOptions::Sh(o) => Box::new(ShMethod::new(*o)?),
         MethodOptions::Wavelet(o) => Box::new(WaveletMethod::new(o.clone())?),
         MethodOptions::Fog(o) => Box::new(FogRelighter::new(*o)?),
+        MethodOptions::Ndf(o) => Box::new(NdfMethod::new(*o)?),
     })
 }
 

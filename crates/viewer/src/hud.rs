@@ -204,6 +204,12 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             f.env_order
         ),
         MethodOptions::Reference(r) => format!("{}/{} spp", frame.spp, r.spp),
+        MethodOptions::Ndf(n) => format!(
+            "normal filter {} · {} · {} lobes{quality}",
+            n.filter.name(),
+            n.brdf.label(),
+            n.vmf.lobes
+        ),
     }
 }
 

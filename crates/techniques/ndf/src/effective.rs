@@ -117,12 +117,10 @@ pub fn lambert_lobe(t: f32, inv_kappa: f32) -> f32 {
         return t.max(0.0);
     }
     let [_, a1, a2] = crate::vmf::attenuation_012(inv_kappa);
-    // Forward steps to A_4, clamped at 0 (tiny and inaccurate only where κ is
-    // small, where they do not matter).
-    let a3 = (a1 - 5.0 * a2 * inv_kappa).max(0.0);
-    let a4 = (a2 - 7.0 * a3 * inv_kappa).max(0.0);
-    0.25 + 0.5 * a1 * t + 0.3125 * a2 * 0.5 * (3.0 * t * t - 1.0)
-        + a4 * clamped_cos_remainder(t)
+    // A_4 by forward steps, clamped at 0 (tiny and inaccurate only where κ is
+    // small, where it does not matter).
+    let a4 = attenuation_4(inv_kappa);
+    0.25 + 0.5 * a1 * t + 0.3125 * a2 * 0.5 * (3.0 * t * t - 1.0) + a4 * clamped_cos_remainder(t)
 }
 
 /// `f·cos θ_i` of `brdf` with one lobe of axis `n` (unit) and `1/κ`
@@ -149,15 +147,23 @@ pub fn shade_lobe(brdf: NdfBrdf, n: Vec3, inv_kappa: f32, wo: Vec3, wi: Vec3) ->
         }
         NdfBrdf::Ggx { alpha } => {
             let a = (alpha * alpha + 2.0 * inv_kappa).sqrt();
-            microfacet(n, wo, wi, |h| ggx_d(h, a, a), |o, i| {
-                smith_g2_height_correlated(o, i, a, a)
-            })
+            microfacet(
+                n,
+                wo,
+                wi,
+                |h| ggx_d(h, a, a),
+                |o, i| smith_g2_height_correlated(o, i, a, a),
+            )
         }
         NdfBrdf::Beckmann { alpha } => {
             let a = (alpha * alpha + 2.0 * inv_kappa).sqrt();
-            microfacet(n, wo, wi, |h| beckmann_d(h, a), |o, i| {
-                1.0 / (1.0 + beckmann_lambda(o, a) + beckmann_lambda(i, a))
-            })
+            microfacet(
+                n,
+                wo,
+                wi,
+                |h| beckmann_d(h, a),
+                |o, i| 1.0 / (1.0 + beckmann_lambda(o, a) + beckmann_lambda(i, a)),
+            )
         }
     }
 }
@@ -193,14 +199,56 @@ pub fn shade_mixture(brdf: NdfBrdf, lobes: &[ShadeLobe], wo: Vec3, wi: Vec3) -> 
         .sum()
 }
 
-/// Lambert `f·cos` of an SH NDF `gamma` (3 bands used, `≥ 9` coefficients)
-/// under a unit directional light along `wi`: `Σ Λ_l γ_lm y_lm(wi) / π`.
+/// Lambert `f·cos` of an SH NDF `gamma` (≥ 9 coefficients) under a unit
+/// directional light along `wi`. Bands `l ≤ 2` are exact,
+/// `Σ Λ_l γ_lm y_lm(wi) / π`; three bands alone would turn the clamped
+/// cosine into `1/4 + t/2 + 5/16 P_2(t)` (0.094 instead of 0 at the
+/// terminator, +50 % at grazing light), so the remainder of the clamped
+/// cosine (bands 4, 6, …) is added as for a vMF lobe ([`lambert_lobe`]) of
+/// the NDF's mean normal `m` (read from band 1: `m·a = (4π/3) Σ_m γ_1m
+/// y_1m(a)`), κ = A⁻¹(|m|). A delta (level 0) is then exact.
 #[inline]
 #[must_use]
 pub fn lambert_sh_dir(gamma: &[f32], wi: Vec3) -> f32 {
     let mut y = [0.0f32; 9];
     relight_sh::eval_sh_into(3, wi.to_array(), &mut y);
-    lambert_sh_env(gamma, &y)
+    let low = lambert_sh_env(gamma, &y);
+    let m = mean_normal_of_sh(gamma);
+    let r = m.length();
+    if r <= 0.0 {
+        return low;
+    }
+    let inv_kappa = if r >= 1.0 - 1.5 / crate::vmf::KAPPA_MAX as f32 {
+        0.0
+    } else {
+        1.0 / crate::vmf::kappa_estimate(r)
+    };
+    let a4 = attenuation_4(inv_kappa);
+    low + a4 * clamped_cos_remainder((m / r).dot(wi)) / PI
+}
+
+/// The mean normal of an SH NDF from its band 1 (convention-free: three
+/// evaluations of band 1 at the axes).
+#[inline]
+#[must_use]
+pub fn mean_normal_of_sh(gamma: &[f32]) -> Vec3 {
+    let mut y = [0.0f32; 4];
+    let mut axis = |a: Vec3| {
+        relight_sh::eval_sh_into(2, a.to_array(), &mut y);
+        (gamma[1] * y[1] + gamma[2] * y[2] + gamma[3] * y[3]) * (4.0 * PI / 3.0)
+    };
+    Vec3::new(axis(Vec3::X), axis(Vec3::Y), axis(Vec3::Z))
+}
+
+/// `A_4(κ)` by forward steps from `A_1, A_2` (clamped at 0; 1 for a delta).
+#[inline]
+fn attenuation_4(inv_kappa: f32) -> f32 {
+    if inv_kappa <= 0.0 {
+        return 1.0;
+    }
+    let [_, a1, a2] = crate::vmf::attenuation_012(inv_kappa);
+    let a3 = (a1 - 5.0 * a2 * inv_kappa).max(0.0);
+    (a2 - 7.0 * a3 * inv_kappa).max(0.0)
 }
 
 /// Lambert radiance of an SH NDF `gamma` under SH lighting `light` (both in
@@ -238,7 +286,13 @@ pub fn lambert_mixture_env(lobes: &[ShadeLobe], light: &[f32]) -> f32 {
         relight_sh::eval_sh_into(3, l.mu.to_array(), &mut y);
         let a = crate::vmf::attenuation_012(l.inv_kappa);
         for i in 0..9 {
-            let band = if i == 0 { 0 } else if i < 4 { 1 } else { 2 };
+            let band = if i == 0 {
+                0
+            } else if i < 4 {
+                1
+            } else {
+                2
+            };
             gamma[i] += l.alpha * a[band] * y[i];
         }
     }

@@ -136,7 +136,10 @@ impl MeanPyramid {
         let t = lod - k0 as f32;
         let at = |k: usize| {
             let (w, h, m) = &self.levels[k];
-            taps(*w, *h, uv).iter().map(|&(i, wt)| m[i] * wt).sum::<Vec3>()
+            taps(*w, *h, uv)
+                .iter()
+                .map(|&(i, wt)| m[i] * wt)
+                .sum::<Vec3>()
         };
         let a = at(k0);
         if t > 0.0 && k0 + 1 < self.levels.len() {

@@ -30,7 +30,9 @@ use glam::{Mat3, Vec2, Vec3, Vec4};
 use relight_render::method::{
     FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
 };
-use relight_render::raster::{CullMode, DrawCall, RasterOptions, Rasterizer, barycentric_derivatives};
+use relight_render::raster::{
+    CullMode, DrawCall, RasterOptions, Rasterizer, barycentric_derivatives,
+};
 use relight_render::{Image, NormalMap, Progress, Scene};
 use relight_sh::project::{Window, project_env};
 use relight_sh::rotation::{Rot3, ShRotation};
@@ -89,13 +91,16 @@ impl NdfFilter {
     /// # Errors
     /// An unknown name, listing the known ones.
     pub fn parse(s: &str) -> Result<Self, String> {
-        Self::ALL.into_iter().find(|f| f.name() == s).ok_or_else(|| {
-            let names: Vec<&str> = Self::ALL.iter().map(|f| f.name()).collect();
-            format!(
-                "unknown normal filter `{s}` (known: {}; lean is not implemented)",
-                names.join(", ")
-            )
-        })
+        Self::ALL
+            .into_iter()
+            .find(|f| f.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Self::ALL.iter().map(|f| f.name()).collect();
+                format!(
+                    "unknown normal filter `{s}` (known: {}; lean is not implemented)",
+                    names.join(", ")
+                )
+            })
     }
 }
 
@@ -152,7 +157,12 @@ impl Baked {
     fn bytes(&self) -> u64 {
         self.sh.as_ref().map_or(0, ShNdfPyramid::bytes)
             + self.vmf.as_ref().map_or(0, VmfPyramid::bytes)
-            + self.mean.levels.iter().map(|l| l.2.len() as u64 * 12).sum::<u64>()
+            + self
+                .mean
+                .levels
+                .iter()
+                .map(|l| l.2.len() as u64 * 12)
+                .sum::<u64>()
     }
 }
 
@@ -232,7 +242,10 @@ impl NdfMethod {
     /// An out-of-range order or lobe count, or a filter the BRDF cannot use.
     pub fn new(options: NdfOptions) -> Result<Self, MethodError> {
         if !(3..=8).contains(&options.order) {
-            return Err(invalid("order", format!("must be 3…8 SH bands (got {})", options.order)));
+            return Err(invalid(
+                "order",
+                format!("must be 3…8 SH bands (got {})", options.order),
+            ));
         }
         if !(1..=MAX_LOBES).contains(&options.vmf.lobes) {
             return Err(invalid(
@@ -558,8 +571,11 @@ impl Relighter for NdfMethod {
                         let [i0, i1, i2] = o.triangles[tri].map(|i| i as usize);
                         let mix3 = |a: Vec3, b: Vec3, c: Vec3| a * lam.x + b * lam.y + c * lam.z;
                         let position = mix3(o.positions[i0], o.positions[i1], o.positions[i2]);
-                        let n = mix3(o.normals[i0], o.normals[i1], o.normals[i2]).normalize_or(Vec3::Z);
-                        let tg = o.tangents[i0] * lam.x + o.tangents[i1] * lam.y + o.tangents[i2] * lam.z;
+                        let n =
+                            mix3(o.normals[i0], o.normals[i1], o.normals[i2]).normalize_or(Vec3::Z);
+                        let tg = o.tangents[i0] * lam.x
+                            + o.tangents[i1] * lam.y
+                            + o.tangents[i2] * lam.z;
                         let uv = o.uvs[i0] * lam.x + o.uvs[i1] * lam.y + o.uvs[i2] * lam.z;
                         let frame = Frame::from_normal_tangent(n, tg.truncate());
                         let hand = if tg.w < 0.0 { -1.0 } else { 1.0 };
@@ -571,7 +587,9 @@ impl Relighter for NdfMethod {
                                 y as f32 + 0.5,
                             )
                             .map_or(0.0, |[dx, dy]| {
-                                let duv = |dl: Vec3| o.uvs[i0] * dl.x + o.uvs[i1] * dl.y + o.uvs[i2] * dl.z;
+                                let duv = |dl: Vec3| {
+                                    o.uvs[i0] * dl.x + o.uvs[i1] * dl.y + o.uvs[i2] * dl.z
+                                };
                                 lod_of(duv(dx), duv(dy), b.width, b.height)
                             }),
                             None => 0.0,

@@ -115,6 +115,55 @@ pub fn unpack(p: Vec4) -> Option<ShadeLobe> {
     })
 }
 
+/// A footprint with at most `J` distinct normals is represented exactly: one
+/// delta (κ at the clamp) per distinct normal, with weight its share, each in
+/// the free slot whose parent lobe explains it best (greedy, heaviest
+/// normal first); the other slots keep the parent's lobe with α = 0.
+fn exact_deltas(
+    samples: &[DVec3],
+    weights: &[f64],
+    parent: Option<&[Lobe]>,
+    j: usize,
+) -> Vec<Lobe> {
+    let total: f64 = weights.iter().sum();
+    let mut out: Vec<Lobe> = match parent {
+        Some(p) => p.iter().map(|l| Lobe { alpha: 0.0, ..*l }).collect(),
+        None => (0..j)
+            .map(|_| Lobe {
+                alpha: 0.0,
+                vmf: Vmf {
+                    mu: DVec3::Z,
+                    kappa: KAPPA_MAX,
+                },
+            })
+            .collect(),
+    };
+    let mut taken = vec![false; j];
+    let mut order: Vec<usize> = (0..samples.len()).collect();
+    order.sort_by(|&a, &b| weights[b].total_cmp(&weights[a]).then(a.cmp(&b)));
+    for i in order {
+        let n = samples[i];
+        let score = |k: usize| match parent {
+            Some(p) if p[k].alpha > 0.0 => p[k].alpha.ln() + p[k].vmf.density(n).max(1e-300).ln(),
+            Some(p) => -1e300 + p[k].vmf.mu.dot(n),
+            None => -(k as f64),
+        };
+        let slot = (0..j)
+            .filter(|&k| !taken[k])
+            .max_by(|&a, &b| score(a).total_cmp(&score(b)))
+            .expect("at most j samples");
+        taken[slot] = true;
+        out[slot] = Lobe {
+            alpha: weights[i] / total,
+            vmf: Vmf {
+                mu: n,
+                kappa: KAPPA_MAX,
+            },
+        };
+    }
+    out
+}
+
 /// The fine-texel rectangle under texel `(x, y)` of level `k`.
 fn footprint(w: usize, h: usize, k: usize, x: usize, y: usize) -> (usize, usize, usize, usize) {
     let s = 1usize << k;
@@ -165,7 +214,8 @@ impl VmfPyramid {
                     let (x0, x1, y0, y1) = footprint(width, height, k, x, y);
                     s.ids.clear();
                     for yy in y0..y1 {
-                        s.ids.extend_from_slice(&id[yy * width + x0..yy * width + x1]);
+                        s.ids
+                            .extend_from_slice(&id[yy * width + x0..yy * width + x1]);
                     }
                     s.ids.sort_unstable();
                     s.samples.clear();
@@ -178,12 +228,16 @@ impl VmfPyramid {
                             s.weights.push(1.0);
                         }
                     }
-                    let (mut start, em) = match parent {
-                        Some(p) => {
-                            let (pw, _) = level_size(width, height, k + 1);
-                            let pi = (y / 2) * pw + x / 2;
-                            (p[pi * j..(pi + 1) * j].to_vec(), &opts.child)
-                        }
+                    let parent_lobes = parent.map(|p| {
+                        let (pw, _) = level_size(width, height, k + 1);
+                        let pi = (y / 2) * pw + x / 2;
+                        &p[pi * j..(pi + 1) * j]
+                    });
+                    if s.samples.len() <= j {
+                        return exact_deltas(&s.samples, &s.weights, parent_lobes, j);
+                    }
+                    let (mut start, em) = match parent_lobes {
+                        Some(p) => (p.to_vec(), &opts.child),
                         None => (seed_lobes(&s.samples, &s.weights, j), &opts.root),
                     };
                     // A slot the parent left empty restarts at unit weight share
@@ -213,39 +267,36 @@ impl VmfPyramid {
         let mut level0 = vec![Vec4::ZERO; width * height * j];
         let parent = fitted.last();
         let (pw, _) = level_size(width, height, 1);
-        level0
-            .par_chunks_mut(j)
-            .enumerate()
-            .for_each(|(i, dst)| {
-                let (x, y) = (i % width, i / width);
-                let n = normals[i].as_dvec3();
-                let slot = match parent {
-                    Some(p) => {
-                        let pi = (y / 2) * pw + x / 2;
-                        let lobes = &p[pi * j..(pi + 1) * j];
-                        (0..j)
-                            .max_by(|&a, &b| {
-                                let s = |l: &Lobe| {
-                                    if l.alpha > 0.0 {
-                                        l.alpha.ln() + l.vmf.density(n).max(1e-300).ln()
-                                    } else {
-                                        f64::NEG_INFINITY
-                                    }
-                                };
-                                s(&lobes[a]).total_cmp(&s(&lobes[b]))
-                            })
-                            .unwrap_or(0)
-                    }
-                    None => 0,
-                };
-                dst[slot] = pack(&Lobe {
-                    alpha: 1.0,
-                    vmf: Vmf {
-                        mu: n,
-                        kappa: KAPPA_MAX,
-                    },
-                });
+        level0.par_chunks_mut(j).enumerate().for_each(|(i, dst)| {
+            let (x, y) = (i % width, i / width);
+            let n = normals[i].as_dvec3();
+            let slot = match parent {
+                Some(p) => {
+                    let pi = (y / 2) * pw + x / 2;
+                    let lobes = &p[pi * j..(pi + 1) * j];
+                    (0..j)
+                        .max_by(|&a, &b| {
+                            let s = |l: &Lobe| {
+                                if l.alpha > 0.0 {
+                                    l.alpha.ln() + l.vmf.density(n).max(1e-300).ln()
+                                } else {
+                                    f64::NEG_INFINITY
+                                }
+                            };
+                            s(&lobes[a]).total_cmp(&s(&lobes[b]))
+                        })
+                        .unwrap_or(0)
+                }
+                None => 0,
+            };
+            dst[slot] = pack(&Lobe {
+                alpha: 1.0,
+                vmf: Vmf {
+                    mu: n,
+                    kappa: KAPPA_MAX,
+                },
             });
+        });
         levels.push(VmfLevel {
             width,
             height,
@@ -291,6 +342,9 @@ impl VmfPyramid {
     /// Bytes over the whole chain.
     #[must_use]
     pub fn bytes(&self) -> u64 {
-        self.levels.iter().map(|l| (l.lobes.len() * 16) as u64).sum()
+        self.levels
+            .iter()
+            .map(|l| (l.lobes.len() * 16) as u64)
+            .sum()
     }
 }

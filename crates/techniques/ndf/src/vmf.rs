@@ -141,9 +141,70 @@ pub fn attenuation_012(inv_kappa: f32) -> [f32; 3] {
     let k = 1.0 / inv_kappa;
     if k < 0.5 {
         let k2 = k * k;
-        return [1.0, k / 3.0 - k * k2 / 45.0, k2 / 15.0 - 2.0 * k2 * k2 / 315.0];
+        return [
+            1.0,
+            k / 3.0 - k * k2 / 45.0,
+            k2 / 15.0 - 2.0 * k2 * k2 / 315.0,
+        ];
     }
     let e = (-2.0 * k).exp();
     let a1 = (1.0 + e) / (1.0 - e) - inv_kappa;
     [1.0, a1, 1.0 - 3.0 * a1 * inv_kappa]
+}
+
+/// `A_l(κ)` a second way, for tests and `verify`: composite Simpson in
+/// `u = κ(1 − μ·n)` of `∫_0^{2κ} e^{−u} P_l(1 − u/κ) du / (1 − e^{−2κ})`
+/// (the lobe's Legendre moment), `steps` even.
+#[must_use]
+pub fn sh_attenuation_quadrature(kappa: f64, l: usize, steps: usize) -> f64 {
+    let umax = (2.0 * kappa).min(60.0);
+    let n = steps.max(2) / 2 * 2;
+    let h = umax / n as f64;
+    let f = |u: f64| (-u).exp() * legendre(l, 1.0 - u / kappa);
+    let mut s = f(0.0) + f(umax);
+    for i in 1..n {
+        s += f(i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    s * h / 3.0 / (-(-2.0 * kappa).exp_m1())
+}
+
+/// The Legendre polynomial `P_l(t)` (three-term recurrence).
+#[must_use]
+pub fn legendre(l: usize, t: f64) -> f64 {
+    if l == 0 {
+        return 1.0;
+    }
+    let (mut p0, mut p1) = (1.0, t);
+    for k in 1..l {
+        let p2 = ((2 * k + 1) as f64 * t * p1 - k as f64 * p0) / (k + 1) as f64;
+        p0 = p1;
+        p1 = p2;
+    }
+    p1
+}
+
+/// A seeded xorshift generator for the Monte Carlo checks.
+#[derive(Clone, Debug)]
+pub struct Xorshift(pub u64);
+
+impl Xorshift {
+    /// Uniform in [0, 1).
+    pub fn next_f64(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// One sample of the lobe (Wood 1994: the exact inverse cdf of `w = μ·n`,
+/// `w = 1 + ln(u + (1 − u) e^{−2κ})/κ`, uniform azimuth).
+#[must_use]
+pub fn sample(rng: &mut Xorshift, v: &Vmf) -> glam::DVec3 {
+    let u = rng.next_f64();
+    let w = (1.0 + (u + (1.0 - u) * (-2.0 * v.kappa).exp()).ln() / v.kappa).clamp(-1.0, 1.0);
+    let phi = 2.0 * std::f64::consts::PI * rng.next_f64();
+    let s = (1.0 - w * w).max(0.0).sqrt();
+    let f = relight_sphere::Frame::from_z(v.mu.as_vec3());
+    (f.x.as_dvec3() * (s * phi.cos()) + f.y.as_dvec3() * (s * phi.sin()) + v.mu * w).normalize()
 }

@@ -2,7 +2,7 @@
 //! seeded Monte Carlo).
 
 use glam::{DVec3, Mat3, Vec3};
-use relight_ndf::effective::{NdfBrdf, lambert_lobe, shade_baseline, shade_lobe, Baseline};
+use relight_ndf::effective::{Baseline, NdfBrdf, lambert_lobe, shade_baseline, shade_lobe};
 use relight_ndf::em::{EmOptions, Lobe, fit_em, seed_lobes};
 use relight_ndf::pyramid::{VmfBakeOptions, unpack};
 use relight_ndf::vmf::{KAPPA_MAX, Vmf, kappa_from_resultant, mean_resultant, sh_attenuation};
@@ -135,12 +135,26 @@ fn em_recovers_a_known_three_lobe_mixture() {
     let mut samples = Vec::with_capacity(100_000);
     for _ in 0..100_000 {
         let u = rng.f();
-        let j = if u < 0.5 { 0 } else if u < 0.8 { 1 } else { 2 };
+        let j = if u < 0.5 {
+            0
+        } else if u < 0.8 {
+            1
+        } else {
+            2
+        };
         samples.push(sample_vmf(&mut rng, truth[j].1, truth[j].2));
     }
     let w = vec![1.0; samples.len()];
     let mut lobes = seed_lobes(&samples, &w, 3);
-    let trace = fit_em(&samples, &w, &mut lobes, &EmOptions { max_iter: 200, tol: 1e-9 });
+    let trace = fit_em(
+        &samples,
+        &w,
+        &mut lobes,
+        &EmOptions {
+            max_iter: 200,
+            tol: 1e-9,
+        },
+    );
     for p in trace.log_likelihood.windows(2) {
         assert!(p[1] >= p[0] - 1e-9, "log-likelihood fell: {p:?}");
     }
@@ -152,11 +166,23 @@ fn em_recovers_a_known_three_lobe_mixture() {
         let ang = l.vmf.mu.dot(mu).clamp(-1.0, 1.0).acos().to_degrees();
         assert!((l.alpha - a).abs() < 0.01, "α {} vs {a}", l.alpha);
         assert!(ang < 1.0, "angle {ang}°");
-        assert!((l.vmf.kappa / k - 1.0).abs() < 0.05, "κ {} vs {k}", l.vmf.kappa);
+        assert!(
+            (l.vmf.kappa / k - 1.0).abs() < 0.05,
+            "κ {} vs {k}",
+            l.vmf.kappa
+        );
     }
     // Deterministic: the same input gives the same lobes.
     let mut again = seed_lobes(&samples, &w, 3);
-    fit_em(&samples, &w, &mut again, &EmOptions { max_iter: 200, tol: 1e-9 });
+    fit_em(
+        &samples,
+        &w,
+        &mut again,
+        &EmOptions {
+            max_iter: 200,
+            tol: 1e-9,
+        },
+    );
     assert_eq!(again, lobes);
 }
 
@@ -166,7 +192,11 @@ fn constant_map_gives_one_clamped_lobe_at_every_level() {
     let p = VmfPyramid::build(8, 8, &vec![n0; 64], &VmfBakeOptions::default());
     for (k, l) in p.levels.iter().enumerate() {
         for t in l.lobes.chunks(p.lobes) {
-            let live: Vec<_> = t.iter().filter_map(|q| unpack(*q)).filter(|q| q.alpha > 1e-3).collect();
+            let live: Vec<_> = t
+                .iter()
+                .filter_map(|q| unpack(*q))
+                .filter(|q| q.alpha > 1e-3)
+                .collect();
             let sum: f32 = live.iter().map(|q| q.alpha).sum();
             assert!((sum - 1.0).abs() < 1e-4, "level {k}: weights {sum}");
             for q in live {
@@ -196,7 +226,10 @@ fn lambert_lobe_matches_monte_carlo() {
             let l = Vec3::new(th.sin(), 0.0, th.cos());
             let mc = mc_vmf(mu, kappa, |n| n.dot(l).max(0.0));
             let got = f64::from(lambert_lobe(l.z, 1.0 / kappa as f32));
-            assert!((got - mc).abs() < 0.012, "κ={kappa} θ={th}: {got} vs MC {mc}");
+            assert!(
+                (got - mc).abs() < 0.012,
+                "κ={kappa} θ={th}: {got} vs MC {mc}"
+            );
         }
     }
 }
