@@ -352,7 +352,7 @@ pub fn barycentric_derivatives(
     let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
     let ng = e1.cross(e2);
     let area2 = ng.length_squared();
-    if !(area2 > 0.0) {
+    if area2.is_nan() || area2 <= 0.0 {
         return None;
     }
     let o = rays.origin();

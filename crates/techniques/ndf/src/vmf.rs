@@ -65,7 +65,7 @@ pub fn mean_resultant(kappa: f64) -> f64 {
 #[must_use]
 pub fn kappa_from_resultant(r: f64) -> f64 {
     let r_max = mean_resultant(KAPPA_MAX);
-    if !(r > 0.0) {
+    if r.is_nan() || r <= 0.0 {
         return KAPPA_MIN;
     }
     if r >= r_max {
@@ -92,7 +92,7 @@ pub fn kappa_from_resultant(r: f64) -> f64 {
 #[inline]
 #[must_use]
 pub fn kappa_estimate(r: f32) -> f32 {
-    if !(r > 0.0) {
+    if r.is_nan() || r <= 0.0 {
         return KAPPA_MIN as f32;
     }
     let r = r.min(1.0 - 1.0 / KAPPA_MAX as f32);
