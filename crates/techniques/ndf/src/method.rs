@@ -300,6 +300,7 @@ impl NdfMethod {
         lod: f32,
         light: &[f32; 27],
         scene: &Scene,
+        has_env: bool,
     ) -> Vec3 {
         let to_t = |v: Vec3| Vec3::new(v.dot(frame.x), hand * v.dot(frame.y), v.dot(frame.z));
         let wo = to_t((eye - position).normalize_or_zero());
@@ -359,7 +360,7 @@ impl NdfMethod {
             }
         };
         let mut out = Vec3::ZERO;
-        if scene.has_environment() && brdf == NdfBrdf::Lambert {
+        if has_env && brdf == NdfBrdf::Lambert {
             let mut y = [0.0f32; 9];
             for c in 0..3 {
                 let l = &light[c * 9..c * 9 + 9];
@@ -555,6 +556,8 @@ impl Relighter for NdfMethod {
         let eye = camera.eye;
         let (w, h) = (camera.width, camera.height);
         let mut big = Image::new(w, h);
+        // Once per frame: `has_environment` scans the map's texels.
+        let has_env = scene.has_environment();
         {
             use rayon::prelude::*;
             let this = &*self;
@@ -600,7 +603,9 @@ impl Relighter for NdfMethod {
                                 + o.light[i1 * 27 + j] * lam.y
                                 + o.light[i2 * 27 + j] * lam.z;
                         }
-                        *px = this.shade(o, position, eye, &frame, hand, uv, lod, &light, scene);
+                        *px = this.shade(
+                            o, position, eye, &frame, hand, uv, lod, &light, scene, has_env,
+                        );
                     }
                 });
         }
