@@ -16,6 +16,9 @@ pub struct Cli {
     pub command: Command,
 }
 
+// Parsed once per run: the size of the largest variant (the method flags
+// every render-like command carries) costs nothing worth a Box.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Render the embedded scene (no files needed) with the reference and every
@@ -228,6 +231,17 @@ pub struct MethodFlags {
     /// Leaf spheres per blocker object (shexp) [default: 32].
     #[arg(long)]
     pub spheres: Option<usize>,
+    /// How MIP texels of normal maps are shaded (ndf): none, unnormalized,
+    /// normalized, toksvig, sh, vmf [default: sh].
+    #[arg(long)]
+    pub normal_filter: Option<String>,
+    /// The BRDF the ndf method's effective forms shade (ndf): lambert,
+    /// blinn:S, ggx:A, beckmann:A; must match the scene's [default: lambert].
+    #[arg(long)]
+    pub ndf_brdf: Option<String>,
+    /// vMF lobes per texel J (ndf) [default: 6].
+    #[arg(long)]
+    pub lobes: Option<usize>,
 }
 
 /// Media transport of the reference renderer.
@@ -272,6 +286,8 @@ pub enum Method {
     /// Radiance caching: reference direct light plus indirect light from
     /// rotation-aligned SH records.
     RadianceCache,
+    /// Normal-map filtering: SH / vMF normal distributions per MIP texel.
+    Ndf,
 }
 
 #[derive(Args, Debug)]
@@ -462,6 +478,8 @@ pub enum Suite {
     Shexp,
     /// Radiance cache: time per aligning rotation by method (Table 1).
     RadianceCache,
+    /// Normal-map filtering: bakes, frames and memory.
+    Ndf,
 }
 
 #[derive(Args, Debug)]
@@ -500,6 +518,8 @@ pub enum VerifySuite {
     Shexp,
     /// The radiance cache's indirect light against the GI reference.
     RadianceCache,
+    /// Normal-map filtering: identities, per-level and screen accuracy.
+    Ndf,
 }
 
 #[derive(Args, Debug)]

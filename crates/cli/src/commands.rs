@@ -462,6 +462,7 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
             )?;
             Ok(())
         }
+        Suite::Ndf => crate::ndf::bench(&a, &report, bar),
         Suite::Fog => {
             report.table(
                 "relight bench fog (fog bench scene: floor + 9 spheres, 4 lights)",
@@ -635,6 +636,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
             )?;
             Ok(())
         }
+        VerifySuite::Ndf => crate::ndf::verify(&a, &report, bar),
         VerifySuite::Fog => {
             let rows = relight_fog::verify_fog(a.quick);
             let titles: Vec<String> = FOG_PLOTS

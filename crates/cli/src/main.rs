@@ -11,6 +11,7 @@ mod commands;
 mod compare;
 mod demo;
 mod method_args;
+mod ndf;
 mod output;
 mod parse;
 mod plot;

@@ -19,11 +19,12 @@ pub fn kind_of(m: Method) -> MethodKind {
         Method::Fog => MethodKind::Fog,
         Method::Shexp => MethodKind::ShExp,
         Method::RadianceCache => MethodKind::RadianceCache,
+        Method::Ndf => MethodKind::Ndf,
     }
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 15] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 18] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
@@ -37,6 +38,7 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 15] = [
             MethodKind::Fog,
             MethodKind::ShExp,
             MethodKind::RadianceCache,
+            MethodKind::Ndf,
         ],
     ),
     ("--error", &[MethodKind::RadianceCache]),
@@ -50,6 +52,9 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 15] = [
     ("--fog", &[MethodKind::Fog]),
     ("--exp", &[MethodKind::ShExp]),
     ("--spheres", &[MethodKind::ShExp]),
+    ("--normal-filter", &[MethodKind::Ndf]),
+    ("--ndf-brdf", &[MethodKind::Ndf]),
+    ("--lobes", &[MethodKind::Ndf]),
 ];
 
 /// The flags of `f` that are set, by name.
@@ -70,6 +75,9 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.fog.is_some(),
         f.exp.is_some(),
         f.spheres.is_some(),
+        f.normal_filter.is_some(),
+        f.ndf_brdf.is_some(),
+        f.lobes.is_some(),
     ];
     FLAG_METHODS
         .iter()
@@ -117,6 +125,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         spp => "--spp", seed => "--seed", scattering => "--scattering", order => "--order",
         error => "--error", rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
         ao => "--ao", cache => "--cache", fog => "--fog", exp => "--exp", spheres => "--spheres",
+        normal_filter => "--normal-filter", ndf_brdf => "--ndf-brdf", lobes => "--lobes",
     );
 }
 
@@ -214,6 +223,7 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
                 };
             }
         }
+        MethodOptions::Ndf(o) => crate::ndf::apply_flags(o, f)?,
     }
     Ok(o)
 }

@@ -15,6 +15,7 @@
 pub mod verify;
 
 use relight_fog::{FogOptions, FogRelighter};
+use relight_ndf::{NdfMethod, NdfOptions};
 use relight_radcache::{RadianceCacheOptions, RadianceCacheRelighter};
 use relight_render::method::{MethodError, Relighter, SceneFeature, Support};
 use relight_render::reference::{ReferenceOptions, ReferenceRenderer};
@@ -40,17 +41,20 @@ pub enum MethodKind {
     /// Radiance caching: GI reference direct light plus indirect light
     /// interpolated from rotation-aligned SH records.
     RadianceCache,
+    /// Normal-map filtering: SH / vMF normal distributions per MIP texel.
+    Ndf,
 }
 
 impl MethodKind {
     /// Every method, the reference first.
-    pub const ALL: [MethodKind; 6] = [
+    pub const ALL: [MethodKind; 7] = [
         Self::Reference,
         Self::Sh,
         Self::Wavelet,
         Self::Fog,
         Self::ShExp,
         Self::RadianceCache,
+        Self::Ndf,
     ];
 
     /// The name on the command line.
@@ -63,6 +67,7 @@ impl MethodKind {
             Self::Fog => "fog",
             Self::ShExp => "shexp",
             Self::RadianceCache => "radiance-cache",
+            Self::Ndf => "ndf",
         }
     }
 }
@@ -95,6 +100,7 @@ pub enum MethodOptions {
     Fog(FogOptions),
     ShExp(ShExpOptions),
     RadianceCache(RadianceCacheOptions),
+    Ndf(NdfOptions),
 }
 
 impl MethodOptions {
@@ -108,6 +114,7 @@ impl MethodOptions {
             MethodKind::Fog => Self::Fog(FogOptions::default()),
             MethodKind::ShExp => Self::ShExp(ShExpOptions::default()),
             MethodKind::RadianceCache => Self::RadianceCache(RadianceCacheOptions::default()),
+            MethodKind::Ndf => Self::Ndf(NdfOptions::default()),
         }
     }
 
@@ -121,6 +128,7 @@ impl MethodOptions {
             Self::Fog(_) => MethodKind::Fog,
             Self::ShExp(_) => MethodKind::ShExp,
             Self::RadianceCache(_) => MethodKind::RadianceCache,
+            Self::Ndf(_) => MethodKind::Ndf,
         }
     }
 }
@@ -137,6 +145,7 @@ pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError
         MethodOptions::Fog(o) => Box::new(FogRelighter::new(*o)?),
         MethodOptions::ShExp(o) => Box::new(ShExpMethod::new(*o)?),
         MethodOptions::RadianceCache(o) => Box::new(RadianceCacheRelighter::new(*o)?),
+        MethodOptions::Ndf(o) => Box::new(NdfMethod::new(*o)?),
     })
 }
 

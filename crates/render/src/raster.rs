@@ -335,6 +335,43 @@ pub struct Fragment<'a> {
     pub to_eye: Vec3,
 }
 
+/// Screen-space derivatives `[∂λ/∂x, ∂λ/∂y]` of the barycentrics (λ0, λ1, λ2)
+/// of triangle `p` (world space) at pixel position `(px, py)` (pixel
+/// centres at +0.5) — what a shader needs for a texture's uv footprint
+/// (`∂uv/∂x = Σ ∂λ_i/∂x · uv_i`, the MIP level). Central differences of
+/// the exact ray–plane barycentrics half a pixel either side, so they are
+/// perspective-correct and defined past the triangle's edges. `None` when a
+/// ray is parallel to the plane or the triangle is degenerate.
+#[must_use]
+pub fn barycentric_derivatives(
+    rays: &crate::CameraRays,
+    p: [Vec3; 3],
+    px: f32,
+    py: f32,
+) -> Option<[Vec3; 2]> {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let ng = e1.cross(e2);
+    let area2 = ng.length_squared();
+    if area2.is_nan() || area2 <= 0.0 {
+        return None;
+    }
+    let o = rays.origin();
+    let at = |x: f32, y: f32| -> Option<Vec3> {
+        let d = rays.dir(x, y);
+        let den = ng.dot(d);
+        if den.abs() < 1e-12 * area2.sqrt() {
+            return None;
+        }
+        let q = o + d * (ng.dot(p[0] - o) / den) - p[0];
+        let l1 = q.cross(e2).dot(ng) / area2;
+        let l2 = e1.cross(q).dot(ng) / area2;
+        Some(Vec3::new(1.0 - l1 - l2, l1, l2))
+    };
+    let dx = at(px + 0.5, py)? - at(px - 0.5, py)?;
+    let dy = at(px, py + 0.5)? - at(px, py - 0.5)?;
+    Some([dx, dy])
+}
+
 /// The visibility buffer of the last rasterization.
 #[derive(Clone, Debug, Default)]
 pub struct GBuffer {

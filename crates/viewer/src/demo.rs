@@ -330,7 +330,8 @@ mod tests {
                     MethodOptions::Sh(s) => s.order = 3,
                     MethodOptions::Fog(_)
                     | MethodOptions::ShExp(_)
-                    | MethodOptions::RadianceCache(_) => {}
+                    | MethodOptions::RadianceCache(_)
+                    | MethodOptions::Ndf(_) => {}
                 }
                 o
             })

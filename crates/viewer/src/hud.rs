@@ -216,6 +216,12 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             x.exp.name(),
             x.spheres
         ),
+        MethodOptions::Ndf(n) => format!(
+            "normal filter {} · {} · {} lobes{quality}",
+            n.filter.name(),
+            n.brdf.label(),
+            n.vmf.lobes
+        ),
     }
 }
 

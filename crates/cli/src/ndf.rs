@@ -1,0 +1,166 @@
+//! `relight verify ndf`, `relight bench ndf` and the ndf method's flags
+//! (`relight_ndf`).
+
+use crate::args::{BenchArgs, MethodFlags, VerifyArgs};
+use crate::commands::data_dir;
+use crate::plot::{Plot, PlotSpec};
+use crate::progress::Bar;
+use crate::scene_args::load_normal_map;
+use crate::table::Report;
+use anyhow::{Result, anyhow, bail};
+use relight_ndf::{NdfBrdf, NdfFilter, NdfOptions};
+
+/// Applies the ndf flags (`--normal-filter`, `--ndf-brdf`, `--lobes`, `--order`).
+///
+/// # Errors
+/// A bad flag value, naming the flag.
+pub fn apply_flags(o: &mut NdfOptions, f: &MethodFlags) -> Result<()> {
+    if let Some(v) = &f.normal_filter {
+        o.filter = NdfFilter::parse(v).map_err(|e| anyhow!("--normal-filter: {e}"))?;
+    }
+    if let Some(v) = &f.ndf_brdf {
+        o.brdf = NdfBrdf::parse(v).map_err(|e| anyhow!("--ndf-brdf: {e}"))?;
+        if o.brdf != NdfBrdf::Lambert && f.normal_filter.is_none() {
+            o.filter = NdfFilter::Vmf;
+        }
+    }
+    if let Some(j) = f.lobes {
+        o.vmf.lobes = j;
+    }
+    if let Some(n) = f.order {
+        o.order = n;
+    }
+    Ok(())
+}
+
+/// The shared normal maps verify and bench read (the two hard ones first).
+const MAPS: [&str; 2] = ["0001.png", "0003.png"];
+
+fn maps() -> Result<Vec<(String, relight_render::NormalMap)>> {
+    let dir = data_dir().join("normalmaps");
+    let mut out = Vec::new();
+    for name in MAPS {
+        let p = dir.join(name);
+        if p.exists() {
+            out.push((name.to_string(), load_normal_map(&p)?));
+        } else if std::env::var_os("CI").is_some() {
+            bail!("{}: not found (CI needs ../shared/data)", p.display());
+        } else {
+            eprintln!("relight: {} not found; skipping it", p.display());
+        }
+    }
+    Ok(out)
+}
+
+/// The environment's 16-band SH (luminance) rotated 8 ways, for the
+/// texel-level Lambert rows.
+fn env16(quick: bool) -> Result<Vec<Vec<f32>>> {
+    let p = data_dir().join("hdri/studio.exr");
+    let env = if p.exists() {
+        relight_assets::load_env_map(&p)?.0
+    } else {
+        eprintln!("relight: {} not found; using a procedural sky", p.display());
+        relight_sphere::EnvMap::from_fn(
+            relight_sphere::Param::LatLong {
+                width: 128,
+                height: 64,
+            },
+            |d| glam::Vec3::splat(0.3 + (4.0 * d.y).max(0.0) + (8.0 * d.x - 7.0).max(0.0)),
+        )
+    };
+    let order = 16;
+    let sh = relight_sh::project::project_env(&env, order, relight_sh::project::Window::None)?;
+    let lum: Vec<f32> = (0..order * order)
+        .map(|i| {
+            0.2126 * sh.channels[0][i] + 0.7152 * sh.channels[1][i] + 0.0722 * sh.channels[2][i]
+        })
+        .collect();
+    let count = if quick { 2 } else { 8 };
+    (0..count)
+        .map(|i| {
+            let r = glam::Mat3::from_euler(
+                glam::EulerRot::YXZ,
+                i as f32 * 0.9,
+                -1.2 + i as f32 * 0.35,
+                0.3 * i as f32,
+            );
+            let rot = relight_sh::rotation::ShRotation::<f32>::from_rotation(
+                order,
+                &relight_sh::rotation::Rot3::from_mat3_unchecked(r),
+            )?;
+            let mut out = vec![0.0f32; order * order];
+            rot.apply(&lum, &mut out);
+            Ok(out)
+        })
+        .collect()
+}
+
+/// `relight verify ndf`.
+pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
+    let opts = relight_ndf::verify::NdfVerifyOptions::new(a.quick);
+    let mut rows = relight_ndf::verify::identities();
+    let env = env16(a.quick)?;
+    let maps = maps()?;
+    for (name, map) in &maps {
+        rows.extend(relight_ndf::verify::texel_levels(
+            name, map, &env, &opts, bar,
+        )?);
+    }
+    let screen_map = maps
+        .first()
+        .map(|(n, m)| (n.clone(), m.clone()))
+        .unwrap_or_else(|| {
+            (
+                "bumps".into(),
+                relight_render::NormalMap::bumps(256, 8, 0.8),
+            )
+        });
+    rows.extend(relight_ndf::verify::screen(
+        &screen_map.0,
+        &screen_map.1,
+        &opts,
+        bar,
+    )?);
+    report.table_plots(
+        "relight verify ndf: normal-map filtering against exact shading",
+        &rows,
+        &[Plot::new(PlotSpec {
+            name: "verify-ndf-levels",
+            x: "level",
+            y: "error",
+            series: &["map", "representation", "brdf"],
+            log_y: true,
+        })
+        .only("check", "texel")
+        .labels(
+            "MIP level",
+            "relative RMS error vs exact over the fine normals",
+        )],
+    )?;
+    Ok(())
+}
+
+/// `relight bench ndf`.
+pub fn bench(a: &BenchArgs, report: &Report, _bar: &Bar) -> Result<()> {
+    let map = match maps()?.into_iter().next() {
+        Some((_, m)) => m,
+        None => relight_render::NormalMap::bumps(512, 8, 0.8),
+    };
+    let map = if a.quick {
+        let c = 128.min(map.width).min(map.height);
+        let texels = (0..c * c)
+            .map(|i| map.texels[(i / c) * map.width + i % c])
+            .collect();
+        relight_render::NormalMap {
+            width: c,
+            height: c,
+            texels,
+        }
+    } else {
+        map
+    };
+    let (image, repeats) = if a.quick { (128, 2) } else { (512, 5) };
+    let rows = relight_ndf::bench::bench_ndf(&map, image, repeats)?;
+    report.table("relight bench ndf", &rows, &[])?;
+    Ok(())
+}

@@ -1,0 +1,172 @@
+//! relight-ndf: frequency-domain normal-map filtering (Han, Sun, Ramamoorthi
+//! & Grinspun 2007, "Frequency domain normal map filtering"; Sun's thesis
+//! §5.1, `sun-thesis-2008.txt`).
+//!
+//! # The idea
+//! A MIP texel covers many normals; shading it with their average is wrong
+//! (the surface flattens, highlights alias and keep their gloss). Its
+//! *normal distribution function* γ(n) convolved with the BRDF's
+//! `f(n·ω)` is the texel's effective BRDF (eqs. 5.1–5.6), and in SH the
+//! convolution is a product per band: `ρ^eff_lm = ρ̂_l γ_lm` (eq. 5.7).
+//!
+//! # Representations (bake, no IO)
+//! * [`sh_ndf::ShNdfPyramid`]: SH coefficients of the NDF per texel; level 0
+//!   is the SH of a delta, coarser levels are exact box averages.
+//! * [`pyramid::VmfPyramid`]: `J` vMF lobes per texel fitted by spherical EM
+//!   ([`em`]), slots coherent parent → children, stored so linear filtering
+//!   is the moment-matching merge.
+//! * [`MeanPyramid`]: the mean normal per texel, for the baselines
+//!   (unnormalized / normalized MIP, Toksvig).
+//! * [`vmf`]: the lobe, `A(κ)` and its inverse, `A_l(κ)` by backward recurrence.
+//! * [`effective`]: effective BRDFs (Lambert; Blinn–Phong `s′ = κs/(κ+s)`;
+//!   GGX/Beckmann `α′² = α² + 2/κ`) and the baselines.
+//!
+//! # Runtime
+//! [`method::NdfMethod`] (`--method ndf`) shades per pixel with the MIP
+//! level from the uv footprint (`relight_render::raster::barycentric_derivatives`).
+//!
+//! # Conventions
+//! Normals in tangent space (+X tangent, +Y bitangent "green up", +Z out),
+//! the `relight_render::NormalMap` convention; uv → texel `x = u·W − ½`,
+//! wrap-around. SH as in `relight-sh` (real, orthonormal, Condon–Shortley).
+
+pub mod bench;
+pub mod effective;
+pub mod em;
+pub mod method;
+pub mod pyramid;
+pub mod sh_ndf;
+pub mod verify;
+pub mod vmf;
+
+pub use effective::{Baseline, NdfBrdf};
+pub use method::{NDF_METHOD_NAME, NdfFilter, NdfMethod, NdfOptions};
+pub use pyramid::{VmfBakeOptions, VmfPyramid};
+pub use sh_ndf::ShNdfPyramid;
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+/// The four texels and weights of a bilinear wrap-around lookup at `uv` in a
+/// `width × height` grid (the `relight_render::texture` convention).
+#[inline]
+#[must_use]
+pub fn taps(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4] {
+    let fx = uv.x * width as f32 - 0.5;
+    let fy = uv.y * height as f32 - 0.5;
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (tx, ty) = if fx.is_finite() && fy.is_finite() {
+        (fx - x0, fy - y0)
+    } else {
+        (0.0, 0.0)
+    };
+    let wrap = |v: f32, n: usize| -> usize {
+        let n_i = n as i64;
+        let i = if v.is_finite() { v as i64 } else { 0 };
+        (((i % n_i) + n_i) % n_i) as usize
+    };
+    let (xa, xb) = (wrap(x0, width), wrap(x0 + 1.0, width));
+    let (ya, yb) = (wrap(y0, height), wrap(y0 + 1.0, height));
+    [
+        (ya * width + xa, (1.0 - tx) * (1.0 - ty)),
+        (ya * width + xb, tx * (1.0 - ty)),
+        (yb * width + xa, (1.0 - tx) * ty),
+        (yb * width + xb, tx * ty),
+    ]
+}
+
+/// The MIP level of a uv footprint: `log2` of the longer screen axis of the
+/// footprint in level-0 texels, `ρ = max(|∂uv/∂x|, |∂uv/∂y|)` scaled by
+/// `(W, H)` (the OpenGL rule), clamped at 0.
+#[inline]
+#[must_use]
+pub fn lod_of(duv_dx: Vec2, duv_dy: Vec2, width: usize, height: usize) -> f32 {
+    let s = Vec2::new(width as f32, height as f32);
+    let rho = (duv_dx * s).length().max((duv_dy * s).length());
+    if rho > 1.0 { rho.log2() } else { 0.0 }
+}
+
+/// Mean normal per texel per level (unnormalized: `|m| ≤ 1` measures the
+/// spread), box averages of the fine normals as [`ShNdfPyramid`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeanPyramid {
+    /// `(width, height, means)` from level 0 down to 1 × 1.
+    pub levels: Vec<(usize, usize, Vec<Vec3>)>,
+}
+
+impl MeanPyramid {
+    /// Builds it from `width × height` unit normals.
+    #[must_use]
+    pub fn build(width: usize, height: usize, normals: &[Vec3]) -> Self {
+        let mut levels = vec![(width, height, normals.to_vec())];
+        let mut counts = vec![1.0f32; width * height];
+        while let Some((w, h, m)) = levels.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
+            let (w, h) = (*w, *h);
+            let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
+            let mut next = vec![Vec3::ZERO; nw * nh];
+            let mut nc = vec![0.0f32; nw * nh];
+            next.par_iter_mut()
+                .zip(nc.par_iter_mut())
+                .enumerate()
+                .for_each(|(i, (d, c))| {
+                    let (x, y) = (i % nw, i / nw);
+                    let mut s = Vec3::ZERO;
+                    for cy in 2 * y..(2 * y + 2).min(h) {
+                        for cx in 2 * x..(2 * x + 2).min(w) {
+                            let j = cy * w + cx;
+                            s += m[j] * counts[j];
+                            *c += counts[j];
+                        }
+                    }
+                    *d = s / *c;
+                });
+            levels.push((nw, nh, next));
+            counts = nc;
+        }
+        Self { levels }
+    }
+
+    /// Trilinear lookup (exact averaging: the mean normal is linear).
+    #[inline]
+    #[must_use]
+    pub fn sample(&self, uv: Vec2, lod: f32) -> Vec3 {
+        let top = (self.levels.len() - 1) as f32;
+        let lod = lod.clamp(0.0, top);
+        let k0 = lod.floor() as usize;
+        let t = lod - k0 as f32;
+        let at = |k: usize| {
+            let (w, h, m) = &self.levels[k];
+            taps(*w, *h, uv)
+                .iter()
+                .map(|&(i, wt)| m[i] * wt)
+                .sum::<Vec3>()
+        };
+        let a = at(k0);
+        if t > 0.0 && k0 + 1 < self.levels.len() {
+            a * (1.0 - t) + at(k0 + 1) * t
+        } else {
+            a
+        }
+    }
+}
+
+/// Errors of the NDF crate, each naming its input.
+#[derive(Debug, thiserror::Error)]
+pub enum NdfError {
+    #[error("normal map: {0}")]
+    Texture(#[from] relight_render::TextureError),
+    #[error("invalid parameter `{what}`: {why}")]
+    InvalidParameter { what: &'static str, why: String },
+    #[error(transparent)]
+    Raster(#[from] relight_render::raster::RasterError),
+    #[error(transparent)]
+    Sh(#[from] relight_sh::ShError),
+    #[error("NDF rendering cancelled")]
+    Cancelled,
+}
+
+impl From<relight_render::Cancelled> for NdfError {
+    fn from(_: relight_render::Cancelled) -> Self {
+        Self::Cancelled
+    }
+}

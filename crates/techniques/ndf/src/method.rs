@@ -1,0 +1,635 @@
+//! [`NdfMethod`]: normal-map filtering behind the method interface
+//! (`relight_render::method::Relighter`, name `ndf`).
+//!
+//! # What it renders
+//! The unshadowed reflection of environment light (Lambert only, through
+//! SH: per-vertex lighting in the tangent frame, a 9-term dot product per
+//! pixel) and point lights (every [`NdfBrdf`]) off normal-mapped objects,
+//! each pixel shading the NDF of its MIP footprint: the level is
+//! [`crate::lod_of`] the uv derivatives from
+//! `relight_render::raster::barycentric_derivatives`, and the pyramids are
+//! sampled trilinearly. [`NdfFilter`] picks the representation or a baseline.
+//!
+//! # The BRDF
+//! The method shades the model of [`NdfOptions::brdf`] (the effective forms
+//! need to know it); each object's colour is read from its own BRDF
+//! (`f(z, z)` over the model's), and `prepare` refuses an object whose BRDF
+//! is not that model times a colour (probed at 6 direction pairs, 2 %).
+//!
+//! # Cache
+//! Pyramids are baked once per normal map (keyed by its texels) and kept in
+//! memory across `prepare`s; `relight ndf bake` writes them for engines.
+
+use crate::effective::{
+    Baseline, NdfBrdf, lambert_mixture_env, lambert_sh_dir, lambert_sh_env, shade_baseline,
+    shade_lobe, shade_mixture,
+};
+use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
+use crate::{MeanPyramid, NdfError, ShNdfPyramid, lod_of};
+use glam::{Mat3, Vec2, Vec3, Vec4};
+use relight_render::method::{
+    FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
+};
+use relight_render::raster::{
+    CullMode, DrawCall, RasterOptions, Rasterizer, barycentric_derivatives,
+};
+use relight_render::{Image, NormalMap, Progress, Scene};
+use relight_sh::project::{Window, project_env};
+use relight_sh::rotation::{Rot3, ShRotation};
+use relight_sphere::Frame;
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The method's name on the command line.
+pub const NDF_METHOD_NAME: &str = "ndf";
+
+/// How a MIP texel's normals are shaded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NdfFilter {
+    /// Plain normal mapping: the level-0 normal, bilinear (aliases at distance).
+    None,
+    /// Baseline: the mean normal, unnormalized.
+    Unnormalized,
+    /// Baseline: the mean normal, renormalized.
+    Normalized,
+    /// Baseline: Toksvig's widened lobe.
+    Toksvig,
+    /// The SH NDF (eq. 5.7; Lambert only).
+    Sh,
+    /// The vMF mixture.
+    Vmf,
+}
+
+impl NdfFilter {
+    /// Every filter, in a fixed order.
+    pub const ALL: [NdfFilter; 6] = [
+        Self::None,
+        Self::Unnormalized,
+        Self::Normalized,
+        Self::Toksvig,
+        Self::Sh,
+        Self::Vmf,
+    ];
+
+    /// The flag value.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Unnormalized => "unnormalized",
+            Self::Normalized => "normalized",
+            Self::Toksvig => "toksvig",
+            Self::Sh => "sh",
+            Self::Vmf => "vmf",
+        }
+    }
+
+    /// Parses a flag value.
+    ///
+    /// # Errors
+    /// An unknown name, listing the known ones.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|f| f.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Self::ALL.iter().map(|f| f.name()).collect();
+                format!(
+                    "unknown normal filter `{s}` (known: {}; lean is not implemented)",
+                    names.join(", ")
+                )
+            })
+    }
+}
+
+/// Settings of [`NdfMethod`]; `Default` holds the defaults.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NdfOptions {
+    /// Default [`NdfFilter::Sh`] for Lambert; glossy BRDFs need `vmf` or a baseline.
+    pub filter: NdfFilter,
+    /// Default Lambert.
+    pub brdf: NdfBrdf,
+    /// SH NDF bands (3..=8). Default 3 (Lambert needs 9 coefficients).
+    pub order: usize,
+    /// The vMF bake (lobes J, EM stopping rules).
+    pub vmf: VmfBakeOptions,
+}
+
+impl Default for NdfOptions {
+    fn default() -> Self {
+        Self {
+            filter: NdfFilter::Sh,
+            brdf: NdfBrdf::Lambert,
+            order: 3,
+            vmf: VmfBakeOptions::default(),
+        }
+    }
+}
+
+/// The baked pyramids of one normal map.
+#[derive(Debug)]
+pub struct Baked {
+    pub width: usize,
+    pub height: usize,
+    pub sh: Option<ShNdfPyramid>,
+    pub vmf: Option<VmfPyramid>,
+    pub mean: MeanPyramid,
+}
+
+impl Baked {
+    /// Bakes what `filter` needs.
+    #[must_use]
+    pub fn bake(map: &NormalMap, options: &NdfOptions) -> Self {
+        let (w, h) = (map.width, map.height);
+        Self {
+            width: w,
+            height: h,
+            sh: (options.filter == NdfFilter::Sh)
+                .then(|| ShNdfPyramid::build(w, h, &map.texels, options.order)),
+            vmf: (options.filter == NdfFilter::Vmf)
+                .then(|| VmfPyramid::build(w, h, &map.texels, &options.vmf)),
+            mean: MeanPyramid::build(w, h, &map.texels),
+        }
+    }
+
+    fn bytes(&self) -> u64 {
+        self.sh.as_ref().map_or(0, ShNdfPyramid::bytes)
+            + self.vmf.as_ref().map_or(0, VmfPyramid::bytes)
+            + self
+                .mean
+                .levels
+                .iter()
+                .map(|l| l.2.len() as u64 * 12)
+                .sum::<u64>()
+    }
+}
+
+/// Per-object data of a prepared scene.
+struct ObjectData {
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    normals: Vec<Vec3>,
+    tangents: Vec<Vec4>,
+    uvs: Vec<Vec2>,
+    colour: Vec3,
+    map: Option<(Arc<NormalMap>, Arc<Baked>)>,
+    /// 27 floats per vertex: the 9 SH lighting coefficients per channel in
+    /// the vertex frame `Frame::from_normal_tangent(n, t)`.
+    light: Vec<f32>,
+}
+
+/// The `ndf` method (module docs).
+pub struct NdfMethod {
+    options: NdfOptions,
+    cache: HashMap<u64, Arc<Baked>>,
+    objects: Vec<ObjectData>,
+    raster: Rasterizer,
+    pending_lighting_ms: f64,
+}
+
+fn invalid(option: &'static str, message: String) -> MethodError {
+    MethodError::InvalidOption {
+        method: NDF_METHOD_NAME,
+        option,
+        message,
+    }
+}
+
+/// A 64-bit fingerprint of a normal map's texels (FNV-1a over the bits).
+fn fingerprint(m: &NormalMap) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64 ^ (m.width as u64) << 32 ^ m.height as u64;
+    for t in &m.texels {
+        for v in t.to_array() {
+            h = (h ^ u64::from(v.to_bits())).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    h
+}
+
+/// The colour of `brdf` as `model × colour`, or why it is not.
+fn colour_of(brdf: &dyn relight_brdf::Brdf, model: NdfBrdf) -> Result<Vec3, String> {
+    let z = Vec3::Z;
+    let base = shade_lobe(model, z, 0.0, z, z);
+    let c = brdf.eval(z, z) * z.z / base;
+    let probes = [
+        (Vec3::new(0.3, 0.1, 0.95), Vec3::new(-0.2, 0.25, 0.95)),
+        (Vec3::new(0.0, 0.5, 0.87), Vec3::new(0.0, -0.45, 0.89)),
+        (Vec3::new(0.6, 0.0, 0.8), Vec3::new(-0.58, 0.05, 0.81)),
+        (Vec3::new(0.1, 0.1, 0.99), Vec3::new(0.7, 0.0, 0.71)),
+        (Vec3::new(0.5, 0.5, 0.71), Vec3::new(0.2, -0.3, 0.93)),
+    ];
+    for (wo, wi) in probes {
+        let (wo, wi) = (wo.normalize(), wi.normalize());
+        let want = c * shade_lobe(model, z, 0.0, wo, wi);
+        let got = brdf.eval(wo, wi) * wi.z;
+        let scale = want.max_element().max(got.max_element()).max(1e-6);
+        if (want - got).abs().max_element() > 0.02 * scale {
+            return Err(format!(
+                "the object's BRDF is not {} times a colour (f cos = {got} where the model gives {want}); pass --ndf-brdf matching the scene's BRDF",
+                model.label()
+            ));
+        }
+    }
+    Ok(c)
+}
+
+impl NdfMethod {
+    /// A method with `options`.
+    ///
+    /// # Errors
+    /// An out-of-range order or lobe count, or a filter the BRDF cannot use.
+    pub fn new(options: NdfOptions) -> Result<Self, MethodError> {
+        if !(3..=8).contains(&options.order) {
+            return Err(invalid(
+                "order",
+                format!("must be 3…8 SH bands (got {})", options.order),
+            ));
+        }
+        if !(1..=MAX_LOBES).contains(&options.vmf.lobes) {
+            return Err(invalid(
+                "lobes",
+                format!("must be 1…{MAX_LOBES} (got {})", options.vmf.lobes),
+            ));
+        }
+        if options.filter == NdfFilter::Sh && options.brdf != NdfBrdf::Lambert {
+            return Err(invalid(
+                "normal-filter",
+                format!(
+                    "sh filters Lambert only ({} needs ~2√s bands; use vmf)",
+                    options.brdf.label()
+                ),
+            ));
+        }
+        Ok(Self {
+            options,
+            cache: HashMap::new(),
+            objects: Vec::new(),
+            raster: Rasterizer::new(),
+            pending_lighting_ms: 0.0,
+        })
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &NdfOptions {
+        &self.options
+    }
+
+    /// The pyramids baked for `map` with this method's options (from the
+    /// in-memory cache when baked before).
+    pub fn baked(&mut self, map: &NormalMap) -> Arc<Baked> {
+        let key = fingerprint(map);
+        self.cache
+            .entry(key)
+            .or_insert_with(|| Arc::new(Baked::bake(map, &self.options)))
+            .clone()
+    }
+
+    /// Shades one visible point (everything in the tangent frame).
+    #[allow(clippy::too_many_arguments)]
+    fn shade(
+        &self,
+        o: &ObjectData,
+        position: Vec3,
+        eye: Vec3,
+        frame: &Frame,
+        hand: f32,
+        uv: Vec2,
+        lod: f32,
+        light: &[f32; 27],
+        scene: &Scene,
+        has_env: bool,
+    ) -> Vec3 {
+        let to_t = |v: Vec3| Vec3::new(v.dot(frame.x), hand * v.dot(frame.y), v.dot(frame.z));
+        let wo = to_t((eye - position).normalize_or_zero());
+        if wo.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let brdf = self.options.brdf;
+        let mut lobes = [ShadeLobe {
+            alpha: 0.0,
+            mu: Vec3::Z,
+            inv_kappa: 0.0,
+        }; MAX_LOBES];
+        let mut nl = 0;
+        let mut gamma = [0.0f32; 64];
+        // The representation at this pixel.
+        enum Rep {
+            Normal(Vec3),
+            Mean(Vec3),
+            Sh,
+            Vmf,
+        }
+        let rep = match (&o.map, self.options.filter) {
+            (None, _) => Rep::Normal(Vec3::Z),
+            (Some((m, _)), NdfFilter::None) => Rep::Normal(m.sample(uv)),
+            (Some((_, b)), NdfFilter::Sh) => {
+                if let Some(sh) = &b.sh {
+                    sh.sample(uv, lod, &mut gamma);
+                }
+                Rep::Sh
+            }
+            (Some((_, b)), NdfFilter::Vmf) => {
+                let mut packed = [Vec4::ZERO; MAX_LOBES];
+                if let Some(v) = &b.vmf {
+                    v.sample(uv, lod, &mut packed);
+                    for p in &packed[..v.lobes] {
+                        if let Some(l) = unpack(*p) {
+                            lobes[nl] = l;
+                            nl += 1;
+                        }
+                    }
+                }
+                Rep::Vmf
+            }
+            (Some((_, b)), _) => Rep::Mean(b.mean.sample(uv, lod)),
+        };
+        let baseline = match self.options.filter {
+            NdfFilter::Unnormalized => Baseline::Unnormalized,
+            NdfFilter::Toksvig => Baseline::Toksvig,
+            _ => Baseline::Normalized,
+        };
+        let fcos = |wi: Vec3| -> f32 {
+            match &rep {
+                Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
+                Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
+                Rep::Sh => lambert_sh_dir(&gamma, wi),
+                Rep::Vmf => shade_mixture(brdf, &lobes[..nl], wo, wi),
+            }
+        };
+        let mut out = Vec3::ZERO;
+        if has_env && brdf == NdfBrdf::Lambert {
+            let mut y = [0.0f32; 9];
+            for c in 0..3 {
+                let l = &light[c * 9..c * 9 + 9];
+                let mut lt = [0.0f32; 9];
+                lt.copy_from_slice(l);
+                if hand < 0.0 {
+                    // Tangent-space y = −frame y: the m < 0 functions flip.
+                    for i in [1, 4, 5] {
+                        lt[i] = -lt[i];
+                    }
+                }
+                let v = match &rep {
+                    Rep::Normal(n) => {
+                        relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+                        lambert_sh_env(&y, &lt)
+                    }
+                    Rep::Mean(m) => {
+                        let n = match baseline {
+                            Baseline::Unnormalized => *m,
+                            _ => m.normalize_or(Vec3::Z),
+                        };
+                        relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+                        lambert_sh_env(&y, &lt)
+                    }
+                    Rep::Sh => lambert_sh_env(&gamma, &lt),
+                    Rep::Vmf => lambert_mixture_env(&lobes[..nl], &lt),
+                };
+                out[c] += v;
+            }
+        }
+        for pl in &scene.point_lights {
+            let d = pl.position - position;
+            let r2 = d.length_squared();
+            if r2 <= 0.0 {
+                continue;
+            }
+            let wi = to_t(d / r2.sqrt());
+            out += pl.intensity / r2 * fcos(wi);
+        }
+        out * o.colour
+    }
+}
+
+impl Relighter for NdfMethod {
+    fn name(&self) -> &'static str {
+        NDF_METHOD_NAME
+    }
+
+    fn supports(&self, feature: SceneFeature) -> Support {
+        match feature {
+            SceneFeature::Environment if self.options.brdf == NdfBrdf::Lambert => Support::Full,
+            SceneFeature::PointLights | SceneFeature::NormalMaps => Support::Full,
+            _ => Support::No,
+        }
+    }
+
+    fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
+        self.objects.clear();
+        for (i, ob) in scene.objects.iter().enumerate() {
+            progress.check()?;
+            let m = &ob.mesh;
+            let nv = m.positions.len();
+            if m.normals.len() != nv {
+                return Err(invalid(
+                    "mesh",
+                    format!("object {i}: {} normals for {nv} vertices", m.normals.len()),
+                ));
+            }
+            if ob.normal_map.is_some() && (m.uvs.len() != nv || m.tangents.len() != nv) {
+                return Err(invalid(
+                    "normal-map",
+                    format!(
+                        "object {i}: a normal map needs uvs and tangents ({} uvs, {} tangents for {nv} vertices)",
+                        m.uvs.len(),
+                        m.tangents.len()
+                    ),
+                ));
+            }
+            let colour = colour_of(ob.brdf.as_ref(), self.options.brdf)
+                .map_err(|e| invalid("ndf-brdf", format!("object {i}: {e}")))?;
+            let map = match &ob.normal_map {
+                Some(nm) => {
+                    progress.start("ndf pyramid bake", 1);
+                    let b = self.baked(nm);
+                    progress.finish();
+                    Some((nm.clone(), b))
+                }
+                None => None,
+            };
+            let tangents = if m.tangents.len() == nv {
+                m.tangents.clone()
+            } else {
+                m.normals
+                    .iter()
+                    .map(|n| n.any_orthonormal_vector().extend(1.0))
+                    .collect()
+            };
+            self.objects.push(ObjectData {
+                positions: m.positions.clone(),
+                triangles: m.indices.clone(),
+                normals: m.normals.clone(),
+                tangents,
+                uvs: if m.uvs.len() == nv {
+                    m.uvs.clone()
+                } else {
+                    vec![Vec2::ZERO; nv]
+                },
+                colour,
+                map,
+                light: vec![0.0; nv * 27],
+            });
+        }
+        self.set_lighting(scene, progress)?;
+        Ok(())
+    }
+
+    fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError> {
+        let t = Instant::now();
+        if scene.objects.len() != self.objects.len() {
+            return Err(invalid(
+                "scene",
+                "the scene changed since prepare; call prepare again".into(),
+            ));
+        }
+        let env = if scene.has_environment() {
+            Some(
+                project_env(&scene.env, 3, Window::None)
+                    .map_err(|e| MethodError::failed(NDF_METHOD_NAME, NdfError::from(e)))?,
+            )
+        } else {
+            None
+        };
+        for o in &mut self.objects {
+            progress.check()?;
+            let Some(env) = &env else {
+                o.light.fill(0.0);
+                continue;
+            };
+            use rayon::prelude::*;
+            let wfe = scene.world_from_env;
+            o.light
+                .par_chunks_mut(27)
+                .zip(o.normals.par_iter().zip(o.tangents.par_iter()))
+                .for_each(|(dst, (n, tg))| {
+                    let f = Frame::from_normal_tangent(*n, tg.truncate());
+                    let local_from_world = Mat3::from_cols(f.x, f.y, f.z).transpose();
+                    let r = local_from_world * wfe;
+                    let rot = Rot3::from_mat3_unchecked(r);
+                    let Ok(sh) = ShRotation::<f32>::from_rotation(3, &rot) else {
+                        return;
+                    };
+                    for c in 0..3 {
+                        sh.apply(&env.channels[c], &mut dst[c * 9..c * 9 + 9]);
+                    }
+                });
+        }
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        self.pending_lighting_ms = ms;
+        Ok(ms)
+    }
+
+    fn render(
+        &mut self,
+        scene: &Scene,
+        request: &FrameRequest,
+        progress: &dyn Progress,
+    ) -> Result<Rendered, MethodError> {
+        request.validate(NDF_METHOD_NAME)?;
+        let t = Instant::now();
+        let k = request.aa;
+        let mut camera = request.camera;
+        camera.width *= k;
+        camera.height *= k;
+        let draws: Vec<DrawCall> = self
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| DrawCall::new(&o.positions, &o.triangles).with_object_id(i as u32))
+            .collect();
+        let opts = RasterOptions {
+            cull: CullMode::None,
+            ..RasterOptions::default()
+        }
+        .fit_depth(&camera, &draws);
+        let mut raster = std::mem::take(&mut self.raster);
+        let res = raster.rasterize(&camera, &draws, &opts);
+        if let Err(e) = res {
+            self.raster = raster;
+            return Err(MethodError::failed(NDF_METHOD_NAME, NdfError::from(e)));
+        }
+        progress.check()?;
+        let rays = camera.ray_frame();
+        let eye = camera.eye;
+        let (w, h) = (camera.width, camera.height);
+        let mut big = Image::new(w, h);
+        // Once per frame: `has_environment` scans the map's texels.
+        let has_env = scene.has_environment();
+        {
+            use rayon::prelude::*;
+            let this = &*self;
+            let raster_ref = &raster;
+            big.pixels
+                .par_chunks_mut(w)
+                .enumerate()
+                .for_each(|(y, row)| {
+                    for (x, px) in row.iter_mut().enumerate() {
+                        let Some((d, tri, lam)) = raster_ref.barycentrics_at(&draws, x, y) else {
+                            continue;
+                        };
+                        let o = &this.objects[d];
+                        let [i0, i1, i2] = o.triangles[tri].map(|i| i as usize);
+                        let mix3 = |a: Vec3, b: Vec3, c: Vec3| a * lam.x + b * lam.y + c * lam.z;
+                        let position = mix3(o.positions[i0], o.positions[i1], o.positions[i2]);
+                        let n =
+                            mix3(o.normals[i0], o.normals[i1], o.normals[i2]).normalize_or(Vec3::Z);
+                        let tg = o.tangents[i0] * lam.x
+                            + o.tangents[i1] * lam.y
+                            + o.tangents[i2] * lam.z;
+                        let uv = o.uvs[i0] * lam.x + o.uvs[i1] * lam.y + o.uvs[i2] * lam.z;
+                        let frame = Frame::from_normal_tangent(n, tg.truncate());
+                        let hand = if tg.w < 0.0 { -1.0 } else { 1.0 };
+                        let lod = match &o.map {
+                            Some((_, b)) => barycentric_derivatives(
+                                &rays,
+                                [o.positions[i0], o.positions[i1], o.positions[i2]],
+                                x as f32 + 0.5,
+                                y as f32 + 0.5,
+                            )
+                            .map_or(0.0, |[dx, dy]| {
+                                let duv = |dl: Vec3| {
+                                    o.uvs[i0] * dl.x + o.uvs[i1] * dl.y + o.uvs[i2] * dl.z
+                                };
+                                lod_of(duv(dx), duv(dy), b.width, b.height)
+                            }),
+                            None => 0.0,
+                        };
+                        let mut light = [0.0f32; 27];
+                        for (j, l) in light.iter_mut().enumerate() {
+                            *l = o.light[i0 * 27 + j] * lam.x
+                                + o.light[i1 * 27 + j] * lam.y
+                                + o.light[i2 * 27 + j] * lam.z;
+                        }
+                        *px = this.shade(
+                            o, position, eye, &frame, hand, uv, lod, &light, scene, has_env,
+                        );
+                    }
+                });
+        }
+        let coverage = relight_render::method::coverage_of_raster(
+            &raster,
+            request.camera.width,
+            request.camera.height,
+            k,
+        );
+        self.raster = raster;
+        let image = if k == 1 { big } else { big.box_downsample(k) };
+        let lighting_ms = std::mem::take(&mut self.pending_lighting_ms);
+        Ok(Rendered {
+            image,
+            coverage: Some(coverage),
+            timings: FrameTimings {
+                lighting_ms,
+                view_ms: t.elapsed().as_secs_f64() * 1e3,
+            },
+            noise: None,
+        })
+    }
+
+    fn data_bytes(&self) -> u64 {
+        self.cache.values().map(|b| b.bytes()).sum()
+    }
+}

@@ -1,0 +1,305 @@
+//! Each closed form of the NDF crate checked a second way (quadrature or
+//! seeded Monte Carlo).
+
+use glam::{DVec3, Mat3, Vec3};
+use relight_ndf::effective::{Baseline, NdfBrdf, lambert_lobe, shade_baseline, shade_lobe};
+use relight_ndf::em::{EmOptions, Lobe, fit_em, seed_lobes};
+use relight_ndf::pyramid::{VmfBakeOptions, unpack};
+use relight_ndf::vmf::{KAPPA_MAX, Vmf, kappa_from_resultant, mean_resultant, sh_attenuation};
+use relight_ndf::{MeanPyramid, ShNdfPyramid, VmfPyramid};
+
+struct Rng(u64);
+impl Rng {
+    fn f(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A vMF sample about `mu` (Wood 1994 in 3D: exact inverse cdf of w = μ·n).
+fn sample_vmf(rng: &mut Rng, mu: DVec3, kappa: f64) -> DVec3 {
+    let u = rng.f();
+    let w = 1.0 + (u + (1.0 - u) * (-2.0 * kappa).exp()).ln() / kappa;
+    let w = w.clamp(-1.0, 1.0);
+    let phi = 2.0 * std::f64::consts::PI * rng.f();
+    let s = (1.0 - w * w).max(0.0).sqrt();
+    let f = relight_sphere::Frame::from_z(mu.as_vec3());
+    (f.x.as_dvec3() * (s * phi.cos()) + f.y.as_dvec3() * (s * phi.sin()) + mu * w).normalize()
+}
+
+fn legendre(l: usize, t: f64) -> f64 {
+    let (mut p0, mut p1) = (1.0, t);
+    if l == 0 {
+        return 1.0;
+    }
+    for k in 1..l {
+        let p2 = ((2 * k + 1) as f64 * t * p1 - k as f64 * p0) / (k + 1) as f64;
+        p0 = p1;
+        p1 = p2;
+    }
+    p1
+}
+
+#[test]
+fn attenuation_matches_quadrature_over_kappa() {
+    // A_l(κ) = ∫ γ(t) P_l(t) over the sphere = ∫_0^{2κ} e^{−u} P_l(1 − u/κ) du / (1 − e^{−2κ}).
+    for &kappa in &[1e-3, 0.1, 1.0, 7.0, 50.0, 1e3, 1e4, 1e6] {
+        let mut a = [0.0f64; 9];
+        sh_attenuation(kappa, &mut a);
+        let umax = (2.0 * kappa).min(60.0);
+        let n = 200_000;
+        for (l, &al) in a.iter().enumerate() {
+            let h = umax / n as f64;
+            let f = |u: f64| (-u).exp() * legendre(l, 1.0 - u / kappa);
+            let mut s = f(0.0) + f(umax);
+            for i in 1..n {
+                s += f(i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+            }
+            let q = s * h / 3.0 / (-(-2.0 * kappa).exp_m1());
+            assert!(
+                (q - al).abs() < 1e-7 + 1e-6 * q.abs(),
+                "κ={kappa} l={l}: recurrence {al} quadrature {q}"
+            );
+        }
+        assert!((a[1] - mean_resultant(kappa)).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn kappa_inverse_round_trips() {
+    for &k in &[0.01, 0.5, 3.0, 40.0, 900.0, 5e4] {
+        let back = kappa_from_resultant(mean_resultant(k));
+        assert!((back / k - 1.0).abs() < 1e-6, "{k} -> {back}");
+    }
+}
+
+fn random_map(n: usize, seed: u64) -> Vec<Vec3> {
+    let mut r = Rng(seed);
+    (0..n * n)
+        .map(|_| {
+            let v = Vec3::new(r.f() as f32 - 0.5, r.f() as f32 - 0.5, 1.0);
+            v.normalize()
+        })
+        .collect()
+}
+
+#[test]
+fn sh_pyramid_is_the_box_average_and_keeps_gamma00() {
+    let n = 16;
+    let map = random_map(n, 7);
+    let p = ShNdfPyramid::build(n, n, &map, 4);
+    assert_eq!(p.levels.len(), 5);
+    let y00 = 0.5 / std::f32::consts::PI.sqrt();
+    for l in &p.levels {
+        for c in l.coeffs.chunks(16) {
+            assert!((c[0] - y00).abs() < 1e-6);
+        }
+    }
+    // Level 2 texel (1, 2) = mean of y(n) over its 4×4 fine texels.
+    let mut want = [0.0f32; 16];
+    let mut y = [0.0f32; 16];
+    for yy in 8..12 {
+        for xx in 4..8 {
+            relight_sh::eval_sh_into(4, map[yy * n + xx].to_array(), &mut y);
+            for (w, v) in want.iter_mut().zip(&y) {
+                *w += v / 16.0;
+            }
+        }
+    }
+    for (a, b) in p.texel(2, 1, 2).iter().zip(&want) {
+        assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+    }
+    // Constant map: γ_lm = y_lm(n₀) at every level.
+    let n0 = Vec3::new(0.2, -0.3, 0.9).normalize();
+    let c = ShNdfPyramid::build(8, 8, &vec![n0; 64], 3);
+    relight_sh::eval_sh_into(3, n0.to_array(), &mut y[..9]);
+    for l in &c.levels {
+        for t in l.coeffs.chunks(9) {
+            for (a, b) in t.iter().zip(&y[..9]) {
+                assert!((a - b).abs() < 1e-5);
+            }
+        }
+    }
+}
+
+#[test]
+fn em_recovers_a_known_three_lobe_mixture() {
+    let truth = [
+        (0.5, DVec3::new(0.0, 0.0, 1.0), 80.0),
+        (0.3, DVec3::new(0.7, 0.0, 0.71).normalize(), 200.0),
+        (0.2, DVec3::new(-0.3, -0.8, 0.5).normalize(), 30.0),
+    ];
+    let mut rng = Rng(0x1234_5678_9abc_def1);
+    let mut samples = Vec::with_capacity(100_000);
+    for _ in 0..100_000 {
+        let u = rng.f();
+        let j = if u < 0.5 {
+            0
+        } else if u < 0.8 {
+            1
+        } else {
+            2
+        };
+        samples.push(sample_vmf(&mut rng, truth[j].1, truth[j].2));
+    }
+    let w = vec![1.0; samples.len()];
+    let mut lobes = seed_lobes(&samples, &w, 3);
+    let trace = fit_em(
+        &samples,
+        &w,
+        &mut lobes,
+        &EmOptions {
+            max_iter: 200,
+            tol: 1e-9,
+        },
+    );
+    for p in trace.log_likelihood.windows(2) {
+        assert!(p[1] >= p[0] - 1e-9, "log-likelihood fell: {p:?}");
+    }
+    for (a, mu, k) in truth {
+        let l = lobes
+            .iter()
+            .max_by(|x, y| x.vmf.mu.dot(mu).total_cmp(&y.vmf.mu.dot(mu)))
+            .unwrap();
+        let ang = l.vmf.mu.dot(mu).clamp(-1.0, 1.0).acos().to_degrees();
+        assert!((l.alpha - a).abs() < 0.01, "α {} vs {a}", l.alpha);
+        assert!(ang < 1.0, "angle {ang}°");
+        assert!(
+            (l.vmf.kappa / k - 1.0).abs() < 0.05,
+            "κ {} vs {k}",
+            l.vmf.kappa
+        );
+    }
+    // Deterministic: the same input gives the same lobes.
+    let mut again = seed_lobes(&samples, &w, 3);
+    fit_em(
+        &samples,
+        &w,
+        &mut again,
+        &EmOptions {
+            max_iter: 200,
+            tol: 1e-9,
+        },
+    );
+    assert_eq!(again, lobes);
+}
+
+#[test]
+fn constant_map_gives_one_clamped_lobe_at_every_level() {
+    let n0 = Vec3::new(0.1, 0.2, 0.97).normalize();
+    let p = VmfPyramid::build(8, 8, &vec![n0; 64], &VmfBakeOptions::default());
+    for (k, l) in p.levels.iter().enumerate() {
+        for t in l.lobes.chunks(p.lobes) {
+            let live: Vec<_> = t
+                .iter()
+                .filter_map(|q| unpack(*q))
+                .filter(|q| q.alpha > 1e-3)
+                .collect();
+            let sum: f32 = live.iter().map(|q| q.alpha).sum();
+            assert!((sum - 1.0).abs() < 1e-4, "level {k}: weights {sum}");
+            for q in live {
+                assert!((q.mu - n0).length() < 1e-4, "level {k}: μ {}", q.mu);
+                assert_eq!(q.inv_kappa, 0.0, "level {k}: κ not at its clamp");
+            }
+        }
+    }
+    let _ = KAPPA_MAX;
+}
+
+/// ∫ g(n) γ(n; μ, κ) dn by seeded Monte Carlo.
+fn mc_vmf(mu: Vec3, kappa: f64, g: impl Fn(Vec3) -> f32) -> f64 {
+    let mut rng = Rng(99);
+    let n = 400_000;
+    (0..n)
+        .map(|_| g(sample_vmf(&mut rng, mu.as_dvec3(), kappa).as_vec3()) as f64)
+        .sum::<f64>()
+        / n as f64
+}
+
+#[test]
+fn lambert_lobe_matches_monte_carlo() {
+    let mu = Vec3::Z;
+    for &kappa in &[0.01f64, 1.0, 5.0, 30.0, 300.0] {
+        for &th in &[0.0f32, 0.8, 1.4, 1.9, 2.6] {
+            let l = Vec3::new(th.sin(), 0.0, th.cos());
+            let mc = mc_vmf(mu, kappa, |n| n.dot(l).max(0.0));
+            let got = f64::from(lambert_lobe(l.z, 1.0 / kappa as f32));
+            assert!(
+                (got - mc).abs() < 0.012,
+                "κ={kappa} θ={th}: {got} vs MC {mc}"
+            );
+        }
+    }
+}
+
+#[test]
+fn glossy_effective_brdfs_match_monte_carlo() {
+    let wo = Vec3::new(0.3, 0.0, 0.95).normalize();
+    let wi = Vec3::new(-0.25, 0.1, 0.96).normalize();
+    for (brdf, kappa, tol) in [
+        (NdfBrdf::Blinn { s: 64.0 }, 200.0, 0.05),
+        (NdfBrdf::Blinn { s: 16.0 }, 50.0, 0.05),
+        (NdfBrdf::Ggx { alpha: 0.3 }, 100.0, 0.10),
+        (NdfBrdf::Beckmann { alpha: 0.3 }, 100.0, 0.10),
+    ] {
+        let mc = mc_vmf(Vec3::Z, kappa, |n| shade_lobe(brdf, n, 0.0, wo, wi));
+        let got = f64::from(shade_lobe(brdf, Vec3::Z, 1.0 / kappa as f32, wo, wi));
+        assert!(
+            (got / mc - 1.0).abs() < tol,
+            "{brdf:?} κ={kappa}: effective {got} vs MC {mc}"
+        );
+    }
+}
+
+#[test]
+fn one_lobe_agrees_with_toksvig_when_the_mean_normal_is_long() {
+    let brdf = NdfBrdf::Blinn { s: 32.0 };
+    let wo = Vec3::new(0.2, 0.0, 0.98).normalize();
+    let wi = Vec3::new(-0.2, 0.05, 0.98).normalize();
+    for &r in &[0.9f32, 0.95, 0.99] {
+        let kappa = kappa_from_resultant(f64::from(r)) as f32;
+        let v = shade_lobe(brdf, Vec3::Z, 1.0 / kappa, wo, wi);
+        let t = shade_baseline(brdf, Baseline::Toksvig, Vec3::Z * r, wo, wi);
+        assert!((v / t - 1.0).abs() < 0.10, "|n̄|={r}: vMF {v} Toksvig {t}");
+    }
+}
+
+#[test]
+fn mean_pyramid_averages() {
+    let map = random_map(4, 3);
+    let p = MeanPyramid::build(4, 4, &map);
+    let mean = map.iter().copied().sum::<Vec3>() / 16.0;
+    assert!((p.levels[2].2[0] - mean).length() < 1e-6);
+}
+
+#[test]
+fn sh_rotation_convention_of_the_vertex_lighting() {
+    // ShRotation::from_rotation(R) turns f into f∘Rᵀ (what set_lighting relies on).
+    let r = Mat3::from_euler(glam::EulerRot::YXZ, 0.7, -0.4, 1.1);
+    let mut c = [0.0f32; 9];
+    let d0 = Vec3::new(0.3, 0.5, 0.8).normalize();
+    relight_sh::eval_sh_into(3, d0.to_array(), &mut c); // a "lobe" toward d0
+    let rot = relight_sh::rotation::ShRotation::<f32>::from_rotation(
+        3,
+        &relight_sh::rotation::Rot3::from_mat3_unchecked(r),
+    )
+    .unwrap();
+    let mut out = [0.0f32; 9];
+    rot.apply(&c, &mut out);
+    let d = Vec3::new(-0.2, 0.4, 0.7).normalize();
+    let mut y = [0.0f32; 9];
+    relight_sh::eval_sh_into(3, d.to_array(), &mut y);
+    let a: f32 = out.iter().zip(&y).map(|(p, q)| p * q).sum();
+    relight_sh::eval_sh_into(3, (r.transpose() * d).to_array(), &mut y);
+    let b: f32 = c.iter().zip(&y).map(|(p, q)| p * q).sum();
+    assert!((a - b).abs() < 1e-4, "{a} vs {b}");
+    let _ = Lobe {
+        alpha: 1.0,
+        vmf: Vmf {
+            mu: DVec3::Z,
+            kappa: 1.0,
+        },
+    };
+}
