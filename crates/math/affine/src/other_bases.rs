@@ -44,10 +44,23 @@ pub fn pixel_acc_nonzeros(n: usize, s: f64, o: f64) -> usize {
 }
 
 /// The thesis' bound `min((s+1)N, (1/s+1)N)` on [`pixel_acc_nonzeros`].
+/// It is exceeded by one when `min(s, 1/s) N` is not an integer (e.g.
+/// N = 64, s = 0.5245, o = 0.1692: 98 > 97.6); [`pixel_acc_bound_integer`]
+/// is the bound that holds.
 #[must_use]
 pub fn pixel_acc_bound(n: usize, s: f64) -> f64 {
     let nf = n as f64;
     ((s + 1.0) * nf).min((1.0 / s + 1.0) * nf)
+}
+
+/// The pixel ACC bound with the rounding made explicit:
+/// `N + ⌈min(s, 1/s) N⌉` — the cells of the common refinement of two
+/// partitions are their break points inside the overlap minus one: all
+/// `N + 1` of the finer-in-extent partition and at most `⌈min(s,1/s) N⌉ − 1`
+/// interior ones of the other.
+#[must_use]
+pub fn pixel_acc_bound_integer(n: usize, s: f64) -> usize {
+    n + (s.min(1.0 / s) * n as f64).ceil() as usize
 }
 
 /// A complex number `(re, im)`.
