@@ -428,6 +428,8 @@ pub enum Suite {
     Wavelet,
     /// Analytic fog shading.
     Fog,
+    /// Affine Haar coefficients: sparsity, complexity, 4D table, propagation.
+    Affine,
 }
 
 #[derive(Args, Debug)]
@@ -462,6 +464,8 @@ pub enum VerifySuite {
     Fog,
     /// Every method on a matrix of scenes against one reference.
     Methods,
+    /// Affine Haar coupling/tripling coefficients (thesis ch. 4) against overlap and quadrature.
+    Affine,
 }
 
 #[derive(Args, Debug)]

@@ -44,6 +44,7 @@
 #![deny(missing_docs)]
 
 pub mod atom;
+pub mod bench;
 pub mod canonical;
 pub mod coupling;
 pub mod other_bases;
@@ -51,6 +52,7 @@ pub mod rows;
 pub mod separable;
 pub mod sparsity;
 pub mod table;
+pub mod verify;
 
 pub use atom::{Atom, Kind};
 pub use canonical::canonical;
