@@ -59,6 +59,9 @@ pub enum Command {
     /// Analytic fog tools.
     #[command(subcommand)]
     Fog(FogCommand),
+    /// Wavelet-domain image tools (affine transforms, thesis §4.6.2).
+    #[command(subcommand)]
+    Wavelet(crate::zoom::WaveletCommand),
     /// Benchmarks: print a table (or JSON) of measured speed.
     Bench(BenchArgs),
     /// Accuracy against the reference renderer: print a table (or JSON).

@@ -44,6 +44,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Sh(c) => sh(c),
         Command::Bake(c) => bake(c, &bar),
         Command::Fog(c) => fog(c),
+        Command::Wavelet(c) => crate::zoom::run(c),
         Command::Bench(a) => bench(a, &bar),
         Command::Verify(a) => verify(a, &bar),
         Command::Cache(c) => crate::cache::run(c),

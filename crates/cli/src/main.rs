@@ -20,6 +20,7 @@ mod render_cmd;
 mod scene_args;
 mod table;
 mod verify_methods;
+mod zoom;
 
 use clap::Parser;
 

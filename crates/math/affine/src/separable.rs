@@ -140,3 +140,13 @@ pub fn propagate_2d(f: &[f32], n: usize, s: [f64; 2], o: [f64; 2], out: &mut [f6
         }
     }
 }
+
+/// The affine map of a zoom (§4.6.2): magnification `scale > 0` about the
+/// image point `center` ∈ \[0,1\]² (u along columns, v along rows), which
+/// lands in the middle of the output. Output point `x` shows input
+/// `s x + o` with `s = 1/scale`, `o = center − s/2` per axis.
+#[must_use]
+pub fn zoom_transform(scale: f64, center: [f64; 2]) -> ([f64; 2], [f64; 2]) {
+    let s = 1.0 / scale;
+    ([s, s], [center[0] - 0.5 * s, center[1] - 0.5 * s])
+}
