@@ -565,6 +565,34 @@ fn separable_rows() -> Vec<VerifyRow> {
         1e-5,
         ISSUE,
     ));
+    // Zoom at 100 % (§4.6.2): the identity, exactly.
+    let n2 = 32;
+    let img2: Vec<f32> = (0..n2 * n2)
+        .map(|k| (((k * 53 + 7) % 31) as f32) / 31.0)
+        .collect();
+    let mut c2 = img2.clone();
+    let mut e_id = f64::INFINITY;
+    if try_forward_2d(&mut c2, n2).is_ok() {
+        let (s, o) = crate::separable::zoom_transform(1.0, [0.5, 0.5]);
+        let mut out = vec![0.0; n2 * n2];
+        propagate_2d(&c2, n2, s, o, &mut out);
+        let mut back: Vec<f32> = out.iter().map(|&x| x as f32).collect();
+        if try_inverse_2d(&mut back, n2).is_ok() {
+            e_id = img2
+                .iter()
+                .zip(&back)
+                .map(|(a, b)| f64::from((a - b).abs()))
+                .fold(0.0, f64::max);
+        }
+    }
+    rows.push(gate(
+        "wavelet zoom at 100 % (32², scale 1, centre ½,½)",
+        "the input image",
+        n2 * n2,
+        e_id,
+        1e-5,
+        ISSUE,
+    ));
     rows
 }
 
