@@ -62,6 +62,9 @@ pub enum Command {
     /// Analytic fog tools.
     #[command(subcommand)]
     Fog(FogCommand),
+    /// Wavelet-domain image tools (affine transforms, thesis §4.6.2).
+    #[command(subcommand)]
+    Wavelet(crate::zoom::WaveletCommand),
     /// Benchmarks: print a table (or JSON) of measured speed.
     Bench(BenchArgs),
     /// Accuracy against the reference renderer: print a table (or JSON).
@@ -480,6 +483,8 @@ pub enum Suite {
     RadianceCache,
     /// Normal-map filtering: bakes, frames and memory.
     Ndf,
+    /// Affine Haar coefficients: sparsity, complexity, 4D table, propagation.
+    Affine,
 }
 
 #[derive(Args, Debug)]
@@ -520,6 +525,8 @@ pub enum VerifySuite {
     RadianceCache,
     /// Normal-map filtering: identities, per-level and screen accuracy.
     Ndf,
+    /// Affine Haar coupling/tripling coefficients (thesis ch. 4) against overlap and quadrature.
+    Affine,
 }
 
 #[derive(Args, Debug)]

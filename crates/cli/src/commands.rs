@@ -44,6 +44,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Sh(c) => sh(c),
         Command::Bake(c) => bake(c, &bar),
         Command::Fog(c) => fog(c),
+        Command::Wavelet(c) => crate::zoom::run(c),
         Command::Bench(a) => bench(a, &bar),
         Command::Verify(a) => verify(a, &bar),
         Command::Spheres(c) => crate::shexp::spheres(c),
@@ -316,6 +317,7 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
         Suite::Frames => crate::bench_frames::run(&a, bar),
         Suite::Shexp => crate::shexp::bench(&a, &report),
         Suite::RadianceCache => crate::radcache::bench(a.quick, &report, bar),
+        Suite::Affine => crate::affine::bench(&a, &report),
         Suite::Raster => {
             let rows = if a.quick {
                 relight_render::raster::bench_raster(100_000, 640, 360, 3)
@@ -513,6 +515,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
         VerifySuite::Methods => crate::verify_methods::verify_methods(&a, &report, bar),
         VerifySuite::Shexp => crate::shexp::verify(&a, &report),
         VerifySuite::RadianceCache => crate::radcache::verify(a.quick, &report, bar),
+        VerifySuite::Affine => crate::affine::verify(&a, &report),
         VerifySuite::Sh => {
             let opts = relight_shlight::VerifyOptions::new(a.quick);
             let default = relight_scene::default_scene(opts.width, opts.height);

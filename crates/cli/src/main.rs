@@ -4,6 +4,7 @@
 //! crates, print, map the outcome to an exit code (0 success, 1 error,
 //! 130 cancelled). Every message on stderr starts with `relight:`.
 
+mod affine;
 mod args;
 mod bench_frames;
 mod cache;
@@ -22,6 +23,7 @@ mod scene_args;
 mod shexp;
 mod table;
 mod verify_methods;
+mod zoom;
 
 use clap::Parser;
 
