@@ -23,3 +23,13 @@ pub mod select;
 pub use basis::{Basis, Function, level_area, tripling};
 pub use quadrature::{LeafGrid, Weighting};
 pub use select::{Selection, SparseVec, select};
+
+// The method (bakes, runtime).
+pub mod brdf_table;
+pub mod cache;
+pub mod lighting;
+pub mod method;
+pub mod shade;
+pub mod visibility;
+
+pub use method::{Shading, TRIPLE_METHOD_NAME, TripleMethod, TripleOptions};

@@ -137,4 +137,33 @@ impl LeafGrid {
             }
         }
     }
+
+    /// [`LeafGrid::brdf_term`] for an RGB `f`, evaluated once per sample.
+    ///
+    /// # Panics
+    /// When `out` is not one value per leaf.
+    pub fn brdf_term_rgb(&self, f: impl Fn(Vec3) -> Vec3, weighting: Weighting, out: &mut [Vec3]) {
+        assert_eq!(out.len(), self.basis.len(), "BRDF term length");
+        match weighting {
+            Weighting::Exact => {
+                let per = 1usize << (2 * self.sub);
+                let inv_area = (1.0 / self.basis.leaf_area()) as f32;
+                for (j, o) in out.iter_mut().enumerate() {
+                    let s = j * per..(j + 1) * per;
+                    let sum: Vec3 = self.samples[s.clone()]
+                        .iter()
+                        .zip(&self.sample_areas[s])
+                        .map(|(&d, &a)| f(d) * a)
+                        .sum();
+                    *o = sum * inv_area;
+                }
+            }
+            Weighting::Paper => {
+                let scale = 4.0 * std::f32::consts::PI / 20.0;
+                for (o, &d) in out.iter_mut().zip(&self.centroids) {
+                    *o = f(d) * scale;
+                }
+            }
+        }
+    }
 }
