@@ -197,14 +197,15 @@ pub struct MethodFlags {
     /// Normal tessellation side, ntess² sampled normals (wavelet) [default: 32].
     #[arg(long)]
     pub ntess: Option<usize>,
-    /// Lighting terms kept (wavelet) [default: 256].
+    /// Lighting terms kept (wavelet) [default: 256]; triple: 20, 80, 320, 1280 or
+    /// 5120 [default: 320].
     #[arg(long)]
     pub terms: Option<usize>,
     /// Per-vertex ambient occlusion rays (wavelet, §3: radiance × AO; 0 = off).
     /// Renders visibility approximately (needs --approximate with --visibility).
     #[arg(long)]
     pub ao: Option<u32>,
-    /// Bake cache folder (wavelet) [default: $RELIGHT_CACHE/wavelet, else
+    /// Bake cache folder (wavelet, triple) [default: $RELIGHT_CACHE/wavelet, else
     /// ~/.cache/relight/wavelet; see `relight cache list`].
     #[arg(long)]
     pub cache: Option<PathBuf>,
@@ -212,6 +213,18 @@ pub struct MethodFlags {
     /// [default: analytic].
     #[arg(long)]
     pub fog: Option<String>,
+    /// Coefficient selection (triple): `top` (complete levels) [default: top];
+    /// `adaptive` is compared in `relight verify triple`.
+    #[arg(long)]
+    pub select: Option<String>,
+    /// Where the triple product is evaluated (triple): `pixel` or `vertex`
+    /// (Gouraud) [default: pixel].
+    #[arg(long)]
+    pub shading: Option<String>,
+    /// Twist bins of the lighting table (triple; 1 = isotropic table rebuilt
+    /// per light rotation) [default: 16].
+    #[arg(long)]
+    pub twists: Option<usize>,
 }
 
 /// Media transport of the reference renderer.
@@ -251,6 +264,8 @@ pub enum Method {
     Wavelet,
     /// Analytic single-scattering fog: point lights and the foggy environment.
     Fog,
+    /// Triple product of lighting, visibility and BRDF in spherical wavelets (local frames).
+    Triple,
 }
 
 #[derive(Args, Debug)]
@@ -428,6 +443,8 @@ pub enum Suite {
     Wavelet,
     /// Analytic fog shading.
     Fog,
+    /// Triple-product frames (Table 3) and bake/edit/rotation timings.
+    Triple,
 }
 
 #[derive(Args, Debug)]
@@ -462,6 +479,8 @@ pub enum VerifySuite {
     Fog,
     /// Every method on a matrix of scenes against one reference.
     Methods,
+    /// Triple-product identities and error against the reference.
+    Triple,
 }
 
 #[derive(Args, Debug)]

@@ -18,6 +18,7 @@ mod progress;
 mod render_cmd;
 mod scene_args;
 mod table;
+mod triple;
 mod verify_methods;
 
 use clap::Parser;

@@ -17,11 +17,12 @@ pub fn kind_of(m: Method) -> MethodKind {
         Method::Sh => MethodKind::Sh,
         Method::Wavelet => MethodKind::Wavelet,
         Method::Fog => MethodKind::Fog,
+        Method::Triple => MethodKind::Triple,
     }
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 12] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 15] = [
     ("--spp", &[MethodKind::Reference]),
     ("--seed", &[MethodKind::Reference]),
     ("--scattering", &[MethodKind::Reference]),
@@ -30,10 +31,13 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 12] = [
     ("--window", &[MethodKind::Sh]),
     ("--n", &[MethodKind::Wavelet]),
     ("--ntess", &[MethodKind::Wavelet]),
-    ("--terms", &[MethodKind::Wavelet]),
+    ("--terms", &[MethodKind::Wavelet, MethodKind::Triple]),
     ("--ao", &[MethodKind::Wavelet]),
-    ("--cache", &[MethodKind::Wavelet]),
+    ("--cache", &[MethodKind::Wavelet, MethodKind::Triple]),
     ("--fog", &[MethodKind::Fog]),
+    ("--select", &[MethodKind::Triple]),
+    ("--shading", &[MethodKind::Triple]),
+    ("--twists", &[MethodKind::Triple]),
 ];
 
 /// The flags of `f` that are set, by name.
@@ -51,6 +55,9 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.ao.is_some(),
         f.cache.is_some(),
         f.fog.is_some(),
+        f.select.is_some(),
+        f.shading.is_some(),
+        f.twists.is_some(),
     ];
     FLAG_METHODS
         .iter()
@@ -97,7 +104,8 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
     clear!(
         spp => "--spp", seed => "--seed", scattering => "--scattering", order => "--order",
         rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
-        ao => "--ao", cache => "--cache", fog => "--fog",
+        ao => "--ao", cache => "--cache", fog => "--fog", select => "--select",
+        shading => "--shading", twists => "--twists",
     );
 }
 
@@ -151,6 +159,23 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
             if let Some(c) = &f.cache {
                 w.cache_dir = c.clone();
+            }
+        }
+        MethodOptions::Triple(t) => {
+            if let Some(terms) = f.terms {
+                t.terms = terms;
+            }
+            if let Some(c) = &f.cache {
+                t.cache_dir = c.clone();
+            }
+            if let Some(s) = &f.select {
+                t.selection = s.parse().map_err(|e| anyhow!("--select {s}: {e}"))?;
+            }
+            if let Some(s) = &f.shading {
+                t.shading = s.parse().map_err(|e| anyhow!("--shading {s}: {e}"))?;
+            }
+            if let Some(n) = f.twists {
+                t.twists = n;
             }
         }
         MethodOptions::Fog(g) => {

@@ -149,7 +149,7 @@ fn shrink(cmd: &str, clone: &Path, plots: &Path) -> Result<Vec<Plan>, String> {
                     set(&mut a, "--n", "16");
                     set(&mut a, "--ntess", "4");
                 }
-                "sh" | "fog" => {}
+                "sh" | "fog" | "triple" => {}
                 m => return Err(format!("render with method {m}")),
             }
             Ok(vec![Plan::Run(a)])

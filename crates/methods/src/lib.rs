@@ -18,6 +18,7 @@ use relight_fog::{FogOptions, FogRelighter};
 use relight_render::method::{MethodError, Relighter, SceneFeature, Support};
 use relight_render::reference::{ReferenceOptions, ReferenceRenderer};
 use relight_shlight::{ShMethod, ShOptions};
+use relight_triple::{TripleMethod, TripleOptions};
 use relight_wavelet::{WaveletMethod, WaveletOptions};
 use serde::Serialize;
 
@@ -33,11 +34,19 @@ pub enum MethodKind {
     Wavelet,
     /// Analytic single-scattering fog with point lights and a foggy environment.
     Fog,
+    /// Triple product of lighting, visibility and BRDF in spherical wavelets, local frames.
+    Triple,
 }
 
 impl MethodKind {
     /// Every method, the reference first.
-    pub const ALL: [MethodKind; 4] = [Self::Reference, Self::Sh, Self::Wavelet, Self::Fog];
+    pub const ALL: [MethodKind; 5] = [
+        Self::Reference,
+        Self::Sh,
+        Self::Wavelet,
+        Self::Fog,
+        Self::Triple,
+    ];
 
     /// The name on the command line.
     #[must_use]
@@ -47,6 +56,7 @@ impl MethodKind {
             Self::Sh => "sh",
             Self::Wavelet => "wavelet",
             Self::Fog => "fog",
+            Self::Triple => "triple",
         }
     }
 }
@@ -77,6 +87,7 @@ pub enum MethodOptions {
     Sh(ShOptions),
     Wavelet(WaveletOptions),
     Fog(FogOptions),
+    Triple(TripleOptions),
 }
 
 impl MethodOptions {
@@ -88,6 +99,7 @@ impl MethodOptions {
             MethodKind::Sh => Self::Sh(ShOptions::default()),
             MethodKind::Wavelet => Self::Wavelet(WaveletOptions::default()),
             MethodKind::Fog => Self::Fog(FogOptions::default()),
+            MethodKind::Triple => Self::Triple(TripleOptions::default()),
         }
     }
 
@@ -99,6 +111,7 @@ impl MethodOptions {
             Self::Sh(_) => MethodKind::Sh,
             Self::Wavelet(_) => MethodKind::Wavelet,
             Self::Fog(_) => MethodKind::Fog,
+            Self::Triple(_) => MethodKind::Triple,
         }
     }
 }
@@ -113,6 +126,7 @@ pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError
         MethodOptions::Sh(o) => Box::new(ShMethod::new(*o)?),
         MethodOptions::Wavelet(o) => Box::new(WaveletMethod::new(o.clone())?),
         MethodOptions::Fog(o) => Box::new(FogRelighter::new(*o)?),
+        MethodOptions::Triple(o) => Box::new(TripleMethod::new(o.clone())?),
     })
 }
 

@@ -328,7 +328,7 @@ mod tests {
                         wv.cache_dir = cache.clone();
                     }
                     MethodOptions::Sh(s) => s.order = 3,
-                    MethodOptions::Fog(_) => {}
+                    MethodOptions::Fog(_) | MethodOptions::Triple(_) => {}
                 }
                 o
             })

@@ -193,6 +193,10 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             s.order * s.order,
             s.rotation
         ),
+        MethodOptions::Triple(t) => format!(
+            "{} terms (top-only) · {} twists{quality}",
+            t.terms, t.twists
+        ),
         MethodOptions::Fog(f) => format!(
             "{} · environment order {}{quality}",
             // The mode's type is the fog crate's; its Debug name suffices here.

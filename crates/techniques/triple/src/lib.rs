@@ -25,11 +25,13 @@ pub use quadrature::{LeafGrid, Weighting};
 pub use select::{Selection, SparseVec, select};
 
 // The method (bakes, runtime).
+pub mod bench;
 pub mod brdf_table;
 pub mod cache;
 pub mod lighting;
 pub mod method;
 pub mod shade;
+pub mod verify;
 pub mod visibility;
 
 pub use method::{Shading, TRIPLE_METHOD_NAME, TripleMethod, TripleOptions};

@@ -636,3 +636,9 @@ impl Relighter for TripleMethod {
 pub fn bytes_per_point(terms: usize) -> usize {
     BYTES_PER_CELL * terms.div_ceil(8) * 8
 }
+
+/// The top-only level `m` of `terms = 20·4^m` (0 when not a level).
+#[must_use]
+pub fn level_of(terms: usize) -> usize {
+    (0..=4).find(|&m| triangles(m) == terms).unwrap_or(0)
+}
