@@ -21,7 +21,7 @@ pub enum Command {
     /// Render the embedded scene (no files needed) with the reference and every
     /// real-time method, side by side in one labelled image: ms per frame and
     /// error against the reference.
-    Demo(DemoArgs),
+    Demo(Box<DemoArgs>),
     /// Render a scene file, or a mesh under an environment map.
     Render(Box<RenderArgs>),
     /// Interactive window: drag to orbit, right-drag to turn the lighting,

@@ -25,7 +25,7 @@ use std::time::Instant;
 pub fn run(cli: Cli) -> Result<()> {
     let bar = Bar::new(cli.quiet);
     match cli.command {
-        Command::Demo(a) => demo(a, &bar),
+        Command::Demo(a) => demo(*a, &bar),
         Command::Render(a) => render(*a, &bar),
         Command::View(a) => view(*a, &bar),
         Command::Info { files } => info(&files),

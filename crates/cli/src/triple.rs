@@ -52,13 +52,7 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
     let list: &[(&str, bool)] = if a.quick {
         &[("hall", true)]
     } else {
-        &[
-            ("hall", true),
-            ("lobby", true),
-            ("apartment", true),
-            ("park", false),
-            ("sky", false),
-        ]
+        &[("hall", true), ("lobby", true), ("park", false)]
     };
     let probes = probes(list)?;
     let opts = ErrorOptions::new(a.quick, cache_dir());

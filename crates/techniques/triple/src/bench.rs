@@ -218,7 +218,7 @@ pub fn bench_triple(
     let _ = std::fs::remove_dir_all(&o.cache_dir);
     // A new environment.
     for (twists, target) in [(16usize, 10_000.0), (1, 300.0)] {
-        let pre = crate::lighting::prefilter(env);
+        let pre = crate::lighting::prefilter(env, 2);
         let t = Instant::now();
         let table = crate::lighting::LightTable::build(&pre, Mat3::IDENTITY, 2, twists);
         let ms = t.elapsed().as_secs_f64() * 1e3;

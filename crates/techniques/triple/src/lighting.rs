@@ -33,10 +33,13 @@
 //! # Cell averages
 //! Entry `(k, τ)` holds, per level-`m` cell `c`, the mean of the environment
 //! over the cell seen through the frame, from `16` samples per cell (the
-//! level `m + 2` centroids; leaves at level 4 when `m ≥ 2`, the paper's 5120
-//! directions) read from the environment prefiltered to a 256×128 lat-long
-//! map (area-correct, 2×2 supersampled), so that a sun narrower than a sample
-//! spacing is averaged rather than aliased. Planar RGB per entry, padded to a
+//! level `m + 2` centroids: at `m = 2` the paper's 5120 directions; at
+//! `m ≥ 3` denser than the paper, which samples 5120 directions always and
+//! so aliases small bright windows into a bias that more terms do not
+//! remove — 3.5 % on the `hall` probe, measured) read from the environment
+//! prefiltered to a lat-long map whose texels match the sample spacing
+//! ([`prefilter`]: area-correct, 2×2 supersampled), so that a window or sun
+//! narrower than a sample spacing is averaged rather than aliased. Planar RGB per entry, padded to a
 //! multiple of 8 cells for the kernel.
 
 use crate::basis::triangles;
@@ -47,6 +50,9 @@ use relight_sphere::{EnvMap, Frame, Param};
 
 /// Icosahedral level of the table normals (642 vertices).
 pub const NORMAL_LEVEL: usize = 3;
+
+/// Deepest level of the lighting samples (16 per cell up to `m = 4`).
+pub const SAMPLE_LEVEL: usize = 6;
 
 /// The frame of normal `n` by the shortest-arc rule from +Y (module docs).
 #[must_use]
@@ -67,7 +73,7 @@ pub fn padded_cells(m: usize) -> usize {
 }
 
 /// Sample directions of the level-`m` cells in the canonical frame: the
-/// centroids of level `min(m + 2, 4).max(m)`, cell-major (the children of
+/// centroids of level `m + 2` (as deep as `ico` is built), cell-major (the children of
 /// cell `c` are consecutive), and how many fall in each cell.
 #[must_use]
 pub fn cell_samples(ico: &Icosahedral, m: usize) -> (Vec<Vec3>, usize) {
@@ -103,13 +109,18 @@ pub struct Tap {
     pub weight: f32,
 }
 
-/// The environment prefiltered for sampling (module docs).
+/// The environment prefiltered for the samples of level `m` (module docs):
+/// a lat-long map whose texels match the sample spacing of level `m + 2`
+/// (128 columns at level 4, doubling per level, at least 64), so that a
+/// bilinear point sample is close to the area average it stands for.
 #[must_use]
-pub fn prefilter(env: &EnvMap) -> EnvMap {
+pub fn prefilter(env: &EnvMap, m: usize) -> EnvMap {
+    let s = (m + 2).min(SAMPLE_LEVEL);
+    let width = if s >= 4 { 128 << (s - 4) } else { 64 };
     env.resample(
         Param::LatLong {
-            width: 256,
-            height: 128,
+            width,
+            height: width / 2,
         },
         2,
     )
@@ -121,7 +132,8 @@ impl LightTable {
     /// and `twists` bins.
     #[must_use]
     pub fn build(env: &EnvMap, space_from_env: Mat3, m: usize, twists: usize) -> Self {
-        let ico = Icosahedral::new(NORMAL_LEVEL.max(4)).expect("level 4 is built");
+        let ico = Icosahedral::new(SAMPLE_LEVEL.min(m + 2).max(NORMAL_LEVEL))
+            .expect("level ≤ 6 is built");
         let normals: Vec<Vec3> = ico.vertices()[..Icosahedral::vertex_count(NORMAL_LEVEL)]
             .iter()
             .map(|d| d.as_vec3())

@@ -5,8 +5,11 @@
 //! Distant environment lighting × binary visibility × each object's BRDF,
 //! per pixel, as the top-only spherical-wavelet triple product in the
 //! point's local frame (spherical-wavelets-triple-product-2006 Eq. 7,
-//! [`crate::shade`]). Point and area lights, media, normal maps and
-//! spatially varying BRDFs are refused ([`MethodError::Unsupported`]).
+//! [`crate::shade`]). A spatially varying BRDF (two BRDFs blended by a
+//! texture over the uvs) shades both tables and blends the results, exact by
+//! the linearity of Eq. 7 in the BRDF (the paper blends the coefficients, the
+//! same sum). Point and area lights, media and normal maps are refused
+//! ([`MethodError::Unsupported`]).
 //!
 //! | call | work |
 //! |---|---|
@@ -124,6 +127,8 @@ impl TripleOptions {
 struct Prepared {
     mesh: Arc<Mesh>,
     brdf: Arc<BrdfTable>,
+    /// The spatially varying blend: the second BRDF's table and the weight.
+    blend: Option<(Arc<BrdfTable>, relight_render::BrdfBlend)>,
     vis: Option<Arc<Vec<f32>>>,
 }
 
@@ -367,6 +372,35 @@ fn shade_world(
     shade_point(&table.data, &lt, &brdf.data, &bt, vis, table.stride)
 }
 
+/// [`shade_world`] with the object's BRDF blend: by linearity of Eq. 7 in
+/// the BRDF, `(1 − w) B(ρ₁) + w B(ρ₂)` with `w` the weight texture at the uv.
+#[inline]
+fn shade_blended(
+    table: &LightTable,
+    rot: Mat3,
+    p: &Prepared,
+    n: Vec3,
+    to_eye: Vec3,
+    vis: Option<([&[f32]; 3], [f32; 3])>,
+    uv: impl Fn() -> glam::Vec2,
+) -> Vec3 {
+    let Some((second, blend)) = &p.blend else {
+        return shade_world(table, rot, &p.brdf, n, to_eye, vis);
+    };
+    let w = blend.weight_at(uv());
+    let a = if w < 1.0 {
+        shade_world(table, rot, &p.brdf, n, to_eye, vis)
+    } else {
+        Vec3::ZERO
+    };
+    let b = if w > 0.0 {
+        shade_world(table, rot, second, n, to_eye, vis)
+    } else {
+        Vec3::ZERO
+    };
+    a * (1.0 - w) + b * w
+}
+
 impl Relighter for TripleMethod {
     fn name(&self) -> &'static str {
         TRIPLE_METHOD_NAME
@@ -378,8 +412,8 @@ impl Relighter for TripleMethod {
             SceneFeature::PointLights
             | SceneFeature::AreaLights
             | SceneFeature::Medium
-            | SceneFeature::NormalMaps
-            | SceneFeature::SpatiallyVaryingBrdf => Support::No,
+            | SceneFeature::NormalMaps => Support::No,
+            SceneFeature::SpatiallyVaryingBrdf => Support::Full,
         }
     }
 
@@ -392,6 +426,12 @@ impl Relighter for TripleMethod {
                     format!("object {i} has no vertex normals (one per vertex is needed)"),
                 ));
             }
+            if o.blend.is_some() && o.mesh.uvs.len() != o.mesh.positions.len() {
+                return Err(invalid(
+                    "scene",
+                    format!("object {i} blends two BRDFs by a texture but has no uvs"),
+                ));
+            }
         }
         let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
         let scene_key: Vec<u64> = meshes
@@ -402,6 +442,10 @@ impl Relighter for TripleMethod {
         let mut objects = Vec::with_capacity(scene.objects.len());
         for (i, o) in scene.objects.iter().enumerate() {
             let brdf = self.brdf_table(o.brdf.as_ref(), progress)?;
+            let blend = match &o.blend {
+                Some(b) => Some((self.brdf_table(b.second.as_ref(), progress)?, b.clone())),
+                None => None,
+            };
             // Keep visibility already held for the same mesh and scene.
             let held = self
                 .objects
@@ -436,6 +480,7 @@ impl Relighter for TripleMethod {
             objects.push(Prepared {
                 mesh: o.mesh.clone(),
                 brdf,
+                blend,
                 vis,
             });
         }
@@ -456,7 +501,7 @@ impl Relighter for TripleMethod {
         progress.check()?;
         let h = env_hash(&scene.env);
         if self.env.as_ref().is_none_or(|(k, _)| *k != h) {
-            self.env = Some((h, prefilter(&scene.env)));
+            self.env = Some((h, prefilter(&scene.env, self.m)));
             self.table = None;
         }
         let twists = self.options.twists;
@@ -553,7 +598,13 @@ impl Relighter for TripleMethod {
                                     [l.x, l.y, l.z],
                                 )
                             });
-                            shade_world(table, rot, &p.brdf, n, frag.to_eye, vis)
+                            let uv = || {
+                                let u = &p.mesh.uvs;
+                                u[tri[0] as usize] * l.x
+                                    + u[tri[1] as usize] * l.y
+                                    + u[tri[2] as usize] * l.z
+                            };
+                            shade_blended(table, rot, p, n, frag.to_eye, vis, uv)
                         },
                         background,
                         &mut self.frame,
@@ -575,7 +626,7 @@ impl Relighter for TripleMethod {
                                     let row = &vv[v * stride..(v + 1) * stride];
                                     ([row, row, row], [1.0, 0.0, 0.0])
                                 });
-                                shade_world(table, rot, &p.brdf, n, to_eye, vis)
+                                shade_blended(table, rot, p, n, to_eye, vis, || p.mesh.uvs[v])
                             })
                             .collect()
                     })

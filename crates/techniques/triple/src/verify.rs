@@ -8,7 +8,9 @@
 //! shadows on, under each given probe, Lambert and Phong 16, at
 //! 20/80/320/5120 terms (top-only), per pixel, against
 //! [`render_reference`] with visibility, relative RMS over object pixels
-//! ([`Coverage::object_mask`]). Terms up to 320 use the default twisted
+//! (`Coverage::object_mask`), corrected for the reference's own noise:
+//! `√max(0, e² − σ_MC²)` with σ_MC the reference's
+//! `rms_relative_std_error` (both raw and σ_MC are in the row). Terms up to 320 use the default twisted
 //! (rotation) table; 5120 uses the isotropic table (`twists = 1`; the twisted
 //! one would hold 631 MB).
 
@@ -37,8 +39,13 @@ pub struct VerifyRow {
     pub case: String,
     /// Coefficients kept (0 when not applicable).
     pub terms: usize,
-    /// The measured value.
+    /// The measured value (error rows: corrected for the reference's own
+    /// noise, `√max(0, e² − σ_MC²)`).
     pub value: f64,
+    /// Error rows: the raw relative RMS against the noisy reference.
+    pub raw: Option<f64>,
+    /// Error rows: the reference's own relative RMS noise σ_MC.
+    pub sigma_mc: Option<f64>,
     /// The target, in words (`≤ 0.10`, `< 1e-12`, …).
     pub target: String,
     /// Where the target comes from.
@@ -64,6 +71,8 @@ fn row(
         target,
         source,
         pass,
+        raw: None,
+        sigma_mc: None,
     }
 }
 
@@ -159,8 +168,13 @@ pub fn identity_rows(quick: bool) -> Vec<VerifyRow> {
                 let lo = sup[i].0.max(sup[j].0).max(sup[k].0);
                 let hi = sup[i].1.min(sup[j].1).min(sup[k].1);
                 let mut s = 0.0f64;
-                for q in lo..hi.max(lo) {
-                    s += f64::from(vals[i][q] * vals[j][q] * vals[k][q]);
+                let r = lo..hi.max(lo);
+                for ((x, y), z) in vals[i][r.clone()]
+                    .iter()
+                    .zip(&vals[j][r.clone()])
+                    .zip(&vals[k][r])
+                {
+                    s += f64::from(x * y * z);
                 }
                 let want = s * b3.leaf_area();
                 worst = worst.max((tripling(i, j, k) - want).abs());
@@ -380,7 +394,7 @@ impl ErrorOptions {
             Self {
                 width: 64,
                 height: 48,
-                spp: 64,
+                spp: 256,
                 terms: vec![20, 80],
                 brdfs: vec!["lambert:0.8".into()],
                 vis_level: 2,
@@ -388,8 +402,8 @@ impl ErrorOptions {
             }
         } else {
             Self {
-                width: 192,
-                height: 144,
+                width: 128,
+                height: 96,
                 spp: 1024,
                 terms: vec![20, 80, 320, 5120],
                 brdfs: vec!["lambert:0.8".into(), "phong:16".into()],
@@ -492,7 +506,9 @@ pub fn error_rows(
                     ..TripleOptions::default()
                 };
                 let (img, mask) = render_with(&scene, o.clone(), progress)?;
-                let e = rel_rms(&img, &reference.image, &mask);
+                let raw = rel_rms(&img, &reference.image, &mask);
+                let sigma = reference.rms_relative_std_error;
+                let e = (raw * raw - sigma * sigma).max(0.0).sqrt();
                 errs.push(e);
                 let (target, pass) = match (terms, *indoor) {
                     (80, true) => ("≤ 0.10".to_string(), Some(e <= 0.10)),
@@ -513,6 +529,9 @@ pub fn error_rows(
                     },
                     pass,
                 ));
+                let last = rows.last_mut().expect("just pushed");
+                last.raw = Some(raw);
+                last.sigma_mc = Some(sigma);
                 if terms == 80 {
                     let (vimg, vmask) = render_with(
                         &scene,
@@ -522,7 +541,8 @@ pub fn error_rows(
                         },
                         progress,
                     )?;
-                    let ev = rel_rms(&vimg, &reference.image, &vmask);
+                    let evr = rel_rms(&vimg, &reference.image, &vmask);
+                    let ev = (evr * evr - sigma * sigma).max(0.0).sqrt();
                     rows.push(row(
                         "Fig. 5: per-vertex (Gouraud) error − per-pixel error",
                         &case,
@@ -557,7 +577,6 @@ pub fn error_rows(
 /// prefiltered probe, visibility by rays, the exact-area BRDF term for the
 /// camera's view), and the relative RMS over points of `B(n)` against the
 /// full product, for both selections.
-#[must_use]
 ///
 /// # Errors
 /// A bad BRDF spec.
@@ -570,7 +589,7 @@ pub fn figure7_rows(
     let scene = floor_scene(env.clone(), parse_brdf(brdf)?, 8, 8);
     let b = Basis::paper();
     let grid = LeafGrid::new(b, 1).expect("level 5");
-    let pre = prefilter(env);
+    let pre = prefilter(env, 3);
     let meshes: Vec<&relight_geom::Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
     let bvh = SceneBvh::build(&meshes);
     let brdf_model = scene.objects[0].brdf.clone();

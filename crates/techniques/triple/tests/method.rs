@@ -156,3 +156,49 @@ fn rotation_is_a_lookup_and_bakes_are_cached() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn svbrdf_is_linear_in_the_blend_weight() {
+    let env = EnvMap::from_fn(
+        Param::LatLong {
+            width: 64,
+            height: 32,
+        },
+        |d| Vec3::splat(0.3) + Vec3::new(3.0, 2.0, 1.0) * d.y.max(0.0).powi(4),
+    );
+    let dir = tmp("svbrdf");
+    let glossy = "phong:16".parse::<BrdfSpec>().unwrap().build();
+    let render = |w: Option<f32>| {
+        let mut sc = scene(env.clone(), false);
+        if let Some(w) = w {
+            sc.objects[1].blend = Some(relight_render::BrdfBlend {
+                second: glossy.clone(),
+                weight: Arc::new(relight_render::Texture::constant(Vec3::splat(w)).unwrap()),
+            });
+        } else {
+            sc.objects[1].brdf = glossy.clone();
+        }
+        let mut m = TripleMethod::new(options(&dir)).unwrap();
+        m.prepare(&sc, &NoProgress).unwrap();
+        render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress)
+            .unwrap()
+            .image
+    };
+    let a = render(Some(0.0));
+    let b = render(None);
+    let h = render(Some(0.25));
+    let mut worst = 0.0f32;
+    for ((x, y), z) in a.pixels.iter().zip(&b.pixels).zip(&h.pixels) {
+        let want = *x * 0.75 + *y * 0.25;
+        worst = worst.max((want - *z).abs().max_element() / want.max_element().max(1e-3));
+    }
+    assert!(worst < 1e-4, "blend not linear: {worst}");
+    assert!(
+        a.pixels
+            .iter()
+            .zip(&b.pixels)
+            .any(|(x, y)| (*x - *y).abs().max_element() > 0.01),
+        "the two BRDFs render alike"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
