@@ -212,14 +212,15 @@ pub struct MethodFlags {
     /// Normal tessellation side, ntess² sampled normals (wavelet) [default: 32].
     #[arg(long)]
     pub ntess: Option<usize>,
-    /// Lighting terms kept (wavelet) [default: 256].
+    /// Lighting terms kept (wavelet) [default: 256]; triple: 20, 80, 320, 1280 or
+    /// 5120 [default: 320].
     #[arg(long)]
     pub terms: Option<usize>,
     /// Per-vertex ambient occlusion rays (wavelet, §3: radiance × AO; 0 = off).
     /// Renders visibility approximately (needs --approximate with --visibility).
     #[arg(long)]
     pub ao: Option<u32>,
-    /// Bake cache folder (wavelet) [default: $RELIGHT_CACHE/wavelet, else
+    /// Bake cache folder (wavelet, triple) [default: $RELIGHT_CACHE/wavelet, else
     /// ~/.cache/relight/wavelet; see `relight cache list`].
     #[arg(long)]
     pub cache: Option<PathBuf>,
@@ -245,6 +246,18 @@ pub struct MethodFlags {
     /// vMF lobes per texel J (ndf) [default: 6].
     #[arg(long)]
     pub lobes: Option<usize>,
+    /// Coefficient selection (triple): `top` (complete levels) [default: top];
+    /// `adaptive` is compared in `relight verify triple`.
+    #[arg(long)]
+    pub select: Option<String>,
+    /// Where the triple product is evaluated (triple): `pixel` or `vertex`
+    /// (Gouraud) [default: pixel].
+    #[arg(long)]
+    pub shading: Option<String>,
+    /// Twist bins of the lighting table (triple; 1 = isotropic table rebuilt
+    /// per light rotation) [default: 16].
+    #[arg(long)]
+    pub twists: Option<usize>,
 }
 
 /// Media transport of the reference renderer.
@@ -291,6 +304,8 @@ pub enum Method {
     RadianceCache,
     /// Normal-map filtering: SH / vMF normal distributions per MIP texel.
     Ndf,
+    /// Triple product of lighting, visibility and BRDF in spherical wavelets (local frames).
+    Triple,
 }
 
 #[derive(Args, Debug)]
@@ -485,6 +500,8 @@ pub enum Suite {
     Ndf,
     /// Affine Haar coefficients: sparsity, complexity, 4D table, propagation.
     Affine,
+    /// Triple-product frames (Table 3) and bake/edit/rotation timings.
+    Triple,
 }
 
 #[derive(Args, Debug)]
@@ -527,6 +544,8 @@ pub enum VerifySuite {
     Ndf,
     /// Affine Haar coupling/tripling coefficients (thesis ch. 4) against overlap and quadrature.
     Affine,
+    /// Triple-product identities and error against the reference.
+    Triple,
 }
 
 #[derive(Args, Debug)]

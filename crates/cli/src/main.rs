@@ -22,6 +22,7 @@ mod render_cmd;
 mod scene_args;
 mod shexp;
 mod table;
+mod triple;
 mod verify_methods;
 mod zoom;
 

@@ -20,11 +20,12 @@ pub fn kind_of(m: Method) -> MethodKind {
         Method::Shexp => MethodKind::ShExp,
         Method::RadianceCache => MethodKind::RadianceCache,
         Method::Ndf => MethodKind::Ndf,
+        Method::Triple => MethodKind::Triple,
     }
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 18] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 21] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
@@ -46,15 +47,18 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 18] = [
     ("--window", &[MethodKind::Sh]),
     ("--n", &[MethodKind::Wavelet]),
     ("--ntess", &[MethodKind::Wavelet]),
-    ("--terms", &[MethodKind::Wavelet]),
+    ("--terms", &[MethodKind::Wavelet, MethodKind::Triple]),
     ("--ao", &[MethodKind::Wavelet]),
-    ("--cache", &[MethodKind::Wavelet]),
+    ("--cache", &[MethodKind::Wavelet, MethodKind::Triple]),
     ("--fog", &[MethodKind::Fog]),
     ("--exp", &[MethodKind::ShExp]),
     ("--spheres", &[MethodKind::ShExp]),
     ("--normal-filter", &[MethodKind::Ndf]),
     ("--ndf-brdf", &[MethodKind::Ndf]),
     ("--lobes", &[MethodKind::Ndf]),
+    ("--select", &[MethodKind::Triple]),
+    ("--shading", &[MethodKind::Triple]),
+    ("--twists", &[MethodKind::Triple]),
 ];
 
 /// The flags of `f` that are set, by name.
@@ -78,6 +82,9 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.normal_filter.is_some(),
         f.ndf_brdf.is_some(),
         f.lobes.is_some(),
+        f.select.is_some(),
+        f.shading.is_some(),
+        f.twists.is_some(),
     ];
     FLAG_METHODS
         .iter()
@@ -126,6 +133,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         error => "--error", rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
         ao => "--ao", cache => "--cache", fog => "--fog", exp => "--exp", spheres => "--spheres",
         normal_filter => "--normal-filter", ndf_brdf => "--ndf-brdf", lobes => "--lobes",
+        select => "--select", shading => "--shading", twists => "--twists",
     );
 }
 
@@ -207,6 +215,23 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
             if let Some(r) = &f.rotation {
                 c.rotation = r.parse().map_err(|e| anyhow!("--rotation {r}: {e}"))?;
+            }
+        }
+        MethodOptions::Triple(t) => {
+            if let Some(terms) = f.terms {
+                t.terms = terms;
+            }
+            if let Some(c) = &f.cache {
+                t.cache_dir = c.clone();
+            }
+            if let Some(s) = &f.select {
+                t.selection = s.parse().map_err(|e| anyhow!("--select {s}: {e}"))?;
+            }
+            if let Some(s) = &f.shading {
+                t.shading = s.parse().map_err(|e| anyhow!("--shading {s}: {e}"))?;
+            }
+            if let Some(n) = f.twists {
+                t.twists = n;
             }
         }
         MethodOptions::Fog(g) => {

@@ -7,8 +7,9 @@
 //! default scene with visibility (shadows), with a normal map, and in fog with
 //! point lights (lit by them alone — the fog gate — and with the studio).
 //! `--quick` keeps the default scene, its shadowed, normal-mapped
-//! and foggy variants and one probe at a small size, and the wavelet method at
-//! n = 16, so that it fits in CI.
+//! and foggy variants and one probe at a small size, the wavelet method at
+//! n = 16 and the triple method at 80 terms with 320 visibility rays per
+//! vertex, so that it fits in CI.
 
 use crate::args::VerifyArgs;
 use crate::commands::data_dir;
@@ -24,13 +25,18 @@ use relight_methods::verify::{MatrixScene, VerifyMethodsOptions};
 use relight_render::{Medium, Object, PointLight, Scene};
 use std::sync::Arc;
 
-/// A CI-sized wavelet configuration for `--quick`.
+/// CI-sized wavelet and triple configurations for `--quick`.
 fn quick_options(mut o: VerifyMethodsOptions) -> VerifyMethodsOptions {
     for m in &mut o.methods {
         if let MethodOptions::Wavelet(w) = m {
             w.n = 16;
             w.ntess = 8;
             w.terms = 64;
+        }
+        if let MethodOptions::Triple(t) = m {
+            t.terms = 80;
+            t.vis_level = 2;
+            t.brdf_views = 16;
         }
     }
     o.aa = 2;

@@ -21,6 +21,7 @@ use relight_render::method::{MethodError, Relighter, SceneFeature, Support};
 use relight_render::reference::{ReferenceOptions, ReferenceRenderer};
 use relight_shexp::{ShExpMethod, ShExpOptions};
 use relight_shlight::{ShMethod, ShOptions};
+use relight_triple::{TripleMethod, TripleOptions};
 use relight_wavelet::{WaveletMethod, WaveletOptions};
 use serde::Serialize;
 
@@ -43,11 +44,13 @@ pub enum MethodKind {
     RadianceCache,
     /// Normal-map filtering: SH / vMF normal distributions per MIP texel.
     Ndf,
+    /// Triple product of lighting, visibility and BRDF in spherical wavelets, local frames.
+    Triple,
 }
 
 impl MethodKind {
     /// Every method, the reference first.
-    pub const ALL: [MethodKind; 7] = [
+    pub const ALL: [MethodKind; 8] = [
         Self::Reference,
         Self::Sh,
         Self::Wavelet,
@@ -55,6 +58,7 @@ impl MethodKind {
         Self::ShExp,
         Self::RadianceCache,
         Self::Ndf,
+        Self::Triple,
     ];
 
     /// The name on the command line.
@@ -68,6 +72,7 @@ impl MethodKind {
             Self::ShExp => "shexp",
             Self::RadianceCache => "radiance-cache",
             Self::Ndf => "ndf",
+            Self::Triple => "triple",
         }
     }
 }
@@ -101,6 +106,7 @@ pub enum MethodOptions {
     ShExp(ShExpOptions),
     RadianceCache(RadianceCacheOptions),
     Ndf(NdfOptions),
+    Triple(TripleOptions),
 }
 
 impl MethodOptions {
@@ -115,6 +121,7 @@ impl MethodOptions {
             MethodKind::ShExp => Self::ShExp(ShExpOptions::default()),
             MethodKind::RadianceCache => Self::RadianceCache(RadianceCacheOptions::default()),
             MethodKind::Ndf => Self::Ndf(NdfOptions::default()),
+            MethodKind::Triple => Self::Triple(TripleOptions::default()),
         }
     }
 
@@ -129,6 +136,7 @@ impl MethodOptions {
             Self::ShExp(_) => MethodKind::ShExp,
             Self::RadianceCache(_) => MethodKind::RadianceCache,
             Self::Ndf(_) => MethodKind::Ndf,
+            Self::Triple(_) => MethodKind::Triple,
         }
     }
 }
@@ -146,6 +154,7 @@ pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError
         MethodOptions::ShExp(o) => Box::new(ShExpMethod::new(*o)?),
         MethodOptions::RadianceCache(o) => Box::new(RadianceCacheRelighter::new(*o)?),
         MethodOptions::Ndf(o) => Box::new(NdfMethod::new(*o)?),
+        MethodOptions::Triple(o) => Box::new(TripleMethod::new(o.clone())?),
     })
 }
 

@@ -331,7 +331,8 @@ mod tests {
                     MethodOptions::Fog(_)
                     | MethodOptions::ShExp(_)
                     | MethodOptions::RadianceCache(_)
-                    | MethodOptions::Ndf(_) => {}
+                    | MethodOptions::Ndf(_)
+                    | MethodOptions::Triple(_) => {}
                 }
                 o
             })

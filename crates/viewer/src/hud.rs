@@ -199,6 +199,10 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             r.order,
             r.rotation.name()
         ),
+        MethodOptions::Triple(t) => format!(
+            "{} terms (top-only) · {} twists{quality}",
+            t.terms, t.twists
+        ),
         MethodOptions::Fog(f) => format!(
             "{} · environment order {}{quality}",
             // The mode's type is the fog crate's; its Debug name suffices here.

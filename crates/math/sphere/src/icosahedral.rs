@@ -62,8 +62,11 @@
 //!
 //! # References
 //!
-//! * [Sun & Mukherjee 2006 / `spherical-wavelets-triple-product-2006.txt`
-//!   §3.1] geodesic subdivision and the `4i + k` child numbering.
+//! * [Ma, Hsiao, Lee, Chuang & Chen 2006, "Real-time triple product
+//!   relighting using spherical local-frame parameterization", The Visual
+//!   Computer 22(9–11) / `spherical-wavelets-triple-product-2006.txt` §3.1]
+//!   geodesic subdivision and the `4i + k` child numbering; the basis on
+//!   this hierarchy lives in `relight-triple` (`basis`).
 //! * [Schröder & Sweldens 1995] "Spherical wavelets", SIGGRAPH 1995.
 //! * [Van Oosterom & Strackee 1983] "The solid angle of a plane triangle".
 

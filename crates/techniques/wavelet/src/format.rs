@@ -50,7 +50,7 @@ fn pad8(len: usize) -> usize {
 }
 
 /// Writes a bake file atomically (temporary file + rename).
-pub(crate) fn write_file(
+pub fn write_file(
     path: &Path,
     magic: [u8; 8],
     params: [u32; 8],
@@ -97,7 +97,7 @@ pub(crate) fn write_file(
 }
 
 /// A validated, memory-mapped bake file.
-pub(crate) struct MappedFile {
+pub struct MappedFile {
     pub map: memmap2::Mmap,
     pub header: Header,
 }
@@ -110,7 +110,7 @@ impl MappedFile {
 }
 
 /// Opens, maps and validates a bake file of kind `magic`.
-pub(crate) fn read_file(
+pub fn read_file(
     path: &Path,
     magic: [u8; 8],
     kind: &'static str,
@@ -162,7 +162,7 @@ pub(crate) fn read_file(
 }
 
 /// Splits a payload into sections of the given byte lengths (each padded to 8).
-pub(crate) fn split_sections<'a>(payload: &'a [u8], lens: &[usize]) -> Option<Vec<&'a [u8]>> {
+pub fn split_sections<'a>(payload: &'a [u8], lens: &[usize]) -> Option<Vec<&'a [u8]>> {
     let mut out = Vec::with_capacity(lens.len());
     let mut off = 0usize;
     for &l in lens {

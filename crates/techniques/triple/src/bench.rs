@@ -1,0 +1,261 @@
+//! `relight bench triple`: Table-3-shaped frame rows and the issue's timing
+//! targets. Figures depend on the machine; run on an idle one
+//! (docs/performance.md quotes measured ones).
+//!
+//! * **Frames**: each mesh (≈25 K and ≈50 K vertices in the full run) above
+//!   the verify floor, per-vertex visibility, per pixel, at 1024×768 and
+//!   512×384 (quick: 256×192), n = 80 and 320: ms per frame (best of the
+//!   repetitions), multiply-adds and bytes per shaded pixel (the kernel's own
+//!   count, [`crate::shade::FMA_PER_CELL`] and
+//!   [`crate::shade::BYTES_PER_CELL`] per padded cell) and the fraction of
+//!   [`MACHINE_GFMA`] reached.
+//! * **Timings**: a light rotation (no rebuild; frame time after it), a
+//!   material edit (one BRDF table re-baked), a new environment (the twisted
+//!   rotation table and the 642-normal isotropic one), the per-vertex
+//!   visibility bake per vertex count.
+
+use crate::method::{TripleMethod, TripleOptions};
+use crate::shade::{BYTES_PER_CELL, FMA_PER_CELL};
+use crate::verify::floor_scene;
+use glam::{Mat3, Vec3};
+use relight_brdf::BrdfSpec;
+use relight_geom::Mesh;
+use relight_render::method::{FrameRequest, MethodError, Relighter, render_frame};
+use relight_render::{Object, Progress};
+use relight_sphere::EnvMap;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The machine's measured multiply-add rate, GFMA/s (issue 12: "about 28
+/// GFMA/s in total" on the 2-vCPU build machine).
+pub const MACHINE_GFMA: f64 = 28.0;
+
+/// One frame row.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameRow {
+    pub mesh_vertices: usize,
+    pub width: usize,
+    pub height: usize,
+    pub terms: usize,
+    pub visibility: &'static str,
+    pub covered_pixels: usize,
+    pub ms_per_frame: f64,
+    pub fps: f64,
+    pub fma_per_pixel: f64,
+    pub bytes_per_pixel: f64,
+    pub gfma_per_s: f64,
+    pub fraction_of_machine: f64,
+    pub target_fps: Option<f64>,
+    pub pass: Option<bool>,
+}
+
+/// One timing row.
+#[derive(Clone, Debug, Serialize)]
+pub struct TimingRow {
+    pub what: String,
+    pub ms: f64,
+    pub target: String,
+    pub pass: Option<bool>,
+}
+
+/// Bench sizes.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    pub sizes: Vec<(usize, usize)>,
+    pub terms: Vec<usize>,
+    pub reps: usize,
+    pub vis_level: usize,
+    pub cache_dir: PathBuf,
+}
+
+impl BenchOptions {
+    /// Full or quick (smoke) sizes.
+    #[must_use]
+    pub fn new(quick: bool, cache_dir: PathBuf) -> Self {
+        if quick {
+            Self {
+                sizes: vec![(256, 192)],
+                terms: vec![80],
+                reps: 2,
+                vis_level: 2,
+                cache_dir,
+            }
+        } else {
+            Self {
+                sizes: vec![(1024, 768), (512, 384)],
+                terms: vec![80, 320],
+                reps: 5,
+                vis_level: 4,
+                cache_dir,
+            }
+        }
+    }
+}
+
+fn target_fps(w: usize, terms: usize) -> Option<f64> {
+    match (w, terms) {
+        (1024, 80) => Some(12.0),
+        (1024, 320) => Some(3.0),
+        (512, 80) => Some(40.0),
+        (512, 320) => Some(10.0),
+        _ => None,
+    }
+}
+
+/// Runs the bench on `env` with `meshes` (each placed above the floor).
+///
+/// # Errors
+/// The method's.
+pub fn bench_triple(
+    env: &EnvMap,
+    meshes: &[Arc<Mesh>],
+    opts: &BenchOptions,
+    progress: &dyn Progress,
+) -> Result<(Vec<FrameRow>, Vec<TimingRow>), MethodError> {
+    let lambert = "lambert:0.8".parse::<BrdfSpec>().expect("valid").build();
+    let phong = "phong:16".parse::<BrdfSpec>().expect("valid").build();
+    let mut frames = Vec::new();
+    let mut timings = Vec::new();
+    for mesh in meshes {
+        let (w0, h0) = opts.sizes[0];
+        let mut scene = floor_scene(env.clone(), lambert.clone(), w0, h0);
+        scene.objects[0] = Object::new(mesh.clone(), phong.clone());
+        for &terms in &opts.terms {
+            let o = TripleOptions {
+                terms,
+                vis_level: opts.vis_level.max(crate::method::level_of(terms)),
+                cache_dir: opts.cache_dir.clone(),
+                ..TripleOptions::default()
+            };
+            let mut m = TripleMethod::new(o)?;
+            let t = Instant::now();
+            m.prepare(&scene, progress)?;
+            let prep = t.elapsed().as_secs_f64() * 1e3;
+            timings.push(TimingRow {
+                what: format!(
+                    "prepare ({} + floor vertices, n = {terms}; cached bakes are loaded)",
+                    mesh.positions.len()
+                ),
+                ms: prep,
+                target: "report".into(),
+                pass: None,
+            });
+            for &(w, h) in &opts.sizes {
+                let mut cam = scene.camera;
+                cam.width = w;
+                cam.height = h;
+                let req = FrameRequest::new(cam);
+                let mut best = f64::INFINITY;
+                for _ in 0..opts.reps {
+                    let t = Instant::now();
+                    render_frame(&mut m, &scene, &req, progress)?;
+                    best = best.min(t.elapsed().as_secs_f64() * 1e3);
+                }
+                let work = m.frame_work(&scene, &req).map_or(0.0, |f| f.view_fma);
+                let stride = m.table().map_or(0, |t| t.stride);
+                let pixels = (work / (FMA_PER_CELL * stride.max(1)) as f64).round() as usize;
+                let gfma = work / (best * 1e-3) / 1e9;
+                let target = target_fps(w, terms);
+                let fps = 1e3 / best;
+                frames.push(FrameRow {
+                    mesh_vertices: mesh.positions.len(),
+                    width: w,
+                    height: h,
+                    terms,
+                    visibility: "vertex",
+                    covered_pixels: pixels,
+                    ms_per_frame: best,
+                    fps,
+                    fma_per_pixel: (FMA_PER_CELL * stride) as f64,
+                    bytes_per_pixel: (BYTES_PER_CELL * stride) as f64,
+                    gfma_per_s: gfma,
+                    fraction_of_machine: gfma / MACHINE_GFMA,
+                    target_fps: target,
+                    pass: target.map(|t| fps >= t),
+                });
+            }
+            // A light rotation: a lookup change, then the same frame.
+            let mut rotated = scene.clone();
+            rotated.world_from_env = Mat3::from_rotation_y(0.7);
+            let t = Instant::now();
+            m.set_lighting(&rotated, progress)?;
+            let rot_ms = t.elapsed().as_secs_f64() * 1e3;
+            let builds = m.counts().2;
+            timings.push(TimingRow {
+                what: format!("light rotation, n = {terms} (table builds after it: {builds})"),
+                ms: rot_ms,
+                target: "no rebuild (builds = 1)".into(),
+                pass: Some(builds == 1),
+            });
+        }
+    }
+    // A material edit: Phong 16 → 64, one BRDF table re-baked (default grid).
+    let mut scene = floor_scene(env.clone(), lambert.clone(), 64, 48);
+    scene.visibility = false;
+    let o = TripleOptions {
+        terms: 320,
+        cache_dir: std::env::temp_dir()
+            .join(format!("relight-triple-bench-{}", std::process::id())),
+        ..TripleOptions::default()
+    };
+    let _ = std::fs::remove_dir_all(&o.cache_dir);
+    let mut m = TripleMethod::new(o.clone())?;
+    m.prepare(&scene, progress)?;
+    let old = scene.objects[0].brdf.clone();
+    scene.objects[0].brdf = "phong:64".parse::<BrdfSpec>().expect("valid").build();
+    m.forget_brdf(old.as_ref());
+    let t = Instant::now();
+    m.prepare(&scene, progress)?;
+    let edit = t.elapsed().as_secs_f64() * 1e3;
+    timings.push(TimingRow {
+        what: "material edit: Phong 16 → 64, one BRDF table re-baked (32×64 views, n = 320)".into(),
+        ms: edit,
+        target: "≤ 1500 ms".into(),
+        pass: Some(edit <= 1500.0),
+    });
+    let _ = std::fs::remove_dir_all(&o.cache_dir);
+    // A new environment.
+    for (twists, target) in [(16usize, 10_000.0), (1, 300.0)] {
+        let pre = crate::lighting::prefilter(env, 2);
+        let t = Instant::now();
+        let table = crate::lighting::LightTable::build(&pre, Mat3::IDENTITY, 2, twists);
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        timings.push(TimingRow {
+            what: format!(
+                "new environment: {} table, 642 normals × {twists} twists, n = 320 ({:.1} MiB)",
+                if twists == 1 { "isotropic" } else { "rotation" },
+                table.bytes() as f64 / 1048576.0
+            ),
+            ms,
+            target: format!("≤ {target} ms"),
+            pass: Some(ms <= target),
+        });
+    }
+    let _ = Vec3::ZERO;
+    Ok((frames, timings))
+}
+
+/// Scales and moves `m` to stand on the floor (height 2, centred).
+#[allow(clippy::missing_panics_doc)]
+pub fn place_on_floor(m: &mut Mesh) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for p in &m.positions {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let s = 2.0 / (hi - lo).max_element().max(1e-6);
+    let c = (lo + hi) * 0.5;
+    for p in &mut m.positions {
+        *p = (*p - c) * s + Vec3::new(0.0, (hi.y - lo.y) * s * 0.5, 0.0);
+    }
+}
+
+/// A UV sphere of about `vertices` vertices standing on the floor (when the
+/// bunny is absent).
+#[must_use]
+pub fn sphere_mesh(vertices: usize) -> Mesh {
+    let seg = ((vertices as f64 / 2.0).sqrt() as usize).max(8);
+    relight_geom::shapes::uv_sphere_at(Vec3::new(0.0, 1.0, 0.0), 1.0, 2 * seg, seg)
+}

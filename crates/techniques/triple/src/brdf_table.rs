@@ -1,0 +1,139 @@
+//! The BRDF table of one material (spherical-wavelets-triple-product-2006
+//! §3.2, §4.1): for a grid of view directions `ω_o` in the local frame, the
+//! BRDF term `ρ̃(ω_i) = ρ(ω_o, ω_i) cos⁺θ_i` with the exact leaf solid angles
+//! folded in ([`crate::quadrature`]), kept as the level-`m` cell integrals
+//! `ρ̂_c = ∫_{cell c} ρ cos⁺ dω` (sr) so that the top-only product is the
+//! plain sum `B = Σ_c L̄_c V̄_c ρ̂_c` (the cell area `A_m` is folded in too).
+//!
+//! # View grid
+//! `θ_o` in `views` uniform rows over `[0, π/2]`, `φ_o` in `2·views` columns
+//! over `[0, 2π)` (the paper's 64×128 is `views = 64`), cell-centred,
+//! bilinear with `φ` wrapping and `θ` clamped ([`BrdfTable::lookup`]). An
+//! isotropic BRDF still needs the azimuth: the cells are not symmetric about
+//! the normal.
+
+use crate::basis::{Basis, triangles};
+use crate::lighting::padded_cells;
+use crate::quadrature::{LeafGrid, Weighting};
+use glam::Vec3;
+use rayon::prelude::*;
+use relight_brdf::Brdf;
+use std::f32::consts::{FRAC_PI_2, TAU};
+
+/// A baked BRDF table (module docs).
+#[derive(Clone, Debug)]
+pub struct BrdfTable {
+    /// Top-only level.
+    pub m: usize,
+    /// θ rows (φ columns are `2·views`).
+    pub views: usize,
+    /// Padded cells per view.
+    pub stride: usize,
+    /// View `(row, col)` at `(row · 2·views + col) · 3 · stride`: R, G, B planes.
+    pub data: Vec<f32>,
+}
+
+/// A weighted view entry.
+pub use crate::lighting::Tap;
+
+impl BrdfTable {
+    /// Bakes `brdf` for level `m`, `views` rows, on `grid` (leaf quadrature)
+    /// with `weighting`.
+    #[must_use]
+    pub fn bake(
+        brdf: &dyn Brdf,
+        grid: &LeafGrid,
+        m: usize,
+        views: usize,
+        weighting: Weighting,
+    ) -> Self {
+        let basis: Basis = grid.basis();
+        let cols = 2 * views;
+        let stride = padded_cells(m);
+        let cells = triangles(m);
+        let per = basis.len() / cells;
+        let area_m = (20.0 / cells as f64) as f32;
+        let mut data = vec![0.0f32; views * cols * 3 * stride];
+        data.par_chunks_mut(3 * stride).enumerate().for_each_init(
+            || vec![Vec3::ZERO; basis.len()],
+            |leaf, (v, out)| {
+                let wo = view_dir(views, v / cols, v % cols);
+                grid.brdf_term_rgb(
+                    |wi| {
+                        if wi.z <= 0.0 {
+                            Vec3::ZERO
+                        } else {
+                            brdf.eval(wo, wi) * wi.z
+                        }
+                    },
+                    weighting,
+                    leaf,
+                );
+                for cell in 0..cells {
+                    let s: Vec3 = leaf[cell * per..(cell + 1) * per].iter().sum();
+                    // Mean leaf term × A_m = cell integral (sr).
+                    for c in 0..3 {
+                        out[c * stride + cell] = s[c] / per as f32 * area_m;
+                    }
+                }
+            },
+        );
+        Self {
+            m,
+            views,
+            stride,
+            data,
+        }
+    }
+
+    /// Bytes held.
+    #[must_use]
+    pub fn bytes(&self) -> u64 {
+        (self.data.len() * 4) as u64
+    }
+
+    /// The four weighted views around local `wo` (normal +Z).
+    #[must_use]
+    pub fn lookup(&self, wo: Vec3) -> [Tap; 4] {
+        let cols = 2 * self.views;
+        let theta = wo.z.clamp(-1.0, 1.0).acos().min(FRAC_PI_2);
+        let phi = wo.y.atan2(wo.x).rem_euclid(TAU);
+        let r = (theta / FRAC_PI_2 * self.views as f32 - 0.5).clamp(0.0, self.views as f32 - 1.0);
+        let c = phi / TAU * cols as f32 - 0.5;
+        let (r0, fr) = (r.floor() as usize, r - r.floor());
+        let r1 = (r0 + 1).min(self.views - 1);
+        let c0f = c.floor();
+        let fc = c - c0f;
+        let c0 = (c0f as isize).rem_euclid(cols as isize) as usize;
+        let c1 = (c0 + 1) % cols;
+        let entry = 3 * self.stride;
+        let off = |r: usize, c: usize| ((r * cols + c) * entry) as u32;
+        [
+            Tap {
+                offset: off(r0, c0),
+                weight: (1.0 - fr) * (1.0 - fc),
+            },
+            Tap {
+                offset: off(r0, c1),
+                weight: (1.0 - fr) * fc,
+            },
+            Tap {
+                offset: off(r1, c0),
+                weight: fr * (1.0 - fc),
+            },
+            Tap {
+                offset: off(r1, c1),
+                weight: fr * fc,
+            },
+        ]
+    }
+}
+
+/// The local view direction of grid cell `(row, col)` (cell centres).
+#[must_use]
+pub fn view_dir(views: usize, row: usize, col: usize) -> Vec3 {
+    let theta = (row as f32 + 0.5) / views as f32 * FRAC_PI_2;
+    let phi = (col as f32 + 0.5) / (2 * views) as f32 * TAU;
+    let (st, ct) = theta.sin_cos();
+    Vec3::new(st * phi.cos(), st * phi.sin(), ct)
+}

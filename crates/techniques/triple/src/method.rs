@@ -1,0 +1,695 @@
+//! [`TripleMethod`]: triple-product relighting behind the method interface
+//! ([`Relighter`], name `triple`).
+//!
+//! # What it renders
+//! Distant environment lighting × binary visibility × each object's BRDF,
+//! per pixel, as the top-only spherical-wavelet triple product in the
+//! point's local frame (spherical-wavelets-triple-product-2006 Eq. 7,
+//! [`crate::shade`]). A spatially varying BRDF (two BRDFs blended by a
+//! texture over the uvs) shades both tables and blends the results, exact by
+//! the linearity of Eq. 7 in the BRDF (the paper blends the coefficients, the
+//! same sum). Point and area lights, media and normal maps are refused
+//! ([`MethodError::Unsupported`]).
+//!
+//! | call | work |
+//! |---|---|
+//! | [`Relighter::prepare`] | one BRDF table per distinct BRDF and the per-vertex visibility of every object, each from the disk cache or baked on a miss ([`crate::cache`]); then `set_lighting` |
+//! | [`Relighter::set_lighting`] | a new environment: prefilter and build the lighting table ([`crate::lighting`]); a rotation (`world_from_env`) with `twists > 1`: nothing (a lookup change); with `twists = 1`: rebuild |
+//! | [`Relighter::render`] | rasterize at `aa × aa`, then per pixel ([`Shading::Pixel`]: the lighting looked up in the pixel's own frame from the interpolated normal, the vertices' visibility interpolated, the BRDF at the pixel's view) or per vertex ([`Shading::Vertex`], Gouraud, the paper's Fig. 5 comparison) |
+//!
+//! # Selection
+//! The renderer keeps the first `terms = 20·4^m` coefficients (top-only,
+//! the paper's GPU choice): every function is stored as its `20·4^m` cell
+//! averages. Adaptive selection needs each point's full 5120-coefficient
+//! functions; it is compared with top-only point by point in `verify triple`
+//! (Fig. 7 rows, [`crate::select`], [`crate::product::sparse`]) and refused
+//! here with a message saying so.
+
+use crate::basis::{Basis, triangles};
+use crate::brdf_table::BrdfTable;
+use crate::cache::{self, BRDF_MAGIC, VIS_MAGIC, bake_or_load, hash_parts};
+use crate::lighting::{LightTable, frame_of, prefilter};
+use crate::quadrature::{LeafGrid, Weighting};
+use crate::select::Selection;
+use crate::shade::{BYTES_PER_CELL, FMA_PER_CELL, shade_point};
+use crate::visibility::bake_vertex_visibility;
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+use relight_geom::Mesh;
+use relight_render::method::{
+    FrameRequest, FrameTimings, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support,
+    check_scene, coverage_of_raster,
+};
+use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
+use relight_render::{Image, Progress, Scene, SceneBvh};
+use relight_sphere::{EnvMap, Frame};
+use relight_wavelet::WaveletError;
+use serde::Serialize;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The method's name on the command line.
+pub const TRIPLE_METHOD_NAME: &str = "triple";
+
+/// Where the product is evaluated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Shading {
+    /// Per pixel, the lighting looked up from the pixel's own frame.
+    #[default]
+    Pixel,
+    /// Per vertex, colours interpolated (Gouraud; Fig. 5).
+    Vertex,
+}
+
+impl std::str::FromStr for Shading {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "pixel" => Ok(Self::Pixel),
+            "vertex" => Ok(Self::Vertex),
+            o => Err(format!("unknown shading {o:?}: use pixel or vertex")),
+        }
+    }
+}
+
+/// Settings of [`TripleMethod`]; `Default` holds the defaults (the one place
+/// they live).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TripleOptions {
+    /// Coefficients kept: `20·4^m`, m = 0..=4 (20, 80, 320, 1280, 5120). Default 320.
+    pub terms: usize,
+    /// Coefficient selection. Default top-only (adaptive: verify only).
+    pub selection: Selection,
+    /// Twist bins of the lighting table (1 = isotropic 642-normal table,
+    /// rebuilt per rotation). Default 16.
+    pub twists: usize,
+    /// θ rows of the BRDF view grid (φ columns = 2×). Default 32.
+    pub brdf_views: usize,
+    /// Sub-levels of the BRDF quadrature below the level-4 leaves. Default 1.
+    pub brdf_sub: usize,
+    /// Solid-angle weighting of the BRDF term. Default exact.
+    pub weighting: Weighting,
+    /// Icosahedral level of the visibility rays (≥ m; 4 = 5120 directions). Default 4.
+    pub vis_level: usize,
+    /// Per pixel or per vertex. Default per pixel.
+    pub shading: Shading,
+    /// Where bakes are cached. Default [`cache::default_cache_dir`].
+    pub cache_dir: PathBuf,
+}
+
+impl Default for TripleOptions {
+    fn default() -> Self {
+        Self {
+            terms: 320,
+            selection: Selection::Top,
+            twists: 16,
+            brdf_views: 32,
+            brdf_sub: 1,
+            weighting: Weighting::Exact,
+            vis_level: 4,
+            shading: Shading::Pixel,
+            cache_dir: cache::default_cache_dir(),
+        }
+    }
+}
+
+impl TripleOptions {
+    /// The top-only level `m` of `terms` (`terms = 20·4^m`), if valid.
+    #[must_use]
+    pub fn level(&self) -> Option<usize> {
+        (0..=4).find(|&m| triangles(m) == self.terms)
+    }
+}
+
+/// One object's prepared data.
+struct Prepared {
+    mesh: Arc<Mesh>,
+    brdf: Arc<BrdfTable>,
+    /// The spatially varying blend: the second BRDF's table and the weight.
+    blend: Option<(Arc<BrdfTable>, relight_render::BrdfBlend)>,
+    vis: Option<Arc<Vec<f32>>>,
+}
+
+/// Triple-product relighting as a [`Relighter`] (module docs).
+pub struct TripleMethod {
+    options: TripleOptions,
+    m: usize,
+    grid: Option<LeafGrid>,
+    brdfs: Vec<(String, Arc<BrdfTable>)>,
+    objects: Vec<Prepared>,
+    /// The prefiltered environment and the hash of the source it came from.
+    env: Option<(u64, EnvMap)>,
+    table: Option<LightTable>,
+    world_from_env: Mat3,
+    raster: Rasterizer,
+    frame: Image,
+    colors: Vec<Vec<Vec3>>,
+    pending_lighting_ms: f64,
+    loads: usize,
+    bakes: usize,
+    table_builds: usize,
+}
+
+impl std::fmt::Debug for TripleMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TripleMethod")
+            .field("options", &self.options)
+            .finish_non_exhaustive()
+    }
+}
+
+fn invalid(option: &'static str, message: impl ToString) -> MethodError {
+    MethodError::InvalidOption {
+        method: TRIPLE_METHOD_NAME,
+        option,
+        message: message.to_string(),
+    }
+}
+
+fn fail(e: WaveletError) -> MethodError {
+    MethodError::failed(TRIPLE_METHOD_NAME, e)
+}
+
+fn stale(why: &str) -> MethodError {
+    invalid("scene", why)
+}
+
+fn env_hash(env: &EnvMap) -> u64 {
+    let flat: Vec<f32> = env.texels.iter().flat_map(|t| t.to_array()).collect();
+    hash_parts(&[
+        format!("{:?}", env.param).as_bytes(),
+        bytemuck::cast_slice(&flat),
+    ])
+}
+
+fn mesh_bytes(m: &Mesh) -> Vec<f32> {
+    let mut v: Vec<f32> = m.positions.iter().flat_map(|p| p.to_array()).collect();
+    v.extend(m.normals.iter().flat_map(|p| p.to_array()));
+    v.extend(m.indices.iter().flat_map(|t| t.map(|i| i as f32)));
+    v
+}
+
+impl TripleMethod {
+    /// A method with `options` (checked here; nothing is baked before `prepare`).
+    ///
+    /// # Errors
+    /// [`MethodError::InvalidOption`] naming the option.
+    pub fn new(options: TripleOptions) -> Result<Self, MethodError> {
+        let m = options.level().ok_or_else(|| {
+            invalid(
+                "terms",
+                format!(
+                    "must be 20·4^m: 20, 80, 320, 1280 or 5120 (complete levels, top-only), got {}",
+                    options.terms
+                ),
+            )
+        })?;
+        if options.selection == Selection::Adaptive {
+            return Err(invalid(
+                "select",
+                "the renderer keeps complete levels (top-only); adaptive selection is compared point by point in `relight verify triple`",
+            ));
+        }
+        if !(1..=64).contains(&options.twists) {
+            return Err(invalid(
+                "twists",
+                format!("must be 1..=64, got {}", options.twists),
+            ));
+        }
+        if !(2..=128).contains(&options.brdf_views) {
+            return Err(invalid(
+                "brdf-views",
+                format!("must be 2..=128, got {}", options.brdf_views),
+            ));
+        }
+        if options.brdf_sub > 3 {
+            return Err(invalid(
+                "brdf-sub",
+                format!("must be 0..=3, got {}", options.brdf_sub),
+            ));
+        }
+        if !(m..=5).contains(&options.vis_level) {
+            return Err(invalid(
+                "vis-level",
+                format!(
+                    "must be {m}..=5 (at least the level of terms), got {}",
+                    options.vis_level
+                ),
+            ));
+        }
+        Ok(Self {
+            options,
+            m,
+            grid: None,
+            brdfs: Vec::new(),
+            objects: Vec::new(),
+            env: None,
+            table: None,
+            world_from_env: Mat3::IDENTITY,
+            raster: Rasterizer::new(),
+            frame: Image::new(0, 0),
+            colors: Vec::new(),
+            pending_lighting_ms: 0.0,
+            loads: 0,
+            bakes: 0,
+            table_builds: 0,
+        })
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &TripleOptions {
+        &self.options
+    }
+
+    /// Bakes loaded from the cache, bakes computed, lighting tables built.
+    #[must_use]
+    pub fn counts(&self) -> (usize, usize, usize) {
+        (self.loads, self.bakes, self.table_builds)
+    }
+
+    /// The lighting table, once lit.
+    #[must_use]
+    pub fn table(&self) -> Option<&LightTable> {
+        self.table.as_ref()
+    }
+
+    fn brdf_table(
+        &mut self,
+        brdf: &dyn relight_brdf::Brdf,
+        progress: &dyn Progress,
+    ) -> Result<Arc<BrdfTable>, MethodError> {
+        let key = format!("{brdf:?}");
+        if let Some((_, t)) = self.brdfs.iter().find(|(k, _)| *k == key) {
+            return Ok(t.clone());
+        }
+        progress.check()?;
+        let o = &self.options;
+        let views = o.brdf_views;
+        let cells = crate::lighting::padded_cells(self.m);
+        let len = views * 2 * views * 3 * cells;
+        let weighting = o.weighting;
+        let p = cache::params(
+            self.m as u32,
+            views as u32,
+            u32::from(weighting == Weighting::Paper),
+            o.brdf_sub as u32,
+            hash_parts(&[key.as_bytes()]),
+            len,
+        );
+        if self.grid.as_ref().is_none_or(|g| g.sub() != o.brdf_sub) {
+            self.grid = Some(
+                LeafGrid::new(Basis::paper(), o.brdf_sub).map_err(|e| invalid("brdf-sub", e))?,
+            );
+        }
+        let grid = self.grid.as_ref().expect("just built");
+        let m = self.m;
+        let (data, loaded) = bake_or_load(&o.cache_dir, "brdf", BRDF_MAGIC, p, || {
+            Ok::<_, WaveletError>(BrdfTable::bake(brdf, grid, m, views, weighting).data)
+        })
+        .map_err(fail)?;
+        if loaded {
+            self.loads += 1;
+        } else {
+            self.bakes += 1;
+        }
+        let t = Arc::new(BrdfTable {
+            m,
+            views,
+            stride: cells,
+            data,
+        });
+        self.brdfs.push((key, t.clone()));
+        Ok(t)
+    }
+
+    /// Rebakes one material's BRDF table (a material edit): drops the
+    /// in-memory table of `old`'s description so the next `prepare` bakes
+    /// the object's new BRDF, touching nothing else.
+    pub fn forget_brdf(&mut self, old: &dyn relight_brdf::Brdf) {
+        let key = format!("{old:?}");
+        self.brdfs.retain(|(k, _)| *k != key);
+    }
+
+    fn lookup_rotation(&self) -> Mat3 {
+        // G = (S Rᵀ) F_x with S the table's space_from_env (lighting docs).
+        let s = self.table.as_ref().map_or(Mat3::IDENTITY, |t| t.built_for);
+        s * self.world_from_env.transpose()
+    }
+}
+
+fn is_rotation(m: Mat3) -> bool {
+    let e = (m.transpose() * m - Mat3::IDENTITY).to_cols_array();
+    m.is_finite() && e.iter().all(|x| x.abs() < 1e-4) && (m.determinant() - 1.0).abs() < 1e-4
+}
+
+/// Shades one point: world normal `n`, to-eye `to_eye`, with `vis`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn shade_world(
+    table: &LightTable,
+    rot: Mat3,
+    brdf: &BrdfTable,
+    n: Vec3,
+    to_eye: Vec3,
+    vis: Option<([&[f32]; 3], [f32; 3])>,
+) -> Vec3 {
+    let f = frame_of(n);
+    let mut wo = f.to_local(to_eye);
+    if wo.z < 1e-4 {
+        wo.z = 1e-4;
+        wo = wo.normalize();
+    }
+    let g = Frame {
+        x: rot * f.x,
+        y: rot * f.y,
+        z: rot * f.z,
+    };
+    let lt = table.lookup(&g);
+    let bt = brdf.lookup(wo);
+    shade_point(&table.data, &lt, &brdf.data, &bt, vis, table.stride)
+}
+
+/// [`shade_world`] with the object's BRDF blend: by linearity of Eq. 7 in
+/// the BRDF, `(1 − w) B(ρ₁) + w B(ρ₂)` with `w` the weight texture at the uv.
+#[inline]
+fn shade_blended(
+    table: &LightTable,
+    rot: Mat3,
+    p: &Prepared,
+    n: Vec3,
+    to_eye: Vec3,
+    vis: Option<([&[f32]; 3], [f32; 3])>,
+    uv: impl Fn() -> glam::Vec2,
+) -> Vec3 {
+    let Some((second, blend)) = &p.blend else {
+        return shade_world(table, rot, &p.brdf, n, to_eye, vis);
+    };
+    let w = blend.weight_at(uv());
+    let a = if w < 1.0 {
+        shade_world(table, rot, &p.brdf, n, to_eye, vis)
+    } else {
+        Vec3::ZERO
+    };
+    let b = if w > 0.0 {
+        shade_world(table, rot, second, n, to_eye, vis)
+    } else {
+        Vec3::ZERO
+    };
+    a * (1.0 - w) + b * w
+}
+
+impl Relighter for TripleMethod {
+    fn name(&self) -> &'static str {
+        TRIPLE_METHOD_NAME
+    }
+
+    fn supports(&self, feature: SceneFeature) -> Support {
+        match feature {
+            SceneFeature::Environment | SceneFeature::Visibility => Support::Full,
+            SceneFeature::PointLights
+            | SceneFeature::AreaLights
+            | SceneFeature::Medium
+            | SceneFeature::NormalMaps => Support::No,
+            SceneFeature::SpatiallyVaryingBrdf => Support::Full,
+        }
+    }
+
+    fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
+        check_scene(self, scene, false)?;
+        for (i, o) in scene.objects.iter().enumerate() {
+            if o.mesh.normals.len() != o.mesh.positions.len() {
+                return Err(invalid(
+                    "scene",
+                    format!("object {i} has no vertex normals (one per vertex is needed)"),
+                ));
+            }
+            if o.blend.is_some() && o.mesh.uvs.len() != o.mesh.positions.len() {
+                return Err(invalid(
+                    "scene",
+                    format!("object {i} blends two BRDFs by a texture but has no uvs"),
+                ));
+            }
+        }
+        let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
+        let scene_key: Vec<u64> = meshes
+            .iter()
+            .map(|m| hash_parts(&[bytemuck::cast_slice(&mesh_bytes(m))]))
+            .collect();
+        let mut bvh: Option<SceneBvh> = None;
+        let mut objects = Vec::with_capacity(scene.objects.len());
+        for (i, o) in scene.objects.iter().enumerate() {
+            let brdf = self.brdf_table(o.brdf.as_ref(), progress)?;
+            let blend = match &o.blend {
+                Some(b) => Some((self.brdf_table(b.second.as_ref(), progress)?, b.clone())),
+                None => None,
+            };
+            // Keep visibility already held for the same mesh and scene.
+            let held = self
+                .objects
+                .get(i)
+                .filter(|p| Arc::ptr_eq(&p.mesh, &o.mesh) && p.vis.is_some() == scene.visibility);
+            let vis = if !scene.visibility {
+                None
+            } else if let Some(p) = held.filter(|_| self.objects.len() == scene.objects.len()) {
+                p.vis.clone()
+            } else {
+                let stride = crate::lighting::padded_cells(self.m);
+                let key =
+                    hash_parts(&[bytemuck::cast_slice(&scene_key), &(i as u64).to_le_bytes()]);
+                let len = o.mesh.positions.len() * stride;
+                let p = cache::params(self.m as u32, self.options.vis_level as u32, 0, 0, key, len);
+                let (m, vl) = (self.m, self.options.vis_level);
+                let (values, loaded) =
+                    bake_or_load(&self.options.cache_dir, "vis", VIS_MAGIC, p, || {
+                        let b = bvh.get_or_insert_with(|| SceneBvh::build(&meshes));
+                        bake_vertex_visibility(b, i, m, vl, progress)
+                            .map(|v| v.values)
+                            .map_err(WaveletError::from)
+                    })
+                    .map_err(fail)?;
+                if loaded {
+                    self.loads += 1;
+                } else {
+                    self.bakes += 1;
+                }
+                Some(Arc::new(values))
+            };
+            objects.push(Prepared {
+                mesh: o.mesh.clone(),
+                brdf,
+                blend,
+                vis,
+            });
+        }
+        self.objects = objects;
+        self.colors.clear();
+        self.set_lighting(scene, progress)?;
+        Ok(())
+    }
+
+    fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError> {
+        let t = Instant::now();
+        if !is_rotation(scene.world_from_env) {
+            return Err(invalid(
+                "world_from_env",
+                format!("{:?} is not a rotation", scene.world_from_env),
+            ));
+        }
+        progress.check()?;
+        let h = env_hash(&scene.env);
+        if self.env.as_ref().is_none_or(|(k, _)| *k != h) {
+            self.env = Some((h, prefilter(&scene.env, self.m)));
+            self.table = None;
+        }
+        let twists = self.options.twists;
+        let rebuild = match &self.table {
+            None => true,
+            Some(t) => twists == 1 && t.built_for != scene.world_from_env,
+        };
+        self.world_from_env = scene.world_from_env;
+        if rebuild {
+            let env = &self.env.as_ref().expect("set above").1;
+            let space = if twists == 1 {
+                scene.world_from_env
+            } else {
+                Mat3::IDENTITY
+            };
+            self.table = Some(LightTable::build(env, space, self.m, twists));
+            self.table_builds += 1;
+        }
+        self.colors.clear();
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        self.pending_lighting_ms = ms;
+        Ok(ms)
+    }
+
+    fn render(
+        &mut self,
+        scene: &Scene,
+        request: &FrameRequest,
+        progress: &dyn Progress,
+    ) -> Result<Rendered, MethodError> {
+        request.validate(TRIPLE_METHOD_NAME)?;
+        let t0 = Instant::now();
+        let same = self.objects.len() == scene.objects.len()
+            && self
+                .objects
+                .iter()
+                .zip(&scene.objects)
+                .all(|(p, o)| Arc::ptr_eq(&p.mesh, &o.mesh));
+        if !same {
+            return Err(stale(
+                "the objects changed since `prepare`; call prepare again",
+            ));
+        }
+        let table = self
+            .table
+            .as_ref()
+            .ok_or_else(|| stale("call prepare before render"))?;
+        progress.check()?;
+        let k = request.aa;
+        let (w, h) = (request.camera.width, request.camera.height);
+        let mut camera = request.camera;
+        camera.width *= k;
+        camera.height *= k;
+        let draws: Vec<DrawCall> = scene
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32)
+            })
+            .collect();
+        let opts = RasterOptions::default().fit_depth(&camera, &draws);
+        self.raster
+            .rasterize(&camera, &draws, &opts)
+            .map_err(|e| invalid("raster", e))?;
+        let env = &scene.env;
+        let env_from_world = scene.world_from_env.transpose();
+        let bg = |d: Vec3| env.eval(env_from_world * d);
+        let background = if k > 1 {
+            Background::Environment(&bg)
+        } else {
+            Background::Color(Vec3::ZERO)
+        };
+        let rot = self.lookup_rotation();
+        let objects = &self.objects;
+        let stride = table.stride;
+        match self.options.shading {
+            Shading::Pixel => {
+                self.raster
+                    .shade(
+                        &draws,
+                        |frag| {
+                            let p = &objects[frag.draw as usize];
+                            let tri = p.mesh.indices[frag.triangle as usize];
+                            let l = frag.barycentrics;
+                            let nrm = &p.mesh.normals;
+                            let n = (nrm[tri[0] as usize] * l.x
+                                + nrm[tri[1] as usize] * l.y
+                                + nrm[tri[2] as usize] * l.z)
+                                .normalize_or(frag.normal);
+                            let vis = p.vis.as_ref().map(|v| {
+                                (
+                                    tri.map(|i| &v[i as usize * stride..(i as usize + 1) * stride]),
+                                    [l.x, l.y, l.z],
+                                )
+                            });
+                            let uv = || {
+                                let u = &p.mesh.uvs;
+                                u[tri[0] as usize] * l.x
+                                    + u[tri[1] as usize] * l.y
+                                    + u[tri[2] as usize] * l.z
+                            };
+                            shade_blended(table, rot, p, n, frag.to_eye, vis, uv)
+                        },
+                        background,
+                        &mut self.frame,
+                    )
+                    .map_err(|e| invalid("raster", e))?;
+            }
+            Shading::Vertex => {
+                let eye = camera.eye;
+                self.colors = objects
+                    .iter()
+                    .map(|p| {
+                        (0..p.mesh.positions.len())
+                            .into_par_iter()
+                            .with_min_len(64)
+                            .map(|v| {
+                                let n = p.mesh.normals[v];
+                                let to_eye = (eye - p.mesh.positions[v]).normalize_or(n);
+                                let vis = p.vis.as_ref().map(|vv| {
+                                    let row = &vv[v * stride..(v + 1) * stride];
+                                    ([row, row, row], [1.0, 0.0, 0.0])
+                                });
+                                shade_blended(table, rot, p, n, to_eye, vis, || p.mesh.uvs[v])
+                            })
+                            .collect()
+                    })
+                    .collect();
+                let refs: Vec<&[Vec3]> = self.colors.iter().map(|c| &c[..]).collect();
+                self.raster
+                    .shade_gouraud(&draws, &refs, background, &mut self.frame)
+                    .map_err(|e| invalid("raster", e))?;
+            }
+        }
+        let image = if k == 1 {
+            self.frame.clone()
+        } else {
+            self.frame.box_downsample(k)
+        };
+        let coverage = coverage_of_raster(&self.raster, w, h, k);
+        Ok(Rendered {
+            image,
+            coverage: Some(coverage),
+            timings: FrameTimings {
+                lighting_ms: std::mem::take(&mut self.pending_lighting_ms),
+                view_ms: t0.elapsed().as_secs_f64() * 1e3,
+            },
+            noise: None,
+        })
+    }
+
+    /// Per shaded point (pixel sample, or vertex in per-vertex shading)
+    /// [`FMA_PER_CELL`] × padded cells.
+    fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
+        let table = self.table.as_ref()?;
+        let points = match self.options.shading {
+            Shading::Pixel => self.raster.gbuffer().covered_pixels(),
+            Shading::Vertex => scene.objects.iter().map(|o| o.mesh.positions.len()).sum(),
+        };
+        let _ = request;
+        Some(FrameWork {
+            view_fma: (points * FMA_PER_CELL * table.stride) as f64,
+            lighting_fma: 0.0,
+        })
+    }
+
+    fn data_bytes(&self) -> u64 {
+        let t = self.table.as_ref().map_or(0, LightTable::bytes);
+        let b: u64 = self.brdfs.iter().map(|(_, b)| b.bytes()).sum();
+        let v: u64 = self
+            .objects
+            .iter()
+            .filter_map(|p| p.vis.as_ref())
+            .map(|v| (v.len() * 4) as u64)
+            .sum();
+        t + b + v
+    }
+}
+
+/// Bytes read per shaded point of `terms` coefficients ([`BYTES_PER_CELL`]).
+#[must_use]
+pub fn bytes_per_point(terms: usize) -> usize {
+    BYTES_PER_CELL * terms.div_ceil(8) * 8
+}
+
+/// The top-only level `m` of `terms = 20·4^m` (0 when not a level).
+#[must_use]
+pub fn level_of(terms: usize) -> usize {
+    (0..=4).find(|&m| triangles(m) == terms).unwrap_or(0)
+}

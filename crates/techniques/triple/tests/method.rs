@@ -1,0 +1,204 @@
+//! The method behind the interface: furnace, refusals, rotation without
+//! re-bake, the bake cache.
+
+use glam::{Mat3, Vec3};
+use relight_brdf::BrdfSpec;
+use relight_render::method::{FrameRequest, MethodError, Relighter, SceneFeature, render_frame};
+use relight_render::{Camera, NoProgress, Object, PointLight, Scene};
+use relight_sphere::{EnvMap, Param};
+use relight_triple::{TripleMethod, TripleOptions};
+use std::sync::Arc;
+
+fn scene(env: EnvMap, visibility: bool) -> Scene {
+    let brdf = "lambert".parse::<BrdfSpec>().unwrap().build();
+    let sphere = relight_geom::shapes::uv_sphere_at(Vec3::new(0.0, 1.0, 0.0), 1.0, 24, 12);
+    let floor = relight_geom::shapes::plane(6.0, 8);
+    let mut s = Scene::new(
+        vec![
+            Object::new(Arc::new(sphere), brdf.clone()),
+            Object::new(Arc::new(floor), brdf),
+        ],
+        env,
+        Camera {
+            eye: Vec3::new(0.0, 2.5, 5.0),
+            target: Vec3::new(0.0, 0.7, 0.0),
+            up: Vec3::Y,
+            vfov_deg: 45.0,
+            width: 48,
+            height: 36,
+            image_offset: glam::Vec2::ZERO,
+        },
+    );
+    s.visibility = visibility;
+    s
+}
+
+fn options(dir: &std::path::Path) -> TripleOptions {
+    TripleOptions {
+        terms: 80,
+        vis_level: 2,
+        brdf_views: 8,
+        twists: 4,
+        cache_dir: dir.to_path_buf(),
+        ..TripleOptions::default()
+    }
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("relight-triple-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn furnace_white_lambert_under_unit_sky_is_one() {
+    let env = EnvMap::from_fn(
+        Param::LatLong {
+            width: 64,
+            height: 32,
+        },
+        |_| Vec3::ONE,
+    );
+    let sc = scene(env, false);
+    let dir = tmp("furnace");
+    let mut m = TripleMethod::new(options(&dir)).unwrap();
+    m.prepare(&sc, &NoProgress).unwrap();
+    let r = render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress).unwrap();
+    let mask = r.coverage.as_ref().unwrap().object_mask();
+    let mut n = 0;
+    for (p, &inside) in r.image.pixels.iter().zip(&mask) {
+        if inside {
+            n += 1;
+            for c in p.to_array() {
+                assert!((c - 1.0).abs() < 2e-3, "furnace pixel {p}");
+            }
+        }
+    }
+    assert!(n > 200, "only {n} object pixels");
+}
+
+#[test]
+fn unsupported_features_name_method_and_feature() {
+    let env = EnvMap::from_fn(
+        Param::LatLong {
+            width: 8,
+            height: 4,
+        },
+        |_| Vec3::ONE,
+    );
+    let mut sc = scene(env, false);
+    sc.point_lights.push(PointLight {
+        position: Vec3::Y * 3.0,
+        intensity: Vec3::ONE,
+    });
+    let dir = tmp("unsupported");
+    let mut m = TripleMethod::new(options(&dir)).unwrap();
+    let e = m.prepare(&sc, &NoProgress).unwrap_err();
+    assert!(matches!(
+        e,
+        MethodError::Unsupported {
+            method: "triple",
+            feature: SceneFeature::PointLights,
+            ..
+        }
+    ));
+    assert!(e.to_string().contains("triple") && e.to_string().contains("point lights"));
+    assert!(
+        TripleMethod::new(TripleOptions {
+            terms: 100,
+            ..TripleOptions::default()
+        })
+        .is_err()
+    );
+}
+
+#[test]
+fn rotation_is_a_lookup_and_bakes_are_cached() {
+    let env = EnvMap::from_fn(
+        Param::LatLong {
+            width: 64,
+            height: 32,
+        },
+        |d| Vec3::splat(0.2) + Vec3::new(4.0, 3.0, 2.0) * d.x.max(0.0).powi(8),
+    );
+    let mut sc = scene(env, true);
+    let dir = tmp("cache");
+    let mut m = TripleMethod::new(options(&dir)).unwrap();
+    m.prepare(&sc, &NoProgress).unwrap();
+    let (loads, bakes, builds) = m.counts();
+    assert_eq!(
+        (loads, bakes, builds),
+        (0, 3, 1),
+        "one BRDF + two visibility bakes"
+    );
+    let a = render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress).unwrap();
+    sc.world_from_env = Mat3::from_rotation_y(1.1);
+    m.set_lighting(&sc, &NoProgress).unwrap();
+    assert_eq!(m.counts().2, 1, "a rotation must not rebuild the table");
+    let b = render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress).unwrap();
+    let diff: f32 = a
+        .image
+        .pixels
+        .iter()
+        .zip(&b.image.pixels)
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0, f32::max);
+    assert!(diff > 0.05, "rotating the light changed nothing ({diff})");
+    // A fresh method loads every bake from the cache.
+    let mut m2 = TripleMethod::new(options(&dir)).unwrap();
+    m2.prepare(&sc, &NoProgress).unwrap();
+    assert_eq!(m2.counts().0, 3);
+    assert_eq!(m2.counts().1, 0);
+    let c = render_frame(&mut m2, &sc, &FrameRequest::new(sc.camera), &NoProgress).unwrap();
+    assert_eq!(
+        c.image.pixels, b.image.pixels,
+        "cached bakes render the same"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn svbrdf_is_linear_in_the_blend_weight() {
+    let env = EnvMap::from_fn(
+        Param::LatLong {
+            width: 64,
+            height: 32,
+        },
+        |d| Vec3::splat(0.3) + Vec3::new(3.0, 2.0, 1.0) * d.y.max(0.0).powi(4),
+    );
+    let dir = tmp("svbrdf");
+    let glossy = "phong:16".parse::<BrdfSpec>().unwrap().build();
+    let render = |w: Option<f32>| {
+        let mut sc = scene(env.clone(), false);
+        if let Some(w) = w {
+            sc.objects[1].blend = Some(relight_render::BrdfBlend {
+                second: glossy.clone(),
+                weight: Arc::new(relight_render::Texture::constant(Vec3::splat(w)).unwrap()),
+            });
+        } else {
+            sc.objects[1].brdf = glossy.clone();
+        }
+        let mut m = TripleMethod::new(options(&dir)).unwrap();
+        m.prepare(&sc, &NoProgress).unwrap();
+        render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress)
+            .unwrap()
+            .image
+    };
+    let a = render(Some(0.0));
+    let b = render(None);
+    let h = render(Some(0.25));
+    let mut worst = 0.0f32;
+    for ((x, y), z) in a.pixels.iter().zip(&b.pixels).zip(&h.pixels) {
+        let want = *x * 0.75 + *y * 0.25;
+        worst = worst.max((want - *z).abs().max_element() / want.max_element().max(1e-3));
+    }
+    assert!(worst < 1e-4, "blend not linear: {worst}");
+    assert!(
+        a.pixels
+            .iter()
+            .zip(&b.pixels)
+            .any(|(x, y)| (*x - *y).abs().max_element() > 0.01),
+        "the two BRDFs render alike"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
