@@ -6,6 +6,7 @@
 
 mod args;
 mod bench_frames;
+mod bench_sh_peers;
 mod cache;
 mod commands;
 mod compare;
