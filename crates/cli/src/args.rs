@@ -521,6 +521,9 @@ pub struct BenchArgs {
     /// `bench frames` only: run only the rows of these methods (repeatable).
     #[arg(long = "method", value_name = "NAME")]
     pub methods: Vec<String>,
+    /// `bench sh` only: the peer kit's timings (a `.jsonl` file or its runs directory); adds a table of speedups with issue 17's targets.
+    #[arg(long, value_name = "PATH")]
+    pub peers: Option<PathBuf>,
 }
 
 /// Accuracy suites of `relight verify`.

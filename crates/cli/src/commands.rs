@@ -360,9 +360,10 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
             Ok(())
         }
         Suite::Sh => {
+            let sh_rows = relight_sh::bench_sh(a.quick);
             report.table_plots(
                 "relight bench sh (single thread, f32, ns)",
-                &relight_sh::bench_sh(a.quick),
+                &sh_rows,
                 &[Plot::new(PlotSpec {
                     name: "bench-sh",
                     x: "order",
@@ -373,6 +374,13 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
                 .titled("relight bench sh: one SH rotation (build + apply, single thread)")
                 .labels("SH order (bands)", "ns per rotation")],
             )?;
+            if let Some(p) = &a.peers {
+                report.table(
+                    "relight bench sh --peers: speedup = peer ns / relight ns (targets: issue 17)",
+                    &crate::bench_sh_peers::compare(&sh_rows, p)?,
+                    &[],
+                )?;
+            }
             let (w, h, orders): (usize, usize, &[usize]) = if a.quick {
                 (320, 180, &[3, 6])
             } else {

@@ -7,6 +7,7 @@
 mod affine;
 mod args;
 mod bench_frames;
+mod bench_sh_peers;
 mod cache;
 mod commands;
 mod compare;
