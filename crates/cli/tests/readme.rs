@@ -149,7 +149,7 @@ fn shrink(cmd: &str, clone: &Path, plots: &Path) -> Result<Vec<Plan>, String> {
                     set(&mut a, "--n", "16");
                     set(&mut a, "--ntess", "4");
                 }
-                "sh" | "fog" | "shexp" | "triple" => {}
+                "sh" | "fog" | "shexp" | "triple" | "ndf" => {}
                 "radiance-cache" => set(&mut a, "--spp", "1"),
                 m => return Err(format!("render with method {m}")),
             }
@@ -163,7 +163,7 @@ fn shrink(cmd: &str, clone: &Path, plots: &Path) -> Result<Vec<Plan>, String> {
         ("info", false) => Ok(vec![Plan::Run(
             words.iter().flat_map(|w| glob(w, clone)).collect(),
         )]),
-        ("compare" | "sh" | "cache" | "spheres", false) => Ok(vec![Plan::Run(words)]),
+        ("compare" | "sh" | "cache" | "spheres" | "wavelet", false) => Ok(vec![Plan::Run(words)]),
         ("demo", false) => {
             // Whatever small-size flags the demo has.
             let help = relight(&["demo".into(), "--help".into()], clone);

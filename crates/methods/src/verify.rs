@@ -68,11 +68,16 @@ impl VerifyMethodsOptions {
                 // the default scene's 200 K vertices is beyond this table's budget.
                 // The radiance cache adds interreflection, which the default
                 // reference leaves out: `verify radiance-cache` judges it
-                // against the GI reference instead.
+                // against the GI reference instead. ndf shades one BRDF model
+                // (`--ndf-brdf`) that the matrix's mixed materials do not
+                // share: `verify ndf` judges it on its own scenes.
                 .filter(|k| {
                     !matches!(
                         k,
-                        MethodKind::Reference | MethodKind::ShExp | MethodKind::RadianceCache
+                        MethodKind::Reference
+                            | MethodKind::ShExp
+                            | MethodKind::RadianceCache
+                            | MethodKind::Ndf
                     )
                 })
                 .map(MethodOptions::default_for)
