@@ -313,6 +313,38 @@ pub struct Rendered {
     pub noise: Option<Noise>,
 }
 
+impl Rendered {
+    /// The frame of a method that rasterized its own visibility buffer:
+    /// `samples` (the frame at `k × k` samples per pixel, as `raster` last
+    /// drew it) box-filtered to the request's size, the coverage of `raster`,
+    /// `lighting_ms` of the lighting change this frame is the first after (0
+    /// otherwise) and the view time since `view_start`.
+    #[must_use]
+    pub fn from_samples(
+        samples: std::borrow::Cow<'_, Image>,
+        raster: &Rasterizer,
+        k: usize,
+        lighting_ms: f64,
+        view_start: Instant,
+    ) -> Self {
+        let (w, h) = (samples.width / k, samples.height / k);
+        let image = if k == 1 {
+            samples.into_owned()
+        } else {
+            samples.box_downsample(k)
+        };
+        Self {
+            image,
+            coverage: Some(coverage_of_raster(raster, w, h, k)),
+            timings: FrameTimings {
+                lighting_ms,
+                view_ms: view_start.elapsed().as_secs_f64() * 1e3,
+            },
+            noise: None,
+        }
+    }
+}
+
 /// A Monte Carlo image's own error estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Noise {

@@ -54,9 +54,12 @@ fn check_size(width: usize, height: usize, given: usize) -> Result<(), TextureEr
 }
 
 /// The four texels and weights of a bilinear wrap-around lookup at `uv` in a
-/// `width × height` grid: `[(index, weight); 4]`.
+/// `width × height` grid: `[(index, weight); 4]` (texel centres at
+/// `(i + ½)/width`; non-finite uvs read texel 0 with weight 1). Every texture
+/// lookup of the workspace uses it, so that all agree on the convention.
 #[inline]
-fn bilinear_taps(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4] {
+#[must_use]
+pub fn bilinear_taps(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4] {
     let fx = uv.x * width as f32 - 0.5;
     let fy = uv.y * height as f32 - 0.5;
     let (x0, y0) = (fx.floor(), fy.floor());

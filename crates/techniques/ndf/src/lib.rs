@@ -47,33 +47,7 @@ pub use sh_ndf::ShNdfPyramid;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-/// The four texels and weights of a bilinear wrap-around lookup at `uv` in a
-/// `width × height` grid (the `relight_render::texture` convention).
-#[inline]
-#[must_use]
-pub fn taps(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4] {
-    let fx = uv.x * width as f32 - 0.5;
-    let fy = uv.y * height as f32 - 0.5;
-    let (x0, y0) = (fx.floor(), fy.floor());
-    let (tx, ty) = if fx.is_finite() && fy.is_finite() {
-        (fx - x0, fy - y0)
-    } else {
-        (0.0, 0.0)
-    };
-    let wrap = |v: f32, n: usize| -> usize {
-        let n_i = n as i64;
-        let i = if v.is_finite() { v as i64 } else { 0 };
-        (((i % n_i) + n_i) % n_i) as usize
-    };
-    let (xa, xb) = (wrap(x0, width), wrap(x0 + 1.0, width));
-    let (ya, yb) = (wrap(y0, height), wrap(y0 + 1.0, height));
-    [
-        (ya * width + xa, (1.0 - tx) * (1.0 - ty)),
-        (ya * width + xb, tx * (1.0 - ty)),
-        (yb * width + xa, (1.0 - tx) * ty),
-        (yb * width + xb, tx * ty),
-    ]
-}
+pub use relight_render::texture::bilinear_taps as taps;
 
 /// The MIP level of a uv footprint: `log2` of the longer screen axis of the
 /// footprint in level-0 texels, `ρ = max(|∂uv/∂x|, |∂uv/∂y|)` scaled by

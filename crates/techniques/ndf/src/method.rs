@@ -28,7 +28,7 @@ use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
 use crate::{MeanPyramid, NdfError, ShNdfPyramid, lod_of};
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use relight_render::method::{
-    FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
+    FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support,
 };
 use relight_render::raster::{
     CullMode, DrawCall, RasterOptions, Rasterizer, barycentric_derivatives,
@@ -609,24 +609,15 @@ impl Relighter for NdfMethod {
                     }
                 });
         }
-        let coverage = relight_render::method::coverage_of_raster(
+        let out = Rendered::from_samples(
+            std::borrow::Cow::Owned(big),
             &raster,
-            request.camera.width,
-            request.camera.height,
             k,
+            std::mem::take(&mut self.pending_lighting_ms),
+            t,
         );
         self.raster = raster;
-        let image = if k == 1 { big } else { big.box_downsample(k) };
-        let lighting_ms = std::mem::take(&mut self.pending_lighting_ms);
-        Ok(Rendered {
-            image,
-            coverage: Some(coverage),
-            timings: FrameTimings {
-                lighting_ms,
-                view_ms: t.elapsed().as_secs_f64() * 1e3,
-            },
-            noise: None,
-        })
+        Ok(out)
     }
 
     fn data_bytes(&self) -> u64 {

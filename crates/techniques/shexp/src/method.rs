@@ -45,12 +45,12 @@ use glam::{Affine3A, Mat3, Vec3};
 use rayon::prelude::*;
 use relight_geom::Mesh;
 use relight_render::method::{
-    FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
-    check_scene, coverage_of_raster,
+    FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
 };
 use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
 use relight_render::{Image, Progress, Rng, Scene, SceneBvh};
 use relight_sh::product::TripleProduct;
+use std::borrow::Cow;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -973,7 +973,6 @@ impl Relighter for ShExpMethod {
         progress.check()?;
         self.shade_vertices(scene)?;
         let k = request.aa;
-        let (w, h) = (request.camera.width, request.camera.height);
         let mut camera = request.camera;
         camera.width *= k;
         camera.height *= k;
@@ -1000,21 +999,13 @@ impl Relighter for ShExpMethod {
         self.raster
             .render_gouraud(&camera, &draws, &refs, background, &ropts, &mut frame)
             .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?;
-        let image = if k == 1 {
-            frame
-        } else {
-            frame.box_downsample(k)
-        };
-        let coverage = coverage_of_raster(&self.raster, w, h, k);
-        Ok(Rendered {
-            image,
-            coverage: Some(coverage),
-            timings: FrameTimings {
-                lighting_ms: std::mem::take(&mut self.pending_lighting_ms),
-                view_ms: t.elapsed().as_secs_f64() * 1e3,
-            },
-            noise: None,
-        })
+        Ok(Rendered::from_samples(
+            Cow::Owned(frame),
+            &self.raster,
+            k,
+            std::mem::take(&mut self.pending_lighting_ms),
+            t,
+        ))
     }
 
     fn data_bytes(&self) -> u64 {

@@ -32,11 +32,11 @@ use crate::bake::{BakeOptions, BrdfShTable};
 use crate::relight::{Background, check_meshes};
 use crate::{LitScene, NormalMap, ShLightError, ShRenderer, ShRotationMethod};
 use relight_render::method::{
-    FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
-    check_scene, coverage_of_raster,
+    FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
 };
 use relight_render::{Image, Progress, Scene};
 use relight_sh::window::{ChosenWindow, WindowChoice};
+use std::borrow::Cow;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -266,7 +266,6 @@ impl Relighter for ShMethod {
         Self::check_same_meshes(state, scene)?;
         check_meshes(scene, &|i| scene.objects[i].normal_map.is_some()).map_err(fail)?;
         let k = request.aa;
-        let (w, h) = (request.camera.width, request.camera.height);
         let mut camera = request.camera;
         camera.width *= k;
         camera.height *= k;
@@ -295,22 +294,13 @@ impl Relighter for ShMethod {
             )
             .map_err(fail)?;
         progress.check()?;
-        let hi = &self.image;
-        let image = if k == 1 {
-            hi.clone()
-        } else {
-            hi.box_downsample(k)
-        };
-        let coverage = coverage_of_raster(state.raster(), w, h, k);
-        Ok(Rendered {
-            image,
-            coverage: Some(coverage),
-            timings: FrameTimings {
-                lighting_ms: std::mem::take(&mut self.pending_lighting_ms),
-                view_ms: t.elapsed().as_secs_f64() * 1e3,
-            },
-            noise: None,
-        })
+        Ok(Rendered::from_samples(
+            Cow::Borrowed(&self.image),
+            state.raster(),
+            k,
+            std::mem::take(&mut self.pending_lighting_ms),
+            t,
+        ))
     }
 
     /// Bytes of the distinct BRDF tables of the prepared scene.

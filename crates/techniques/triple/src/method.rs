@@ -37,14 +37,14 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use relight_geom::Mesh;
 use relight_render::method::{
-    FrameRequest, FrameTimings, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support,
-    check_scene, coverage_of_raster,
+    FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
 };
 use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
 use relight_render::{Image, Progress, Scene, SceneBvh};
 use relight_sphere::{EnvMap, Frame};
 use relight_wavelet::WaveletError;
 use serde::Serialize;
+use std::borrow::Cow;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -551,7 +551,6 @@ impl Relighter for TripleMethod {
             .ok_or_else(|| stale("call prepare before render"))?;
         progress.check()?;
         let k = request.aa;
-        let (w, h) = (request.camera.width, request.camera.height);
         let mut camera = request.camera;
         camera.width *= k;
         camera.height *= k;
@@ -637,21 +636,13 @@ impl Relighter for TripleMethod {
                     .map_err(|e| invalid("raster", e))?;
             }
         }
-        let image = if k == 1 {
-            self.frame.clone()
-        } else {
-            self.frame.box_downsample(k)
-        };
-        let coverage = coverage_of_raster(&self.raster, w, h, k);
-        Ok(Rendered {
-            image,
-            coverage: Some(coverage),
-            timings: FrameTimings {
-                lighting_ms: std::mem::take(&mut self.pending_lighting_ms),
-                view_ms: t0.elapsed().as_secs_f64() * 1e3,
-            },
-            noise: None,
-        })
+        Ok(Rendered::from_samples(
+            Cow::Borrowed(&self.frame),
+            &self.raster,
+            k,
+            std::mem::take(&mut self.pending_lighting_ms),
+            t0,
+        ))
     }
 
     /// Per shaded point (pixel sample, or vertex in per-vertex shading)

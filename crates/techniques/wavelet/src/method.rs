@@ -32,11 +32,11 @@ use crate::study::{bake_or_load_brdf, bake_or_load_rotation, default_cache_dir};
 use glam::Mat3;
 use relight_geom::Mesh;
 use relight_render::method::{
-    FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
-    check_scene, coverage_of_raster,
+    FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
 };
 use relight_render::raster::Rasterizer;
 use relight_render::{Image, Progress, Scene, SceneBvh};
+use std::borrow::Cow;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -397,7 +397,6 @@ impl Relighter for WaveletMethod {
             .ok_or_else(|| stale("call prepare before render"))?;
         progress.check()?;
         let k = request.aa;
-        let (w, h) = (request.camera.width, request.camera.height);
         let mut camera = request.camera;
         camera.width *= k;
         camera.height *= k;
@@ -418,21 +417,13 @@ impl Relighter for WaveletMethod {
                 &mut self.frame,
             )
             .map_err(fail)?;
-        let image = if k == 1 {
-            self.frame.clone()
-        } else {
-            self.frame.box_downsample(k)
-        };
-        let coverage = coverage_of_raster(&self.raster, w, h, k);
-        Ok(Rendered {
-            image,
-            coverage: Some(coverage),
-            timings: FrameTimings {
-                lighting_ms: std::mem::take(&mut self.pending_lighting_ms),
-                view_ms: t.elapsed().as_secs_f64() * 1e3,
-            },
-            noise: None,
-        })
+        Ok(Rendered::from_samples(
+            Cow::Borrowed(&self.frame),
+            &self.raster,
+            k,
+            std::mem::take(&mut self.pending_lighting_ms),
+            t,
+        ))
     }
 
     /// Step 2 of the last frame (the vertices it shaded: every visible one
