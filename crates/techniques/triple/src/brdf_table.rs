@@ -58,7 +58,7 @@ impl BrdfTable {
             || vec![Vec3::ZERO; basis.len()],
             |leaf, (v, out)| {
                 let wo = view_dir(views, v / cols, v % cols);
-                grid.brdf_term_rgb(
+                grid.brdf_term(
                     |wi| {
                         if wi.z <= 0.0 {
                             Vec3::ZERO

@@ -110,10 +110,15 @@ impl LeafGrid {
 
     /// The BRDF term `ρ̃_j` of `f(ω) = ρ(ω) cos⁺θ` (local frame, normal +Z;
     /// the caller folds in the cosine) by `weighting` (module docs), into `out`.
+    /// `T` is `f32` for one channel or `Vec3` for RGB; `f` is evaluated once
+    /// per sample either way.
     ///
     /// # Panics
     /// When `out` is not one value per leaf.
-    pub fn brdf_term(&self, f: impl Fn(Vec3) -> f32, weighting: Weighting, out: &mut [f32]) {
+    pub fn brdf_term<T>(&self, f: impl Fn(Vec3) -> T, weighting: Weighting, out: &mut [T])
+    where
+        T: Copy + std::ops::Mul<f32, Output = T> + std::iter::Sum<T>,
+    {
         assert_eq!(out.len(), self.basis.len(), "BRDF term length");
         match weighting {
             Weighting::Exact => {
@@ -121,36 +126,7 @@ impl LeafGrid {
                 let inv_area = (1.0 / self.basis.leaf_area()) as f32;
                 for (j, o) in out.iter_mut().enumerate() {
                     let s = j * per..(j + 1) * per;
-                    let sum: f32 = self.samples[s.clone()]
-                        .iter()
-                        .zip(&self.sample_areas[s])
-                        .map(|(&d, &a)| f(d) * a)
-                        .sum();
-                    *o = sum * inv_area;
-                }
-            }
-            Weighting::Paper => {
-                let scale = 4.0 * std::f32::consts::PI / 20.0;
-                for (o, &d) in out.iter_mut().zip(&self.centroids) {
-                    *o = f(d) * scale;
-                }
-            }
-        }
-    }
-
-    /// [`LeafGrid::brdf_term`] for an RGB `f`, evaluated once per sample.
-    ///
-    /// # Panics
-    /// When `out` is not one value per leaf.
-    pub fn brdf_term_rgb(&self, f: impl Fn(Vec3) -> Vec3, weighting: Weighting, out: &mut [Vec3]) {
-        assert_eq!(out.len(), self.basis.len(), "BRDF term length");
-        match weighting {
-            Weighting::Exact => {
-                let per = 1usize << (2 * self.sub);
-                let inv_area = (1.0 / self.basis.leaf_area()) as f32;
-                for (j, o) in out.iter_mut().enumerate() {
-                    let s = j * per..(j + 1) * per;
-                    let sum: Vec3 = self.samples[s.clone()]
+                    let sum: T = self.samples[s.clone()]
                         .iter()
                         .zip(&self.sample_areas[s])
                         .map(|(&d, &a)| f(d) * a)
