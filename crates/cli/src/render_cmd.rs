@@ -11,11 +11,13 @@ use crate::scene_args::build_scene;
 use anyhow::{Result, anyhow, bail};
 use relight_methods::{MethodKind, MethodOptions};
 use relight_render::Scene;
-use relight_render::method::{FrameRequest, Rendered, check_scene, render_frame};
+use relight_render::method::{FrameRequest, Rendered, check_scene, posed_for, render_frame};
 use std::time::Instant;
 
-/// Checks, prepares and renders `scene` with the method of `options` at
-/// `aa × aa` samples per pixel.
+/// Checks, prepares and renders `scene` at `time` seconds with the method of
+/// `options` at `aa × aa` samples per pixel. A moving scene is prepared as
+/// [`posed_for`] says: once on the animation for a method that follows it,
+/// else on the pose at `time`.
 ///
 /// # Errors
 /// A feature the method cannot render (unless `approximate` and it renders
@@ -23,18 +25,25 @@ use std::time::Instant;
 pub fn render_with(
     options: &MethodOptions,
     scene: &Scene,
+    time: f32,
     aa: usize,
     approximate: bool,
     bar: &Bar,
 ) -> Result<Rendered> {
     let mut method = relight_methods::create(options)?;
-    warn_all(&check_scene(method.as_ref(), scene, approximate)?);
+    let prepared = posed_for(method.as_ref(), scene, time);
+    warn_all(&check_scene(method.as_ref(), &prepared, approximate)?);
     let t = Instant::now();
-    method.prepare(scene, bar)?;
+    method.prepare(&prepared, bar)?;
     let prepare_s = t.elapsed().as_secs_f64();
     warn_all(&method.warnings());
-    let request = FrameRequest::new(scene.camera).with_aa(aa);
-    let out = render_frame(method.as_mut(), scene, &request, bar)?;
+    let posed = if prepared.is_animated() {
+        std::borrow::Cow::Owned(scene.at_time(time))
+    } else {
+        prepared
+    };
+    let request = FrameRequest::new(posed.camera).with_aa(aa);
+    let out = render_frame(method.as_mut(), &posed, &request, bar)?;
     let noise = out.noise.map_or(String::new(), |n| {
         format!(
             ", {} spp, relative standard error {:.4} (RMS {:.4})",
@@ -95,7 +104,7 @@ pub fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
     );
     let options = options_for(kind, &flags)?;
     let aa = aa_for(kind, a.aa, 1)?;
-    let out = render_with(&options, &built.scene, aa, a.approximate, bar)?;
+    let out = render_with(&options, &built.scene, built.time, aa, a.approximate, bar)?;
     let (png, exr) = write_outputs(&out.image, out.coverage.as_ref(), &a.out)?;
     println!(
         "relight render: {}×{}, method {kind}, wrote {} and {} in {:.2} s",
@@ -108,17 +117,14 @@ pub fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
     Ok(())
 }
 
-/// The viewer's methods: every method, each with the flags that belong to it.
+/// The viewer's methods ([`relight_viewer::ViewerOptions`]'s), each with the
+/// flags that belong to it.
 fn view_methods(flags: &MethodFlags) -> Result<Vec<MethodOptions>> {
-    let order = [
-        MethodKind::Wavelet,
-        MethodKind::Sh,
-        MethodKind::Fog,
-        MethodKind::Reference,
-    ];
-    order
-        .into_iter()
-        .map(|k| {
+    relight_viewer::ViewerOptions::default()
+        .methods
+        .iter()
+        .map(|m| {
+            let k = m.kind();
             let mut f = flags.clone();
             crate::method_args::clear_foreign(k, &mut f);
             options_for(k, &f)
@@ -134,7 +140,8 @@ pub fn view(a: ViewArgs, bar: &Bar) -> Result<()> {
         aa: a.aa.unwrap_or(relight_viewer::state::DEFAULT_STILL_AA),
         approximate: a.approximate,
     };
-    let viewer = relight_viewer::Viewer::new(built.scene, kind_of(a.method), opts)?;
+    let mut viewer = relight_viewer::Viewer::new(built.scene, kind_of(a.method), opts)?;
+    viewer.set_time(built.time);
     relight_viewer::check_display()?;
     // The window opens at once; the method prepares behind it, with its
     // progress in the window and on stderr.

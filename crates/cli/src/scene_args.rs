@@ -18,9 +18,11 @@ use std::sync::Arc;
 /// Default image size when neither the scene file nor `--size` gives one.
 pub const DEFAULT_SIZE: (usize, usize) = (960, 540);
 
-/// The scene and the scene file's `[render]` section, if any.
+/// The scene (animated as the file says), the time to show it at
+/// (`--time`, else 0 s) and the scene file's `[render]` section, if any.
 pub struct BuiltScene {
     pub scene: Scene,
+    pub time: f32,
     pub render: Option<RenderDesc>,
 }
 
@@ -189,14 +191,14 @@ pub fn build_scene(
     if a.visibility {
         scene.visibility = true;
     }
-    if let Some(t) = a.time {
-        ensure!(
-            t.is_finite(),
-            "--time {t}: must be a finite number of seconds"
-        );
-        scene = scene.at_time(t);
-    } else if scene.is_animated() {
-        scene = scene.at_time(0.0);
-    }
-    Ok(BuiltScene { scene, render })
+    let time = a.time.unwrap_or(0.0);
+    ensure!(
+        time.is_finite(),
+        "--time {time}: must be a finite number of seconds"
+    );
+    Ok(BuiltScene {
+        scene,
+        time,
+        render,
+    })
 }

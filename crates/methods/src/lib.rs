@@ -198,4 +198,42 @@ mod tests {
             }
         }
     }
+
+    /// A moving scene is prepared whole for a method that follows motion and
+    /// posed for one that does not; a static scene is passed as it is.
+    #[test]
+    fn posed_for_poses_a_moving_scene_only_for_methods_that_do_not_follow_it() {
+        use relight_render::method::{check_scene, posed_for};
+        use std::borrow::Cow;
+        let still = relight_scene::default_scene(8, 8);
+        let mut moving = still.clone();
+        let key = |time: f32, x: f32| relight_render::Keyframe {
+            time,
+            translate: glam::Vec3::new(x, 0.0, 0.0),
+            rotation: glam::Quat::IDENTITY,
+            scale: 1.0,
+        };
+        moving.objects[1].animation = Some(std::sync::Arc::new(
+            relight_render::Animation::try_new(vec![key(0.0, 0.0), key(1.0, 1.0)]).unwrap(),
+        ));
+        let shexp = create(&MethodOptions::default_for(MethodKind::ShExp)).unwrap();
+        let sh = create(&MethodOptions::default_for(MethodKind::Sh)).unwrap();
+        assert!(matches!(
+            posed_for(sh.as_ref(), &still, 0.5),
+            Cow::Borrowed(_)
+        ));
+        assert!(
+            matches!(posed_for(shexp.as_ref(), &moving, 0.5), Cow::Borrowed(s) if s.is_animated())
+        );
+        let posed = posed_for(sh.as_ref(), &moving, 0.5);
+        assert!(!posed.is_animated());
+        let (a, b) = (&still.objects[1].mesh, &posed.objects[1].mesh);
+        assert!((b.positions[0] - a.positions[0] - glam::Vec3::new(0.5, 0.0, 0.0)).length() < 1e-5);
+        // Only a method that follows motion accepts the moving scene itself.
+        assert!(check_scene(shexp.as_ref(), &moving, false).is_ok());
+        let e = check_scene(sh.as_ref(), &moving, false)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, "method sh cannot render animation (moving objects)");
+    }
 }

@@ -18,6 +18,16 @@
 //!    [`render_frame`] wraps `render` with what every method shares: the
 //!    coverage and object-id channels and the one background.
 //!
+//! # Animation
+//! A scene whose objects move ([`SceneFeature::Animation`]) is given to a
+//! method in one of two ways, by [`posed_for`]: a method that supports it is
+//! prepared once on the animated scene and renders each frame from the posed
+//! scene [`Scene::at_time`] (its bake follows the motion: shexp moves its
+//! blocker spheres); any other method is prepared on the posed scene itself,
+//! so that a frame at time `t` is still the whole scene at `t`, and a caller
+//! that changes `t` prepares it again (the viewer says so on screen instead of
+//! playing).
+//!
 //! # One background
 //! Every method shows the same pixels where no object is seen: the
 //! environment read bilinearly ([`Scene::env_radiance`]) and averaged over the
@@ -54,11 +64,17 @@ pub enum SceneFeature {
     NormalMaps,
     /// A spatially varying BRDF (two BRDFs blended by a texture).
     SpatiallyVaryingBrdf,
+    /// Objects that move ([`Scene::is_animated`]). A method that supports it
+    /// is prepared once on the animated scene and then renders each frame of
+    /// the posed scene [`Scene::at_time`] without preparing again; a caller
+    /// prepares a method that does not on the posed scene itself, again for
+    /// every new time (module docs).
+    Animation,
 }
 
 impl SceneFeature {
     /// Every feature, in a fixed order.
-    pub const ALL: [SceneFeature; 7] = [
+    pub const ALL: [SceneFeature; 8] = [
         Self::Environment,
         Self::PointLights,
         Self::AreaLights,
@@ -66,6 +82,7 @@ impl SceneFeature {
         Self::Visibility,
         Self::NormalMaps,
         Self::SpatiallyVaryingBrdf,
+        Self::Animation,
     ];
 
     /// Lower-case words, for messages.
@@ -79,6 +96,7 @@ impl SceneFeature {
             Self::Visibility => "visibility (shadows)",
             Self::NormalMaps => "normal maps",
             Self::SpatiallyVaryingBrdf => "spatially varying BRDFs",
+            Self::Animation => "animation (moving objects)",
         }
     }
 
@@ -95,6 +113,7 @@ impl SceneFeature {
                 Self::Visibility => scene.visibility,
                 Self::NormalMaps => scene.objects.iter().any(|o| o.normal_map.is_some()),
                 Self::SpatiallyVaryingBrdf => scene.objects.iter().any(|o| o.blend.is_some()),
+                Self::Animation => scene.is_animated(),
             })
             .collect()
     }
@@ -458,6 +477,30 @@ pub fn check_scene(
         }
     }
     Ok(warnings)
+}
+
+/// True when `method` supports [`SceneFeature::Animation`]: prepared once on
+/// a moving scene, it renders every pose (module docs, *Animation*).
+#[must_use]
+pub fn follows_animation(method: &dyn Relighter) -> bool {
+    method.supports(SceneFeature::Animation) == Support::Full
+}
+
+/// The scene to [`Relighter::prepare`] `method` on for frames at `time`
+/// seconds (module docs, *Animation*): `scene` itself when it moves and the
+/// method supports [`SceneFeature::Animation`], else the posed scene
+/// [`Scene::at_time`] (a static scene is returned as it is, borrowed).
+#[must_use]
+pub fn posed_for<'a>(
+    method: &dyn Relighter,
+    scene: &'a Scene,
+    time: f32,
+) -> std::borrow::Cow<'a, Scene> {
+    if !scene.is_animated() || follows_animation(method) {
+        std::borrow::Cow::Borrowed(scene)
+    } else {
+        std::borrow::Cow::Owned(scene.at_time(time))
+    }
 }
 
 /// Sample points per pixel side of the shared background

@@ -364,6 +364,16 @@ impl Scene {
         self.objects.iter().any(|o| o.animation.is_some())
     }
 
+    /// The time of the last key of any animation (seconds; 0 for a static
+    /// scene): the viewer's animation loops over `[0, animation_end]`.
+    #[must_use]
+    pub fn animation_end(&self) -> f32 {
+        self.objects
+            .iter()
+            .filter_map(|o| o.animation.as_ref()?.keys().last().map(|k| k.time))
+            .fold(0.0, f32::max)
+    }
+
     /// The scene at `time` seconds: every animated object's mesh moved by
     /// its [`Animation`]; the rest shared.
     #[must_use]

@@ -62,6 +62,8 @@ pub struct HudInfo {
     pub refused: bool,
     /// The reference is still adding samples.
     pub refining: bool,
+    /// The animation clock (seconds) and whether it runs, for a moving scene.
+    pub clock: Option<(f32, bool)>,
 }
 
 impl HudInfo {
@@ -87,6 +89,9 @@ impl HudInfo {
             message: frame.message.clone(),
             refused: viewer.refusal().is_some(),
             refining: viewer.refining(),
+            clock: viewer
+                .is_animated()
+                .then(|| (viewer.time(), viewer.clock_runs())),
         }
     }
 
@@ -105,7 +110,17 @@ impl HudInfo {
                 ),
                 WHITE,
             ),
-            Line::new(self.settings.clone(), GREY),
+            Line::new(
+                match self.clock {
+                    Some((t, runs)) => format!(
+                        "{} · t {t:.2} s {}",
+                        self.settings,
+                        if runs { "playing" } else { "paused" }
+                    ),
+                    None => self.settings.clone(),
+                },
+                GREY,
+            ),
         ];
         let reference_key = self
             .methods
@@ -160,8 +175,13 @@ impl HudInfo {
             ),
             Line::new(
                 format!(
-                    "{}   a: AA   h: hide HUD   s: save   q: quit",
-                    keys.join("  ")
+                    "{}   a: AA{}   h: hide HUD   s: save   q: quit",
+                    keys.join("  "),
+                    if self.clock.is_some() {
+                        "   p: play"
+                    } else {
+                        ""
+                    }
                 ),
                 GREY,
             ),

@@ -376,6 +376,103 @@ mod tests {
         assert_eq!(out[1] & 0xffff, 0);
     }
 
+    /// A floor under a sphere that slides 1 unit in x over 1 s, unshadowed.
+    fn sliding_sphere() -> relight_render::Scene {
+        let sphere =
+            relight_geom::shapes::uv_sphere_at(glam::Vec3::new(-0.5, 0.6, 0.0), 0.4, 12, 8);
+        let mut s = relight_shexp::verify_scene::floor_scene(
+            vec![sphere],
+            relight_shexp::verify_scene::sky(),
+            12,
+        );
+        let key = |time: f32, x: f32| relight_render::Keyframe {
+            time,
+            translate: glam::Vec3::new(x, 0.0, 0.0),
+            rotation: glam::Quat::IDENTITY,
+            scale: 1.0,
+        };
+        s.objects[1].animation = Some(std::sync::Arc::new(
+            relight_render::Animation::try_new(vec![key(0.0, 0.0), key(1.0, 1.0)]).unwrap(),
+        ));
+        s.camera.width = 48;
+        s.camera.height = 32;
+        // Unshadowed, so that sh (which cannot shadow) draws it too.
+        s.visibility = false;
+        s
+    }
+
+    #[test]
+    fn the_clock_plays_for_a_method_that_follows_the_motion_and_waits_for_others() {
+        let scene = sliding_sphere();
+        let methods = vec![
+            MethodOptions::ShExp(relight_shexp::ShExpOptions {
+                spheres: 8,
+                ..relight_shexp::ShExpOptions::default()
+            }),
+            MethodOptions::Sh(relight_shlight::ShOptions {
+                order: 3,
+                ..relight_shlight::ShOptions::default()
+            }),
+        ];
+        let opts = || ViewerOptions {
+            methods: methods.clone(),
+            aa: 1,
+            approximate: false,
+        };
+        // A static scene has no clock.
+        let mut still =
+            Viewer::new(relight_scene::default_scene(8, 8), MethodKind::Sh, opts()).unwrap();
+        still.toggle_play();
+        assert!(!still.playing());
+
+        let mut v = Viewer::new(scene.clone(), MethodKind::ShExp, opts()).unwrap();
+        let f0 = v.frame(48, 32, false, &NoProgress).unwrap();
+        v.toggle_play();
+        assert!(v.clock_runs());
+        assert!(v.advance(0.6));
+        assert!((v.time() - 0.6).abs() < 1e-6);
+        assert!(
+            v.is_prepared(),
+            "shexp follows the motion without preparing again"
+        );
+        let f1 = v.frame(48, 32, false, &NoProgress).unwrap();
+        assert!(diff(&f0, &f1) > 0.0, "the shadow moved");
+        // The same frame as a viewer started at that time.
+        let mut fresh = Viewer::new(scene.clone(), MethodKind::ShExp, opts()).unwrap();
+        fresh.set_time(0.6);
+        let g = fresh.frame(48, 32, false, &NoProgress).unwrap();
+        assert!(
+            diff(&f1, &g) <= 1e-3 * mean(&g) * 48.0 * 32.0,
+            "{}",
+            diff(&f1, &g)
+        );
+        // The clock loops over the keys.
+        assert!(v.advance(0.6));
+        assert!((v.time() - 0.2).abs() < 1e-5, "{}", v.time());
+
+        // sh does not follow motion: it is prepared on the pose of the moment,
+        // the clock waits, and the frame says why.
+        v.select(1);
+        let s1 = v.frame(48, 32, false, &NoProgress).unwrap();
+        assert!(!v.clock_runs());
+        assert!(!v.advance(0.5));
+        assert!((v.time() - 0.2).abs() < 1e-5);
+        let note = s1.message.clone().unwrap_or_default();
+        assert!(note.contains("method sh cannot render animation"), "{note}");
+        // After the clock moved elsewhere, sh prepares again at the new pose.
+        v.toggle_play();
+        v.set_time(0.9);
+        assert!(!v.is_prepared());
+        let s2 = v.frame(48, 32, false, &NoProgress).unwrap();
+        assert!(v.is_prepared());
+        assert!(s2.message.is_none(), "{:?}", s2.message);
+        assert!(diff(&s1, &s2) > 0.0, "sh shows the sphere where it is now");
+        // A lighting change keeps the pose (and sh's preparation).
+        v.light_yaw_deg = 40.0;
+        let s3 = v.frame(48, 32, false, &NoProgress).unwrap();
+        assert!(diff(&s2, &s3) > 0.0, "the lighting turned");
+    }
+
     #[test]
     fn bad_options_are_errors() {
         let scene = relight_scene::default_scene(8, 8);

@@ -18,12 +18,23 @@
 //! background differs, by quadrature (four corners per pass instead of four
 //! per pixel). A pass costs one preview frame, so input is never blocked
 //! for longer than that.
+//!
+//! # Animation
+//! A scene whose objects move plays with [`Viewer::toggle_play`]: each
+//! [`Viewer::advance`] moves the clock, looping over the keys
+//! ([`Scene::animation_end`]), and frames show the posed scene
+//! [`Scene::at_time`]. A method that supports [`SceneFeature::Animation`]
+//! (shexp) is prepared once and follows the motion every frame; any other is
+//! prepared on the pose of the moment ([`posed_for`]), so the clock does not
+//! move while it is shown, and the frame says why; choosing it after the clock
+//! moved prepares it again at the new pose.
 
 use crate::orbit::Orbit;
 use glam::{Mat3, Vec3};
 use relight_methods::{MethodKind, MethodOptions};
 use relight_render::method::{
-    FrameRequest, FrameWork, MAX_AA, MethodError, check_scene, render_frame,
+    FrameRequest, FrameWork, MAX_AA, MethodError, SceneFeature, check_scene, follows_animation,
+    render_frame,
 };
 use relight_render::{Camera, Image, Progress, Relighter, Scene};
 use std::time::Instant;
@@ -66,6 +77,7 @@ impl Default for ViewerOptions {
                 MethodKind::Wavelet,
                 MethodKind::Sh,
                 MethodKind::Fog,
+                MethodKind::ShExp,
                 MethodKind::Reference,
             ]
             .into_iter()
@@ -110,6 +122,9 @@ struct Slot {
     /// Whether the method integrates pixels itself (Monte Carlo), learned
     /// from its first frame.
     monte_carlo: Option<bool>,
+    /// `Some(t)` when prepared on the scene posed at `t` (a method that does
+    /// not animate, on a moving scene).
+    posed_at: Option<f32>,
 }
 
 /// What a run of antialiasing passes accumulates for.
@@ -118,6 +133,7 @@ struct AccumKey {
     method: usize,
     camera: Camera,
     rotation: Mat3,
+    time: f32,
 }
 
 /// The running sum of the antialiasing passes of one still view.
@@ -152,6 +168,12 @@ pub struct Viewer {
     accum: Accumulation,
     /// Size of the last frame drawn.
     last_size: Option<(usize, usize)>,
+    /// The animation clock (seconds) and whether it runs.
+    time: f32,
+    playing: bool,
+    /// `lit_scene` posed at a time, for a moving scene (its meshes are
+    /// made once per time, so a method prepared on them keeps seeing them).
+    posed: Option<(f32, Scene)>,
 }
 
 impl Viewer {
@@ -201,10 +223,14 @@ impl Viewer {
                     lit: None,
                     spp: 0,
                     monte_carlo: None,
+                    posed_at: None,
                 })
                 .collect(),
             accum: Accumulation::default(),
             last_size: None,
+            time: 0.0,
+            playing: false,
+            posed: None,
         })
     }
 
@@ -287,26 +313,57 @@ impl Viewer {
         self.lit_rotation = r;
     }
 
+    /// Brings `posed` to the clock and the lighting, for a moving scene: new
+    /// meshes only when the time changed.
+    fn refresh_pose(&mut self) {
+        let (t, lit) = (self.time, &self.lit_scene);
+        if !lit.is_animated() {
+            return;
+        }
+        match &mut self.posed {
+            Some((pt, p)) if *pt == t => {
+                p.world_from_env = lit.world_from_env;
+                p.point_lights.clone_from(&lit.point_lights);
+                p.area_lights.clone_from(&lit.area_lights);
+            }
+            _ => self.posed = Some((t, lit.at_time(t))),
+        }
+    }
+
     /// Creates, checks and prepares the current method if not done yet.
     ///
     /// # Errors
     /// As the method's bake (a refusal is not an error: it is shown).
     pub fn prepare(&mut self, progress: &dyn Progress) -> Result<(), ViewerError> {
         self.update_lighting();
+        self.refresh_pose();
+        let time = self.time;
         let slot = &mut self.slots[self.current];
+        // A method prepared on another pose prepares again at this one.
+        if slot.posed_at.is_some_and(|t| t != time) {
+            slot.method = None;
+            slot.posed_at = None;
+        }
         if slot.method.is_some() || slot.refused.is_some() {
             return Ok(());
         }
         let mut m = relight_methods::create(&slot.options)?;
-        match check_scene(m.as_ref(), &self.lit_scene, self.approximate) {
+        // As `posed_for`, with the pose the frames draw (the same meshes).
+        let posed = self.lit_scene.is_animated() && !follows_animation(m.as_ref());
+        let scene = match &self.posed {
+            Some((_, s)) if posed => s,
+            _ => &self.lit_scene,
+        };
+        match check_scene(m.as_ref(), scene, self.approximate) {
             Err(e) => {
                 slot.refused = Some(e.to_string());
                 return Ok(());
             }
             Ok(w) => slot.warnings = w,
         }
-        m.prepare(&self.lit_scene, progress)?;
+        m.prepare(scene, progress)?;
         slot.warnings.extend(m.warnings());
+        slot.posed_at = posed.then_some(time);
         slot.lit = Some(self.lit_rotation);
         slot.method = Some(m);
         Ok(())
@@ -339,7 +396,14 @@ impl Viewer {
             method: self.current,
             camera,
             rotation,
+            time: self.time,
         };
+        self.refresh_pose();
+        let scene = match &self.posed {
+            Some((_, s)) if self.lit_scene.is_animated() => s,
+            _ => &self.lit_scene,
+        };
+        let stopped = self.playing && !self.slots[self.current].animates();
         let slot = &mut self.slots[self.current];
         let Some(method) = slot.method.as_mut() else {
             return Ok(Frame {
@@ -352,10 +416,19 @@ impl Viewer {
             });
         };
         if slot.lit != Some(rotation) {
-            method.set_lighting(&self.lit_scene, progress)?;
+            method.set_lighting(scene, progress)?;
             slot.lit = Some(rotation);
         }
-        let message = (!slot.warnings.is_empty()).then(|| slot.warnings.join("; "));
+        let mut notes = slot.warnings.clone();
+        if stopped {
+            notes.push(format!(
+                "method {} cannot render {} without preparing again: the clock waits at t = {:.2} s",
+                method.name(),
+                SceneFeature::Animation,
+                self.time
+            ));
+        }
+        let message = (!notes.is_empty()).then(|| notes.join("; "));
         // A method's first frame says whether it is Monte Carlo; until then
         // (and for Monte Carlo methods) frames are not offset.
         let accumulate = aa > 1 && slot.monte_carlo == Some(false);
@@ -390,7 +463,7 @@ impl Viewer {
             aa: 1,
             progressive: true,
         };
-        let out = render_frame(method.as_mut(), &self.lit_scene, &request, progress)?;
+        let out = render_frame(method.as_mut(), scene, &request, progress)?;
         let spp = out.noise.map_or(0, |n| n.spp);
         slot.spp = spp;
         slot.monte_carlo = Some(out.noise.is_some());
@@ -457,6 +530,7 @@ impl Viewer {
             method: self.current,
             camera: self.camera(w, h),
             rotation: self.light_rotation(),
+            time: self.time,
         };
         self.accum.key != Some(key) || self.accum.passes < self.aa * self.aa
     }
@@ -509,13 +583,76 @@ impl Viewer {
     #[must_use]
     pub fn is_prepared(&self) -> bool {
         let slot = &self.slots[self.current];
-        slot.method.is_some() || slot.refused.is_some()
+        (slot.method.is_some() && slot.posed_at.is_none_or(|t| t == self.time))
+            || slot.refused.is_some()
+    }
+
+    /// The animation clock, seconds.
+    #[must_use]
+    pub fn time(&self) -> f32 {
+        self.time
+    }
+
+    /// Sets the animation clock (seconds; a non-finite value is ignored).
+    pub fn set_time(&mut self, time: f32) {
+        if time.is_finite() {
+            self.time = time;
+        }
+    }
+
+    /// Whether the animation clock runs.
+    #[must_use]
+    pub fn playing(&self) -> bool {
+        self.playing
+    }
+
+    /// True when the scene's objects move.
+    #[must_use]
+    pub fn is_animated(&self) -> bool {
+        self.scene.is_animated()
+    }
+
+    /// Starts or stops the clock (module docs, *Animation*); a static scene
+    /// has none.
+    pub fn toggle_play(&mut self) {
+        self.playing = !self.playing && self.is_animated();
+    }
+
+    /// Whether the clock runs now: playing, with a method shown that follows
+    /// the motion.
+    #[must_use]
+    pub fn clock_runs(&self) -> bool {
+        self.playing && self.slots[self.current].animates()
+    }
+
+    /// Moves the clock `dt` seconds while it runs and the method shown follows
+    /// the motion (module docs), looping over the animation's keys; returns
+    /// whether it moved.
+    pub fn advance(&mut self, dt: f32) -> bool {
+        if !self.clock_runs() || !dt.is_finite() || dt <= 0.0 {
+            return false;
+        }
+        let end = self.scene.animation_end();
+        self.time = if end > 0.0 {
+            (self.time + dt) % end
+        } else {
+            0.0
+        };
+        true
     }
 
     /// Why the method shown cannot render the scene, once checked.
     #[must_use]
     pub fn refusal(&self) -> Option<&str> {
         self.slots[self.current].refused.as_deref()
+    }
+}
+
+impl Slot {
+    /// Prepared, and follows the motion of a moving scene without preparing
+    /// again.
+    fn animates(&self) -> bool {
+        self.method.as_deref().is_some_and(follows_animation)
     }
 }
 

@@ -90,6 +90,8 @@ struct App<'s, 'e> {
     /// Milliseconds of the last whole redraw (frame, display, HUD, present).
     redraw_ms: f64,
     shots: usize,
+    /// When the animation clock last moved (while it plays).
+    tick: Option<Instant>,
     error: Option<ViewerError>,
 }
 
@@ -154,6 +156,7 @@ pub fn run(
             show_hud: true,
             redraw_ms: 0.0,
             shots: 0,
+            tick: None,
             error: None,
         };
         let ran = event_loop.run_app(&mut app);
@@ -302,6 +305,15 @@ impl<'s, 'e> App<'s, 'e> {
         if w == 0 || h == 0 {
             return Ok(());
         }
+        // The clock moves by the wall time since the last frame it moved in.
+        if viewer.clock_runs() {
+            if let Some(k) = self.tick {
+                viewer.advance(t.duration_since(k).as_secs_f32());
+            }
+            self.tick = Some(t);
+        } else {
+            self.tick = None;
+        }
         let frame = viewer.frame(w as usize, h as usize, self.drag.is_some(), &NoProgress)?;
         let error = self.meter.observe(viewer, &frame);
         // The fps of the last whole redraw (this frame's work on the first).
@@ -326,8 +338,9 @@ impl<'s, 'e> App<'s, 'e> {
         ));
         let refining = viewer.refining();
         self.last = Some(frame);
-        // The reference keeps adding samples while the view is still.
-        if self.drag.is_none() && refining {
+        // The reference keeps adding samples while the view is still; a
+        // playing animation draws its next frame.
+        if (self.drag.is_none() && refining) || self.tick.is_some() {
             window.request_redraw();
         }
         Ok(())
@@ -357,6 +370,10 @@ impl<'s, 'e> App<'s, 'e> {
                         viewer.select(i - 1);
                     }
                     "a" => viewer.antialias = !viewer.antialias,
+                    "p" => {
+                        viewer.toggle_play();
+                        self.tick = None;
+                    }
                     "h" => self.show_hud = !self.show_hud,
                     "r" => viewer.reset(),
                     "s" => {

@@ -346,7 +346,8 @@ impl Relighter for FogRelighter {
             SceneFeature::AreaLights
             | SceneFeature::Visibility
             | SceneFeature::NormalMaps
-            | SceneFeature::SpatiallyVaryingBrdf => Support::No,
+            | SceneFeature::SpatiallyVaryingBrdf
+            | SceneFeature::Animation => Support::No,
         }
     }
 

@@ -846,7 +846,9 @@ impl Relighter for ShExpMethod {
 
     fn supports(&self, feature: SceneFeature) -> Support {
         match feature {
-            SceneFeature::Environment | SceneFeature::Visibility => Support::Full,
+            SceneFeature::Environment | SceneFeature::Visibility | SceneFeature::Animation => {
+                Support::Full
+            }
             SceneFeature::PointLights
             | SceneFeature::AreaLights
             | SceneFeature::Medium

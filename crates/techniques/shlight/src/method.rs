@@ -215,7 +215,8 @@ impl Relighter for ShMethod {
             | SceneFeature::AreaLights
             | SceneFeature::Medium
             | SceneFeature::Visibility
-            | SceneFeature::SpatiallyVaryingBrdf => Support::No,
+            | SceneFeature::SpatiallyVaryingBrdf
+            | SceneFeature::Animation => Support::No,
         }
     }
 

@@ -412,7 +412,8 @@ impl Relighter for TripleMethod {
             SceneFeature::PointLights
             | SceneFeature::AreaLights
             | SceneFeature::Medium
-            | SceneFeature::NormalMaps => Support::No,
+            | SceneFeature::NormalMaps
+            | SceneFeature::Animation => Support::No,
             SceneFeature::SpatiallyVaryingBrdf => Support::Full,
         }
     }

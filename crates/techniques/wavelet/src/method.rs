@@ -303,7 +303,8 @@ impl Relighter for WaveletMethod {
             | SceneFeature::AreaLights
             | SceneFeature::Medium
             | SceneFeature::NormalMaps
-            | SceneFeature::SpatiallyVaryingBrdf => Support::No,
+            | SceneFeature::SpatiallyVaryingBrdf
+            | SceneFeature::Animation => Support::No,
         }
     }
 
