@@ -477,16 +477,16 @@ mod tests {
         assert_eq!(e, ErrorReading::NoReference);
         let info = HudInfo::new(&v, &f, e, 20.0);
         let status = info.status_lines();
-        assert!(status[0].text.starts_with("sh [2/4]"), "{:?}", status[0]);
+        assert!(status[0].text.starts_with("sh [2/5]"), "{:?}", status[0]);
         assert!(status[0].text.contains("50 fps"), "{:?}", status[0]);
         assert!(status[1].text.contains("order 3"), "{:?}", status[1]);
-        assert!(status[2].text.contains("press 4"), "{:?}", status[2]);
+        assert!(status[2].text.contains("press 5"), "{:?}", status[2]);
         let help: String = info.help_lines().iter().map(|l| l.text.clone()).collect();
-        for k in ["1 wavelet", "2 sh", "3 fog", "4 reference", "q: quit"] {
+        for k in ["1 wavelet", "2 sh", "3 fog", "4 shexp", "5 reference", "q: quit"] {
             assert!(help.contains(k), "{help}");
         }
         // The reference for this view, then sh again: a measured error.
-        v.select(3);
+        v.select(4);
         let r = v.frame(48, 27, false, &NoProgress).unwrap();
         assert_eq!(meter.observe(&v, &r), ErrorReading::IsReference);
         v.select(1);
