@@ -934,6 +934,19 @@ impl<T: Real> ZyzRotation<T> {
         if crate::simd::try_zyz(self.order, e, src, dst) {
             return;
         }
+        if let (Some(s32), Some(d32)) = (T::as_f32_slice(src), T::as_f32_slice_mut(dst)) {
+            let e32 = EulerZyz {
+                cos_alpha: e.cos_alpha.to_f64() as f32,
+                sin_alpha: e.sin_alpha.to_f64() as f32,
+                cos_beta: e.cos_beta.to_f64() as f32,
+                sin_beta: e.sin_beta.to_f64() as f32,
+                cos_gamma: e.cos_gamma.to_f64() as f32,
+                sin_gamma: e.sin_gamma.to_f64() as f32,
+            };
+            if crate::fast::rotate_one(self.order, &e32, s32, d32) {
+                return;
+            }
+        }
         self.apply_euler_portable(e, src, dst, scratch);
     }
 
