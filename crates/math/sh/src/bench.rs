@@ -300,6 +300,8 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
                 t,
                 "3 channels, one rotation; generated kernel".into(),
             ));
+        }
+        if n <= crate::fast::BATCH_MAX_ORDER {
             let src: Vec<f32> = vs.concat();
             let mut out = vec![0.0f32; src.len()];
             let br = (reps / 16).max(1);

@@ -1,16 +1,21 @@
 //! Fast f32 paths over the generated per-order kernels of [`crate::kernels`]:
 //! single calls (what [`crate::eval_sh_into`], [`crate::rotation::ZyzRotation`]
 //! and [`crate::product::TripleProduct`] run for f32 at low order), RGB
-//! variants (the three channels as three lanes) and **batch kernels** (eight
-//! directions or vectors per AVX2 register, lanes across items).
+//! variants and **batch kernels** (eight directions or vectors per AVX2
+//! register, lanes across items).
 //!
 //! # Which code runs
-//! * Single calls and RGB variants: the generated straight-line code with
-//!   plain multiply and add, inlined into the caller (no run-time check).
+//! * Single calls: the generated straight-line code with plain multiply and
+//!   add, compiled once in one non-generic, non-inlined function per operation
+//!   (`eval_one`, `rotate_one`, `product_one`), so a caller pays one call and
+//!   downstream crates never re-instantiate the kernels (compile time).
+//! * RGB variants: one Euler decomposition (rotation), then the mono kernel per
+//!   channel.
 //! * Batches: on an x86-64 CPU with AVX2 and FMA ([`crate::lanes::avx2_fma_available`]),
-//!   eight items per lane group with fused multiply–add; elsewhere the same
-//!   generated code one item at a time without FMA. The tail of a
-//!   batch is padded by repeating its last item.
+//!   eight items per lane group with fused multiply–add (`eval8`, `rotate8`:
+//!   one copy each, shared by the entry points); elsewhere the single-call
+//!   kernels one item at a time. The tail of a batch is padded by repeating its
+//!   last item.
 //!
 //! Every kernel is tested against the portable recurrence / ZYZ / Gaunt code
 //! (`src/fast_tests.rs`); under `CI` those tests fail on a CPU without
@@ -18,7 +23,9 @@
 //!
 //! # Layouts
 //! Directions are unit vectors `[x, y, z]` in the coefficients' frame. Batched
-//! coefficient vectors are item-major: item `i` occupies `[i·n², (i+1)·n²)`.
+//! coefficient vectors of [`rotate_batch`] are item-major (item `i` occupies
+//! `[i·n², (i+1)·n²)`); [`eval_batch`] writes coefficient-major
+//! (`out[k·count + i]`), the layout lanes across directions store directly.
 
 use crate::kernels;
 use crate::lanes::V;
@@ -52,43 +59,44 @@ fn as_v_mut<const W: usize>(s: &mut [f32]) -> &mut [V<W, false>] {
 /// Generated f32 evaluation of all `order²` basis values at `dir`; `false`
 /// (nothing written) above [`KERNEL_EVAL_MAX_ORDER`].
 ///
+/// Not inlined (nor generic): the per-order kernels are compiled once, here,
+/// and every caller pays one call (compile time; see the module docs).
+///
 /// # Panics
 /// If `out` is shorter than `order²`.
-#[inline(always)]
+#[inline(never)]
 pub(crate) fn eval_one(order: usize, dir: [f32; 3], out: &mut [f32]) -> bool {
     let [x, y, z] = dir;
     kernels::eval::<1, false>(order, S::splat(x), S::splat(y), S::splat(z), as_v_mut(out))
 }
 
 #[inline(always)]
-fn euler_lanes<const W: usize, const F: bool>(e: &[EulerZyz<f32>; W]) -> [V<W, F>; 6] {
-    let mut a = [V::<W, F>::splat(0.0); 6];
-    for (i, e) in e.iter().enumerate() {
-        a[0].0[i] = e.cos_alpha;
-        a[1].0[i] = e.sin_alpha;
-        a[2].0[i] = e.cos_beta;
-        a[3].0[i] = e.sin_beta;
-        a[4].0[i] = e.cos_gamma;
-        a[5].0[i] = e.sin_gamma;
-    }
-    a
+fn euler_array(e: &EulerZyz<f32>) -> [S; 6] {
+    [
+        e.cos_alpha,
+        e.sin_alpha,
+        e.cos_beta,
+        e.sin_beta,
+        e.cos_gamma,
+        e.sin_gamma,
+    ]
+    .map(S::splat)
 }
 
 /// Generated ZYZ rotation of one f32 vector; `false` above [`KERNEL_ROTATE_MAX_ORDER`].
 ///
 /// # Panics
 /// If a slice is shorter than `order²`.
-#[inline(always)]
+#[inline(never)]
 pub(crate) fn rotate_one(order: usize, e: &EulerZyz<f32>, src: &[f32], dst: &mut [f32]) -> bool {
-    let e = euler_lanes::<1, false>(&[*e]);
-    kernels::rotate::<1, false>(order, &e, as_v(src), as_v_mut(dst))
+    kernels::rotate::<1, false>(order, &euler_array(e), as_v(src), as_v_mut(dst))
 }
 
 /// Generated truncated product of two f32 vectors; `false` above [`KERNEL_PRODUCT_MAX_ORDER`].
 ///
 /// # Panics
 /// If a slice is shorter than `order²`.
-#[inline(always)]
+#[inline(never)]
 pub(crate) fn product_one(order: usize, f: &[f32], g: &[f32], out: &mut [f32]) -> bool {
     kernels::product::<1, false>(order, as_v(f), as_v(g), as_v_mut(out))
 }
@@ -106,29 +114,8 @@ fn check_len(what: &'static str, order: usize, got: usize, want: usize) -> Resul
     }
 }
 
-/// Gathers channel `k` of three slices into lanes.
-#[inline(always)]
-fn rgb_in(c: [&[f32]; 3], nn: usize, buf: &mut [V<3, false>; MAX_KERNEL_NN]) {
-    for k in 0..nn {
-        buf[k] = V([c[0][k], c[1][k], c[2][k]]);
-    }
-}
-
-#[inline(always)]
-fn rgb_out(buf: &[V<3, false>; MAX_KERNEL_NN], nn: usize, out: [&mut [f32]; 3]) {
-    let [r, g, b] = out;
-    for k in 0..nn {
-        r[k] = buf[k].0[0];
-        g[k] = buf[k].0[1];
-        b[k] = buf[k].0[2];
-    }
-}
-
-const MAX_KERNEL_NN: usize = KERNEL_EVAL_MAX_ORDER * KERNEL_EVAL_MAX_ORDER;
-
 /// Rotates three coefficient vectors (R, G, B) by one rotation `rot` with the
-/// generated ZYZ kernel, the channels as three lanes (one Euler decomposition,
-/// one set of multiple angles). Orders `1 ..=` [`KERNEL_ROTATE_MAX_ORDER`].
+/// generated ZYZ kernel: one Euler decomposition, the mono kernel per channel. Orders `1 ..=` [`KERNEL_ROTATE_MAX_ORDER`].
 ///
 /// # Errors
 /// [`ShError::OrderOutOfRange`] or [`ShError::LengthMismatch`] (every slice must
@@ -147,20 +134,17 @@ pub fn rotate_rgb(
     for c in &dst {
         check_len("dst channel", order, c.len(), nn)?;
     }
+    // One decomposition; the channels run the same kernel one after another
+    // (the kernel's code is shared with the mono path: no three-lane copy).
     let e = rot.euler_zyz();
-    let ev = euler_lanes::<1, false>(&[e]);
-    let e3: [V<3, false>; 6] = std::array::from_fn(|i| V::splat(ev[i].0[0]));
-    let mut a = [V::splat(0.0); MAX_KERNEL_NN];
-    let mut b = [V::splat(0.0); MAX_KERNEL_NN];
-    rgb_in(src, nn, &mut a);
-    kernels::rotate::<3, false>(order, &e3, &a[..nn], &mut b[..nn]);
-    rgb_out(&b, nn, dst);
+    for (src, dst) in src.into_iter().zip(dst) {
+        rotate_one(order, &e, src, dst);
+    }
     Ok(())
 }
 
 /// Channel-wise truncated product of two RGB coefficient triples,
-/// `out_c = f_c ∗ g_c` for c = R, G, B, with the generated kernel, channels as
-/// lanes. Orders `1 ..=` [`KERNEL_PRODUCT_MAX_ORDER`].
+/// `out_c = f_c ∗ g_c` for c = R, G, B, with the generated mono kernel per channel. Orders `1 ..=` [`KERNEL_PRODUCT_MAX_ORDER`].
 ///
 /// # Errors
 /// [`ShError::OrderOutOfRange`] or [`ShError::LengthMismatch`].
@@ -178,13 +162,9 @@ pub fn product_rgb(
     for c in &out {
         check_len("output channel", order, c.len(), nn)?;
     }
-    let mut a = [V::splat(0.0); MAX_KERNEL_NN];
-    let mut b = [V::splat(0.0); MAX_KERNEL_NN];
-    let mut o = [V::splat(0.0); MAX_KERNEL_NN];
-    rgb_in(f, nn, &mut a);
-    rgb_in(g, nn, &mut b);
-    kernels::product::<3, false>(order, &a[..nn], &b[..nn], &mut o[..nn]);
-    rgb_out(&o, nn, out);
+    for ((f, g), out) in f.into_iter().zip(g).zip(out) {
+        product_one(order, f, g, out);
+    }
     Ok(())
 }
 
@@ -211,14 +191,23 @@ pub fn batch_path() -> BatchPath {
     }
 }
 
-#[inline(always)]
-fn batch_eval<const W: usize, const F: bool>(
-    n: usize,
-    x: V<W, F>,
-    y: V<W, F>,
-    z: V<W, F>,
-    o: &mut [V<W, F>],
-) {
+/// Eight-lane f32 with fused multiply–add: only used inside
+/// `#[target_feature(enable = "avx2,fma")]` functions.
+#[cfg(target_arch = "x86_64")]
+type V8 = V<8, true>;
+
+const BATCH_NN: usize = BATCH_MAX_ORDER * BATCH_MAX_ORDER;
+
+/// The order-`n` evaluation kernel on eight directions (`n ≤` [`BATCH_MAX_ORDER`]).
+/// Not inlined: every batch entry point shares this one copy.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn eval8(n: usize, d: &[V8; 3], o: &mut [V8; BATCH_NN]) {
+    let [x, y, z] = *d;
     match n {
         1 => kernels::eval_n1(x, y, z, (&mut o[..1]).try_into().expect("length")),
         2 => kernels::eval_n2(x, y, z, (&mut o[..4]).try_into().expect("length")),
@@ -228,13 +217,14 @@ fn batch_eval<const W: usize, const F: bool>(
     }
 }
 
-#[inline(always)]
-fn batch_rotate<const W: usize, const F: bool>(
-    n: usize,
-    e: &[V<W, F>; 6],
-    v: &[V<W, F>],
-    d: &mut [V<W, F>],
-) {
+/// The order-`n` ZYZ kernel on eight vectors (`n ≤` [`BATCH_MAX_ORDER`]).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn rotate8(n: usize, e: &[V8; 6], v: &[V8; BATCH_NN], d: &mut [V8; BATCH_NN]) {
     match n {
         1 => kernels::rotate_n1(
             e,
@@ -260,12 +250,13 @@ fn batch_rotate<const W: usize, const F: bool>(
     }
 }
 
-/// Loads item `i0 + j` (clamped to the last item) into lane `j`.
+/// Loads items `i0 .. i0 + 8` (clamped to the last item) into lanes.
+#[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn dir_lanes<const W: usize, const F: bool>(dirs: &[[f32; 3]], i0: usize) -> [V<W, F>; 3] {
+fn dir_lanes(dirs: &[[f32; 3]], i0: usize) -> [V8; 3] {
     let last = dirs.len() - 1;
-    let mut v = [V::<W, F>::splat(0.0); 3];
-    for j in 0..W {
+    let mut v = [V8::splat(0.0); 3];
+    for j in 0..8 {
         let d = dirs[(i0 + j).min(last)];
         v[0].0[j] = d[0];
         v[1].0[j] = d[1];
@@ -274,46 +265,45 @@ fn dir_lanes<const W: usize, const F: bool>(dirs: &[[f32; 3]], i0: usize) -> [V<
     v
 }
 
-#[inline(always)]
-fn eval_batch_body<const W: usize, const F: bool>(
-    order: usize,
-    dirs: &[[f32; 3]],
-    out: &mut [f32],
-) {
-    let nn = order * order;
-    let mut y = [V::<W, F>::splat(0.0); MAX_KERNEL_NN];
-    for i0 in (0..dirs.len()).step_by(W) {
-        let [x, yy, z] = dir_lanes::<W, F>(dirs, i0);
-        batch_eval::<W, F>(order, x, yy, z, &mut y[..nn]);
-        let cnt = W.min(dirs.len() - i0);
-        for j in 0..cnt {
-            let o = &mut out[(i0 + j) * nn..(i0 + j + 1) * nn];
-            for k in 0..nn {
-                o[k] = y[k].0[j];
-            }
+/// # Safety
+/// The CPU must support AVX2 and FMA; `out.len() == dirs.len() · order²`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+pub(crate) unsafe fn eval_batch_avx2(order: usize, dirs: &[[f32; 3]], out: &mut [f32]) {
+    let (nn, count) = (order * order, dirs.len());
+    let mut y = [V8::splat(0.0); BATCH_NN];
+    for i0 in (0..count).step_by(8) {
+        // SAFETY: the caller checked the features.
+        unsafe { eval8(order, &dir_lanes(dirs, i0), &mut y) };
+        let cnt = 8.min(count - i0);
+        for (k, yk) in y[..nn].iter().enumerate() {
+            out[k * count + i0..k * count + i0 + cnt].copy_from_slice(&yk.0[..cnt]);
         }
     }
 }
 
-#[inline(always)]
-fn shade_batch_body<const W: usize, const F: bool, const C: usize>(
+/// # Safety
+/// The CPU must support AVX2 and FMA; lengths as [`shade_batch`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+pub(crate) unsafe fn shade_batch_avx2<const C: usize>(
     order: usize,
     coeffs: [&[f32]; C],
     dirs: &[[f32; 3]],
     out: &mut [[f32; C]],
 ) {
     let nn = order * order;
-    let mut y = [V::<W, F>::splat(0.0); MAX_KERNEL_NN];
-    for i0 in (0..dirs.len()).step_by(W) {
-        let [x, yy, z] = dir_lanes::<W, F>(dirs, i0);
-        batch_eval::<W, F>(order, x, yy, z, &mut y[..nn]);
-        let mut acc = [V::<W, F>::splat(0.0); C];
+    let mut y = [V8::splat(0.0); BATCH_NN];
+    for i0 in (0..dirs.len()).step_by(8) {
+        // SAFETY: the caller checked the features.
+        unsafe { eval8(order, &dir_lanes(dirs, i0), &mut y) };
+        let mut acc = [V8::splat(0.0); C];
         for k in 0..nn {
             for c in 0..C {
-                acc[c] = y[k].mul_add(V::splat(coeffs[c][k]), acc[c]);
+                acc[c] = y[k].mul_add(V8::splat(coeffs[c][k]), acc[c]);
             }
         }
-        let cnt = W.min(dirs.len() - i0);
+        let cnt = 8.min(dirs.len() - i0);
         for j in 0..cnt {
             for c in 0..C {
                 out[i0 + j][c] = acc[c].0[j];
@@ -324,11 +314,12 @@ fn shade_batch_body<const W: usize, const F: bool, const C: usize>(
 
 /// Lane Euler decomposition, branch-free: [`Rot3::euler_zyz`] with both pole
 /// branches computed and blended per lane.
+#[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn euler_of_lanes<const W: usize, const F: bool>(m: &[[V<W, F>; 3]; 3]) -> [V<W, F>; 6] {
-    let one = V::<W, F>::splat(1.0);
-    let zero = V::<W, F>::splat(0.0);
-    let norm2 = |c: V<W, F>, s: V<W, F>| {
+fn euler_of_lanes(m: &[[V8; 3]; 3]) -> [V8; 6] {
+    let one = V8::splat(1.0);
+    let zero = V8::splat(0.0);
+    let norm2 = |c: V8, s: V8| {
         let n2 = c.mul_add(c, s * s);
         let inv = n2.sqrt().recip();
         (
@@ -355,8 +346,11 @@ fn euler_of_lanes<const W: usize, const F: bool>(m: &[[V<W, F>; 3]; 3]) -> [V<W,
     ]
 }
 
-#[inline(always)]
-fn rotate_batch_body<const W: usize, const F: bool>(
+/// # Safety
+/// The CPU must support AVX2 and FMA; lengths as [`rotate_batch`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+pub(crate) unsafe fn rotate_batch_avx2(
     order: usize,
     rots: &[Rot3<f32>],
     src: &[f32],
@@ -364,11 +358,11 @@ fn rotate_batch_body<const W: usize, const F: bool>(
 ) {
     let nn = order * order;
     let last = rots.len() - 1;
-    let mut a = [V::<W, F>::splat(0.0); MAX_KERNEL_NN];
-    let mut b = [V::<W, F>::splat(0.0); MAX_KERNEL_NN];
-    for i0 in (0..rots.len()).step_by(W) {
-        let mut m = [[V::<W, F>::splat(0.0); 3]; 3];
-        for j in 0..W {
+    let mut a = [V8::splat(0.0); BATCH_NN];
+    let mut b = [V8::splat(0.0); BATCH_NN];
+    for i0 in (0..rots.len()).step_by(8) {
+        let mut m = [[V8::splat(0.0); 3]; 3];
+        for j in 0..8 {
             let it = (i0 + j).min(last);
             let r = &rots[it].m;
             for p in 0..3 {
@@ -381,9 +375,9 @@ fn rotate_batch_body<const W: usize, const F: bool>(
                 a[k].0[j] = v[k];
             }
         }
-        let e = euler_of_lanes(&m);
-        batch_rotate::<W, F>(order, &e, &a[..nn], &mut b[..nn]);
-        let cnt = W.min(rots.len() - i0);
+        // SAFETY: the caller checked the features.
+        unsafe { rotate8(order, &euler_of_lanes(&m), &a, &mut b) };
+        let cnt = 8.min(rots.len() - i0);
         for j in 0..cnt {
             let o = &mut dst[(i0 + j) * nn..(i0 + j + 1) * nn];
             for k in 0..nn {
@@ -393,56 +387,54 @@ fn rotate_batch_body<const W: usize, const F: bool>(
     }
 }
 
-macro_rules! avx2_entry {
-    ($name:ident, $body:ident, ($($arg:ident: $ty:ty),*)) => {
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2,fma")]
-        /// # Safety
-        /// The CPU must support AVX2 and FMA.
-        pub(crate) unsafe fn $name($($arg: $ty),*) {
-            $body::<8, true>($($arg),*)
-        }
-    };
-}
-avx2_entry!(eval_batch_avx2, eval_batch_body, (order: usize, dirs: &[[f32; 3]], out: &mut [f32]));
-avx2_entry!(rotate_batch_avx2, rotate_batch_body, (order: usize, rots: &[Rot3<f32>], src: &[f32], dst: &mut [f32]));
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-pub(crate) unsafe fn shade_batch_avx2<const C: usize>(
-    order: usize,
-    coeffs: [&[f32]; C],
-    dirs: &[[f32; 3]],
-    out: &mut [[f32; C]],
-) {
-    shade_batch_body::<8, true, C>(order, coeffs, dirs, out);
-}
-
-/// Portable entry points (one lane, no FMA), public to the crate's tests.
+/// Portable batch evaluation: [`eval_one`] per direction (coefficient-major output).
 pub(crate) fn eval_batch_portable(order: usize, dirs: &[[f32; 3]], out: &mut [f32]) {
-    eval_batch_body::<1, false>(order, dirs, out);
+    let (nn, count) = (order * order, dirs.len());
+    let mut y = [0.0f32; BATCH_NN];
+    for (i, &d) in dirs.iter().enumerate() {
+        eval_one(order, d, &mut y);
+        for k in 0..nn {
+            out[k * count + i] = y[k];
+        }
+    }
 }
+
+/// Portable batch rotation: [`rotate_one`] per item.
 pub(crate) fn rotate_batch_portable(
     order: usize,
     rots: &[Rot3<f32>],
     src: &[f32],
     dst: &mut [f32],
 ) {
-    rotate_batch_body::<1, false>(order, rots, src, dst);
+    let nn = order * order;
+    for (i, r) in rots.iter().enumerate() {
+        let span = i * nn..(i + 1) * nn;
+        rotate_one(order, &r.euler_zyz(), &src[span.clone()], &mut dst[span]);
+    }
 }
+
+/// Portable batch shading: [`eval_one`] and a dot product per direction.
 pub(crate) fn shade_batch_portable<const C: usize>(
     order: usize,
     coeffs: [&[f32]; C],
     dirs: &[[f32; 3]],
     out: &mut [[f32; C]],
 ) {
-    shade_batch_body::<1, false, C>(order, coeffs, dirs, out);
+    let nn = order * order;
+    let mut y = [0.0f32; BATCH_NN];
+    for (&d, o) in dirs.iter().zip(out) {
+        eval_one(order, d, &mut y);
+        for c in 0..C {
+            o[c] = coeffs[c][..nn].iter().zip(&y).map(|(a, b)| a * b).sum();
+        }
+    }
 }
 
-/// Evaluates all `order²` basis functions at every direction:
-/// `out[i·n² + k] = y_k(dirs[i])`. Orders `1 ..=` [`BATCH_MAX_ORDER`].
+/// Evaluates all `order²` basis functions at every direction, lanes across
+/// directions: **coefficient-major** output, `out[k·count + i] = y_k(dirs[i])`
+/// with `count = dirs.len()` (each basis function's values over the batch are
+/// contiguous, so the eight-lane kernel stores whole registers).
+/// Orders `1 ..=` [`BATCH_MAX_ORDER`].
 ///
 /// # Errors
 /// [`ShError::OrderOutOfRange`]; [`ShError::LengthMismatch`] unless
@@ -497,9 +489,7 @@ pub fn shade_batch(
     if dirs.is_empty() {
         return Ok(());
     }
-    // SAFETY: [f32] and [[f32; 1]] have the same layout.
-    let out1: &mut [[f32; 1]] =
-        unsafe { std::slice::from_raw_parts_mut(out.as_mut_ptr().cast(), out.len()) };
+    let out1: &mut [[f32; 1]] = out.as_chunks_mut::<1>().0;
     #[cfg(target_arch = "x86_64")]
     if batch_path() == BatchPath::Avx2Fma {
         // SAFETY: AVX2 and FMA were detected.
@@ -520,11 +510,7 @@ pub fn shade_rgb_batch(
     dirs: &[[f32; 3]],
     out: &mut [[f32; 3]],
 ) -> Result<(), ShError> {
-    check_order(
-        "order (fast::shade_rgb_batch)",
-        order,
-        KERNEL_EVAL_MAX_ORDER,
-    )?;
+    check_order("order (fast::shade_rgb_batch)", order, BATCH_MAX_ORDER)?;
     for c in coeffs {
         check_len(
             "shade_rgb_batch coefficients",

@@ -34,6 +34,10 @@ pub const KERNEL_ROTATE_MAX_ORDER: usize = 6;
 /// Largest order of the generated product kernels.
 pub const KERNEL_PRODUCT_MAX_ORDER: usize = 6;
 
+/// Weights per non-inlined chunk of a generated product kernel (compile time:
+/// see `product_kernel`).
+const PRODUCT_CHUNK_TERMS: usize = 256;
+
 fn lit(v: f64) -> String {
     format!("s({:?})", v as f32)
 }
@@ -224,46 +228,95 @@ fn product_kernel(s: &mut String, n: usize) {
             per_out[o].push((a.min(b), a.max(b), v));
         }
     }
-    writeln!(
-        s,
-        "/// `o = f ∗ g` truncated to order {n} (Gaunt coefficients as literals)."
-    )
-    .unwrap();
-    writeln!(s, "#[inline(always)]").unwrap();
-    writeln!(
-        s,
-        "pub(crate) fn product_n{n}{SIG}(f: &[V<W, F>; {nn}], g: &[V<W, F>; {nn}], o: &mut [V<W, F>; {nn}]) {{"
-    )
-    .unwrap();
-    writeln!(s, "    let s = V::<W, F>::splat;").unwrap();
-    for i in 0..nn {
-        writeln!(s, "    let f{i} = f[{i}];\n    let g{i} = g[{i}];").unwrap();
-    }
-    let mut have = vec![false; nn * nn];
+    // Outputs in chunks of about PRODUCT_CHUNK_TERMS weights, each chunk its own
+    // non-inlined function: LLVM's cost on one basic block grows faster than
+    // its length (one n = 6 body of ~2800 operations took a minute to
+    // compile), and a chunk recomputes only the pair sums it uses.
+    let mut chunks: Vec<Vec<usize>> = vec![Vec::new()];
+    let mut terms = 0;
     for (o, list) in per_out.iter_mut().enumerate() {
         list.sort_by_key(|e| (e.0, e.1));
-        let mut e = String::new();
-        for &(a, b, w) in list.iter() {
-            if !have[a * nn + b] {
-                have[a * nn + b] = true;
-                if a == b {
-                    writeln!(s, "    let p{a}_{b} = f{a} * g{a};").unwrap();
-                } else {
-                    writeln!(s, "    let p{a}_{b} = f{a}.mul_add(g{b}, f{b} * g{a});").unwrap();
-                }
-            }
-            e = if e.is_empty() {
-                format!("p{a}_{b} * {}", lit(w))
-            } else {
-                format!("p{a}_{b}.mul_add({}, {e})", lit(w))
-            };
+        if terms > 0 && terms + list.len() > PRODUCT_CHUNK_TERMS {
+            chunks.push(Vec::new());
+            terms = 0;
         }
-        if e.is_empty() {
-            e = "s(0.0)".into();
-        }
-        writeln!(s, "    o[{o}] = {e};").unwrap();
+        terms += list.len();
+        chunks.last_mut().expect("non-empty").push(o);
     }
-    writeln!(s, "}}\n").unwrap();
+    let multi = chunks.len() > 1;
+    for (c, outs) in chunks.iter().enumerate() {
+        let name = if multi {
+            writeln!(s, "/// Outputs {outs:?} of [`product_n{n}`].").unwrap();
+            writeln!(s, "#[inline(never)]").unwrap();
+            format!("product_n{n}_{c}")
+        } else {
+            writeln!(
+                s,
+                "/// `o = f ∗ g` truncated to order {n} (Gaunt coefficients as literals)."
+            )
+            .unwrap();
+            writeln!(s, "#[inline(always)]").unwrap();
+            format!("product_n{n}")
+        };
+        writeln!(
+            s,
+            "pub(crate) fn {name}{SIG}(f: &[V<W, F>; {nn}], g: &[V<W, F>; {nn}], o: &mut [V<W, F>; {nn}]) {{"
+        )
+        .unwrap();
+        writeln!(s, "    let s = V::<W, F>::splat;").unwrap();
+        let mut used = vec![false; nn];
+        for &o in outs {
+            for &(a, b, _) in &per_out[o] {
+                used[a] = true;
+                used[b] = true;
+            }
+        }
+        for i in (0..nn).filter(|&i| used[i]) {
+            writeln!(s, "    let f{i} = f[{i}];\n    let g{i} = g[{i}];").unwrap();
+        }
+        let mut have = vec![false; nn * nn];
+        for &o in outs {
+            let mut e = String::new();
+            for &(a, b, w) in &per_out[o] {
+                if !have[a * nn + b] {
+                    have[a * nn + b] = true;
+                    if a == b {
+                        writeln!(s, "    let p{a}_{b} = f{a} * g{a};").unwrap();
+                    } else {
+                        writeln!(s, "    let p{a}_{b} = f{a}.mul_add(g{b}, f{b} * g{a});").unwrap();
+                    }
+                }
+                e = if e.is_empty() {
+                    format!("p{a}_{b} * {}", lit(w))
+                } else {
+                    format!("p{a}_{b}.mul_add({}, {e})", lit(w))
+                };
+            }
+            if e.is_empty() {
+                e = "s(0.0)".into();
+            }
+            writeln!(s, "    o[{o}] = {e};").unwrap();
+        }
+        writeln!(s, "}}\n").unwrap();
+    }
+    if multi {
+        writeln!(
+            s,
+            "/// `o = f ∗ g` truncated to order {n} (Gaunt coefficients as literals), in {} chunks.",
+            chunks.len()
+        )
+        .unwrap();
+        writeln!(s, "#[inline(always)]").unwrap();
+        writeln!(
+            s,
+            "pub(crate) fn product_n{n}{SIG}(f: &[V<W, F>; {nn}], g: &[V<W, F>; {nn}], o: &mut [V<W, F>; {nn}]) {{"
+        )
+        .unwrap();
+        for c in 0..chunks.len() {
+            writeln!(s, "    product_n{n}_{c}(f, g, o);").unwrap();
+        }
+        writeln!(s, "}}\n").unwrap();
+    }
 }
 
 fn dispatch(s: &mut String, name: &str, args: &str, call: &str, lo: usize, hi: usize) {
