@@ -372,3 +372,19 @@ fn bad_batch_inputs_are_errors() {
     assert!(eval_batch(3, &[], &mut []).is_ok());
     assert!(rotate_batch(3, &[], &[], &mut []).is_ok());
 }
+
+#[test]
+fn direct_euler_reproduces_the_matrix() {
+    // Both branches of `euler_zyz_direct` (sin β ≥ 0.1 and the poles) give
+    // angles whose R_z(α) R_y(β) R_z(γ) is the input matrix to f32 rounding.
+    for r in rots(40, 13) {
+        let e = crate::rotation::euler_zyz_direct(&r);
+        let back = Rot3::from_euler_zyz(&e);
+        for p in 0..3 {
+            for q in 0..3 {
+                let d = (back.m[p][q] - r.m[p][q]).abs();
+                assert!(d < 2e-6, "R[{p}][{q}] off by {d} for {:?}", r.m);
+            }
+        }
+    }
+}
