@@ -277,9 +277,106 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
             black_box(&dst);
         });
         rows.push(row("eval_recurrence", n, 0.0, a, a, String::new()));
+
+        // RGB rotation (three channels, one decomposition) and batches of SET
+        // items per call, reported per item.
+        if n <= crate::fast::KERNEL_ROTATE_MAX_ORDER {
+            let (mut d1, mut d2) = (vec![0.0f32; nn], vec![0.0f32; nn]);
+            let t = time_ns(reps, batches, |i| {
+                crate::fast::rotate_rgb(
+                    n,
+                    black_box(&rots[i % SET]),
+                    [&vs[i % SET], &vs[(i + 1) % SET], &vs[(i + 2) % SET]],
+                    [&mut dst, &mut d1, &mut d2],
+                )
+                .ok();
+                black_box((&dst, &d1, &d2));
+            });
+            rows.push(row(
+                "zyz_rgb",
+                n,
+                0.0,
+                t,
+                t,
+                "3 channels, one rotation; generated kernel".into(),
+            ));
+        }
+        if n <= crate::fast::BATCH_MAX_ORDER {
+            let src: Vec<f32> = vs.concat();
+            let mut out = vec![0.0f32; src.len()];
+            let br = (reps / 16).max(1);
+            let t = time_ns(br, batches, |_| {
+                crate::fast::rotate_batch(n, black_box(&rots), black_box(&src), &mut out).ok();
+                black_box(&out);
+            }) / SET as f64;
+            rows.push(row(
+                "rotate_batch",
+                n,
+                0.0,
+                t,
+                t,
+                format!(
+                    "per item, {SET} rotations per call; {:?}",
+                    crate::fast::batch_path()
+                ),
+            ));
+            let t = time_ns(br, batches, |_| {
+                crate::fast::eval_batch(n, black_box(&dirs), &mut out).ok();
+                black_box(&out);
+            }) / SET as f64;
+            rows.push(row(
+                "eval_batch",
+                n,
+                0.0,
+                t,
+                t,
+                format!(
+                    "per direction, {SET} per call; {:?}",
+                    crate::fast::batch_path()
+                ),
+            ));
+            let mut sh = vec![0.0f32; SET];
+            let t = time_ns(br, batches, |_| {
+                crate::fast::shade_batch(n, black_box(&vs[0]), black_box(&dirs), &mut sh).ok();
+                black_box(&sh);
+            }) / SET as f64;
+            rows.push(row(
+                "shade_batch",
+                n,
+                0.0,
+                t,
+                t,
+                format!(
+                    "Σ c_k y_k(d) per direction, {SET} per call; {:?}",
+                    crate::fast::batch_path()
+                ),
+            ));
+            let mut rgb = vec![[0.0f32; 3]; SET];
+            let t = time_ns(br, batches, |_| {
+                crate::fast::shade_rgb_batch(
+                    n,
+                    [&vs[0], &vs[1], &vs[2]],
+                    black_box(&dirs),
+                    &mut rgb,
+                )
+                .ok();
+                black_box(&rgb);
+            }) / SET as f64;
+            rows.push(row(
+                "shade_rgb_batch",
+                n,
+                0.0,
+                t,
+                t,
+                format!(
+                    "RGB, per direction, {SET} per call; {:?}",
+                    crate::fast::batch_path()
+                ),
+            ));
+        }
     }
     // Products, exp, log.
-    for n in 3..=8 {
+    for n in 2..=8 {
         let nn = n * n;
         let vs = vectors(n);
         let mut dst = vec![0.0f32; nn];
@@ -304,7 +401,7 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
             "pair products + output-major Γ".into(),
         ));
         let a = time_ns(r, batches, |i| {
-            tp.product(
+            tp.product_triples(
                 black_box(&vs[i % SET]),
                 black_box(&vs[(i + 1) % SET]),
                 &mut dst,
@@ -324,6 +421,27 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
             black_box(&dst);
         });
         rows.push(row("square", n, 0.0, a, a, String::new()));
+        if n <= crate::fast::KERNEL_PRODUCT_MAX_ORDER {
+            let (mut d1, mut d2) = (vec![0.0f32; nn], vec![0.0f32; nn]);
+            let a = time_ns(r, batches, |i| {
+                crate::fast::product_rgb(
+                    n,
+                    [&vs[i % SET], &vs[(i + 1) % SET], &vs[(i + 2) % SET]],
+                    [&vs[(i + 3) % SET], &vs[(i + 4) % SET], &vs[(i + 5) % SET]],
+                    [&mut dst, &mut d1, &mut d2],
+                )
+                .ok();
+                black_box((&dst, &d1, &d2));
+            });
+            rows.push(row(
+                "product_rgb",
+                n,
+                0.0,
+                a,
+                a,
+                "3 channel-wise products; generated kernel".into(),
+            ));
+        }
         let mut ex = ShExp::<f32>::new(n).expect("order");
         for (name, m) in [
             ("exp_ps*4", ExpMethod::PsStar(4)),
@@ -360,9 +478,15 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
     let texels: Vec<glam::Vec3> = (0..w * h)
         .map(|_| glam::Vec3::new(r(), r(), r()) + 0.5)
         .collect();
-    for n in [3, 6, 10] {
+    for n in [3, 6, 10, 16, 30] {
         let pr = LatLongProjector::new(param, n).expect("order");
-        let pr_reps = if quick { 3 } else { 200 };
+        let pr_reps = if quick {
+            3
+        } else if n > 10 {
+            50
+        } else {
+            200
+        };
         let a = time_ns(pr_reps, batches, |_| {
             black_box(pr.project(black_box(&texels)).ok());
         });

@@ -78,8 +78,13 @@
 pub mod basis;
 pub mod bench;
 pub mod convolve;
+pub mod fast;
 #[rustfmt::skip]
 pub mod generated;
+#[rustfmt::skip]
+pub(crate) mod kernels;
+pub mod kernels_gen;
+mod lanes;
 pub mod product;
 pub mod project;
 pub mod quadrature;

@@ -220,6 +220,32 @@ impl<T: Real> TripleProduct<T> {
     /// If a slice is shorter than `order²` or `scratch` than [`scratch_len`](Self::scratch_len).
     #[inline]
     pub fn product_with(&self, f: &[T], g: &[T], out: &mut [T], scratch: &mut [T]) {
+        if self.product_fast(f, g, out) {
+            return;
+        }
+        self.product_with_portable(f, g, out, scratch);
+    }
+
+    /// The generated straight-line f32 kernel ([`crate::fast`]), where one exists.
+    #[inline(always)]
+    fn product_fast(&self, f: &[T], g: &[T], out: &mut [T]) -> bool {
+        match (
+            T::as_f32_slice(f),
+            T::as_f32_slice(g),
+            T::as_f32_slice_mut(out),
+        ) {
+            (Some(f), Some(g), Some(out)) => crate::fast::product_one(self.order, f, g, out),
+            _ => false,
+        }
+    }
+
+    /// [`product_with`](Self::product_with) without the generated kernel (the
+    /// reference the kernel is tested against).
+    ///
+    /// # Panics
+    /// As [`product_with`](Self::product_with).
+    #[inline]
+    pub fn product_with_portable(&self, f: &[T], g: &[T], out: &mut [T], scratch: &mut [T]) {
         let nn = self.order * self.order;
         let (f, g, out) = (&f[..nn], &g[..nn], &mut out[..nn]);
         let s = &mut scratch[..nn * nn];
@@ -279,6 +305,18 @@ impl<T: Real> TripleProduct<T> {
     /// If a slice is shorter than `order²`.
     #[inline]
     pub fn product(&self, f: &[T], g: &[T], out: &mut [T]) {
+        if self.product_fast(f, g, out) {
+            return;
+        }
+        self.product_triples(f, g, out);
+    }
+
+    /// [`product`](Self::product) by the triples only (no generated kernel).
+    ///
+    /// # Panics
+    /// If a slice is shorter than `order²`.
+    #[inline]
+    pub fn product_triples(&self, f: &[T], g: &[T], out: &mut [T]) {
         let nn = self.order * self.order;
         let (f, g, out) = (&f[..nn], &g[..nn], &mut out[..nn]);
         out.fill(T::ZERO);

@@ -104,6 +104,33 @@ pub(crate) fn normalize2<T: Real>(c: T, s: T) -> (T, T) {
     }
 }
 
+/// [`Rot3::euler_zyz`] with one square root and one division where
+/// `sin β ≥ 0.1`: from `R = R_z(α) R_y(β) R_z(γ)`, the third column is
+/// `sin β (cos α, sin α, ·)` and the third row `sin β (−cos γ, sin γ, ·)`, so
+/// one `1 / sin β` normalises both (relative error ≈ ε / sin β ≤ 10 ε). Nearer
+/// the poles it is [`Rot3::euler_zyz`] (α ± γ from the upper 2×2 block). This
+/// is the decomposition [`ZyzRotation::apply`] uses: three dependent
+/// square-root/division pairs were the longest chain of a low-order rotation.
+#[inline]
+pub(crate) fn euler_zyz_direct<T: Real>(rot: &Rot3<T>) -> EulerZyz<T> {
+    let m = &rot.m;
+    let sb2 = m[0][2] * m[0][2] + m[1][2] * m[1][2];
+    if sb2.to_f64() >= 0.01 {
+        let sb = sb2.sqrt();
+        let inv = T::ONE / sb;
+        EulerZyz {
+            cos_alpha: m[0][2] * inv,
+            sin_alpha: m[1][2] * inv,
+            cos_beta: m[2][2],
+            sin_beta: sb,
+            cos_gamma: -(m[2][0] * inv),
+            sin_gamma: m[2][1] * inv,
+        }
+    } else {
+        rot.euler_zyz()
+    }
+}
+
 impl<T: Real> Rot3<T> {
     /// The identity.
     #[must_use]
@@ -934,6 +961,19 @@ impl<T: Real> ZyzRotation<T> {
         if crate::simd::try_zyz(self.order, e, src, dst) {
             return;
         }
+        if let (Some(s32), Some(d32)) = (T::as_f32_slice(src), T::as_f32_slice_mut(dst)) {
+            let e32 = EulerZyz {
+                cos_alpha: e.cos_alpha.to_f64() as f32,
+                sin_alpha: e.sin_alpha.to_f64() as f32,
+                cos_beta: e.cos_beta.to_f64() as f32,
+                sin_beta: e.sin_beta.to_f64() as f32,
+                cos_gamma: e.cos_gamma.to_f64() as f32,
+                sin_gamma: e.sin_gamma.to_f64() as f32,
+            };
+            if crate::fast::rotate_one(self.order, &e32, s32, d32) {
+                return;
+            }
+        }
         self.apply_euler_portable(e, src, dst, scratch);
     }
 
@@ -982,10 +1022,10 @@ impl<T: Real> ZyzRotation<T> {
         self.x_minus.apply(tmp, dst);
     }
 
-    /// Decomposes `rot` and applies it.
+    /// Decomposes `rot` ([`euler_zyz_direct`]) and applies it.
     #[inline]
     pub fn apply(&self, rot: &Rot3<T>, src: &[T], dst: &mut [T], scratch: &mut [T]) {
-        self.apply_euler(&rot.euler_zyz(), src, dst, scratch);
+        self.apply_euler(&euler_zyz_direct(rot), src, dst, scratch);
     }
 }
 

@@ -1,0 +1,575 @@
+//! Fast f32 paths over the generated per-order kernels of [`crate::kernels`]:
+//! single calls (what [`crate::eval_sh_into`], [`crate::rotation::ZyzRotation`]
+//! and [`crate::product::TripleProduct`] run for f32 at low order), RGB
+//! variants and **batch kernels** (eight directions or vectors per AVX2
+//! register, lanes across items).
+//!
+//! # Which code runs
+//! * Single calls: the generated straight-line code with plain multiply and
+//!   add, compiled once in one non-generic, non-inlined function per operation
+//!   (`eval_one`, `rotate_one`, `product_one`), so a caller pays one call and
+//!   downstream crates never re-instantiate the kernels (compile time).
+//! * RGB variants: one Euler decomposition (rotation), then the mono kernel per
+//!   channel.
+//! * Batches: on an x86-64 CPU with AVX2 and FMA ([`crate::lanes::avx2_fma_available`]),
+//!   eight items per lane group with fused multiply–add (`eval8`, `rotate8`:
+//!   one copy each, shared by the entry points); elsewhere the single-call
+//!   kernels one item at a time. The tail of a batch is padded by repeating its
+//!   last item.
+//!
+//! Every kernel is tested against the portable recurrence / ZYZ / Gaunt code
+//! (`src/fast_tests.rs`); under `CI` those tests fail on a CPU without
+//! AVX2+FMA instead of comparing the portable path with itself.
+//!
+//! # Layouts
+//! Directions are unit vectors `[x, y, z]` in the coefficients' frame. Batched
+//! coefficient vectors of [`rotate_batch`] are item-major (item `i` occupies
+//! `[i·n², (i+1)·n²)`); [`eval_batch`] writes coefficient-major
+//! (`out[k·count + i]`), the layout lanes across directions store directly.
+
+use crate::kernels;
+use crate::lanes::V;
+use crate::rotation::{EulerZyz, Rot3};
+use crate::{MAX_ORDER, ShError, check_order};
+
+/// Largest order of the batch kernels (`eval_batch`, `shade_batch`,
+/// `shade_rgb_batch`, `rotate_batch`): kept low because each batch order is
+/// one more eight-lane instantiation of a generated kernel (compile time).
+pub const BATCH_MAX_ORDER: usize = 4;
+
+pub use crate::kernels_gen::{
+    KERNEL_EVAL_MAX_ORDER, KERNEL_PRODUCT_MAX_ORDER, KERNEL_ROTATE_MAX_ORDER,
+};
+
+type S = V<1, false>;
+
+#[inline(always)]
+fn as_v<const W: usize>(s: &[f32]) -> &[V<W, false>] {
+    // SAFETY: V<1, F> is repr(C) around [f32; 1] (same size and alignment as f32
+    // once the 32-byte alignment is not requested; see lanes.rs).
+    unsafe { std::slice::from_raw_parts(s.as_ptr().cast(), s.len() / W) }
+}
+
+#[inline(always)]
+fn as_v_mut<const W: usize>(s: &mut [f32]) -> &mut [V<W, false>] {
+    // SAFETY: as `as_v`.
+    unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast(), s.len() / W) }
+}
+
+/// Generated f32 evaluation of all `order²` basis values at `dir`; `false`
+/// (nothing written) above [`KERNEL_EVAL_MAX_ORDER`].
+///
+/// Not inlined (nor generic): the per-order kernels are compiled once, here,
+/// and every caller pays one call (compile time; see the module docs).
+///
+/// # Panics
+/// If `out` is shorter than `order²`.
+#[inline(never)]
+pub(crate) fn eval_one(order: usize, dir: [f32; 3], out: &mut [f32]) -> bool {
+    let [x, y, z] = dir;
+    kernels::eval::<1, false>(order, S::splat(x), S::splat(y), S::splat(z), as_v_mut(out))
+}
+
+#[inline(always)]
+fn euler_array(e: &EulerZyz<f32>) -> [S; 6] {
+    [
+        e.cos_alpha,
+        e.sin_alpha,
+        e.cos_beta,
+        e.sin_beta,
+        e.cos_gamma,
+        e.sin_gamma,
+    ]
+    .map(S::splat)
+}
+
+/// Generated ZYZ rotation of one f32 vector; `false` above [`KERNEL_ROTATE_MAX_ORDER`].
+///
+/// # Panics
+/// If a slice is shorter than `order²`.
+#[inline(never)]
+pub(crate) fn rotate_one(order: usize, e: &EulerZyz<f32>, src: &[f32], dst: &mut [f32]) -> bool {
+    kernels::rotate::<1, false>(order, &euler_array(e), as_v(src), as_v_mut(dst))
+}
+
+/// Generated truncated product of two f32 vectors; `false` above [`KERNEL_PRODUCT_MAX_ORDER`].
+///
+/// # Panics
+/// If a slice is shorter than `order²`.
+#[inline(never)]
+pub(crate) fn product_one(order: usize, f: &[f32], g: &[f32], out: &mut [f32]) -> bool {
+    kernels::product::<1, false>(order, as_v(f), as_v(g), as_v_mut(out))
+}
+
+fn check_len(what: &'static str, order: usize, got: usize, want: usize) -> Result<(), ShError> {
+    if got == want {
+        Ok(())
+    } else {
+        Err(ShError::LengthMismatch {
+            what,
+            order,
+            expected: want,
+            got,
+        })
+    }
+}
+
+/// Rotates three coefficient vectors (R, G, B) by one rotation `rot` with the
+/// generated ZYZ kernel: one Euler decomposition, the mono kernel per channel. Orders `1 ..=` [`KERNEL_ROTATE_MAX_ORDER`].
+///
+/// # Errors
+/// [`ShError::OrderOutOfRange`] or [`ShError::LengthMismatch`] (every slice must
+/// hold `order²` values).
+pub fn rotate_rgb(
+    order: usize,
+    rot: &Rot3<f32>,
+    src: [&[f32]; 3],
+    dst: [&mut [f32]; 3],
+) -> Result<(), ShError> {
+    check_order("order (fast::rotate_rgb)", order, KERNEL_ROTATE_MAX_ORDER)?;
+    let nn = order * order;
+    for c in src {
+        check_len("src channel", order, c.len(), nn)?;
+    }
+    for c in &dst {
+        check_len("dst channel", order, c.len(), nn)?;
+    }
+    // One decomposition; the channels run the same kernel one after another
+    // (the kernel's code is shared with the mono path: no three-lane copy).
+    let e = rot.euler_zyz();
+    for (src, dst) in src.into_iter().zip(dst) {
+        rotate_one(order, &e, src, dst);
+    }
+    Ok(())
+}
+
+/// Channel-wise truncated product of two RGB coefficient triples,
+/// `out_c = f_c ∗ g_c` for c = R, G, B, with the generated mono kernel per channel. Orders `1 ..=` [`KERNEL_PRODUCT_MAX_ORDER`].
+///
+/// # Errors
+/// [`ShError::OrderOutOfRange`] or [`ShError::LengthMismatch`].
+pub fn product_rgb(
+    order: usize,
+    f: [&[f32]; 3],
+    g: [&[f32]; 3],
+    out: [&mut [f32]; 3],
+) -> Result<(), ShError> {
+    check_order("order (fast::product_rgb)", order, KERNEL_PRODUCT_MAX_ORDER)?;
+    let nn = order * order;
+    for c in f.iter().chain(&g) {
+        check_len("input channel", order, c.len(), nn)?;
+    }
+    for c in &out {
+        check_len("output channel", order, c.len(), nn)?;
+    }
+    for ((f, g), out) in f.into_iter().zip(g).zip(out) {
+        product_one(order, f, g, out);
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------
+// Batches
+// ---------------------------------------------------------------------------
+
+/// Which batch code ran.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BatchPath {
+    /// AVX2 + FMA, eight items per group.
+    Avx2Fma,
+    /// Portable, one item at a time, no FMA.
+    Portable,
+}
+
+/// The batch path this CPU runs.
+#[must_use]
+pub fn batch_path() -> BatchPath {
+    if crate::lanes::avx2_fma_available() {
+        BatchPath::Avx2Fma
+    } else {
+        BatchPath::Portable
+    }
+}
+
+/// Eight-lane f32 with fused multiply–add: only used inside
+/// `#[target_feature(enable = "avx2,fma")]` functions.
+#[cfg(target_arch = "x86_64")]
+type V8 = V<8, true>;
+
+const BATCH_NN: usize = BATCH_MAX_ORDER * BATCH_MAX_ORDER;
+
+/// The order-`n` evaluation kernel on eight directions (`n ≤` [`BATCH_MAX_ORDER`]).
+/// Not inlined: every batch entry point shares this one copy.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn eval8(n: usize, d: &[V8; 3], o: &mut [V8; BATCH_NN]) {
+    let [x, y, z] = *d;
+    match n {
+        1 => kernels::eval_n1(x, y, z, (&mut o[..1]).try_into().expect("length")),
+        2 => kernels::eval_n2(x, y, z, (&mut o[..4]).try_into().expect("length")),
+        3 => kernels::eval_n3(x, y, z, (&mut o[..9]).try_into().expect("length")),
+        4 => kernels::eval_n4(x, y, z, (&mut o[..16]).try_into().expect("length")),
+        _ => unreachable!("batch order checked against BATCH_MAX_ORDER"),
+    }
+}
+
+/// The order-`n` ZYZ kernel on eight vectors (`n ≤` [`BATCH_MAX_ORDER`]).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn rotate8(n: usize, e: &[V8; 6], v: &[V8; BATCH_NN], d: &mut [V8; BATCH_NN]) {
+    match n {
+        1 => kernels::rotate_n1(
+            e,
+            (&v[..1]).try_into().expect("length"),
+            (&mut d[..1]).try_into().expect("length"),
+        ),
+        2 => kernels::rotate_n2(
+            e,
+            (&v[..4]).try_into().expect("length"),
+            (&mut d[..4]).try_into().expect("length"),
+        ),
+        3 => kernels::rotate_n3(
+            e,
+            (&v[..9]).try_into().expect("length"),
+            (&mut d[..9]).try_into().expect("length"),
+        ),
+        4 => kernels::rotate_n4(
+            e,
+            (&v[..16]).try_into().expect("length"),
+            (&mut d[..16]).try_into().expect("length"),
+        ),
+        _ => unreachable!("batch order checked against BATCH_MAX_ORDER"),
+    }
+}
+
+/// Loads items `i0 .. i0 + 8` (clamped to the last item) into lanes.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn dir_lanes(dirs: &[[f32; 3]], i0: usize) -> [V8; 3] {
+    let last = dirs.len() - 1;
+    let mut v = [V8::splat(0.0); 3];
+    for j in 0..8 {
+        let d = dirs[(i0 + j).min(last)];
+        v[0].0[j] = d[0];
+        v[1].0[j] = d[1];
+        v[2].0[j] = d[2];
+    }
+    v
+}
+
+/// # Safety
+/// The CPU must support AVX2 and FMA; `out.len() == dirs.len() · order²`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+pub(crate) unsafe fn eval_batch_avx2(order: usize, dirs: &[[f32; 3]], out: &mut [f32]) {
+    let (nn, count) = (order * order, dirs.len());
+    let mut y = [V8::splat(0.0); BATCH_NN];
+    for i0 in (0..count).step_by(8) {
+        // SAFETY: the caller checked the features.
+        unsafe { eval8(order, &dir_lanes(dirs, i0), &mut y) };
+        let cnt = 8.min(count - i0);
+        for (k, yk) in y[..nn].iter().enumerate() {
+            out[k * count + i0..k * count + i0 + cnt].copy_from_slice(&yk.0[..cnt]);
+        }
+    }
+}
+
+/// # Safety
+/// The CPU must support AVX2 and FMA; lengths as [`shade_batch`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+pub(crate) unsafe fn shade_batch_avx2<const C: usize>(
+    order: usize,
+    coeffs: [&[f32]; C],
+    dirs: &[[f32; 3]],
+    out: &mut [[f32; C]],
+) {
+    let nn = order * order;
+    let mut y = [V8::splat(0.0); BATCH_NN];
+    for i0 in (0..dirs.len()).step_by(8) {
+        // SAFETY: the caller checked the features.
+        unsafe { eval8(order, &dir_lanes(dirs, i0), &mut y) };
+        let mut acc = [V8::splat(0.0); C];
+        for k in 0..nn {
+            for c in 0..C {
+                acc[c] = y[k].mul_add(V8::splat(coeffs[c][k]), acc[c]);
+            }
+        }
+        let cnt = 8.min(dirs.len() - i0);
+        for j in 0..cnt {
+            for c in 0..C {
+                out[i0 + j][c] = acc[c].0[j];
+            }
+        }
+    }
+}
+
+/// Lane Euler decomposition, branch-free: [`Rot3::euler_zyz`] with both pole
+/// branches computed and blended per lane.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn euler_of_lanes(m: &[[V8; 3]; 3]) -> [V8; 6] {
+    let one = V8::splat(1.0);
+    let zero = V8::splat(0.0);
+    let norm2 = |c: V8, s: V8| {
+        let n2 = c.mul_add(c, s * s);
+        let inv = n2.sqrt().recip();
+        (
+            n2.select_gt(0.0, c * inv, one),
+            n2.select_gt(0.0, s * inv, zero),
+        )
+    };
+    let cb = m[2][2];
+    let sb = m[0][2].mul_add(m[0][2], m[1][2] * m[1][2]).sqrt();
+    let (ca, sa) = norm2(m[0][2], m[1][2]);
+    let (cs, ss) = norm2(m[0][0] + m[1][1], m[1][0] - m[0][1]);
+    let (cd, sd) = norm2(m[1][1] - m[0][0], -(m[1][0] + m[0][1]));
+    let cg_p = cs.mul_add(ca, ss * sa);
+    let sg_p = ss.mul_add(ca, -(cs * sa));
+    let cg_m = ca.mul_add(cd, sa * sd);
+    let sg_m = sa.mul_add(cd, -(ca * sd));
+    [
+        ca,
+        sa,
+        cb.clamp(-1.0, 1.0),
+        sb,
+        cb.select_ge0(cg_p, cg_m),
+        cb.select_ge0(sg_p, sg_m),
+    ]
+}
+
+/// # Safety
+/// The CPU must support AVX2 and FMA; lengths as [`rotate_batch`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+pub(crate) unsafe fn rotate_batch_avx2(
+    order: usize,
+    rots: &[Rot3<f32>],
+    src: &[f32],
+    dst: &mut [f32],
+) {
+    let nn = order * order;
+    let last = rots.len() - 1;
+    let mut a = [V8::splat(0.0); BATCH_NN];
+    let mut b = [V8::splat(0.0); BATCH_NN];
+    for i0 in (0..rots.len()).step_by(8) {
+        let mut m = [[V8::splat(0.0); 3]; 3];
+        for j in 0..8 {
+            let it = (i0 + j).min(last);
+            let r = &rots[it].m;
+            for p in 0..3 {
+                for q in 0..3 {
+                    m[p][q].0[j] = r[p][q];
+                }
+            }
+            let v = &src[it * nn..(it + 1) * nn];
+            for k in 0..nn {
+                a[k].0[j] = v[k];
+            }
+        }
+        // SAFETY: the caller checked the features.
+        unsafe { rotate8(order, &euler_of_lanes(&m), &a, &mut b) };
+        let cnt = 8.min(rots.len() - i0);
+        for j in 0..cnt {
+            let o = &mut dst[(i0 + j) * nn..(i0 + j + 1) * nn];
+            for k in 0..nn {
+                o[k] = b[k].0[j];
+            }
+        }
+    }
+}
+
+/// Portable batch evaluation: [`eval_one`] per direction (coefficient-major output).
+pub(crate) fn eval_batch_portable(order: usize, dirs: &[[f32; 3]], out: &mut [f32]) {
+    let (nn, count) = (order * order, dirs.len());
+    let mut y = [0.0f32; BATCH_NN];
+    for (i, &d) in dirs.iter().enumerate() {
+        eval_one(order, d, &mut y);
+        for k in 0..nn {
+            out[k * count + i] = y[k];
+        }
+    }
+}
+
+/// Portable batch rotation: [`rotate_one`] per item.
+pub(crate) fn rotate_batch_portable(
+    order: usize,
+    rots: &[Rot3<f32>],
+    src: &[f32],
+    dst: &mut [f32],
+) {
+    let nn = order * order;
+    for (i, r) in rots.iter().enumerate() {
+        let span = i * nn..(i + 1) * nn;
+        rotate_one(order, &r.euler_zyz(), &src[span.clone()], &mut dst[span]);
+    }
+}
+
+/// Portable batch shading: [`eval_one`] and a dot product per direction.
+pub(crate) fn shade_batch_portable<const C: usize>(
+    order: usize,
+    coeffs: [&[f32]; C],
+    dirs: &[[f32; 3]],
+    out: &mut [[f32; C]],
+) {
+    let nn = order * order;
+    let mut y = [0.0f32; BATCH_NN];
+    for (&d, o) in dirs.iter().zip(out) {
+        eval_one(order, d, &mut y);
+        for c in 0..C {
+            o[c] = coeffs[c][..nn].iter().zip(&y).map(|(a, b)| a * b).sum();
+        }
+    }
+}
+
+/// Evaluates all `order²` basis functions at every direction, lanes across
+/// directions: **coefficient-major** output, `out[k·count + i] = y_k(dirs[i])`
+/// with `count = dirs.len()` (each basis function's values over the batch are
+/// contiguous, so the eight-lane kernel stores whole registers).
+/// Orders `1 ..=` [`BATCH_MAX_ORDER`].
+///
+/// # Errors
+/// [`ShError::OrderOutOfRange`]; [`ShError::LengthMismatch`] unless
+/// `out.len() == dirs.len() · order²`.
+pub fn eval_batch(order: usize, dirs: &[[f32; 3]], out: &mut [f32]) -> Result<(), ShError> {
+    check_order("order (fast::eval_batch)", order, BATCH_MAX_ORDER)?;
+    check_len(
+        "eval_batch output",
+        order,
+        out.len(),
+        dirs.len() * order * order,
+    )?;
+    if dirs.is_empty() {
+        return Ok(());
+    }
+    #[cfg(target_arch = "x86_64")]
+    if batch_path() == BatchPath::Avx2Fma {
+        // SAFETY: AVX2 and FMA were detected.
+        unsafe { eval_batch_avx2(order, dirs, out) };
+        return Ok(());
+    }
+    eval_batch_portable(order, dirs, out);
+    Ok(())
+}
+
+/// Shades every direction with one coefficient vector (radiance or
+/// irradiance already convolved): `out[i] = Σ_k c_k y_k(dirs[i])`.
+/// Orders `1 ..=` [`BATCH_MAX_ORDER`].
+///
+/// # Errors
+/// [`ShError::OrderOutOfRange`]; [`ShError::LengthMismatch`] unless
+/// `coeffs.len() == order²` and `out.len() == dirs.len()`.
+pub fn shade_batch(
+    order: usize,
+    coeffs: &[f32],
+    dirs: &[[f32; 3]],
+    out: &mut [f32],
+) -> Result<(), ShError> {
+    check_order("order (fast::shade_batch)", order, BATCH_MAX_ORDER)?;
+    check_len(
+        "shade_batch coefficients",
+        order,
+        coeffs.len(),
+        order * order,
+    )?;
+    check_len(
+        "shade_batch output (one per direction)",
+        order,
+        out.len(),
+        dirs.len(),
+    )?;
+    if dirs.is_empty() {
+        return Ok(());
+    }
+    let out1: &mut [[f32; 1]] = out.as_chunks_mut::<1>().0;
+    #[cfg(target_arch = "x86_64")]
+    if batch_path() == BatchPath::Avx2Fma {
+        // SAFETY: AVX2 and FMA were detected.
+        unsafe { shade_batch_avx2::<1>(order, [coeffs], dirs, out1) };
+        return Ok(());
+    }
+    shade_batch_portable::<1>(order, [coeffs], dirs, out1);
+    Ok(())
+}
+
+/// [`shade_batch`] for an RGB coefficient triple: `out[i][c] = Σ_k c_{c,k} y_k(dirs[i])`.
+///
+/// # Errors
+/// As [`shade_batch`], for each channel.
+pub fn shade_rgb_batch(
+    order: usize,
+    coeffs: [&[f32]; 3],
+    dirs: &[[f32; 3]],
+    out: &mut [[f32; 3]],
+) -> Result<(), ShError> {
+    check_order("order (fast::shade_rgb_batch)", order, BATCH_MAX_ORDER)?;
+    for c in coeffs {
+        check_len(
+            "shade_rgb_batch coefficients",
+            order,
+            c.len(),
+            order * order,
+        )?;
+    }
+    check_len(
+        "shade_rgb_batch output (one per direction)",
+        order,
+        out.len(),
+        dirs.len(),
+    )?;
+    if dirs.is_empty() {
+        return Ok(());
+    }
+    #[cfg(target_arch = "x86_64")]
+    if batch_path() == BatchPath::Avx2Fma {
+        // SAFETY: AVX2 and FMA were detected.
+        unsafe { shade_batch_avx2::<3>(order, coeffs, dirs, out) };
+        return Ok(());
+    }
+    shade_batch_portable::<3>(order, coeffs, dirs, out);
+    Ok(())
+}
+
+/// Rotates vector `i` (item-major in `src`) by `rots[i]` into `dst`, exactly
+/// (ZYZ with fixed X matrices, Euler angles per item, no inverse trigonometry).
+/// Orders `1 ..=` [`BATCH_MAX_ORDER`].
+///
+/// # Errors
+/// [`ShError::OrderOutOfRange`]; [`ShError::LengthMismatch`] unless
+/// `src.len() == dst.len() == rots.len() · order²`.
+pub fn rotate_batch(
+    order: usize,
+    rots: &[Rot3<f32>],
+    src: &[f32],
+    dst: &mut [f32],
+) -> Result<(), ShError> {
+    check_order("order (fast::rotate_batch)", order, BATCH_MAX_ORDER)?;
+    let want = rots.len() * order * order;
+    check_len("rotate_batch src", order, src.len(), want)?;
+    check_len("rotate_batch dst", order, dst.len(), want)?;
+    if rots.is_empty() {
+        return Ok(());
+    }
+    #[cfg(target_arch = "x86_64")]
+    if batch_path() == BatchPath::Avx2Fma {
+        // SAFETY: AVX2 and FMA were detected.
+        unsafe { rotate_batch_avx2(order, rots, src, dst) };
+        return Ok(());
+    }
+    rotate_batch_portable(order, rots, src, dst);
+    Ok(())
+}
+
+const _: () = assert!(KERNEL_EVAL_MAX_ORDER <= MAX_ORDER);
+
+#[cfg(test)]
+#[path = "fast_tests.rs"]
+mod tests;
