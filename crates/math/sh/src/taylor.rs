@@ -542,6 +542,13 @@ impl<T: Real> TaylorRotation<T> {
     }
 }
 
+/// Whether the CPU has AVX2 and FMA (std caches the answer).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn avx2_fma() -> bool {
+    std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+}
+
 /// `(cos mθ, sin mθ)` for `m = 0 … order−1` by the Chebyshev recurrence
 /// (paper Appendix C).
 #[inline(always)]
@@ -585,6 +592,12 @@ impl<T: Real> TaylorRotation<T> {
             }
             return false;
         }
+        #[cfg(target_arch = "x86_64")]
+        if n == 10 && avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA (checked at run time).
+            unsafe { self.rgb_fixed_avx2::<10>(&e, beta, src, dst, scratch) };
+            return true;
+        }
         match n {
             6 => self.rgb_fixed::<6>(&e, beta, src, dst, scratch),
             10 => self.rgb_fixed::<10>(&e, beta, src, dst, scratch),
@@ -595,6 +608,21 @@ impl<T: Real> TaylorRotation<T> {
             }
         }
         true
+    }
+
+    /// [`rgb_fixed`](Self::rgb_fixed) compiled for AVX2 + FMA (run-time
+    /// dispatch; same arithmetic, no contraction, so the same results).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn rgb_fixed_avx2<const N: usize>(
+        &self,
+        e: &EulerZyz<T>,
+        beta: T,
+        src: &[T],
+        dst: &mut [T],
+        t: &mut [T],
+    ) {
+        self.rgb_fixed::<N>(e, beta, src, dst, t);
     }
 
     /// [`apply_rgb`](Self::apply_rgb)'s Taylor path with the order a
@@ -648,8 +676,12 @@ impl<T: Real> TaylorRotation<T> {
         }
         for c in 0..3 {
             let r = c * nn..(c + 1) * nn;
-            self.taylor
-                .apply_dyn(nn, self.kind, beta, &t[r.clone()], &mut dst[r]);
+            if nn == 1 {
+                dst[c] = t[c];
+            } else {
+                self.taylor
+                    .apply_dyn(nn, self.kind, beta, &t[r.clone()], &mut dst[r]);
+            }
         }
         for c in 0..3 {
             let y = &mut dst[c * nn..(c + 1) * nn];
