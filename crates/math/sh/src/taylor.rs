@@ -36,6 +36,12 @@
 //! the conjugated diagonal differs from `diag(½R'')` only on the pairs
 //! `(l, ±1)` (terms in `cos 2γ, sin 2γ`) — one Z rotation fewer, same result
 //! to rounding (tested against the three-step form).
+//!
+//! For RGB data (three coefficient vectors under one rotation, as in radiance
+//! caching, §4.2) [`TaylorRotation::apply_rgb`] splits the rotation, finds β
+//! and the multiple angles of α and γ once, and sweeps the three channels
+//! through the three steps with the order a compile-time constant at the
+//! paper's orders 6 and 10 (portable code, no allocation).
 
 use crate::rotation::{EulerZyz, Rot3, ZyzRotation, rotate_z, rotate_z_in_place};
 use crate::{MAX_ORDER, Real, ShError, check_order};
@@ -536,6 +542,161 @@ impl<T: Real> TaylorRotation<T> {
     }
 }
 
+/// Whether the CPU has AVX2 and FMA (std caches the answer).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn avx2_fma() -> bool {
+    std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+}
+
+/// `(cos mθ, sin mθ)` for `m = 0 … order−1` by the Chebyshev recurrence
+/// (paper Appendix C).
+#[inline(always)]
+fn multiple_angles<T: Real>(order: usize, c1: T, s1: T, c: &mut [T], s: &mut [T]) {
+    c[0] = T::ONE;
+    s[0] = T::ZERO;
+    if order > 1 {
+        c[1] = c1;
+        s[1] = s1;
+    }
+    let two_c = c1 + c1;
+    for m in 2..order {
+        c[m] = two_c * c[m - 1] - c[m - 2];
+        s[m] = two_c * s[m - 1] - s[m - 2];
+    }
+}
+
+impl<T: Real> TaylorRotation<T> {
+    /// Rotates three coefficient vectors (RGB, channel-major: `src[c·n² + i]`,
+    /// `3·n²` entries each for `src` and `dst`) by one rotation: the ZYZ split,
+    /// β, and the multiple angles of α and γ are computed once and the three
+    /// channels go through `R_z(α) R̃_y(β) R_z(γ)` side by side, band by band,
+    /// with no allocation. `scratch` needs `3·n²` entries. Same rotation as
+    /// [`apply_euler`](Self::apply_euler) on each channel (tested); returns
+    /// `false` when β exceeded `β_lim` and the exact ZYZ rotation was used.
+    ///
+    /// # Panics
+    /// If a buffer is shorter than `3·order²`.
+    #[inline]
+    pub fn apply_rgb(&self, rot: &Rot3<T>, src: &[T], dst: &mut [T], scratch: &mut [T]) -> bool {
+        let n = self.taylor.order;
+        let nn = n * n;
+        let e = rot.euler_zyz();
+        let beta = taylor_beta(e.sin_beta, e.cos_beta);
+        let (src, dst, scratch) = (&src[..3 * nn], &mut dst[..3 * nn], &mut scratch[..3 * nn]);
+        if beta > self.beta_lim {
+            for c in 0..3 {
+                let r = c * nn..(c + 1) * nn;
+                self.exact
+                    .apply_euler(&e, &src[r.clone()], &mut dst[r.clone()], &mut scratch[r]);
+            }
+            return false;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if n == 10 && avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA (checked at run time).
+            unsafe { self.rgb_fixed_avx2::<10>(&e, beta, src, dst, scratch) };
+            return true;
+        }
+        match n {
+            6 => self.rgb_fixed::<6>(&e, beta, src, dst, scratch),
+            10 => self.rgb_fixed::<10>(&e, beta, src, dst, scratch),
+            _ => {
+                let mut a = [[T::ZERO; MAX_ORDER]; 4];
+                let [cg, sg, ca, sa] = &mut a;
+                self.rgb_kernel(n, &e, beta, [cg, sg, ca, sa], src, dst, scratch);
+            }
+        }
+        true
+    }
+
+    /// [`rgb_fixed`](Self::rgb_fixed) compiled for AVX2 + FMA (run-time
+    /// dispatch; same arithmetic, no contraction, so the same results).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn rgb_fixed_avx2<const N: usize>(
+        &self,
+        e: &EulerZyz<T>,
+        beta: T,
+        src: &[T],
+        dst: &mut [T],
+        t: &mut [T],
+    ) {
+        self.rgb_fixed::<N>(e, beta, src, dst, t);
+    }
+
+    /// [`apply_rgb`](Self::apply_rgb)'s Taylor path with the order a
+    /// constant, so the band loops unroll (the paper's Table 1 orders).
+    #[inline(always)]
+    fn rgb_fixed<const N: usize>(
+        &self,
+        e: &EulerZyz<T>,
+        beta: T,
+        src: &[T],
+        dst: &mut [T],
+        t: &mut [T],
+    ) {
+        let mut a = [[T::ZERO; N]; 4];
+        let [cg, sg, ca, sa] = &mut a;
+        self.rgb_kernel(N, e, beta, [cg, sg, ca, sa], src, dst, t);
+    }
+
+    /// The three steps for `n` bands over three channels: `t = R_z(γ) src`,
+    /// `dst = R̃_y(β) t` (flat sweeps, [`TaylorY`]), `dst = R_z(α) dst` in
+    /// place by `(l, ±m)` pairs; the multiple angles of α and γ once for all
+    /// three channels (`angles` = `cos mγ, sin mγ, cos mα, sin mα`, `n`
+    /// entries each).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn rgb_kernel(
+        &self,
+        n: usize,
+        e: &EulerZyz<T>,
+        beta: T,
+        angles: [&mut [T]; 4],
+        src: &[T],
+        dst: &mut [T],
+        t: &mut [T],
+    ) {
+        let nn = n * n;
+        let [cg, sg, ca, sa] = angles;
+        multiple_angles(n, e.cos_gamma, e.sin_gamma, cg, sg);
+        multiple_angles(n, e.cos_alpha, e.sin_alpha, ca, sa);
+        for c in 0..3 {
+            let (x, y) = (&src[c * nn..(c + 1) * nn], &mut t[c * nn..(c + 1) * nn]);
+            for l in 0..n {
+                let b = l * (l + 1);
+                y[b] = x[b];
+                for m in 1..=l {
+                    let (p, q) = (x[b + m], x[b - m]);
+                    y[b + m] = p * cg[m] - q * sg[m];
+                    y[b - m] = q * cg[m] + p * sg[m];
+                }
+            }
+        }
+        for c in 0..3 {
+            let r = c * nn..(c + 1) * nn;
+            if nn == 1 {
+                dst[c] = t[c];
+            } else {
+                self.taylor
+                    .apply_dyn(nn, self.kind, beta, &t[r.clone()], &mut dst[r]);
+            }
+        }
+        for c in 0..3 {
+            let y = &mut dst[c * nn..(c + 1) * nn];
+            for l in 1..n {
+                let b = l * (l + 1);
+                for m in 1..=l {
+                    let (p, q) = (y[b + m], y[b - m]);
+                    y[b + m] = p * ca[m] - q * sa[m];
+                    y[b - m] = q * ca[m] + p * sa[m];
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -780,6 +941,51 @@ mod tests {
                             assert!(err < tol, "{kind:?} n={order} β={beta} lim={lim}: {err:e}");
                         }
                     }
+                }
+            }
+        }
+    }
+
+    /// The RGB entry point equals three single-channel rotations, on both
+    /// sides of β_lim, for every expansion and a spread of orders.
+    #[test]
+    fn apply_rgb_matches_three_single_rotations() {
+        for order in [1usize, 2, 3, 6, 7, 10] {
+            let nn = order * order;
+            let src = rand_vec(order as u64 + 3, 3 * nn);
+            let (mut got, mut want) = (vec![0.0; 3 * nn], vec![0.0; 3 * nn]);
+            let mut scr = vec![0.0; 3 * nn];
+            for kind in [
+                TaylorOrder::First,
+                TaylorOrder::OneAndHalf,
+                TaylorOrder::Second,
+            ] {
+                let tr = TaylorRotation::<f64>::new(order, kind, 0.3).unwrap();
+                for (i, beta) in [0.0, 1e-3, 0.2, 0.29, 0.31, 1.2].into_iter().enumerate() {
+                    let rot = Rot3::from_euler_zyz(&EulerZyz::from_angles(
+                        0.4 - 0.7 * i as f64,
+                        beta,
+                        1.1 + 0.3 * i as f64,
+                    ));
+                    let used = tr.apply_rgb(&rot, &src, &mut got, &mut scr);
+                    let mut used1 = true;
+                    for c in 0..3 {
+                        let r = c * nn..(c + 1) * nn;
+                        used1 &= tr.apply_euler(
+                            &rot.euler_zyz(),
+                            &src[r.clone()],
+                            &mut want[r],
+                            &mut scr[..nn],
+                        );
+                    }
+                    assert_eq!(used, used1, "{kind:?} n={order} β={beta}");
+                    assert_eq!(used, beta <= 0.3);
+                    let err = got
+                        .iter()
+                        .zip(&want)
+                        .map(|(a, b)| (a - b).abs())
+                        .fold(0.0, f64::max);
+                    assert!(err < 1e-12, "{kind:?} n={order} β={beta}: {err:e}");
                 }
             }
         }

@@ -16,7 +16,8 @@ pub struct Aligner {
     matrix: ShRotation<f32>,
     scratch: Vec<f32>,
     /// `relight_sh`'s fused matrix-form Taylor kernels run here (AVX-512F):
-    /// hand them the matrix; elsewhere decompose once for all three channels.
+    /// hand them the matrix per channel; elsewhere the RGB Taylor rotation
+    /// (one decomposition for all three channels).
     fused: bool,
 }
 
@@ -40,7 +41,7 @@ impl Aligner {
             zyz: ZyzRotation::new(order)?,
             ivanic: IvanicRuedenberg::new(order)?,
             matrix: ShRotation::identity(order)?,
-            scratch: vec![0.0; order * order],
+            scratch: vec![0.0; 3 * order * order],
             fused: avx512f(),
         })
     }
@@ -68,15 +69,9 @@ impl Aligner {
                         );
                     }
                 } else {
-                    let e = rot.euler_zyz();
-                    for c in 0..3 {
-                        exact |= !t.apply_euler(
-                            &e,
-                            &src[c * nn..(c + 1) * nn],
-                            &mut dst[c * nn..(c + 1) * nn],
-                            &mut self.scratch,
-                        );
-                    }
+                    // One ZYZ split and one set of multiple angles for the
+                    // three channels.
+                    exact = !t.apply_rgb(rot, src, dst, &mut self.scratch);
                 }
                 exact
             }

@@ -117,6 +117,34 @@ pub fn render_radiance_cache(
     capture_rotations: usize,
     progress: &dyn Progress,
 ) -> Result<CacheImage, RadCacheError> {
+    render_radiance_cache_with(
+        scene,
+        camera,
+        opts,
+        tables,
+        capture_rotations,
+        None,
+        progress,
+    )
+}
+
+/// [`render_radiance_cache`], optionally with the records of an earlier
+/// render of the same scene, camera and options but for the rotation
+/// (`reuse`): record creation is then skipped, so interpolation alone differs
+/// — how the verify and bench compare rotation methods on one record set
+/// (the paper's Table 1 times the interpolation only).
+///
+/// # Errors
+/// A bad option, a scene the GI reference refuses, cancellation.
+pub fn render_radiance_cache_with(
+    scene: &Scene,
+    camera: &Camera,
+    opts: &RadianceCacheOptions,
+    tables: &HashMap<usize, Arc<BrdfSh>>,
+    capture_rotations: usize,
+    reuse: Option<&Arc<Vec<Record>>>,
+    progress: &dyn Progress,
+) -> Result<CacheImage, RadCacheError> {
     crate::validate(opts)?;
     let n = opts.order;
     let nn = n * n;
@@ -191,7 +219,18 @@ pub fn render_radiance_cache(
     let t_rec = Instant::now();
     let mut stats = CacheStats::default();
     let side = opts.record_rays_side as usize;
-    for stride in [16usize, 8, 4, 2, 1, 0] {
+    if let Some(prev) = reuse {
+        records = prev.as_ref().clone();
+        for (i, rec) in records.iter().enumerate() {
+            tree.insert(i as u32, rec.p, a * rec.r);
+        }
+    }
+    let strides: &[usize] = if reuse.is_some() {
+        &[]
+    } else {
+        &[16, 8, 4, 2, 1, 0]
+    };
+    for &stride in strides {
         loop {
             progress.check()?;
             let misses: Vec<usize> = (0..queries.len())
@@ -342,14 +381,14 @@ pub fn render_radiance_cache(
 
 /// `1 / w_i(p) = ‖p − p_i‖ / R_i + √(1 − n·n_i)` (Křivánek 2005 eq. 3).
 #[inline]
-fn error_of(r: &Record, p: Vec3, n: Vec3) -> f32 {
+pub(crate) fn error_of(r: &Record, p: Vec3, n: Vec3) -> f32 {
     (p - r.p).length() / r.r + (1.0 - n.dot(r.frame.z)).max(0.0).sqrt()
 }
 
 /// The rotation taking record-frame directions to point-frame directions:
 /// `R_jk = g_j · f_k`.
 #[inline]
-fn frame_rotation(g: &Frame, f: &Frame) -> Rot3<f32> {
+pub(crate) fn frame_rotation(g: &Frame, f: &Frame) -> Rot3<f32> {
     let (ga, fa) = ([g.x, g.y, g.z], [f.x, f.y, f.z]);
     Rot3 {
         m: std::array::from_fn(|j| std::array::from_fn(|k| ga[j].dot(fa[k]))),

@@ -28,9 +28,20 @@
 //! * **Interpolation**: `λ(p) = Σ_S w_i R_i λ_i / Σ_S w_i`, with `R_i` the
 //!   aligning rotation from record frame to `Frame::from_z(n)` at `p`, by
 //!   [`RotationMethod`] (ignore, Taylor 1/1.5/2 with the exact switch above
-//!   `β_lim = 1.25 a`, exact ZYZ, Ivanic–Ruedenberg). Because `S` keeps
-//!   `√(1 − n·n_i) < a`, the Y angle β between the normals is small
-//!   (`β ≲ √2·a`), which is where the Taylor rotation holds.
+//!   `β_lim = 1.25 a`, exact ZYZ, Ivanic–Ruedenberg). The Y angle β of the
+//!   ZYZ split of `R_i` is the angle between `n_i` and `n`; because `S`
+//!   keeps `√(1 − n·n_i) < a`, it is small (`β < acos(1 − a²) ≈ √2·a`),
+//!   which is where the Taylor rotation holds. It passes `β_lim` only where
+//!   the position term leaves room: on a surface of curvature radius `r`,
+//!   `1/w_i ≈ β (r/R_i + 1/√2)`, so only where `r < 0.093 R_i` (Appendix B
+//!   chose `β_lim` for `r/R_i = 0.1`); there the share of exact rotations is
+//!   `≈ 1 − (1.25 (r/R_i + 1/√2))²` whatever `a` is (checked by
+//!   [`verify::exact_share_on_sphere`]). The verify scene's surfaces have
+//!   `r ≥ 0.1 R_i` almost everywhere (`R_i` is at most half the scene's
+//!   size), so its renders take the exact path a few times in 10⁴.
+//! * **Rotation cost**: one `R_i` per record × point, applied to the three
+//!   channels at once ([`relight_sh::taylor::TaylorRotation::apply_rgb`]:
+//!   one ZYZ split and one set of multiple angles per rotation).
 //! * **Shading**: one exact Z rotation by `−φ_o` puts the view in the `xz`
 //!   plane, then `L_ind = Σ_k λ_k ρ_k(θ_o)` with the BRDF's SH coefficients
 //!   tabulated over `θ_o` ([`brdf_sh`]; blends mix the two tables).
@@ -48,7 +59,9 @@ mod method;
 mod options;
 pub mod verify;
 
-pub use cache::{CacheImage, CacheStats, Record, brdf_tables, render_radiance_cache};
+pub use cache::{
+    CacheImage, CacheStats, Record, brdf_tables, render_radiance_cache, render_radiance_cache_with,
+};
 pub use method::RadianceCacheRelighter;
 pub use options::{RadianceCacheOptions, RotationMethod};
 

@@ -5,7 +5,8 @@ use glam::Vec3;
 use relight_radcache::index::Octree;
 use relight_radcache::verify::{glossy_scene, relative_rms};
 use relight_radcache::{
-    RadianceCacheOptions, RotationMethod, brdf_tables, render_radiance_cache, validate,
+    RadianceCacheOptions, RotationMethod, brdf_tables, render_radiance_cache,
+    render_radiance_cache_with, validate,
 };
 use relight_render::reference::{GiOptions, render_gi_reference};
 use relight_render::{NoProgress, ReferenceOptions};
@@ -174,4 +175,38 @@ fn images_do_not_depend_on_the_thread_count() {
     let (a, b) = (run(1), run(3));
     assert_eq!(a.stats.records, b.stats.records);
     assert_eq!(a.indirect.pixels, b.indirect.pixels);
+}
+
+#[test]
+fn reused_records_reproduce_the_render() {
+    let scene = glossy_scene(16, 12);
+    let tables = brdf_tables(&scene, 6);
+    let o = opts(0.3, RotationMethod::Zyz);
+    let first = render_radiance_cache(&scene, &scene.camera, &o, &tables, 0, &NoProgress).unwrap();
+    let again = render_radiance_cache_with(
+        &scene,
+        &scene.camera,
+        &o,
+        &tables,
+        0,
+        Some(&first.records),
+        &NoProgress,
+    )
+    .unwrap();
+    assert_eq!(again.stats.records, first.stats.records);
+    assert_eq!(again.stats.wasted_records, 0);
+    assert_eq!(again.indirect.pixels, first.indirect.pixels);
+}
+
+#[test]
+fn exact_rotation_share_is_constant_across_a_on_a_curved_surface() {
+    use relight_radcache::verify::exact_share_on_sphere;
+    let curved: Vec<f64> = [0.4, 0.1]
+        .iter()
+        .map(|&a| exact_share_on_sphere(0.02, a, 6).unwrap())
+        .collect();
+    eprintln!("share at r/R = 0.02, a = 0.4, 0.1: {curved:?}");
+    assert!(curved.iter().all(|&s| s > 0.05), "{curved:?}");
+    assert!(curved[0] / curved[1] < 1.25 && curved[1] / curved[0] < 1.25);
+    assert_eq!(exact_share_on_sphere(0.15, 0.2, 6).unwrap(), 0.0);
 }
