@@ -11,7 +11,9 @@
 //!   `metallicRoughness` layout: G = perceptual roughness `√α′` (glTF, Bevy
 //!   and three.js all square it: `α = roughness²`), B = metalness 0, R = 1.
 //!   Beckmann's `α′` is written the same way (no engine above ships Beckmann).
-//! * Blinn–Phong: `exponent_k.exr`, the exponent `s′` in all three channels, f32.
+//! * Blinn–Phong: `exponent_k.exr`, f32: R = B = the exponent `s′`, G = the
+//!   gain a normalized Blinn–Phong of exponent `s′` needs
+//!   (`relight_ndf::export::blinn_gain`, `(s′/s) c(s)/c(s′)`).
 //! * With `--lobes J`: `lobes_k_j.exr`, RGBA f32 `(α, α A(κ) μ)` of slot `j`
 //!   (linear filtering of these is the moment-matching merge; `μ = m/|m|`,
 //!   `A(κ) = |m|/α`).
@@ -215,7 +217,14 @@ fn write_chain(
         })?;
         match chain.brdf {
             NdfBrdf::Blinn { .. } => {
-                let px: Vec<Vec3> = l.roughness.iter().map(|s| Vec3::splat(*s)).collect();
+                let NdfBrdf::Blinn { s } = chain.brdf else {
+                    unreachable!("matched Blinn")
+                };
+                let px: Vec<Vec3> = l
+                    .roughness
+                    .iter()
+                    .map(|sp| Vec3::new(*sp, relight_ndf::export::blinn_gain(s, *sp), *sp))
+                    .collect();
                 relight_assets::write_exr(&dir.join(&rn), l.width, l.height, &px)?;
             }
             _ => write_png16(&dir.join(&rn), l.width, l.height, |i| {
@@ -246,7 +255,7 @@ fn write_chain(
         conventions: [
             "normal_k.png: 16-bit RGB, rgb = n/2 + 1/2, tangent space, green up (+Y bitangent; glTF 2.0, Bevy, three.js); flip green for DirectX-style engines",
             "roughness_k.png (ggx, beckmann): glTF metallicRoughness layout, G = perceptual roughness sqrt(alpha'), B = metalness 0, R = 1; glTF, Bevy and three.js use alpha = roughness^2",
-            "exponent_k.exr (blinn): the Blinn-Phong exponent s' in RGB, f32",
+            "exponent_k.exr (blinn): f32, R = B = the Blinn-Phong exponent s', G = the gain (s'/s) c(s)/c(s') a normalized Blinn-Phong of exponent s' needs",
             "lobes_k_j.exr: RGBA f32 (alpha, alpha A(kappa) mu) of vMF slot j; linear filtering is the moment-matching merge",
             "level 0 is the input size; level k is ceil(size / 2^k), down to 1x1",
         ],

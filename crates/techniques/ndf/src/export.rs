@@ -75,6 +75,17 @@ pub fn widened(brdf: NdfBrdf, inv_kappa: f32) -> NdfBrdf {
     }
 }
 
+/// The gain an engine's *normalized* Blinn–Phong of exponent `s′` needs to
+/// equal the widened lobe: the convolution keeps the amplitude `(s′/s)·c(s)`
+/// ([`crate::effective::shade_lobe`]), a normalized lobe has `c(s′)`, so the
+/// gain is `(s′/s) c(s) / c(s′)` (≈ `s′/(s′ + 6)` for large `s`; 1 at
+/// level 0). Without it a widened lobe is too bright by `1/gain`.
+#[must_use]
+pub fn blinn_gain(s: f32, s_prime: f32) -> f32 {
+    use relight_brdf::phong::blinn_phong_normalization as c;
+    (s_prime / s) * c(s) / c(s_prime)
+}
+
 /// The map's value of a widened BRDF (`α′` or `s′`).
 fn parameter(b: NdfBrdf) -> f32 {
     match b {
@@ -149,7 +160,8 @@ pub struct LevelError {
 /// averaged over the fine texels under the texel, 8 light × 8 view
 /// directions at elevations 15°–75°), on up to `texels_per_level` texels
 /// spread over the level. The single-lobe chain is shaded as an engine
-/// would: the BRDF at the stored normal with the stored roughness.
+/// would: the BRDF at the stored normal with the stored roughness (Blinn
+/// times [`blinn_gain`]).
 #[must_use]
 pub fn level_errors(
     map: &NormalMap,
@@ -188,8 +200,12 @@ pub fn level_errors(
                             .map(|(f, w)| w * shade_lobe(brdf, *f, 0.0, wo, wi))
                             .sum::<f32>()
                             / total;
+                        let gain = match (brdf, engine) {
+                            (NdfBrdf::Blinn { s }, NdfBrdf::Blinn { s: sp }) => blinn_gain(s, sp),
+                            _ => 1.0,
+                        };
                         let reps = [
-                            shade_lobe(engine, n, 0.0, wo, wi),
+                            gain * shade_lobe(engine, n, 0.0, wo, wi),
                             shade_mixture(brdf, &lobes, wo, wi),
                             shade_baseline(brdf, Baseline::Normalized, m, wo, wi),
                             shade_baseline(brdf, Baseline::Toksvig, m, wo, wi),
