@@ -75,6 +75,9 @@ pub enum Command {
     /// The wavelet bake cache: list its entries or delete them.
     #[command(subcommand)]
     Cache(CacheCommand),
+    /// Normal-map filtering tools: `ndf bake` writes an engine-ready MIP chain.
+    #[command(subcommand)]
+    Ndf(crate::ndf_bake::NdfCommand),
 }
 
 /// `relight cache list|clear` (crate::cache).

@@ -49,6 +49,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Verify(a) => verify(a, &bar),
         Command::Spheres(c) => crate::shexp::spheres(c),
         Command::Cache(c) => crate::cache::run(c),
+        Command::Ndf(c) => crate::ndf_bake::run(c),
     }
 }
 

@@ -62,6 +62,37 @@ fn check_size(width: usize, height: usize, given: usize) -> Result<(), TextureEr
 pub fn bilinear_taps(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4] {
     let fx = uv.x * width as f32 - 0.5;
     let fy = uv.y * height as f32 - 0.5;
+    // Fast path (the same taps, without `floorf` calls or eight 64-bit
+    // divisions): below 2^23 truncation is exact and `x0 + 1` representable,
+    // so `wrap(x0 + 1) = (wrap(x0) + 1) mod n`. NaN fails the test.
+    const EXACT: f32 = 8_388_608.0;
+    if fx.abs() < EXACT && fy.abs() < EXACT {
+        let floor = |v: f32| {
+            let i = v as i64;
+            if (i as f32) > v { i - 1 } else { i }
+        };
+        let wrap_pair = |i: i64, n: usize| -> (usize, usize) {
+            let n_i = n as i64;
+            let a = if (0..n_i).contains(&i) {
+                i as usize
+            } else if n.is_power_of_two() {
+                (i & (n_i - 1)) as usize
+            } else {
+                i.rem_euclid(n_i) as usize
+            };
+            (a, if a + 1 == n { 0 } else { a + 1 })
+        };
+        let (ix, iy) = (floor(fx), floor(fy));
+        let (tx, ty) = (fx - ix as f32, fy - iy as f32);
+        let (xa, xb) = wrap_pair(ix, width);
+        let (ya, yb) = wrap_pair(iy, height);
+        return [
+            (ya * width + xa, (1.0 - tx) * (1.0 - ty)),
+            (ya * width + xb, tx * (1.0 - ty)),
+            (yb * width + xa, (1.0 - tx) * ty),
+            (yb * width + xb, tx * ty),
+        ];
+    }
     let (x0, y0) = (fx.floor(), fy.floor());
     let (tx, ty) = if fx.is_finite() && fy.is_finite() {
         (fx - x0, fy - y0)
@@ -248,6 +279,41 @@ impl NormalMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fast_bilinear_taps_match_the_floor_and_modulo_definition() {
+        let reference = |width: usize, height: usize, uv: Vec2| {
+            let fx = uv.x * width as f32 - 0.5;
+            let fy = uv.y * height as f32 - 0.5;
+            let (x0, y0) = (fx.floor(), fy.floor());
+            let (tx, ty) = (fx - x0, fy - y0);
+            let wrap = |v: f32, n: usize| (((v as i64 % n as i64) + n as i64) % n as i64) as usize;
+            let (xa, xb) = (wrap(x0, width), wrap(x0 + 1.0, width));
+            let (ya, yb) = (wrap(y0, height), wrap(y0 + 1.0, height));
+            [
+                (ya * width + xa, (1.0 - tx) * (1.0 - ty)),
+                (ya * width + xb, tx * (1.0 - ty)),
+                (yb * width + xa, (1.0 - tx) * ty),
+                (yb * width + xb, tx * ty),
+            ]
+        };
+        for (w, h) in [(1, 1), (4, 8), (5, 3), (512, 512)] {
+            for i in 0..400 {
+                let t = i as f32 * 0.618_034;
+                let uv = Vec2::new((t.fract() - 0.5) * 37.0, (t * 1.7).sin() * 23.0 + 0.25);
+                assert_eq!(
+                    bilinear_taps(w, h, uv),
+                    reference(w, h, uv),
+                    "{w}×{h} at {uv}"
+                );
+            }
+            assert_eq!(
+                bilinear_taps(w, h, Vec2::new(0.0, -0.0)),
+                reference(w, h, Vec2::ZERO)
+            );
+        }
+        assert_eq!(bilinear_taps(4, 4, Vec2::NAN)[0], (0, 1.0));
+    }
 
     #[test]
     fn flat_map_leaves_normal_unchanged_and_bad_input_errors() {

@@ -193,6 +193,25 @@ fn microfacet(
 #[inline]
 #[must_use]
 pub fn shade_mixture(brdf: NdfBrdf, lobes: &[ShadeLobe], wo: Vec3, wi: Vec3) -> f32 {
+    if let NdfBrdf::Blinn { s } = brdf {
+        // `shade_lobe` per lobe, with the half vector and the normalization
+        // (an f64 `exp2`) hoisted out of the lobe loop.
+        let Some(h) = (wo + wi).try_normalize() else {
+            return 0.0;
+        };
+        let c = blinn_phong_normalization(s);
+        return lobes
+            .iter()
+            .map(|l| {
+                let ci = l.mu.dot(wi);
+                if l.mu.dot(wo) <= 0.0 || ci <= 0.0 {
+                    return 0.0;
+                }
+                let sp = s / (1.0 + s * l.inv_kappa);
+                l.alpha * c * (sp / s) * l.mu.dot(h).max(0.0).powf(sp) * ci
+            })
+            .sum();
+    }
     lobes
         .iter()
         .map(|l| l.alpha * shade_lobe(brdf, l.mu, l.inv_kappa, wo, wi))

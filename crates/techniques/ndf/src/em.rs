@@ -156,26 +156,46 @@ pub fn fit_em(samples: &[DVec3], weights: &[f64], lobes: &mut [Lobe], opts: &EmO
                 }
             })
             .collect();
+        // `ll = Σ w (m + ln s)`: the `ln s` of unit-weight samples are
+        // summed as the log of their product (s ∈ [1, J], flushed before
+        // it could overflow), one `ln` per ~100 samples instead of one each.
         let mut ll = 0.0;
+        let mut prod = 1.0f64;
+        let kmu: Vec<DVec3> = lobes.iter().map(|l| l.vmf.mu * l.vmf.kappa).collect();
         for (x, &w) in samples.iter().zip(weights) {
             let mut m = f64::NEG_INFINITY;
             for k in 0..j {
-                logp[k] = consts[k] + lobes[k].vmf.kappa * lobes[k].vmf.mu.dot(*x);
+                logp[k] = consts[k] + kmu[k].dot(*x);
                 m = m.max(logp[k]);
             }
+            // Terms below e^−60 of the largest (1) are 0 to f64 in the sum;
+            // skipping their `exp` changes nothing but the cost.
             let mut s = 0.0;
             for p in logp.iter_mut() {
-                *p = (*p - m).exp();
+                let d = *p - m;
+                *p = if d > -60.0 { d.exp() } else { 0.0 };
                 s += *p;
             }
-            ll += w * (m + s.ln());
+            ll += w * m;
+            if w == 1.0 {
+                prod *= s;
+                if prod > 1e250 {
+                    ll += prod.ln();
+                    prod = 1.0;
+                }
+            } else {
+                ll += w * s.ln();
+            }
             let inv = w / s;
             for k in 0..j {
                 let r = logp[k] * inv;
-                sum_w[k] += r;
-                sum_x[k] += *x * r;
+                if r > 0.0 {
+                    sum_w[k] += r;
+                    sum_x[k] += *x * r;
+                }
             }
         }
+        ll += prod.ln();
         let ll = ll / total;
         trace.push(ll);
         if it == opts.max_iter || (it > 0 && ll - prev <= opts.tol) {

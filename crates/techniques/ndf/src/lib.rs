@@ -33,6 +33,7 @@
 pub mod bench;
 pub mod effective;
 pub mod em;
+pub mod export;
 pub mod method;
 pub mod pyramid;
 pub mod sh_ndf;

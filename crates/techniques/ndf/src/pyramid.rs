@@ -26,6 +26,9 @@ use crate::vmf::{KAPPA_MAX, Vmf, mean_resultant};
 use glam::{DVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
+/// The first bytes of [`VmfPyramid::to_bytes`].
+const CACHE_MAGIC: &[u8; 8] = b"RLVMF001";
+
 /// Largest number of lobes per texel.
 pub const MAX_LOBES: usize = 8;
 
@@ -337,6 +340,77 @@ impl VmfPyramid {
         let l = &self.levels[k];
         let i = y * l.width + x;
         &l.lobes[i * self.lobes..(i + 1) * self.lobes]
+    }
+
+    /// The pyramid as bytes (the disk cache's format, little-endian): the
+    /// magic `RLVMF001`, `J` and the level count as u32, then per level its
+    /// width and height (u32) and `width·height·J` packed lobes (4 × f32).
+    #[must_use]
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(16 + self.bytes() as usize + 8 * self.levels.len());
+        out.extend_from_slice(CACHE_MAGIC);
+        out.extend_from_slice(&(self.lobes as u32).to_le_bytes());
+        out.extend_from_slice(&(self.levels.len() as u32).to_le_bytes());
+        for l in &self.levels {
+            out.extend_from_slice(&(l.width as u32).to_le_bytes());
+            out.extend_from_slice(&(l.height as u32).to_le_bytes());
+            for v in &l.lobes {
+                for c in v.to_array() {
+                    out.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+        }
+        out
+    }
+
+    /// Reads [`Self::to_bytes`]; `None` for anything else (wrong magic,
+    /// sizes that do not add up, a chain that does not halve to 1 × 1).
+    #[must_use]
+    pub fn from_bytes(b: &[u8]) -> Option<Self> {
+        let mut at = 0usize;
+        let mut take = |n: usize| -> Option<&[u8]> {
+            let s = b.get(at..at.checked_add(n)?)?;
+            at += n;
+            Some(s)
+        };
+        if take(8)? != CACHE_MAGIC {
+            return None;
+        }
+        let rd = |s: &[u8]| u32::from_le_bytes([s[0], s[1], s[2], s[3]]) as usize;
+        let j = rd(take(4)?);
+        let nl = rd(take(4)?);
+        if !(1..=MAX_LOBES).contains(&j) || nl == 0 || nl > 40 {
+            return None;
+        }
+        let mut levels = Vec::with_capacity(nl);
+        for k in 0..nl {
+            let (w, h) = (rd(take(4)?), rd(take(4)?));
+            let n = w.checked_mul(h)?.checked_mul(j)?;
+            let raw = take(n.checked_mul(16)?)?;
+            let lobes = raw
+                .chunks_exact(16)
+                .map(|c| {
+                    let f = |i: usize| f32::from_le_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]);
+                    Vec4::new(f(0), f(4), f(8), f(12))
+                })
+                .collect();
+            if k > 0 {
+                let first: &VmfLevel = &levels[0];
+                if level_size(first.width, first.height, k) != (w, h) {
+                    return None;
+                }
+            }
+            levels.push(VmfLevel {
+                width: w,
+                height: h,
+                lobes,
+            });
+        }
+        let l0: &VmfLevel = &levels[0];
+        if level_count(l0.width, l0.height) != nl || at != b.len() {
+            return None;
+        }
+        Some(Self { lobes: j, levels })
     }
 
     /// Bytes over the whole chain.

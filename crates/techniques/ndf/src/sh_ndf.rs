@@ -97,6 +97,12 @@ impl ShNdfPyramid {
     /// written into `out` (`order²`). Linear filtering of the coefficients is
     /// exact filtering of the NDF.
     pub fn sample(&self, uv: glam::Vec2, lod: f32, out: &mut [f32]) {
+        if self.order == 3 && out.len() >= 9 {
+            // Lambert's order, with fixed-size loops the compiler unrolls.
+            let o9 = self.sample9(uv, lod);
+            out[..9].copy_from_slice(&o9);
+            return;
+        }
         let nn = self.order * self.order;
         let out = &mut out[..nn];
         out.fill(0.0);
@@ -118,6 +124,31 @@ impl ShNdfPyramid {
         if t > 0.0 && k0 + 1 < self.levels.len() {
             add(k0 + 1, t);
         }
+    }
+
+    /// [`Self::sample`] for order 3 (9 coefficients per texel).
+    #[inline]
+    fn sample9(&self, uv: glam::Vec2, lod: f32) -> [f32; 9] {
+        let mut out = [0.0f32; 9];
+        let top = (self.levels.len() - 1) as f32;
+        let lod = lod.clamp(0.0, top);
+        let k0 = lod.floor() as usize;
+        let t = lod - k0 as f32;
+        let mut add = |k: usize, wk: f32| {
+            let l = &self.levels[k];
+            for (i, w) in crate::taps(l.width, l.height, uv) {
+                let c: &[f32; 9] = l.coeffs[i * 9..i * 9 + 9].try_into().expect("9 per texel");
+                let w = w * wk;
+                for j in 0..9 {
+                    out[j] += w * c[j];
+                }
+            }
+        };
+        add(k0, 1.0 - t);
+        if t > 0.0 && k0 + 1 < self.levels.len() {
+            add(k0 + 1, t);
+        }
+        out
     }
 
     /// Bytes of coefficients over the whole chain.

@@ -114,7 +114,7 @@ impl NdfVerifyOptions {
 }
 
 /// 8 directions over the upper hemisphere (elevation 15°–75°).
-fn directions(phase: f32) -> [Vec3; 8] {
+pub(crate) fn directions(phase: f32) -> [Vec3; 8] {
     std::array::from_fn(|i| {
         let elev = (15.0 + 60.0 * i as f32 / 7.0).to_radians();
         let phi = phase + i as f32 * 2.399_963;
@@ -388,7 +388,12 @@ pub fn identities() -> Vec<NdfVerifyRow> {
 }
 
 /// The unique fine normals (with counts) under texel `(x, y)` of level `k`.
-fn footprint_normals(map: &NormalMap, k: usize, x: usize, y: usize) -> (Vec<Vec3>, Vec<f32>) {
+pub(crate) fn footprint_normals(
+    map: &NormalMap,
+    k: usize,
+    x: usize,
+    y: usize,
+) -> (Vec<Vec3>, Vec<f32>) {
     let s = 1usize << k;
     let (x0, x1, y0, y1) = (
         x * s,
@@ -485,7 +490,9 @@ pub fn texel_levels(
         // Per texel: sums of squared error and reference, per (rep, brdf).
         // Env Lambert: [sh, vmf, normalized, unnormalized]; glossy per s:
         // [vmf, toksvig, normalized, unnormalized].
-        let sums: Vec<[[f64; 2]; 16]> = texels
+        // Index 16: SH order 3 against the ground truth band-limited to the
+        // same 3 bands (the NDF representation error alone; shown beside).
+        let sums: Vec<[[f64; 2]; 17]> = texels
             .par_iter()
             .map(|&ti| {
                 let (x, y) = (ti % lw, ti / lw);
@@ -498,7 +505,7 @@ pub fn texel_levels(
                     .collect();
                 let m = mean.levels[k].2[ti];
                 let gamma = sh.texel(k, x, y);
-                let mut acc = [[0.0f64; 2]; 16];
+                let mut acc = [[0.0f64; 2]; 17];
                 let mut yb = vec![0.0f32; 256];
                 let mut y9 = [0.0f32; 9];
                 // Lambert under the 8 rotated environments.
@@ -520,6 +527,15 @@ pub fn texel_levels(
                     }
                     truth /= total;
                     let l9 = &env[..9];
+                    let truth9 = fine_y
+                        .iter()
+                        .zip(&wts)
+                        .map(|(fy, wt)| wt * lambert_sh_env(&fy[..9], l9))
+                        .sum::<f32>()
+                        / total;
+                    let r9 = lambert_sh_env(gamma, l9);
+                    acc[16][0] += f64::from((r9 - truth9).powi(2));
+                    acc[16][1] += f64::from(truth9 * truth9);
                     let mut y_at = |v: Vec3| {
                         relight_sh::eval_sh_into(3, v.to_array(), &mut y9);
                         lambert_sh_env(&y9, l9)
@@ -560,7 +576,7 @@ pub fn texel_levels(
                 acc
             })
             .collect();
-        let mut tot = [[0.0f64; 2]; 16];
+        let mut tot = [[0.0f64; 2]; 17];
         for s in &sums {
             for (t, v) in tot.iter_mut().zip(s) {
                 t[0] += v[0];
@@ -590,6 +606,13 @@ pub fn texel_levels(
             err(0),
             Some(0.03),
             "issue 14: SH Lambert ≤ 3 %",
+        ));
+        rows.push(mk(
+            "sh (order 3) vs 3-band truth",
+            "lambert/env".into(),
+            err(16),
+            None,
+            "",
         ));
         rows.push(mk("vmf J=6", "lambert/env".into(), err(1), None, ""));
         rows.push(mk("normalized", "lambert/env".into(), err(2), None, ""));
