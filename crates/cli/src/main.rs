@@ -14,6 +14,7 @@ mod compare;
 mod demo;
 mod method_args;
 mod ndf;
+mod nearfield;
 mod output;
 mod parse;
 mod plot;

@@ -226,6 +226,13 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             n.brdf.label(),
             n.vmf.lobes
         ),
+        MethodOptions::Nearfield(n) => format!(
+            "order {} · face {} · source {} % · target {} %{quality}",
+            n.order,
+            n.face,
+            n.source_terms * 100.0,
+            n.target_terms * 100.0
+        ),
     }
 }
 
