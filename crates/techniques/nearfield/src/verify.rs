@@ -153,8 +153,11 @@ pub struct VerifyOptions {
     pub reference_spp: u32,
     /// Vertices sampled per object for the per-vertex rows.
     pub vertices: usize,
-    /// Quadrature points per side, per vertex.
+    /// Quadrature points per side, per vertex, for the per-vertex rows.
     pub samples: usize,
+    /// Quadrature points per side over the light (the face takes 1.5×) for
+    /// every vertex of the image rows.
+    pub image_samples: usize,
     pub aa: usize,
 }
 
@@ -171,17 +174,19 @@ impl VerifyOptions {
                 reference_spp: 32,
                 vertices: 12,
                 samples: 64,
+                image_samples: 12,
                 aa: 2,
             }
         } else {
             Self {
-                floor: 96,
-                segments: 64,
-                width: 320,
-                height: 200,
-                reference_spp: 1024,
+                floor: 64,
+                segments: 48,
+                width: 160,
+                height: 100,
+                reference_spp: 2048,
                 vertices: 48,
                 samples: 256,
+                image_samples: 32,
                 aa: 2,
             }
         }
@@ -221,18 +226,22 @@ pub fn verify_rows(
     const ISSUE: &str = "issue 13 (verify nearfield)";
     // Face coverage (Fig. 4.7E).
     for face in [2.0, 3.0, 4.0, 10.0] {
+        // The thesis prints 82 % and 99 % for face 10; the exact lobe
+        // integral is 96.8 % (docs/nearfield.md), so only the solid angle is gated.
         rows.push(row(
-            format!("face {face}: Lambertian lobe inside the face"),
+            format!(
+                "face {face}: Lambertian lobe inside the face (thesis, face 10: 0.99 — see docs)"
+            ),
             lobe_fraction(face, 2000),
             "fraction",
-            (face == 10.0).then_some((0.985, false)),
+            None,
             THESIS,
         ));
         rows.push(row(
-            format!("face {face}: hemisphere solid angle inside the face"),
+            format!("face {face}: hemisphere solid angle inside the face (thesis, face 10: 0.82)"),
             solid_angle_fraction(face, 2000),
             "fraction",
-            None,
+            (face == 10.0).then_some((0.815, false)),
             THESIS,
         ));
     }
@@ -401,7 +410,7 @@ fn image_rows(
     let meshes: Vec<_> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
     let bvh = SceneBvh::build(&meshes);
     let albedos = m.albedos();
-    let samples = (opts.samples / 4).max(16);
+    let samples = opts.image_samples;
     let per_vertex = |face: Option<f64>| -> Vec<Vec<Vec3>> {
         scene
             .objects
@@ -420,7 +429,7 @@ fn image_rows(
                                 f,
                                 p,
                                 nn,
-                                2 * samples,
+                                samples * 3 / 2,
                                 &|uv| light.radiance_at(uv),
                                 Some(&bvh),
                             ),
