@@ -192,7 +192,8 @@ pub struct MethodFlags {
     #[arg(long, value_enum)]
     pub scattering: Option<Scattering>,
     /// SH order, number of bands (sh; fog's environment part; radiance-cache
-    /// records) [default: 6; shexp: 4].
+    /// records) [default: 6; shexp: 4]; nearfield: wavelet order per axis, a
+    /// power of two 4…64 [default: 32].
     #[arg(long)]
     pub order: Option<usize>,
     /// Allowed error a of the radiance cache's interpolation criterion
@@ -261,6 +262,18 @@ pub struct MethodFlags {
     /// per light rotation) [default: 16].
     #[arg(long)]
     pub twists: Option<usize>,
+    /// Fraction of the light's wavelet terms kept, source level (nearfield)
+    /// [default: 0.01].
+    #[arg(long)]
+    pub source_terms: Option<f64>,
+    /// Fraction of each vertex's target terms kept by the constant-light
+    /// heuristic (nearfield) [default: 0.2].
+    #[arg(long)]
+    pub target_terms: Option<f64>,
+    /// Side of the expanded top face at unit distance (nearfield; a cube
+    /// map's top face is 2) [default: 4].
+    #[arg(long)]
+    pub face: Option<f64>,
 }
 
 /// Media transport of the reference renderer.
@@ -309,6 +322,8 @@ pub enum Method {
     Ndf,
     /// Triple product of lighting, visibility and BRDF in spherical wavelets (local frames).
     Triple,
+    /// Near-field textured area light by affine wavelet products (per vertex).
+    Nearfield,
 }
 
 #[derive(Args, Debug)]
@@ -505,6 +520,8 @@ pub enum Suite {
     Affine,
     /// Triple-product frames (Table 3) and bake/edit/rotation timings.
     Triple,
+    /// Near-field relighting: Fig. 4.11's table and the bake.
+    Nearfield,
 }
 
 #[derive(Args, Debug)]
@@ -552,6 +569,8 @@ pub enum VerifySuite {
     Affine,
     /// Triple-product identities and error against the reference.
     Triple,
+    /// Near-field relighting against quadrature and the reference.
+    Nearfield,
 }
 
 #[derive(Args, Debug)]

@@ -320,6 +320,7 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
         Suite::RadianceCache => crate::radcache::bench(a.quick, &report, bar),
         Suite::Affine => crate::affine::bench(&a, &report),
         Suite::Triple => crate::triple::bench(&a, &report, bar),
+        Suite::Nearfield => crate::nearfield::bench(&a, &report, bar),
         Suite::Raster => {
             let rows = if a.quick {
                 relight_render::raster::bench_raster(100_000, 640, 360, 3)
@@ -527,6 +528,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
         VerifySuite::RadianceCache => crate::radcache::verify(a.quick, &report, bar),
         VerifySuite::Affine => crate::affine::verify(&a, &report),
         VerifySuite::Triple => crate::triple::verify(&a, &report, bar),
+        VerifySuite::Nearfield => crate::nearfield::verify(&a, &report, bar),
         VerifySuite::Sh => {
             let opts = relight_shlight::VerifyOptions::new(a.quick);
             let default = relight_scene::default_scene(opts.width, opts.height);

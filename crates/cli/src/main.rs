@@ -15,6 +15,7 @@ mod demo;
 mod method_args;
 mod ndf;
 mod ndf_bake;
+mod nearfield;
 mod output;
 mod parse;
 mod plot;

@@ -21,11 +21,12 @@ pub fn kind_of(m: Method) -> MethodKind {
         Method::RadianceCache => MethodKind::RadianceCache,
         Method::Ndf => MethodKind::Ndf,
         Method::Triple => MethodKind::Triple,
+        Method::Nearfield => MethodKind::Nearfield,
     }
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 21] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 24] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
@@ -40,6 +41,7 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 21] = [
             MethodKind::ShExp,
             MethodKind::RadianceCache,
             MethodKind::Ndf,
+            MethodKind::Nearfield,
         ],
     ),
     ("--error", &[MethodKind::RadianceCache]),
@@ -59,6 +61,9 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 21] = [
     ("--select", &[MethodKind::Triple]),
     ("--shading", &[MethodKind::Triple]),
     ("--twists", &[MethodKind::Triple]),
+    ("--source-terms", &[MethodKind::Nearfield]),
+    ("--target-terms", &[MethodKind::Nearfield]),
+    ("--face", &[MethodKind::Nearfield]),
 ];
 
 /// The flags of `f` that are set, by name.
@@ -85,6 +90,9 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.select.is_some(),
         f.shading.is_some(),
         f.twists.is_some(),
+        f.source_terms.is_some(),
+        f.target_terms.is_some(),
+        f.face.is_some(),
     ];
     FLAG_METHODS
         .iter()
@@ -134,6 +142,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         ao => "--ao", cache => "--cache", fog => "--fog", exp => "--exp", spheres => "--spheres",
         normal_filter => "--normal-filter", ndf_brdf => "--ndf-brdf", lobes => "--lobes",
         select => "--select", shading => "--shading", twists => "--twists",
+        source_terms => "--source-terms", target_terms => "--target-terms", face => "--face",
     );
 }
 
@@ -249,6 +258,7 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
         }
         MethodOptions::Ndf(o) => crate::ndf::apply_flags(o, f)?,
+        MethodOptions::Nearfield(o) => crate::nearfield::apply_flags(o, f),
     }
     Ok(o)
 }

@@ -16,6 +16,7 @@ pub mod verify;
 
 use relight_fog::{FogOptions, FogRelighter};
 use relight_ndf::{NdfMethod, NdfOptions};
+use relight_nearfield::{NearfieldMethod, NearfieldOptions};
 use relight_radcache::{RadianceCacheOptions, RadianceCacheRelighter};
 use relight_render::method::{MethodError, Relighter, SceneFeature, Support};
 use relight_render::reference::{ReferenceOptions, ReferenceRenderer};
@@ -46,11 +47,13 @@ pub enum MethodKind {
     Ndf,
     /// Triple product of lighting, visibility and BRDF in spherical wavelets, local frames.
     Triple,
+    /// Near-field textured area light by affine wavelet products (per vertex).
+    Nearfield,
 }
 
 impl MethodKind {
     /// Every method, the reference first.
-    pub const ALL: [MethodKind; 8] = [
+    pub const ALL: [MethodKind; 9] = [
         Self::Reference,
         Self::Sh,
         Self::Wavelet,
@@ -59,6 +62,7 @@ impl MethodKind {
         Self::RadianceCache,
         Self::Ndf,
         Self::Triple,
+        Self::Nearfield,
     ];
 
     /// The name on the command line.
@@ -73,6 +77,7 @@ impl MethodKind {
             Self::RadianceCache => "radiance-cache",
             Self::Ndf => "ndf",
             Self::Triple => "triple",
+            Self::Nearfield => "nearfield",
         }
     }
 }
@@ -107,6 +112,7 @@ pub enum MethodOptions {
     RadianceCache(RadianceCacheOptions),
     Ndf(NdfOptions),
     Triple(TripleOptions),
+    Nearfield(NearfieldOptions),
 }
 
 impl MethodOptions {
@@ -122,6 +128,7 @@ impl MethodOptions {
             MethodKind::RadianceCache => Self::RadianceCache(RadianceCacheOptions::default()),
             MethodKind::Ndf => Self::Ndf(NdfOptions::default()),
             MethodKind::Triple => Self::Triple(TripleOptions::default()),
+            MethodKind::Nearfield => Self::Nearfield(NearfieldOptions::default()),
         }
     }
 
@@ -137,6 +144,7 @@ impl MethodOptions {
             Self::RadianceCache(_) => MethodKind::RadianceCache,
             Self::Ndf(_) => MethodKind::Ndf,
             Self::Triple(_) => MethodKind::Triple,
+            Self::Nearfield(_) => MethodKind::Nearfield,
         }
     }
 }
@@ -155,6 +163,7 @@ pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError
         MethodOptions::RadianceCache(o) => Box::new(RadianceCacheRelighter::new(*o)?),
         MethodOptions::Ndf(o) => Box::new(NdfMethod::new(*o)?),
         MethodOptions::Triple(o) => Box::new(TripleMethod::new(o.clone())?),
+        MethodOptions::Nearfield(o) => Box::new(NearfieldMethod::new(*o)?),
     })
 }
 

@@ -70,7 +70,9 @@ impl VerifyMethodsOptions {
                 // reference leaves out: `verify radiance-cache` judges it
                 // against the GI reference instead. ndf shades one BRDF model
                 // (`--ndf-brdf`) that the matrix's mixed materials do not
-                // share: `verify ndf` judges it on its own scenes.
+                // share: `verify ndf` judges it on its own scenes. nearfield
+                // renders one area light alone (no environment): `verify
+                // nearfield` judges it.
                 .filter(|k| {
                     !matches!(
                         k,
@@ -78,6 +80,7 @@ impl VerifyMethodsOptions {
                             | MethodKind::ShExp
                             | MethodKind::RadianceCache
                             | MethodKind::Ndf
+                            | MethodKind::Nearfield
                     )
                 })
                 .map(MethodOptions::default_for)

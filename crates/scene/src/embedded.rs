@@ -20,10 +20,12 @@ use std::sync::Arc;
 pub const STUDIO_HEIGHT: usize = 256;
 
 /// Names accepted by [`builtin_mesh`].
-pub const BUILTIN_MESHES: [&str; 4] = ["sphere", "torus", "knot", "ground"];
+pub const BUILTIN_MESHES: [&str; 5] = ["sphere", "torus", "knot", "ground", "ground-grid"];
 
-/// A procedural mesh by name (`sphere`, `torus`, `knot`, `ground`), unit-sized
-/// and centred at the origin, with normals, uvs and tangents.
+/// A procedural mesh by name (`sphere`, `torus`, `knot`, `ground`,
+/// `ground-grid`: the ground split into 128 × 128 quads for per-vertex
+/// methods), unit-sized and centred at the origin, with normals, uvs and
+/// tangents.
 pub fn builtin_mesh(name: &str) -> Option<Mesh> {
     use relight_geom::shapes;
     let mut mesh = match name {
@@ -31,6 +33,7 @@ pub fn builtin_mesh(name: &str) -> Option<Mesh> {
         "torus" => shapes::torus(0.75, 0.28, 256, 96),
         "knot" => shapes::detailed_shape(),
         "ground" => shapes::quad(4.0),
+        "ground-grid" => shapes::plane(4.0, 128),
         _ => return None,
     };
     mesh.validate_and_repair();

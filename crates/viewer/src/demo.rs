@@ -332,7 +332,8 @@ mod tests {
                     | MethodOptions::ShExp(_)
                     | MethodOptions::RadianceCache(_)
                     | MethodOptions::Ndf(_)
-                    | MethodOptions::Triple(_) => {}
+                    | MethodOptions::Triple(_)
+                    | MethodOptions::Nearfield(_) => {}
                 }
                 o
             })

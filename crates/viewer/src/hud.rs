@@ -246,6 +246,13 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             n.brdf.label(),
             n.vmf.lobes
         ),
+        MethodOptions::Nearfield(n) => format!(
+            "order {} · face {} · source {} % · target {} %{quality}",
+            n.order,
+            n.face,
+            n.source_terms * 100.0,
+            n.target_terms * 100.0
+        ),
     }
 }
 
@@ -482,7 +489,14 @@ mod tests {
         assert!(status[1].text.contains("order 3"), "{:?}", status[1]);
         assert!(status[2].text.contains("press 5"), "{:?}", status[2]);
         let help: String = info.help_lines().iter().map(|l| l.text.clone()).collect();
-        for k in ["1 wavelet", "2 sh", "3 fog", "4 shexp", "5 reference", "q: quit"] {
+        for k in [
+            "1 wavelet",
+            "2 sh",
+            "3 fog",
+            "4 shexp",
+            "5 reference",
+            "q: quit",
+        ] {
             assert!(help.contains(k), "{help}");
         }
         // The reference for this view, then sh again: a measured error.

@@ -22,7 +22,9 @@
 //! looked up in a sparse 4D table ([`table`], the memory-based approach).
 //! [`separable`] extends all of it to the nonstandard 2D basis of
 //! `relight-haar` (§4.4.4); [`other_bases`] gives the pixel and Fourier
-//! forms (eqs. 4.18–4.19) for the complexity table of §4.4.3.
+//! forms (eqs. 4.18–4.19) for the complexity table of §4.4.3; [`standard`]
+//! is the tensor-product 2D basis and the two-step separable propagation of
+//! §4.5.5 that near-field relighting (`relight-nearfield`) runs per vertex.
 //!
 //! # Corrections to the OCR'd thesis
 //! Each is checked by a test against exact overlap and quadrature:
@@ -51,6 +53,7 @@ pub mod other_bases;
 pub mod rows;
 pub mod separable;
 pub mod sparsity;
+pub mod standard;
 pub mod table;
 pub mod verify;
 

@@ -1,0 +1,161 @@
+//! The light's wavelet coefficients and source-level compression (thesis
+//! §4.5.5, "Source-Level Compression").
+//!
+//! The emitted radiance `F(u) = texture(u) × intensity` over the light's uv
+//! square is box-averaged onto an `n × n` grid (`q × q` bilinear texture
+//! reads per cell) and transformed to the standard 2D Haar basis
+//! ([`relight_affine::standard`]), per RGB channel. Compression keeps the
+//! `n_s` coefficients of largest `|F_r| + |F_g| + |F_b|`; the thesis does not
+//! say how ties are broken: here **coarse first** (smaller
+//! `max(level(i₁), level(i₂))`, then smaller `i₂`, then `i₁`). The scaling
+//! coefficient (the light's mean, all of its power) is always kept: a
+//! sky texture with a sun has many wavelets larger than its mean, and
+//! dropping the mean leaves a light that integrates to nothing.
+
+use glam::{Vec2, Vec3};
+use relight_affine::standard::{forward_2d, level_rank};
+use relight_render::AreaLight;
+
+/// Texture reads per cell side when box-averaging the light.
+pub const LIGHT_SUBSAMPLES: usize = 4;
+
+/// Dense standard-basis coefficients of the light, per channel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightCoeffs {
+    pub n: usize,
+    /// `[channel][i2 · n + i1]`.
+    pub c: [Vec<f64>; 3],
+}
+
+impl LightCoeffs {
+    /// Box-averages and transforms `light`'s radiance at order `n`.
+    #[must_use]
+    pub fn of(light: &AreaLight, n: usize) -> Self {
+        let mut grids = light_cells(light, n);
+        for g in &mut grids {
+            forward_2d(g, n);
+        }
+        Self { n, c: grids }
+    }
+
+    /// The DC-only ("constant light") coefficients of the same mean: the
+    /// heuristic light of eq. 4.38 and the distant baseline's light.
+    #[must_use]
+    pub fn mean(&self) -> Vec3 {
+        Vec3::new(
+            self.c[0][0] as f32,
+            self.c[1][0] as f32,
+            self.c[2][0] as f32,
+        )
+    }
+}
+
+/// The light's radiance box-averaged on an `n × n` grid of its uv square
+/// (row `y` = uv.y, `q × q` texture reads per cell), per channel.
+#[must_use]
+pub fn light_cells(light: &AreaLight, n: usize) -> [Vec<f64>; 3] {
+    let q = LIGHT_SUBSAMPLES;
+    let mut grids = [vec![0.0; n * n], vec![0.0; n * n], vec![0.0; n * n]];
+    let h = 1.0 / (n * q) as f32;
+    for y in 0..n {
+        for x in 0..n {
+            let mut sum = Vec3::ZERO;
+            for j in 0..q {
+                for i in 0..q {
+                    let uv = Vec2::new(
+                        ((x * q + i) as f32 + 0.5) * h,
+                        ((y * q + j) as f32 + 0.5) * h,
+                    );
+                    sum += light.radiance_at(uv);
+                }
+            }
+            let m = sum / (q * q) as f32;
+            for (c, g) in grids.iter_mut().enumerate() {
+                g[y * n + x] = f64::from(m[c]);
+            }
+        }
+    }
+    grids
+}
+
+/// One retained source coefficient.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SourceTerm {
+    pub i1: u16,
+    pub rgb: [f32; 3],
+}
+
+/// Source terms grouped by row `i2` (the order step 1 runs in).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SourceTerms {
+    pub n: usize,
+    /// `(i2, start, end)` into `terms`.
+    pub rows: Vec<(u16, u32, u32)>,
+    pub terms: Vec<SourceTerm>,
+}
+
+impl SourceTerms {
+    /// Number of retained terms.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.terms.len()
+    }
+
+    /// True when nothing is retained.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.terms.is_empty()
+    }
+}
+
+/// `max(1, round(fraction · n²))` terms, the count a fraction keeps.
+#[must_use]
+pub fn count_of(fraction: f64, n: usize) -> usize {
+    ((fraction * (n * n) as f64).round() as usize).clamp(1, n * n)
+}
+
+/// Coarse-first tie-break key of 2D index `(i1, i2)`.
+#[must_use]
+pub fn coarse_key(i1: usize, i2: usize) -> (u32, usize, usize) {
+    (level_rank(i1).max(level_rank(i2)), i2, i1)
+}
+
+/// The `count_of(fraction)` largest coefficients (module docs), zeros
+/// dropped.
+#[must_use]
+pub fn compress(light: &LightCoeffs, fraction: f64) -> SourceTerms {
+    let n = light.n;
+    let keep = count_of(fraction, n);
+    let mut idx: Vec<(f64, usize)> = (0..n * n)
+        .map(|k| (light.c.iter().map(|c| c[k].abs()).sum::<f64>(), k))
+        .filter(|(m, _)| *m > 0.0)
+        .collect();
+    idx.sort_by(|a, b| {
+        b.0.total_cmp(&a.0)
+            .then_with(|| coarse_key(a.1 % n, a.1 / n).cmp(&coarse_key(b.1 % n, b.1 / n)))
+    });
+    // The DC term first, always (module docs).
+    if let Some(p) = idx.iter().position(|&(_, k)| k == 0) {
+        let dc = idx.remove(p);
+        idx.insert(0, dc);
+    }
+    idx.truncate(keep);
+    idx.sort_by_key(|&(_, k)| (k / n, k % n));
+    let mut out = SourceTerms {
+        n,
+        ..SourceTerms::default()
+    };
+    for &(_, k) in &idx {
+        let (i1, i2) = (k % n, k / n);
+        if out.rows.last().is_none_or(|r| r.0 as usize != i2) {
+            let at = out.terms.len() as u32;
+            out.rows.push((i2 as u16, at, at));
+        }
+        out.terms.push(SourceTerm {
+            i1: i1 as u16,
+            rgb: [0, 1, 2].map(|c| light.c[c][k] as f32),
+        });
+        out.rows.last_mut().expect("pushed").2 += 1;
+    }
+    out
+}

@@ -1,0 +1,503 @@
+//! [`NearfieldMethod`]: near-field area-light relighting behind the method
+//! interface ([`Relighter`], name `nearfield`).
+//!
+//! # What it renders
+//! One textured rectangular area light ([`relight_render::AreaLight`]) on
+//! Lambertian surfaces, with or without shadows, per vertex (Gouraud). The
+//! BRDF of each object is read as a constant albedo `π f(n, n)`; a BRDF that
+//! is not constant is shaded as that Lambertian one, with a warning (the
+//! thesis' fixed-view specular transport is not built). Environment, point
+//! lights, media, normal maps and spatially varying BRDFs are refused.
+//!
+//! | call | work |
+//! |---|---|
+//! | [`Relighter::prepare`] | the per-vertex transport on the light's face ([`crate::transport`]), shadows ray-cast when the scene has visibility; then `set_lighting` |
+//! | [`Relighter::set_lighting`] | light moved or scaled in its plane (or to another height): per-vertex ACC matrices and target masks ([`crate::propagate`]); always: the light's coefficients, source compression, the fused propagation per vertex. A light turned (its axes changed) re-bakes the transport. |
+//! | [`Relighter::render`] | rasterize and interpolate the vertex colours |
+//!
+//! Moving along the normal keeps the baked shadows, cast towards the old
+//! plane. In-plane rotation re-bakes (re-rasterising the rotated texture
+//! into its bounding square, the thesis' route, is not built).
+
+use crate::face::LightFrame;
+use crate::light::{LightCoeffs, SourceTerms, compress, count_of};
+use crate::propagate::{
+    MaskEntry, SelectScratch, ShadeScratch, acc_pair, select_targets, shade, shade_fma, sort_mask,
+};
+use crate::transport::{Transport, bake_transport};
+use glam::Vec3;
+use rayon::prelude::*;
+use relight_geom::Mesh;
+use relight_render::method::{
+    FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
+};
+use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
+use relight_render::{AreaLight, Image, Progress, Scene, SceneBvh};
+use std::borrow::Cow;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The method's name on the command line.
+pub const NEARFIELD_METHOD_NAME: &str = "nearfield";
+
+/// Settings of [`NearfieldMethod`]; `Default` holds the defaults.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NearfieldOptions {
+    /// Wavelet order `n` per axis of the light and of the face (a power of
+    /// two, 4…64). Default 32 (the thesis' order).
+    pub order: usize,
+    /// Side of the expanded top face at unit distance (2 = a cube map's top
+    /// face; the thesis uses 3–4). Default 4.
+    pub face: f64,
+    /// Fraction of the light's `n²` coefficients kept (source level). Default 0.01.
+    pub source_terms: f64,
+    /// Fraction of each vertex's `n²` target coefficients kept by the
+    /// constant-light heuristic (eq. 4.38). Default 0.20.
+    pub target_terms: f64,
+}
+
+impl Default for NearfieldOptions {
+    fn default() -> Self {
+        Self {
+            order: 32,
+            face: 4.0,
+            source_terms: 0.01,
+            target_terms: 0.20,
+        }
+    }
+}
+
+/// One object's baked and per-light data.
+struct Prepared {
+    mesh: Arc<Mesh>,
+    albedo: Vec3,
+    transport: Transport,
+    /// `V · n²` each: the 1D ACC matrices per vertex.
+    dx: Vec<f32>,
+    dy: Vec<f32>,
+    /// `V · m`: the target mask per vertex (unused entries have `t = 0`).
+    mask: Vec<MaskEntry>,
+}
+
+/// Near-field relighting as a [`Relighter`] (module docs).
+pub struct NearfieldMethod {
+    options: NearfieldOptions,
+    objects: Vec<Prepared>,
+    /// The light frame the transport was baked for, and with visibility.
+    baked: Option<(LightFrame, bool)>,
+    /// The light frame and target count the geometry was built for.
+    geometry: Option<(LightFrame, usize)>,
+    source: SourceTerms,
+    colors: Vec<Vec<Vec3>>,
+    warnings: Vec<String>,
+    raster: Rasterizer,
+    frame: Image,
+    pending_lighting_ms: f64,
+    /// Times of the last lighting change: geometry, coefficients, propagation (ms).
+    pub last_times: [f64; 3],
+    bakes: usize,
+}
+
+impl std::fmt::Debug for NearfieldMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NearfieldMethod")
+            .field("options", &self.options)
+            .finish_non_exhaustive()
+    }
+}
+
+fn invalid(option: &'static str, message: impl ToString) -> MethodError {
+    MethodError::InvalidOption {
+        method: NEARFIELD_METHOD_NAME,
+        option,
+        message: message.to_string(),
+    }
+}
+
+/// The one area light of `scene`.
+fn the_light(scene: &Scene) -> Result<&AreaLight, MethodError> {
+    match scene.area_lights.as_slice() {
+        [l] => Ok(l),
+        [] => Err(invalid("scene", "needs one [[area_light]] (it has none)")),
+        ls => Err(invalid(
+            "scene",
+            format!("renders one area light (the scene has {})", ls.len()),
+        )),
+    }
+}
+
+impl NearfieldMethod {
+    /// A method with `options` (checked here).
+    ///
+    /// # Errors
+    /// [`MethodError::InvalidOption`] naming the option.
+    pub fn new(options: NearfieldOptions) -> Result<Self, MethodError> {
+        let o = &options;
+        if !(o.order.is_power_of_two() && (4..=64).contains(&o.order)) {
+            return Err(invalid(
+                "order",
+                format!("must be a power of two in 4…64, got {}", o.order),
+            ));
+        }
+        if !(o.face.is_finite() && (0.5..=32.0).contains(&o.face)) {
+            return Err(invalid("face", format!("must be 0.5…32, got {}", o.face)));
+        }
+        for (name, v) in [
+            ("source-terms", o.source_terms),
+            ("target-terms", o.target_terms),
+        ] {
+            if !(v > 0.0 && v <= 1.0) {
+                return Err(invalid(
+                    name,
+                    format!("must be a fraction in (0, 1], got {v}"),
+                ));
+            }
+        }
+        Ok(Self {
+            options,
+            objects: Vec::new(),
+            baked: None,
+            geometry: None,
+            source: SourceTerms::default(),
+            colors: Vec::new(),
+            warnings: Vec::new(),
+            raster: Rasterizer::new(),
+            frame: Image::new(0, 0),
+            pending_lighting_ms: 0.0,
+            last_times: [0.0; 3],
+            bakes: 0,
+        })
+    }
+
+    /// The options.
+    #[must_use]
+    pub fn options(&self) -> &NearfieldOptions {
+        &self.options
+    }
+
+    /// Transport bakes done so far.
+    #[must_use]
+    pub fn bakes(&self) -> usize {
+        self.bakes
+    }
+
+    /// Each object's baked transport.
+    #[must_use]
+    pub fn transports(&self) -> Vec<&Transport> {
+        self.objects.iter().map(|p| &p.transport).collect()
+    }
+
+    /// Each object's albedo as shaded.
+    #[must_use]
+    pub fn albedos(&self) -> Vec<Vec3> {
+        self.objects.iter().map(|p| p.albedo).collect()
+    }
+
+    /// The per-vertex colours of the last lighting change.
+    #[must_use]
+    pub fn vertex_colors(&self) -> &[Vec<Vec3>] {
+        &self.colors
+    }
+
+    /// Replaces the per-vertex colours the next `render` draws (verify
+    /// renders quadrature colours through the same raster path); returns the
+    /// old ones.
+    pub fn replace_colors(&mut self, colors: Vec<Vec<Vec3>>) -> Vec<Vec<Vec3>> {
+        std::mem::replace(&mut self.colors, colors)
+    }
+
+    /// Target terms per vertex.
+    #[must_use]
+    pub fn target_count(&self) -> usize {
+        count_of(self.options.target_terms, self.options.order)
+    }
+
+    /// The source terms of the last lighting change.
+    #[must_use]
+    pub fn source(&self) -> &SourceTerms {
+        &self.source
+    }
+
+    /// Changes the compression (takes effect at the next `set_lighting`).
+    pub fn set_compression(&mut self, source_terms: f64, target_terms: f64) {
+        self.options.source_terms = source_terms;
+        self.options.target_terms = target_terms;
+    }
+
+    fn bake(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
+        let light = the_light(scene)?;
+        let frame = LightFrame::of(light);
+        let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
+        let bvh = scene.visibility.then(|| SceneBvh::build(&meshes));
+        let (n, face) = (self.options.order, self.options.face);
+        let total: u64 = meshes.iter().map(|m| m.positions.len() as u64).sum();
+        progress.start("nearfield transport", total);
+        let mut objects = Vec::with_capacity(meshes.len());
+        self.warnings.clear();
+        for (i, o) in scene.objects.iter().enumerate() {
+            let m = &o.mesh;
+            if m.normals.len() != m.positions.len() {
+                return Err(invalid(
+                    "scene",
+                    format!("object {i} has no vertex normals (one per vertex is needed)"),
+                ));
+            }
+            let transport = bake_transport(
+                &frame,
+                &m.positions,
+                &m.normals,
+                n,
+                face,
+                bvh.as_ref(),
+                progress,
+            )?;
+            let z = Vec3::Z;
+            let f = o.brdf.eval(z, z);
+            let g = o.brdf.eval(z, Vec3::new(0.6, 0.0, 0.8));
+            if (f - g).abs().max_element() > 1e-5 * f.max_element().max(1e-6) {
+                self.warnings.push(format!(
+                    "method nearfield shades object {i}'s BRDF as Lambertian with albedo π·f(n, n) (fixed-view specular is not built)"
+                ));
+            }
+            objects.push(Prepared {
+                mesh: m.clone(),
+                albedo: f * std::f32::consts::PI,
+                transport,
+                dx: Vec::new(),
+                dy: Vec::new(),
+                mask: Vec::new(),
+            });
+        }
+        progress.finish();
+        self.objects = objects;
+        self.baked = Some((frame, scene.visibility));
+        self.geometry = None;
+        self.bakes += 1;
+        Ok(())
+    }
+
+    /// Per-vertex ACC matrices and masks for `frame` (a light move or
+    /// scale). Returns ms.
+    pub fn update_geometry(&mut self, frame: &LightFrame) -> f64 {
+        let t = Instant::now();
+        let (n, face) = (self.options.order, self.options.face);
+        let m = self.target_count();
+        let nn = n * n;
+        for p in &mut self.objects {
+            let verts = p.mesh.positions.len();
+            p.dx.resize(verts * nn, 0.0);
+            p.dy.resize(verts * nn, 0.0);
+            p.mask.resize(verts * m, MaskEntry::default());
+            let positions = &p.mesh.positions;
+            let tr = &p.transport.values;
+            p.dx.par_chunks_mut(nn)
+                .zip(p.dy.par_chunks_mut(nn))
+                .zip(p.mask.par_chunks_mut(m))
+                .enumerate()
+                .for_each_init(
+                    || (SelectScratch::default(), Vec::new(), Vec::new(), Vec::new()),
+                    |(sel, picked, tmp, counts), (v, ((dx, dy), mask))| {
+                        let Some((s, o)) = frame.affine(frame.local(positions[v]), face) else {
+                            dx.fill(0.0);
+                            dy.fill(0.0);
+                            mask.fill(MaskEntry::default());
+                            return;
+                        };
+                        acc_pair(n, s, o, dx, dy);
+                        select_targets(&dx[..n], &dy[..n], m, sel, picked);
+                        let t = &tr[v * nn..(v + 1) * nn];
+                        for (e, &(k1, k2)) in mask.iter_mut().zip(picked.iter()) {
+                            *e = MaskEntry {
+                                k1,
+                                k2,
+                                t: t[k2 as usize * n + k1 as usize],
+                            };
+                        }
+                        sort_mask(mask, n, tmp, counts);
+                    },
+                );
+        }
+        self.geometry = Some((*frame, m));
+        t.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// The light's coefficients and source compression. Returns ms.
+    pub fn update_source(&mut self, light: &AreaLight) -> f64 {
+        let t = Instant::now();
+        let coeffs = LightCoeffs::of(light, self.options.order);
+        self.source = compress(&coeffs, self.options.source_terms);
+        t.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// The fused propagation of every vertex (the per-frame relighting
+    /// work). Returns ms.
+    pub fn propagate(&mut self) -> f64 {
+        let t = Instant::now();
+        let n = self.options.order;
+        let m = self.target_count();
+        let nn = n * n;
+        let src = &self.source;
+        self.colors = self
+            .objects
+            .iter()
+            .map(|p| {
+                let verts = p.mesh.positions.len();
+                (0..verts)
+                    .into_par_iter()
+                    .with_min_len(256)
+                    .map_init(ShadeScratch::default, |sc, v| {
+                        let b = shade(
+                            src,
+                            &p.dx[v * nn..(v + 1) * nn],
+                            &p.dy[v * nn..(v + 1) * nn],
+                            &p.mask[v * m..(v + 1) * m],
+                            sc,
+                        );
+                        Vec3::from(b).max(Vec3::ZERO) * p.albedo / std::f32::consts::PI
+                    })
+                    .collect()
+            })
+            .collect();
+        t.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// FMAs of one [`Self::propagate`].
+    #[must_use]
+    pub fn propagate_fma(&self) -> f64 {
+        let verts: usize = self.objects.iter().map(|p| p.mesh.positions.len()).sum();
+        (verts * shade_fma(&self.source, self.target_count())) as f64
+    }
+}
+
+impl Relighter for NearfieldMethod {
+    fn name(&self) -> &'static str {
+        NEARFIELD_METHOD_NAME
+    }
+
+    fn supports(&self, feature: SceneFeature) -> Support {
+        match feature {
+            SceneFeature::AreaLights | SceneFeature::Visibility => Support::Full,
+            SceneFeature::Environment
+            | SceneFeature::PointLights
+            | SceneFeature::Medium
+            | SceneFeature::NormalMaps
+            | SceneFeature::SpatiallyVaryingBrdf
+            | SceneFeature::Animation => Support::No,
+        }
+    }
+
+    fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
+        check_scene(self, scene, false)?;
+        the_light(scene)?;
+        self.bake(scene, progress)?;
+        self.set_lighting(scene, progress)?;
+        Ok(())
+    }
+
+    fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError> {
+        let t = Instant::now();
+        let light = the_light(scene)?;
+        let frame = LightFrame::of(light);
+        let same_objects = self.objects.len() == scene.objects.len()
+            && self
+                .objects
+                .iter()
+                .zip(&scene.objects)
+                .all(|(p, o)| Arc::ptr_eq(&p.mesh, &o.mesh));
+        let rebake = !same_objects
+            || self
+                .baked
+                .is_none_or(|(b, vis)| b.axes != frame.axes || vis != scene.visibility);
+        if rebake {
+            self.bake(scene, progress)?;
+        }
+        progress.check()?;
+        let g = if self.geometry != Some((frame, self.target_count())) {
+            self.update_geometry(&frame)
+        } else {
+            0.0
+        };
+        let c = self.update_source(light);
+        let p = self.propagate();
+        self.last_times = [g, c, p];
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        self.pending_lighting_ms = ms;
+        Ok(ms)
+    }
+
+    fn render(
+        &mut self,
+        scene: &Scene,
+        request: &FrameRequest,
+        progress: &dyn Progress,
+    ) -> Result<Rendered, MethodError> {
+        request.validate(NEARFIELD_METHOD_NAME)?;
+        let t0 = Instant::now();
+        let same = self.objects.len() == scene.objects.len()
+            && self
+                .objects
+                .iter()
+                .zip(&scene.objects)
+                .all(|(p, o)| Arc::ptr_eq(&p.mesh, &o.mesh));
+        if !same || self.colors.len() != self.objects.len() {
+            return Err(invalid(
+                "scene",
+                "the objects changed since `prepare` (or it was not called); call prepare again",
+            ));
+        }
+        progress.check()?;
+        let k = request.aa;
+        let mut camera = request.camera;
+        camera.width *= k;
+        camera.height *= k;
+        let draws: Vec<DrawCall> = scene
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32)
+            })
+            .collect();
+        let opts = RasterOptions::default().fit_depth(&camera, &draws);
+        self.raster
+            .rasterize(&camera, &draws, &opts)
+            .map_err(|e| invalid("raster", e))?;
+        let refs: Vec<&[Vec3]> = self.colors.iter().map(|c| &c[..]).collect();
+        self.raster
+            .shade_gouraud(
+                &draws,
+                &refs,
+                Background::Color(Vec3::ZERO),
+                &mut self.frame,
+            )
+            .map_err(|e| invalid("raster", e))?;
+        Ok(Rendered::from_samples(
+            Cow::Borrowed(&self.frame),
+            &self.raster,
+            k,
+            std::mem::take(&mut self.pending_lighting_ms),
+            t0,
+        ))
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.warnings.clone()
+    }
+
+    fn frame_work(&self, _scene: &Scene, _request: &FrameRequest) -> Option<FrameWork> {
+        Some(FrameWork {
+            view_fma: 0.0,
+            lighting_fma: self.propagate_fma(),
+        })
+    }
+
+    fn data_bytes(&self) -> u64 {
+        self.objects
+            .iter()
+            .map(|p| {
+                4 * (p.transport.values.len() + p.dx.len() + p.dy.len()) as u64
+                    + 8 * p.mask.len() as u64
+            })
+            .sum()
+    }
+}

@@ -1,0 +1,107 @@
+//! The scenes `verify` and `bench nearfield` use, built in code: a
+//! Lambertian floor and sphere under one textured ceiling light, no
+//! environment (the method renders the area light alone).
+
+use glam::{Mat3, Vec2, Vec3};
+use relight_brdf::Lambert;
+use relight_geom::shapes::{plane, uv_sphere_at};
+use relight_render::texture::Texture;
+use relight_render::{AreaLight, Camera, Object, Scene};
+use relight_sphere::{EnvMap, Param};
+use std::sync::Arc;
+
+/// The verify light's texture at `size²` texels: warm and cool halves, a
+/// stripe band and a bright spot (all frequencies the heuristic must track).
+#[must_use]
+pub fn test_texture(size: usize) -> Texture {
+    let texels = (0..size * size)
+        .map(|i| {
+            let (x, y) = (
+                (i % size) as f32 / size as f32,
+                (i / size) as f32 / size as f32,
+            );
+            let warm = if x < 0.5 {
+                Vec3::new(1.4, 0.9, 0.4)
+            } else {
+                Vec3::new(0.4, 0.8, 1.4)
+            };
+            let stripe = if ((y * 6.0) as i32) % 2 == 0 {
+                1.0
+            } else {
+                0.55
+            };
+            let spot = if (x - 0.7).powi(2) + (y - 0.3).powi(2) < 0.01 {
+                3.0
+            } else {
+                0.0
+            };
+            warm * stripe + Vec3::splat(spot)
+        })
+        .collect();
+    Texture::try_new(size, size, texels).expect("valid size")
+}
+
+/// A downward ceiling light at `center` of `size`, with the test texture.
+#[must_use]
+pub fn ceiling_light(center: Vec3, size: Vec2, intensity: f32) -> AreaLight {
+    AreaLight {
+        center,
+        size,
+        // x̂ = X, ŷ = Z, ẑ = −Y: emits downwards (right-handed).
+        world_from_light: Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
+        intensity: Vec3::splat(intensity),
+        texture: Some(Arc::new(test_texture(64))),
+    }
+}
+
+/// A floor of `(floor + 1)²` vertices (side 4) and a sphere of
+/// `segments × segments/2` quads (radius 0.45) on it, under
+/// [`ceiling_light`] at height 1.6, seen by a `width × height` camera.
+#[must_use]
+pub fn floor_and_sphere(
+    floor: usize,
+    segments: usize,
+    width: usize,
+    height: usize,
+    visibility: bool,
+) -> Scene {
+    let lambert = |a: f32| -> Arc<dyn relight_brdf::Brdf> {
+        Arc::new(Lambert::new(Vec3::splat(a)).expect("valid albedo"))
+    };
+    let objects = vec![
+        Object::new(
+            Arc::new(uv_sphere_at(
+                Vec3::new(0.25, 0.45, 0.15),
+                0.45,
+                segments,
+                (segments / 2).max(2),
+            )),
+            lambert(0.8),
+        ),
+        Object::new(Arc::new(plane(4.0, floor)), lambert(0.7)),
+    ];
+    let env = EnvMap::from_fn(
+        Param::LatLong {
+            width: 8,
+            height: 4,
+        },
+        |_| Vec3::ZERO,
+    );
+    let camera = Camera {
+        eye: Vec3::new(0.0, 2.0, 3.4),
+        target: Vec3::new(0.0, 0.3, 0.0),
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+        width,
+        height,
+        image_offset: Vec2::ZERO,
+    };
+    let mut s = Scene::new(objects, env, camera);
+    s.visibility = visibility;
+    s.area_lights.push(ceiling_light(
+        Vec3::new(0.0, 1.6, 0.0),
+        Vec2::new(1.6, 1.0),
+        3.0,
+    ));
+    s
+}
