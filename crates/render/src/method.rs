@@ -479,6 +479,19 @@ pub fn check_scene(
     Ok(warnings)
 }
 
+/// True when `prepared` (a method's meshes, one per object, as it prepared
+/// them) are exactly `scene`'s objects' meshes, by identity: the test a
+/// method's `render` makes before using what it baked.
+pub fn same_meshes<'a>(
+    prepared: impl ExactSizeIterator<Item = &'a std::sync::Arc<relight_geom::Mesh>>,
+    scene: &Scene,
+) -> bool {
+    prepared.len() == scene.objects.len()
+        && prepared
+            .zip(&scene.objects)
+            .all(|(p, o)| std::sync::Arc::ptr_eq(p, &o.mesh))
+}
+
 /// True when `method` supports [`SceneFeature::Animation`]: prepared once on
 /// a moving scene, it renders every pose (module docs, *Animation*).
 #[must_use]

@@ -398,12 +398,8 @@ impl Relighter for NearfieldMethod {
         let t = Instant::now();
         let light = the_light(scene)?;
         let frame = LightFrame::of(light);
-        let same_objects = self.objects.len() == scene.objects.len()
-            && self
-                .objects
-                .iter()
-                .zip(&scene.objects)
-                .all(|(p, o)| Arc::ptr_eq(&p.mesh, &o.mesh));
+        let same_objects =
+            relight_render::method::same_meshes(self.objects.iter().map(|p| &p.mesh), scene);
         let rebake = !same_objects
             || self
                 .baked
@@ -433,12 +429,7 @@ impl Relighter for NearfieldMethod {
     ) -> Result<Rendered, MethodError> {
         request.validate(NEARFIELD_METHOD_NAME)?;
         let t0 = Instant::now();
-        let same = self.objects.len() == scene.objects.len()
-            && self
-                .objects
-                .iter()
-                .zip(&scene.objects)
-                .all(|(p, o)| Arc::ptr_eq(&p.mesh, &o.mesh));
+        let same = relight_render::method::same_meshes(self.objects.iter().map(|p| &p.mesh), scene);
         if !same || self.colors.len() != self.objects.len() {
             return Err(invalid(
                 "scene",

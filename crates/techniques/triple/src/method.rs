@@ -535,12 +535,7 @@ impl Relighter for TripleMethod {
     ) -> Result<Rendered, MethodError> {
         request.validate(TRIPLE_METHOD_NAME)?;
         let t0 = Instant::now();
-        let same = self.objects.len() == scene.objects.len()
-            && self
-                .objects
-                .iter()
-                .zip(&scene.objects)
-                .all(|(p, o)| Arc::ptr_eq(&p.mesh, &o.mesh));
+        let same = relight_render::method::same_meshes(self.objects.iter().map(|p| &p.mesh), scene);
         if !same {
             return Err(stale(
                 "the objects changed since `prepare`; call prepare again",
