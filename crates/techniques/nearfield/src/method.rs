@@ -31,7 +31,7 @@ use relight_geom::Mesh;
 use relight_render::method::{
     FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
 };
-use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
+use relight_render::raster::{Background, Rasterizer};
 use relight_render::{AreaLight, Image, Progress, Scene, SceneBvh};
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -438,21 +438,9 @@ impl Relighter for NearfieldMethod {
         }
         progress.check()?;
         let k = request.aa;
-        let mut camera = request.camera;
-        camera.width *= k;
-        camera.height *= k;
-        let draws: Vec<DrawCall> = scene
-            .objects
-            .iter()
-            .enumerate()
-            .map(|(i, o)| {
-                DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32)
-            })
-            .collect();
-        let opts = RasterOptions::default().fit_depth(&camera, &draws);
-        self.raster
-            .rasterize(&camera, &draws, &opts)
-            .map_err(|e| invalid("raster", e))?;
+        let (_, draws) =
+            relight_render::method::rasterize_objects(&mut self.raster, scene, request)
+                .map_err(|e| invalid("raster", e))?;
         let refs: Vec<&[Vec3]> = self.colors.iter().map(|c| &c[..]).collect();
         self.raster
             .shade_gouraud(

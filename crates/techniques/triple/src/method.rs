@@ -39,7 +39,7 @@ use relight_geom::Mesh;
 use relight_render::method::{
     FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
 };
-use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
+use relight_render::raster::{Background, Rasterizer};
 use relight_render::{Image, Progress, Scene, SceneBvh};
 use relight_sphere::{EnvMap, Frame};
 use relight_wavelet::WaveletError;
@@ -547,21 +547,9 @@ impl Relighter for TripleMethod {
             .ok_or_else(|| stale("call prepare before render"))?;
         progress.check()?;
         let k = request.aa;
-        let mut camera = request.camera;
-        camera.width *= k;
-        camera.height *= k;
-        let draws: Vec<DrawCall> = scene
-            .objects
-            .iter()
-            .enumerate()
-            .map(|(i, o)| {
-                DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32)
-            })
-            .collect();
-        let opts = RasterOptions::default().fit_depth(&camera, &draws);
-        self.raster
-            .rasterize(&camera, &draws, &opts)
-            .map_err(|e| invalid("raster", e))?;
+        let (camera, draws) =
+            relight_render::method::rasterize_objects(&mut self.raster, scene, request)
+                .map_err(|e| invalid("raster", e))?;
         let env = &scene.env;
         let env_from_world = scene.world_from_env.transpose();
         let bg = |d: Vec3| env.eval(env_from_world * d);
