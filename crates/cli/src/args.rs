@@ -541,9 +541,35 @@ pub struct BenchArgs {
     /// `bench frames` only: run only the rows of these methods (repeatable).
     #[arg(long = "method", value_name = "NAME")]
     pub methods: Vec<String>,
+    /// Cap the vector instruction set of the SH kernels at this level, to time
+    /// the paths a CPU without AVX-512 (or AVX2) takes; default: the best
+    /// this CPU has. A level above the CPU's changes nothing.
+    #[arg(long, value_enum, value_name = "ISA")]
+    pub isa: Option<IsaArg>,
     /// `bench sh` only: the peer kit's timings (a `.jsonl` file or its runs directory); adds a table of speedups with issue 17's targets.
     #[arg(long, value_name = "PATH")]
     pub peers: Option<PathBuf>,
+}
+
+/// Vector instruction-set levels of the SH kernels (`relight_sh::Isa`).
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IsaArg {
+    /// The baseline target, no run-time-selected kernels.
+    Portable,
+    /// AVX2 with FMA.
+    Avx2,
+    /// AVX-512F.
+    Avx512,
+}
+
+impl From<IsaArg> for relight_sh::Isa {
+    fn from(a: IsaArg) -> Self {
+        match a {
+            IsaArg::Portable => Self::Portable,
+            IsaArg::Avx2 => Self::Avx2,
+            IsaArg::Avx512 => Self::Avx512,
+        }
+    }
 }
 
 /// Accuracy suites of `relight verify`.

@@ -314,6 +314,9 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
     if a.suite != Suite::Frames && !a.methods.is_empty() {
         bail!("--method applies to `bench frames` only");
     }
+    if let Some(isa) = a.isa {
+        relight_sh::set_isa_limit(isa.into());
+    }
     match a.suite {
         Suite::Frames => crate::bench_frames::run(&a, bar),
         Suite::Shexp => crate::shexp::bench(&a, &report),

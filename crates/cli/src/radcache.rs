@@ -100,9 +100,12 @@ pub fn bench(quick: bool, report: &Report, bar: &Bar) -> Result<()> {
     };
     let rows = bench_radiance_cache(&s, bar)?;
     report.table_plots(
-        "relight bench radiance-cache (the paper's Table 1; times per single-channel rotation \
-         including the ZYZ split / matrix build, as the paper's TPR = (RT − RT_ignore) / \
-         (3 · rotations); paper_us: 2006 CPU; pass = 10× faster)",
+        &format!(
+            "relight bench radiance-cache (the paper's Table 1; times per single-channel rotation \
+             including the ZYZ split / matrix build, as the paper's TPR = (RT − RT_ignore) / \
+             (3 · rotations); paper_us: 2006 CPU; pass = 10× faster; SH kernels: {})",
+            relight_sh::isa().name()
+        ),
         &rows,
         &[],
     )?;

@@ -125,12 +125,5 @@ impl<const W: usize, const FMA: bool> Neg for V<W, FMA> {
 #[inline]
 #[must_use]
 pub fn avx2_fma_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    crate::isa::isa() >= crate::isa::Isa::Avx2
 }

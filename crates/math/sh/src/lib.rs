@@ -81,6 +81,7 @@ pub mod convolve;
 pub mod fast;
 #[rustfmt::skip]
 pub mod generated;
+pub mod isa;
 #[rustfmt::skip]
 pub(crate) mod kernels;
 pub mod kernels_gen;
@@ -91,6 +92,7 @@ pub mod quadrature;
 pub mod real;
 pub mod rotation;
 mod simd;
+mod simd_avx2;
 pub mod taylor;
 pub mod window;
 
@@ -98,6 +100,7 @@ pub use basis::{
     ShFloat as ShFloatExt, eval_sh, eval_sh_f64, eval_sh_into, try_eval_sh, try_eval_sh_into,
 };
 pub use bench::{ShBenchRow, bench_sh};
+pub use isa::{Isa, detected_isa, isa, set_isa_limit};
 pub use real::Real;
 
 /// One-paragraph statement of the coefficient convention, for tool output

@@ -311,14 +311,7 @@ pub(crate) fn plan(order: usize) -> &'static Plan {
 /// Whether the vectorised kernels can run on this CPU (std caches the answer).
 #[inline]
 pub(crate) fn available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx512f")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    crate::isa::isa() == crate::isa::Isa::Avx512
 }
 
 /// The plan for `order` when the vectorised kernels apply (`2 ≤ order ≤ 10`
@@ -326,14 +319,12 @@ pub(crate) fn available() -> bool {
 /// order and cached with the plan, so the fast path costs one atomic load.
 #[inline]
 pub(crate) fn plan_if_available(order: usize) -> Option<&'static Plan> {
-    static PLANS: [OnceLock<Option<Plan>>; SIMD_MAX_ORDER + 1] =
+    static PLANS: [OnceLock<Plan>; SIMD_MAX_ORDER + 1] =
         [const { OnceLock::new() }; SIMD_MAX_ORDER + 1];
-    if !(2..=SIMD_MAX_ORDER).contains(&order) {
+    if !(2..=SIMD_MAX_ORDER).contains(&order) || !available() {
         return None;
     }
-    PLANS[order]
-        .get_or_init(|| available().then(|| Plan::new(order)))
-        .as_ref()
+    Some(PLANS[order].get_or_init(|| Plan::new(order)))
 }
 
 /// Which Taylor expansion (mirrors [`crate::taylor::TaylorOrder`]).

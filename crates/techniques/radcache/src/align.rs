@@ -89,10 +89,12 @@ impl Aligner {
             }
             RotationMethod::Ivanic => {
                 self.ivanic.build(rot, &mut self.matrix);
-                for c in 0..3 {
-                    self.matrix
-                        .apply(&src[c * nn..(c + 1) * nn], &mut dst[c * nn..(c + 1) * nn]);
-                }
+                let (d0, rest) = dst[..3 * nn].split_at_mut(nn);
+                let (d1, d2) = rest.split_at_mut(nn);
+                self.matrix.apply_rgb(
+                    [&src[..nn], &src[nn..2 * nn], &src[2 * nn..3 * nn]],
+                    [d0, d1, d2],
+                );
                 false
             }
         }
@@ -101,12 +103,5 @@ impl Aligner {
 
 /// True where `relight_sh`'s AVX-512F kernels run (detected at run time).
 fn avx512f() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx512f")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    relight_sh::isa() == relight_sh::Isa::Avx512
 }
