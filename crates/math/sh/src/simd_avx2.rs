@@ -13,8 +13,12 @@
 //! half-band (`cos mα, sin mα` by the multiple-angle recurrence, once per Z);
 //! the pair `m = 9` of order 10 is scalar.
 //! Below order 7 the generated straight-line kernels of [`crate::fast`] are
-//! faster and keep running. The same Z rotation serves
-//! [`crate::taylor::TaylorRotation::apply_rgb`] on every CPU with AVX2.
+//! faster and keep running.
+//!
+//! The masked band stores defeat store-to-load forwarding for the next
+//! step's loads; here that costs less than it saves (order 10: 2.8× faster
+//! than the portable path), but the same Z rotation made the RGB Taylor
+//! rotation slower than its unrolled portable loops, so it is not used there.
 
 // Off x86-64 only the portable code runs.
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_imports))]
@@ -149,27 +153,6 @@ pub(crate) fn try_zyz<T: Real>(order: usize, e: &EulerZyz<T>, src: &[T], dst: &m
     false
 }
 
-/// `v = R_z(α) v` (f32, `n ≤ 10` bands) with the kernel's band-pair Z
-/// rotation (the Taylor rotations' Z steps on AVX2 CPUs).
-///
-/// # Safety
-/// The CPU must have AVX2 and FMA.
-///
-/// # Panics
-/// If `v` is shorter than `n²` or `n > 10`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-pub(crate) unsafe fn rotate_z_in_place(n: usize, ca: f32, sa: f32, v: &mut [f32]) {
-    assert!(n <= 10, "order above 10");
-    let nn = n * n;
-    let mut a = [0.0f32; x86::BUF];
-    a[x86::LEAD..x86::LEAD + nn].copy_from_slice(&v[..nn]);
-    let ap = a.as_mut_ptr();
-    // SAFETY: AVX2 + FMA are enabled here; `a` is a work buffer.
-    unsafe { x86::rot_z(n, ca, sa, ap, ap) };
-    v[..nn].copy_from_slice(&a[x86::LEAD..x86::LEAD + nn]);
-}
-
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::{F8, LANES, PADDED, Pieces8, Plan};
@@ -216,10 +199,9 @@ mod x86 {
 
     /// Leading zero lanes of the work buffers (the negative half of band 1
     /// is loaded from eight lanes below its start).
-    pub(super) const LEAD: usize = LANES;
-    /// Length of a work buffer: `LEAD` zeros, the padded vector, one spare register.
-    pub(super) const BUF: usize = LEAD + PADDED + LANES;
-    type Buf = [f32; BUF];
+    const LEAD: usize = LANES;
+    /// A work buffer: `LEAD` zeros, the padded vector, one spare register.
+    type Buf = [f32; LEAD + PADDED + LANES];
 
     /// Lane masks: the first `h` lanes, and the last `h` lanes (`h ≤ 8`).
     #[inline(always)]
@@ -237,7 +219,7 @@ mod x86 {
     /// `y = R_z(α) x` on buffers (coefficient `i` at `LEAD + i`); `x` and `y`
     /// may be the same buffer (each band is read before it is written).
     #[inline(always)]
-    pub(super) unsafe fn rot_z(n: usize, ca: f32, sa: f32, x: *const f32, y: *mut f32) {
+    unsafe fn rot_z(n: usize, ca: f32, sa: f32, x: *const f32, y: *mut f32) {
         // SAFETY (whole body): the caller has AVX2 + FMA and passes buffers of
         // type `Buf`; every access is inside `[b − 8, b + 8]` of a band start
         // `b = l(l+1) ≤ 90`, shifted by `LEAD`, so inside the buffer.

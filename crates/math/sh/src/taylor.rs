@@ -41,9 +41,7 @@
 //! caching, §4.2) [`TaylorRotation::apply_rgb`] splits the rotation, finds β
 //! and the multiple angles of α and γ once, and sweeps the three channels
 //! through the three steps with the order a compile-time constant at the
-//! paper's orders 6 and 10 (portable code, no allocation). On CPUs with AVX2
-//! and FMA, f32 at orders 7…10 takes the band-pair Z rotation of
-//! [`crate::simd_avx2`] and the flat Y sweeps compiled for AVX2.
+//! paper's orders 6 and 10 (portable code, no allocation).
 
 use crate::rotation::{EulerZyz, Rot3, ZyzRotation, rotate_z, rotate_z_in_place};
 use crate::{MAX_ORDER, Real, ShError, check_order};
@@ -595,9 +593,9 @@ impl<T: Real> TaylorRotation<T> {
             return false;
         }
         #[cfg(target_arch = "x86_64")]
-        if (7..=10).contains(&n) && avx2_fma() && T::as_f32_slice(src).is_some() {
+        if n == 10 && avx2_fma() {
             // SAFETY: the CPU has AVX2 and FMA (checked at run time).
-            unsafe { self.rgb_bands_avx2(n, &e, beta, src, dst, scratch) };
+            unsafe { self.rgb_fixed_avx2::<10>(&e, beta, src, dst, scratch) };
             return true;
         }
         match n {
@@ -612,55 +610,19 @@ impl<T: Real> TaylorRotation<T> {
         true
     }
 
-    /// The f32 RGB Taylor rotation on CPUs with AVX2 + FMA, orders
-    /// 7…10: the Z steps by band pairs in 8-lane registers
-    /// ([`crate::simd_avx2::rotate_z_in_place`]), the Y step by
-    /// [`TaylorY`]'s flat sweeps compiled for AVX2.
+    /// [`rgb_fixed`](Self::rgb_fixed) compiled for AVX2 + FMA (run-time
+    /// dispatch; same arithmetic, no contraction, so the same results).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn rgb_bands_avx2(
+    fn rgb_fixed_avx2<const N: usize>(
         &self,
-        n: usize,
         e: &EulerZyz<T>,
         beta: T,
         src: &[T],
         dst: &mut [T],
         t: &mut [T],
     ) {
-        let nn = n * n;
-        let f = |v: T| v.to_f64() as f32;
-        t[..3 * nn].copy_from_slice(&src[..3 * nn]);
-        if let Some(t32) = T::as_f32_slice_mut(t) {
-            for c in 0..3 {
-                // SAFETY: AVX2 + FMA are enabled here.
-                unsafe {
-                    crate::simd_avx2::rotate_z_in_place(
-                        n,
-                        f(e.cos_gamma),
-                        f(e.sin_gamma),
-                        &mut t32[c * nn..(c + 1) * nn],
-                    );
-                }
-            }
-        }
-        for c in 0..3 {
-            let r = c * nn..(c + 1) * nn;
-            self.taylor
-                .apply_dyn(nn, self.kind, beta, &t[r.clone()], &mut dst[r]);
-        }
-        if let Some(d32) = T::as_f32_slice_mut(dst) {
-            for c in 0..3 {
-                // SAFETY: AVX2 + FMA are enabled here.
-                unsafe {
-                    crate::simd_avx2::rotate_z_in_place(
-                        n,
-                        f(e.cos_alpha),
-                        f(e.sin_alpha),
-                        &mut d32[c * nn..(c + 1) * nn],
-                    );
-                }
-            }
-        }
+        self.rgb_fixed::<N>(e, beta, src, dst, t);
     }
 
     /// [`apply_rgb`](Self::apply_rgb)'s Taylor path with the order a
