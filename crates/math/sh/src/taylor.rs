@@ -662,15 +662,22 @@ impl<T: Real> TaylorRotation<T> {
         let [cg, sg, ca, sa] = angles;
         multiple_angles(n, e.cos_gamma, e.sin_gamma, cg, sg);
         multiple_angles(n, e.cos_alpha, e.sin_alpha, ca, sa);
+        // Band by band through split slices: `(neg, c₀, pos)` with `neg`
+        // reversed, so that the pair loops carry no index checks.
         for c in 0..3 {
             let (x, y) = (&src[c * nn..(c + 1) * nn], &mut t[c * nn..(c + 1) * nn]);
             for l in 0..n {
-                let b = l * (l + 1);
-                y[b] = x[b];
-                for m in 1..=l {
-                    let (p, q) = (x[b + m], x[b - m]);
-                    y[b + m] = p * cg[m] - q * sg[m];
-                    y[b - m] = q * cg[m] + p * sg[m];
+                let w = 2 * l + 1;
+                let (xb, yb) = (&x[l * l..l * l + w], &mut y[l * l..l * l + w]);
+                let (xn, xr) = xb.split_at(l);
+                let (yn, yr) = yb.split_at_mut(l);
+                yr[0] = xr[0];
+                let pairs = xr[1..].iter().zip(xn.iter().rev());
+                let outs = yr[1..].iter_mut().zip(yn.iter_mut().rev());
+                let trig = cg[1..=l].iter().zip(&sg[1..=l]);
+                for (((p, q), (yp, yq)), (cm, sm)) in pairs.zip(outs).zip(trig) {
+                    *yp = *p * *cm - *q * *sm;
+                    *yq = *q * *cm + *p * *sm;
                 }
             }
         }
@@ -686,11 +693,14 @@ impl<T: Real> TaylorRotation<T> {
         for c in 0..3 {
             let y = &mut dst[c * nn..(c + 1) * nn];
             for l in 1..n {
-                let b = l * (l + 1);
-                for m in 1..=l {
-                    let (p, q) = (y[b + m], y[b - m]);
-                    y[b + m] = p * ca[m] - q * sa[m];
-                    y[b - m] = q * ca[m] + p * sa[m];
+                let w = 2 * l + 1;
+                let (yn, yr) = y[l * l..l * l + w].split_at_mut(l);
+                let outs = yr[1..].iter_mut().zip(yn.iter_mut().rev());
+                let trig = ca[1..=l].iter().zip(&sa[1..=l]);
+                for ((yp, yq), (cm, sm)) in outs.zip(trig) {
+                    let (p, q) = (*yp, *yq);
+                    *yp = p * *cm - q * *sm;
+                    *yq = q * *cm + p * *sm;
                 }
             }
         }
