@@ -159,6 +159,9 @@ pub struct VerifyOptions {
     /// every vertex of the image rows.
     pub image_samples: usize,
     pub aa: usize,
+    /// Only the face-coverage and per-vertex rows (`relight verify
+    /// nearfield-vertex`): no reference render.
+    pub per_vertex_only: bool,
 }
 
 impl VerifyOptions {
@@ -176,6 +179,7 @@ impl VerifyOptions {
                 samples: 64,
                 image_samples: 12,
                 aa: 2,
+                per_vertex_only: false,
             }
         } else {
             Self {
@@ -188,6 +192,7 @@ impl VerifyOptions {
                 samples: 256,
                 image_samples: 32,
                 aa: 2,
+                per_vertex_only: false,
             }
         }
     }
@@ -357,7 +362,9 @@ pub fn verify_rows(
             ));
         }
     }
-    rows.extend(image_rows(&base, opts, progress)?);
+    if !opts.per_vertex_only {
+        rows.extend(image_rows(&base, opts, progress)?);
+    }
     Ok(rows)
 }
 
