@@ -236,6 +236,31 @@ fn shadowed_vertex_matches_face_quadrature() {
     assert!(e < 0.03, "vertex {v} ({:.0} % lit): {e}", best.2 * 100.0);
 }
 
+/// A light box-averaged at a coarser order is exact in the finer basis: its
+/// finest-level details vanish and its coarser coefficients are those of
+/// the coarse light (the standard basis nests).
+#[test]
+fn coarse_light_in_a_finer_basis() {
+    let s = small(false);
+    let light = &s.area_lights[0];
+    let fine = LightCoeffs::of_at(light, 16, 8);
+    let coarse = LightCoeffs::of(light, 8);
+    for c in 0..3 {
+        for k2 in 0..16 {
+            for k1 in 0..16 {
+                let v = fine.c[c][k2 * 16 + k1];
+                if k1 >= 8 || k2 >= 8 {
+                    assert!(v.abs() < 1e-9, "({k1}, {k2}): {v}");
+                } else {
+                    // The basis is orthonormal on [0, 1]: a coefficient is ∫ F Φ, whatever the order.
+                    let w = coarse.c[c][k2 * 8 + k1];
+                    assert!((v - w).abs() < 1e-6 * (1.0 + w.abs()), "({k1}, {k2}): {v} vs {w}");
+                }
+            }
+        }
+    }
+}
+
 /// Moving, scaling and retexturing the light re-bakes nothing; turning it does.
 #[test]
 fn edits_without_rebake() {
