@@ -254,7 +254,10 @@ fn coarse_light_in_a_finer_basis() {
                 } else {
                     // The basis is orthonormal on [0, 1]: a coefficient is ∫ F Φ, whatever the order.
                     let w = coarse.c[c][k2 * 8 + k1];
-                    assert!((v - w).abs() < 1e-6 * (1.0 + w.abs()), "({k1}, {k2}): {v} vs {w}");
+                    assert!(
+                        (v - w).abs() < 1e-6 * (1.0 + w.abs()),
+                        "({k1}, {k2}): {v} vs {w}"
+                    );
                 }
             }
         }
