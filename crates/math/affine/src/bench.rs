@@ -1,6 +1,7 @@
 //! `relight bench affine`: the Fig. 4.6 curves, the §4.4.3 complexity
 //! table, the §4.5.5 table's size and build time on its grid, the error its
-//! quantisation adds, and computational vs table propagation time.
+//! quantisation adds, computational vs table propagation time, and the
+//! §4.6.2 zoom against the pixel path.
 //! Measured figures belong in docs/affine.md, not here.
 
 use crate::sparsity::{ComplexityRow, CurvePoint, complexity_table, fig46_curves, random_sets};
