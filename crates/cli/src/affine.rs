@@ -22,8 +22,8 @@ pub fn verify(a: &VerifyArgs, report: &Report) -> Result<()> {
     Ok(())
 }
 
-/// `relight bench affine`: four tables (sparsity curves, complexity,
-/// 4D table cost, propagation time), each one JSON array with `--json` (as
+/// `relight bench affine`: five tables (sparsity curves, complexity,
+/// 4D table cost, propagation time, zoom), each one JSON array with `--json` (as
 /// `bench sh` prints its two).
 pub fn bench(a: &BenchArgs, report: &Report) -> Result<()> {
     let b = relight_affine::bench::bench_affine(a.quick);
@@ -61,6 +61,11 @@ pub fn bench(a: &BenchArgs, report: &Report) -> Result<()> {
     report.table(
         "relight bench affine: propagation per (s, o), computational vs table",
         &b.row_time,
+        &[],
+    )?;
+    report.table(
+        "relight bench affine: §4.6.2 zoom, wavelet domain (propagate_2d) vs pixel path (inverse Haar → box resampling → forward Haar), one thread",
+        &b.zoom,
         &[],
     )
 }

@@ -597,6 +597,8 @@ pub enum VerifySuite {
     Triple,
     /// Near-field relighting against quadrature and the reference.
     Nearfield,
+    /// Near-field relighting: only the face-coverage and per-vertex rows (no reference render).
+    NearfieldVertex,
 }
 
 #[derive(Args, Debug)]

@@ -531,7 +531,8 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
         VerifySuite::RadianceCache => crate::radcache::verify(a.quick, &report, bar),
         VerifySuite::Affine => crate::affine::verify(&a, &report),
         VerifySuite::Triple => crate::triple::verify(&a, &report, bar),
-        VerifySuite::Nearfield => crate::nearfield::verify(&a, &report, bar),
+        VerifySuite::Nearfield => crate::nearfield::verify(&a, &report, bar, false),
+        VerifySuite::NearfieldVertex => crate::nearfield::verify(&a, &report, bar, true),
         VerifySuite::Sh => {
             let opts = relight_shlight::VerifyOptions::new(a.quick);
             let default = relight_scene::default_scene(opts.width, opts.height);

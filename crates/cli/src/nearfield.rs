@@ -26,9 +26,15 @@ pub fn apply_flags(o: &mut NearfieldOptions, f: &MethodFlags) {
     }
 }
 
-/// `relight verify nearfield`: fails (exit 1) when any gated row fails.
-pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
-    let rows = verify_rows(&VerifyOptions::new(a.quick), bar).map_err(|e| anyhow!(e))?;
+/// `relight verify nearfield` (`per_vertex_only`: `nearfield-vertex`, the
+/// rows before the reference render): fails (exit 1) when any gated row
+/// fails.
+pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar, per_vertex_only: bool) -> Result<()> {
+    let opts = VerifyOptions {
+        per_vertex_only,
+        ..VerifyOptions::new(a.quick)
+    };
+    let rows = verify_rows(&opts, bar).map_err(|e| anyhow!(e))?;
     let v = report.table_verdicts(
         "relight verify nearfield (floor + sphere under a textured ceiling light)",
         &rows,

@@ -150,3 +150,50 @@ pub fn zoom_transform(scale: f64, center: [f64; 2]) -> ([f64; 2], [f64; 2]) {
     let s = 1.0 / scale;
     ([s, s], [center[0] - 0.5 * s, center[1] - 0.5 * s])
 }
+
+/// The pixel path of a zoom (§4.6.2, Fig. 4.13's baseline): the box
+/// resampling `out(x) = mean of the image over the preimage of pixel x`
+/// of the affine map `u = s x + o` (zero outside the image), separable,
+/// each target pixel reading the `⌈s⌉ + 1` source pixels per axis its
+/// preimage overlaps. `img`, `out`: `n × n` row-major; `tmp`: `n²`.
+pub fn box_resample_2d(
+    img: &[f32],
+    n: usize,
+    s: [f64; 2],
+    o: [f64; 2],
+    tmp: &mut [f32],
+    out: &mut [f32],
+) {
+    let nf = n as f64;
+    // (first source pixel, weights) of target pixel j on one axis.
+    let taps = |s: f64, o: f64, j: usize, w: &mut Vec<(usize, f32)>| {
+        w.clear();
+        let (u0, u1) = (s * j as f64 / nf + o, s * (j + 1) as f64 / nf + o);
+        let i0 = (u0 * nf).floor().max(0.0) as usize;
+        let i1 = ((u1 * nf).ceil().min(nf)).max(0.0) as usize;
+        for i in i0..i1 {
+            let ov = (u1.min((i + 1) as f64 / nf) - u0.max(i as f64 / nf)).max(0.0);
+            if ov > 0.0 {
+                w.push((i, (ov / (u1 - u0)) as f32));
+            }
+        }
+    };
+    let mut w = Vec::new();
+    for tx in 0..n {
+        taps(s[0], o[0], tx, &mut w);
+        for y in 0..n {
+            let row = &img[y * n..(y + 1) * n];
+            tmp[y * n + tx] = w.iter().map(|&(i, a)| row[i] * a).sum();
+        }
+    }
+    for ty in 0..n {
+        taps(s[1], o[1], ty, &mut w);
+        let dst = &mut out[ty * n..(ty + 1) * n];
+        dst.fill(0.0);
+        for &(i, a) in &w {
+            for (d, &v) in dst.iter_mut().zip(&tmp[i * n..(i + 1) * n]) {
+                *d += v * a;
+            }
+        }
+    }
+}

@@ -96,3 +96,28 @@ fn propagation_2d_equals_pixel_box_resampling() {
         }
     }
 }
+
+/// The zoom bench's rows (quick size): exact at 100 % against the pixel
+/// path (inverse Haar → box resampling → forward Haar), compressed rows
+/// lossy but close.
+#[test]
+fn zoom_rows_are_exact_at_full_terms() {
+    let rows = relight_affine::bench::zoom_rows(true);
+    assert_eq!(rows.len(), 3);
+    assert!(rows[0].max_diff <= 1e-5, "{:?}", rows[0]);
+    assert!(
+        rows[1].psnr_db > 20.0 && rows[1].psnr_db.is_finite(),
+        "{:?}",
+        rows[1]
+    );
+}
+
+/// The full-size zoom rows, printed (a timing, not a check): `cargo test
+/// --release -p relight-affine --test separable -- --ignored --nocapture zoom_full`.
+#[test]
+#[ignore = "a timing at bench size"]
+fn zoom_full_size_rows() {
+    for r in relight_affine::bench::zoom_rows(false) {
+        println!("{r:?}");
+    }
+}

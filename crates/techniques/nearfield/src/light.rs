@@ -31,8 +31,25 @@ impl LightCoeffs {
     /// Box-averages and transforms `light`'s radiance at order `n`.
     #[must_use]
     pub fn of(light: &AreaLight, n: usize) -> Self {
-        let mut grids = light_cells(light, n);
-        for g in &mut grids {
+        Self::of_at(light, n, n)
+    }
+
+    /// `light` box-averaged at order `coarse` (≤ `n`, powers of two),
+    /// each cell repeated onto the `n × n` grid, transformed at order `n`:
+    /// the order-`coarse` light exactly, in the order-`n` basis (its finer
+    /// details are zero).
+    #[must_use]
+    pub fn of_at(light: &AreaLight, n: usize, coarse: usize) -> Self {
+        let coarse = coarse.min(n);
+        let cells = light_cells(light, coarse);
+        let r = n / coarse;
+        let mut grids = [vec![0.0; n * n], vec![0.0; n * n], vec![0.0; n * n]];
+        for (g, c) in grids.iter_mut().zip(&cells) {
+            for y in 0..n {
+                for x in 0..n {
+                    g[y * n + x] = c[(y / r) * coarse + x / r];
+                }
+            }
             forward_2d(g, n);
         }
         Self { n, c: grids }

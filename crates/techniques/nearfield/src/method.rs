@@ -43,9 +43,17 @@ pub const NEARFIELD_METHOD_NAME: &str = "nearfield";
 /// Settings of [`NearfieldMethod`]; `Default` holds the defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NearfieldOptions {
-    /// Wavelet order `n` per axis of the light and of the face (a power of
-    /// two, 4…64). Default 32 (the thesis' order).
+    /// Wavelet order `n` per axis of the face (the transport) and of the
+    /// light's coefficients (a power of two, 4…64). Default 32 (the
+    /// thesis' order).
     pub order: usize,
+    /// Order the light is box-averaged at, when coarser than `order`
+    /// (`None`: `order`). A light at order `n_L < n` is exact in the
+    /// order-`n` basis (its finer details are zero), so this runs the
+    /// transport at `n` for a light of order `n_L`: it shrinks the
+    /// discretisation error `∫ (L − P L)(T − P T)` at the cost of the
+    /// order-`n` transport (`docs/nearfield.md`). Default `None`.
+    pub light_order: Option<usize>,
     /// Side of the expanded top face at unit distance (2 = a cube map's top
     /// face; the thesis uses 3–4). Default 4.
     pub face: f64,
@@ -60,6 +68,7 @@ impl Default for NearfieldOptions {
     fn default() -> Self {
         Self {
             order: 32,
+            light_order: None,
             face: 4.0,
             source_terms: 0.01,
             target_terms: 0.20,
@@ -137,6 +146,14 @@ impl NearfieldMethod {
             return Err(invalid(
                 "order",
                 format!("must be a power of two in 4…64, got {}", o.order),
+            ));
+        }
+        if let Some(l) = o.light_order
+            && !(l.is_power_of_two() && (4..=o.order).contains(&l))
+        {
+            return Err(invalid(
+                "light-order",
+                format!("must be a power of two in 4…order ({}), got {l}", o.order),
             ));
         }
         if !(o.face.is_finite() && (0.5..=32.0).contains(&o.face)) {
@@ -324,7 +341,8 @@ impl NearfieldMethod {
     /// The light's coefficients and source compression. Returns ms.
     pub fn update_source(&mut self, light: &AreaLight) -> f64 {
         let t = Instant::now();
-        let coeffs = LightCoeffs::of(light, self.options.order);
+        let o = &self.options;
+        let coeffs = LightCoeffs::of_at(light, o.order, o.light_order.unwrap_or(o.order));
         self.source = compress(&coeffs, self.options.source_terms);
         t.elapsed().as_secs_f64() * 1e3
     }
