@@ -139,7 +139,7 @@ trait FastEval: Real {
 impl FastEval for f32 {
     #[inline(always)]
     fn eval_fast(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
-        crate::fast::eval_one(order, [x, y, z], out)
+        crate::fast::eval_one(order, x, y, z, out)
     }
 }
 impl FastEval for f64 {

@@ -134,13 +134,26 @@ fn eval_kernels_match_recurrence() {
         }
         for (i, &d) in ds.iter().enumerate() {
             let want = eval_ref(n, d);
-            assert!(eval_one(n, d, &mut one));
             let tol = 4e-6 * (n * n) as f64;
+            let [x, y, z] = d;
+            assert!(eval_one_portable(n, x, y, z, &mut one));
             assert!(
                 max_diff(&one, &want) < tol,
-                "eval n={n} dir {d:?}: {}",
+                "portable eval n={n} dir {d:?}: {}",
                 max_diff(&one, &want)
             );
+            #[cfg(target_arch = "x86_64")]
+            if avx {
+                // SAFETY: checked above.
+                assert!(unsafe { eval_one_fma(n, x, y, z, &mut one) });
+                assert!(
+                    max_diff(&one, &want) < tol,
+                    "FMA eval n={n} dir {d:?}: {}",
+                    max_diff(&one, &want)
+                );
+            }
+            assert!(eval_one(n, x, y, z, &mut one));
+            assert!(max_diff(&one, &want) < tol, "eval n={n} dir {d:?}");
             if !batched {
                 continue;
             }
@@ -160,7 +173,9 @@ fn eval_kernels_match_recurrence() {
     }
     assert!(!eval_one(
         KERNEL_EVAL_MAX_ORDER + 1,
-        [0.0, 0.0, 1.0],
+        0.0,
+        0.0,
+        1.0,
         &mut [0.0; 81]
     ));
 }
@@ -276,19 +291,32 @@ fn rotate_kernels_match_portable_zyz() {
 
 #[test]
 fn product_kernels_match_gaunt_triples() {
+    let avx = avx2_or_skip();
     for n in 1..=KERNEL_PRODUCT_MAX_ORDER {
         let nn = n * n;
         let vs = vecs(n, 6, 6);
         let mut one = vec![0.0f32; nn];
         for k in 0..5 {
             let want = prod_ref(n, &vs[k], &vs[k + 1]);
-            assert!(product_one(n, &vs[k], &vs[k + 1], &mut one));
             let tol = 2e-6 * nn as f64;
+            assert!(product_one_portable(n, &vs[k], &vs[k + 1], &mut one));
             assert!(
                 max_diff(&one, &want) < tol,
-                "product n={n}: {}",
+                "portable product n={n}: {}",
                 max_diff(&one, &want)
             );
+            #[cfg(target_arch = "x86_64")]
+            if avx {
+                // SAFETY: checked above.
+                assert!(unsafe { product_one_fma(n, &vs[k], &vs[k + 1], &mut one) });
+                assert!(
+                    max_diff(&one, &want) < tol,
+                    "FMA product n={n}: {}",
+                    max_diff(&one, &want)
+                );
+            }
+            assert!(product_one(n, &vs[k], &vs[k + 1], &mut one));
+            assert!(max_diff(&one, &want) < tol, "product n={n}");
         }
         let mut o = [vec![0.0f32; nn], vec![0.0f32; nn], vec![0.0f32; nn]];
         let [o0, o1, o2] = &mut o;

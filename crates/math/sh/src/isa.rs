@@ -64,22 +64,43 @@ fn detect() -> Isa {
     Isa::Portable
 }
 
+/// The cap set by [`set_isa_limit`] (an `Isa` as `u8`).
 static LIMIT: AtomicU8 = AtomicU8::new(Isa::Avx512 as u8);
+/// The level in use, `min(detected, cap)`, or [`UNSET`] before the first
+/// call: one relaxed load per kernel call (the single-call kernels test it
+/// every time).
+static EFFECTIVE: AtomicU8 = AtomicU8::new(UNSET);
+const UNSET: u8 = u8::MAX;
+
+fn from_u8(v: u8) -> Isa {
+    match v {
+        0 => Isa::Portable,
+        1 => Isa::Avx2,
+        _ => Isa::Avx512,
+    }
+}
 
 /// Caps the level the kernels use from now on, process-wide (default: no
 /// cap). A cap above what the CPU has changes nothing.
 pub fn set_isa_limit(limit: Isa) {
     LIMIT.store(limit as u8, Ordering::Relaxed);
+    EFFECTIVE.store(limit.min(detected_isa()) as u8, Ordering::Relaxed);
 }
 
 /// The level the kernels use now: the lower of [`detected_isa`] and the cap.
 #[inline]
 #[must_use]
 pub fn isa() -> Isa {
-    let cap = match LIMIT.load(Ordering::Relaxed) {
-        0 => Isa::Portable,
-        1 => Isa::Avx2,
-        _ => Isa::Avx512,
-    };
-    cap.min(detected_isa())
+    match EFFECTIVE.load(Ordering::Relaxed) {
+        UNSET => first_isa(),
+        v => from_u8(v),
+    }
+}
+
+#[cold]
+#[inline(never)]
+fn first_isa() -> Isa {
+    let v = from_u8(LIMIT.load(Ordering::Relaxed)).min(detected_isa());
+    EFFECTIVE.store(v as u8, Ordering::Relaxed);
+    v
 }

@@ -13,10 +13,12 @@
 //!   [`crate::rotation::ZyzRotation`], `R = R_z(α) X₋ R_z(β) X₊ R_z(γ)` with the
 //!   fixed `X± = R_x(±90°)` band matrices (computed exactly in f64 by
 //!   Ivanic–Ruedenberg) written as sparse literal dot products;
-//! * **product**: the output-major Gaunt form of
-//!   [`crate::product::TripleProduct::product_with`],
-//!   `(f ∗ g)_k = Σ_{a ≤ b} w_{kab} (f_a g_b + f_b g_a)`, only the pair sums
-//!   that some output uses.
+//! * **product**: the Gaunt triples of [`crate::product::TripleProduct`]
+//!   grouped by index pair, DirectXMath's factorisation: for the pair `(a, b)`
+//!   `t = f_a g_b + f_b g_a` feeds every `y_k` of its triples `{a, b, k}`, and
+//!   `Σ_k Γ f_k`, `Σ_k Γ g_k` feed `y_a` and `y_b` (≈ 3 multiply–adds per
+//!   triple); in chunks above n = 4, each chunk with a portable and an
+//!   AVX2+FMA copy.
 //!
 //! A test regenerates the file and fails on any difference (the CI drift
 //! check); `RELIGHT_SH_REGENERATE=1 cargo test -p relight-sh kernels_source`
@@ -34,9 +36,9 @@ pub const KERNEL_ROTATE_MAX_ORDER: usize = 6;
 /// Largest order of the generated product kernels.
 pub const KERNEL_PRODUCT_MAX_ORDER: usize = 6;
 
-/// Weights per non-inlined chunk of a generated product kernel (compile time:
-/// see `product_kernel`).
-const PRODUCT_CHUNK_TERMS: usize = 256;
+/// Operations per non-inlined chunk of a generated product kernel (compile
+/// time: see `product_kernel`).
+const PRODUCT_CHUNK_OPS: usize = 600;
 
 fn lit(v: f64) -> String {
     format!("s({:?})", v as f32)
@@ -215,107 +217,328 @@ fn rotate_kernel(s: &mut String, n: usize) {
     writeln!(s, "}}\n").unwrap();
 }
 
-fn product_kernel(s: &mut String, n: usize) {
+/// One block of the product kernel: the Gaunt triples `{a, b, k}` that share
+/// the pair `(a, b)` (DirectXMath's factorisation of `XMSHMultiplyN`).
+struct PairBlock {
+    a: usize,
+    b: usize,
+    /// `(k, Γ_{abk})`, `k ∉ {a, b}`.
+    ks: Vec<(usize, f64)>,
+    /// `Γ_{aaa}` (only for `a = b`).
+    aaa: Option<f64>,
+}
+
+impl PairBlock {
+    /// Operations the block emits (for chunking).
+    fn ops(&self) -> usize {
+        3 * self.ks.len() + 6
+    }
+}
+
+/// The Gaunt triples of order `n` grouped into pair blocks. Every triple with
+/// a repeated index `{a, a, k}` goes to the pair `(a, a)`; the triples of three
+/// distinct indices are covered greedily, always by the pair that still has
+/// the most uncovered triples (fewer blocks, fewer per-block operations).
+fn pair_blocks(n: usize) -> Vec<PairBlock> {
     let nn = n * n;
     let tp = TripleProduct::<f64>::new(n).expect("order");
-    // Output-major (output, a ≤ b, weight) exactly as TripleProduct::new builds it.
-    let mut per_out: Vec<Vec<(usize, usize, f64)>> = vec![Vec::new(); nn];
+    let mut diag: Vec<PairBlock> = (0..nn)
+        .map(|a| PairBlock {
+            a,
+            b: a,
+            ks: Vec::new(),
+            aaa: None,
+        })
+        .collect();
+    let mut distinct: Vec<([usize; 3], f64)> = Vec::new();
     for (i, j, k, v) in tp.entries() {
-        let mut combos = vec![(i, j, k), (j, i, k), (k, i, j)];
-        combos.sort_unstable();
-        combos.dedup();
-        for (o, a, b) in combos {
-            per_out[o].push((a.min(b), a.max(b), v));
-        }
-    }
-    // Outputs in chunks of about PRODUCT_CHUNK_TERMS weights, each chunk its own
-    // non-inlined function: LLVM's cost on one basic block grows faster than
-    // its length (one n = 6 body of ~2800 operations took a minute to
-    // compile), and a chunk recomputes only the pair sums it uses.
-    let mut chunks: Vec<Vec<usize>> = vec![Vec::new()];
-    let mut terms = 0;
-    for (o, list) in per_out.iter_mut().enumerate() {
-        list.sort_by_key(|e| (e.0, e.1));
-        if terms > 0 && terms + list.len() > PRODUCT_CHUNK_TERMS {
-            chunks.push(Vec::new());
-            terms = 0;
-        }
-        terms += list.len();
-        chunks.last_mut().expect("non-empty").push(o);
-    }
-    let multi = chunks.len() > 1;
-    for (c, outs) in chunks.iter().enumerate() {
-        let name = if multi {
-            writeln!(s, "/// Outputs {outs:?} of [`product_n{n}`].").unwrap();
-            writeln!(s, "#[inline(never)]").unwrap();
-            format!("product_n{n}_{c}")
+        if i == j && j == k {
+            diag[i].aaa = Some(v);
+        } else if i == j {
+            diag[i].ks.push((k, v));
+        } else if j == k {
+            diag[j].ks.push((i, v));
         } else {
-            writeln!(
-                s,
-                "/// `o = f ∗ g` truncated to order {n} (Gaunt coefficients as literals)."
-            )
-            .unwrap();
-            writeln!(s, "#[inline(always)]").unwrap();
-            format!("product_n{n}")
+            distinct.push(([i, j, k], v));
+        }
+    }
+    // pair -> the distinct triples containing it.
+    let mut by_pair: std::collections::BTreeMap<(usize, usize), Vec<usize>> =
+        std::collections::BTreeMap::new();
+    for (t, ([i, j, k], _)) in distinct.iter().enumerate() {
+        for pair in [(*i, *j), (*i, *k), (*j, *k)] {
+            by_pair.entry(pair).or_default().push(t);
+        }
+    }
+    let mut covered = vec![false; distinct.len()];
+    let mut count: std::collections::BTreeMap<(usize, usize), usize> =
+        by_pair.iter().map(|(p, v)| (*p, v.len())).collect();
+    let mut blocks: Vec<PairBlock> = Vec::new();
+    let mut left = distinct.len();
+    while left > 0 {
+        // The first pair (in index order) with the most uncovered triples.
+        let (&(a, b), _) = count
+            .iter()
+            .max_by(|x, y| x.1.cmp(y.1).then(y.0.cmp(x.0)))
+            .expect("uncovered triples have pairs");
+        let mut ks = Vec::new();
+        for &t in &by_pair[&(a, b)] {
+            if covered[t] {
+                continue;
+            }
+            covered[t] = true;
+            left -= 1;
+            let ([i, j, k], v) = distinct[t];
+            let other = i + j + k - a - b;
+            ks.push((other, v));
+            for pair in [(i, j), (i, k), (j, k)] {
+                *count.get_mut(&pair).expect("pair") -= 1;
+            }
+        }
+        ks.sort_by_key(|e| e.0);
+        blocks.push(PairBlock {
+            a,
+            b,
+            ks,
+            aaa: None,
+        });
+    }
+    blocks.extend(
+        diag.into_iter()
+            .filter(|d| !d.ks.is_empty() || d.aaa.is_some()),
+    );
+    blocks.sort_by_key(|d| (d.a, d.b));
+    blocks
+}
+
+/// Which outputs a product kernel has written so far.
+struct Acc {
+    touched: Vec<bool>,
+}
+
+impl Acc {
+    /// `o[k] += x · w` (`x` an expression, `w` a literal).
+    fn add(&mut self, s: &mut String, k: usize, x: &str, w: f64) {
+        let w = lit(w);
+        let e = if self.touched[k] {
+            format!("{x}.mul_add({w}, *o.add({k}))")
+        } else {
+            format!("{x} * {w}")
         };
+        writeln!(s, "    *o.add({k}) = {e};").unwrap();
+        self.touched[k] = true;
+    }
+
+    /// `o[k] += u · v + p · q`.
+    fn add2(&mut self, s: &mut String, k: usize, [u, v, p, q]: [&str; 4]) {
+        let e = if self.touched[k] {
+            format!("{u}.mul_add({v}, {p}.mul_add({q}, *o.add({k})))")
+        } else {
+            format!("{u}.mul_add({v}, {p} * {q})")
+        };
+        writeln!(s, "    *o.add({k}) = {e};").unwrap();
+        self.touched[k] = true;
+    }
+}
+
+/// Emits one pair block: `t = f_a g_b + f_b g_a` (or `f_a g_a`) feeds every
+/// `y_k`, and `tf = Σ_k Γ f_k`, `tg = Σ_k Γ g_k` feed `y_a` and `y_b`.
+/// The load of `f[i]` (`src = 'f'`) or `g[i]` in a product kernel: read where
+/// used, not hoisted into a variable (see `product_kernel`).
+fn ld(src: char, i: usize) -> String {
+    format!("(*{src}.add({i}))")
+}
+fn fv(i: usize) -> String {
+    ld('f', i)
+}
+fn gv(i: usize) -> String {
+    ld('g', i)
+}
+
+fn emit_block(s: &mut String, acc: &mut Acc, blk: &PairBlock) {
+    let (a, b) = (blk.a, blk.b);
+    if a == b {
+        writeln!(s, "    let t = {} * {};", fv(a), gv(a)).unwrap();
+    } else {
         writeln!(
             s,
-            "pub(crate) fn {name}{SIG}(f: &[V<W, F>; {nn}], g: &[V<W, F>; {nn}], o: &mut [V<W, F>; {nn}]) {{"
+            "    let t = {}.mul_add({}, {} * {});",
+            fv(a),
+            gv(b),
+            fv(b),
+            gv(a)
         )
         .unwrap();
-        writeln!(s, "    let s = V::<W, F>::splat;").unwrap();
-        let mut used = vec![false; nn];
-        for &o in outs {
-            for &(a, b, _) in &per_out[o] {
-                used[a] = true;
-                used[b] = true;
-            }
-        }
-        for i in (0..nn).filter(|&i| used[i]) {
-            writeln!(s, "    let f{i} = f[{i}];\n    let g{i} = g[{i}];").unwrap();
-        }
-        let mut have = vec![false; nn * nn];
-        for &o in outs {
-            let mut e = String::new();
-            for &(a, b, w) in &per_out[o] {
-                if !have[a * nn + b] {
-                    have[a * nn + b] = true;
-                    if a == b {
-                        writeln!(s, "    let p{a}_{b} = f{a} * g{a};").unwrap();
-                    } else {
-                        writeln!(s, "    let p{a}_{b} = f{a}.mul_add(g{b}, f{b} * g{a});").unwrap();
-                    }
-                }
-                e = if e.is_empty() {
-                    format!("p{a}_{b} * {}", lit(w))
-                } else {
-                    format!("p{a}_{b}.mul_add({}, {e})", lit(w))
-                };
-            }
-            if e.is_empty() {
-                e = "s(0.0)".into();
-            }
-            writeln!(s, "    o[{o}] = {e};").unwrap();
-        }
-        writeln!(s, "}}\n").unwrap();
     }
-    if multi {
+    if let Some(w) = blk.aaa {
+        acc.add(s, a, "t", w);
+    }
+    for &(k, w) in &blk.ks {
+        acc.add(s, k, "t", w);
+    }
+    if blk.ks.is_empty() {
+        return;
+    }
+    for (name, src) in [("tf", 'f'), ("tg", 'g')] {
+        let mut e = String::new();
+        for &(k, w) in &blk.ks {
+            e = if e.is_empty() {
+                format!("{} * {}", ld(src, k), lit(w))
+            } else {
+                format!("{}.mul_add({}, {e})", ld(src, k), lit(w))
+            };
+        }
+        writeln!(s, "    let {name} = {e};").unwrap();
+    }
+    let (fb, gb, fa, ga) = (fv(b), gv(b), fv(a), gv(a));
+    acc.add2(s, a, ["tf", &gb, "tg", &fb]);
+    if a != b {
+        acc.add2(s, b, ["tf", &ga, "tg", &fa]);
+    }
+}
+
+fn product_kernel(s: &mut String, n: usize) {
+    let nn = n * n;
+    let blocks = pair_blocks(n);
+    // Blocks in chunks of about PRODUCT_CHUNK_OPS operations, each chunk its
+    // own non-inlined function (one portable copy, one AVX2+FMA copy): LLVM's
+    // cost on one basic block grows faster than its length (one n = 6 body of
+    // ~2800 operations took a minute to compile). A chunk keeps its
+    // accumulators in registers and hands them on through `o`.
+    let mut chunks: Vec<Vec<&PairBlock>> = vec![Vec::new()];
+    let mut ops = 0;
+    for blk in &blocks {
+        if ops > 0 && ops + blk.ops() > PRODUCT_CHUNK_OPS {
+            chunks.push(Vec::new());
+            ops = 0;
+        }
+        ops += blk.ops();
+        chunks.last_mut().expect("non-empty").push(blk);
+    }
+    let mut acc = Acc {
+        touched: vec![false; nn],
+    };
+    for (c, blks) in chunks.iter().enumerate() {
+        let last = c + 1 == chunks.len();
         writeln!(
             s,
-            "/// `o = f ∗ g` truncated to order {n} (Gaunt coefficients as literals), in {} chunks.",
+            "/// Pair blocks {:?}…{:?} of the order-{n} product `o = f ∗ g` (chunk {c} of {}).",
+            (blks[0].a, blks[0].b),
+            (blks[blks.len() - 1].a, blks[blks.len() - 1].b),
             chunks.len()
+        )
+        .unwrap();
+        let name = format!("product_n{n}_{c}");
+        writeln!(
+            s,
+            "///\n/// # Safety\n/// `f`, `g` and `o` each point to {nn} values (`o` may overlap neither)."
         )
         .unwrap();
         writeln!(s, "#[inline(always)]").unwrap();
         writeln!(
             s,
-            "pub(crate) fn product_n{n}{SIG}(f: &[V<W, F>; {nn}], g: &[V<W, F>; {nn}], o: &mut [V<W, F>; {nn}]) {{"
+            "pub(crate) unsafe fn {name}{SIG}(f: *const V<W, F>, g: *const V<W, F>, o: *mut V<W, F>) {{"
+        )
+        .unwrap();
+        writeln!(s, "    let s = V::<W, F>::splat;").unwrap();
+        writeln!(s, "    // SAFETY: the caller's contract.\n    unsafe {{").unwrap();
+        for blk in blks {
+            emit_block(s, &mut acc, blk);
+        }
+        if last {
+            for k in (0..nn).filter(|&k| !acc.touched[k]) {
+                writeln!(s, "    *o.add({k}) = s(0.0);").unwrap();
+            }
+        }
+        writeln!(s, "    }}\n}}\n").unwrap();
+    }
+    // The non-inlined entry points: one portable, one
+    // AVX2+FMA copy per chunk. They take raw pointers, so LLVM may not assume
+    // that `o` overlaps neither input: every accumulation goes through memory
+    // and every input is loaded where used, as in DirectXMath's C code. With
+    // `&mut` outputs it kept all accumulators and inputs of a chunk live and
+    // spilled most of them (n = 6 was 1.8× slower).
+    for (fma, suffix) in [(false, "plain"), (true, "fma")] {
+        let t = if fma { "V<1, true>" } else { "V<1, false>" };
+        let sig = format!("(f: *const {t}, g: *const {t}, o: *mut {t})");
+        let attrs = if fma {
+            "#[cfg(target_arch = \"x86_64\")]\n#[target_feature(enable = \"avx2,fma\")]\n"
+        } else {
+            ""
+        };
+        let single = chunks.len() == 1;
+        for c in 0..chunks.len() {
+            if single {
+                // One chunk (n ≤ 4): references, so that LLVM keeps the few
+                // accumulators in registers (measured 5–8 % faster there).
+                writeln!(
+                    s,
+                    "{attrs}#[inline(never)]\nfn product_n{n}_{c}_{suffix}(f: &[{t}; {nn}], g: &[{t}; {nn}], o: &mut [{t}; {nn}]) {{\n    // SAFETY: {nn} values each; `o` is exclusive.\n    unsafe {{ product_n{n}_{c}(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) }};\n}}\n"
+                )
+                .unwrap();
+            } else {
+                writeln!(
+                    s,
+                    "/// # Safety\n/// As [`product_n{n}_{c}`].\n{attrs}#[inline(never)]\nunsafe fn product_n{n}_{c}_{suffix}{sig} {{\n    // SAFETY: the caller's contract.\n    unsafe {{ product_n{n}_{c}(f, g, o) }};\n}}\n"
+                )
+                .unwrap();
+            }
+        }
+        writeln!(
+            s,
+            "/// `o = f ∗ g` truncated to order {n}, {} chunks ({suffix}).\n///\n/// # Safety\n/// As [`product_n{n}_0`].\n{attrs}#[inline]\nunsafe fn product_n{n}_{suffix}{sig} {{\n    // SAFETY: the caller's contract.\n    unsafe {{",
+            chunks.len()
         )
         .unwrap();
         for c in 0..chunks.len() {
-            writeln!(s, "    product_n{n}_{c}(f, g, o);").unwrap();
+            if single {
+                writeln!(
+                    s,
+                    "        product_n{n}_{c}_{suffix}(&*f.cast::<[{t}; {nn}]>(), &*g.cast::<[{t}; {nn}]>(), &mut *o.cast::<[{t}; {nn}]>());"
+                )
+                .unwrap();
+            } else {
+                writeln!(s, "        product_n{n}_{c}_{suffix}(f, g, o);").unwrap();
+            }
         }
-        writeln!(s, "}}\n").unwrap();
+        writeln!(s, "    }}\n}}\n").unwrap();
+    }
+}
+
+/// `product_plain` and `product_fma`: the order-`n` product on `n²`-long slices.
+fn product_dispatch(s: &mut String) {
+    for (fma, suffix) in [(false, "plain"), (true, "fma")] {
+        let t = if fma { "V<1, true>" } else { "V<1, false>" };
+        let (doc, attrs) = if fma {
+            (
+                "with fused multiply–add (AVX2 + FMA)",
+                "#[cfg(target_arch = \"x86_64\")]\n#[target_feature(enable = \"avx2,fma\")]\n#[inline]\n",
+            )
+        } else {
+            ("with plain multiply and add", "#[inline(always)]\n")
+        };
+        writeln!(
+            s,
+            "/// Runs the order-`n` product kernel {doc} on `n²`-long slices; `false` (nothing done) outside 1..={KERNEL_PRODUCT_MAX_ORDER}.\n\
+             ///\n/// # Panics\n/// If a slice is shorter than `n²`."
+        )
+        .unwrap();
+        writeln!(
+            s,
+            "{attrs}pub(crate) fn product_{suffix}(n: usize, f: &[{t}], g: &[{t}], o: &mut [{t}]) -> bool {{"
+        )
+        .unwrap();
+        writeln!(s, "    match n {{").unwrap();
+        for n in 1..=KERNEL_PRODUCT_MAX_ORDER {
+            let nn = n * n;
+            let callee = format!("product_n{n}_{suffix}");
+            writeln!(
+                s,
+                "        // SAFETY: the slices hold {nn} values each (checked), `o` is exclusive.\n        {n} => unsafe {{ {callee}(f[..{nn}].as_ptr(), g[..{nn}].as_ptr(), o[..{nn}].as_mut_ptr()) }},"
+            )
+            .unwrap();
+        }
+        writeln!(s, "        _ => return false,\n    }}\n    true\n}}\n").unwrap();
     }
 }
 
@@ -348,7 +571,7 @@ pub fn generate_kernels_source() -> String {
          // Regenerate: RELIGHT_SH_REGENERATE=1 cargo test -p relight-sh kernels_source\n\
          //! Generated straight-line f32 kernels (evaluation, ZYZ rotation, truncated product)\n\
          //! over the lane type `V<W, F>`; see [`crate::kernels_gen`] for what each one unrolls.\n\
-         #![allow(clippy::excessive_precision, clippy::unreadable_literal, clippy::too_many_lines, clippy::many_single_char_names, clippy::similar_names, clippy::neg_multiply, unused_variables)]\n\n\
+         #![allow(clippy::excessive_precision, clippy::unreadable_literal, clippy::too_many_lines, clippy::many_single_char_names, clippy::similar_names, clippy::neg_multiply, unused_variables, unused_parens)]\n\n\
          use crate::lanes::V;\n\n",
     );
     for n in 1..=KERNEL_EVAL_MAX_ORDER {
@@ -376,14 +599,7 @@ pub fn generate_kernels_source() -> String {
         1,
         KERNEL_ROTATE_MAX_ORDER,
     );
-    dispatch(
-        &mut s,
-        "product",
-        "f: &[V<W, F>], g: &[V<W, F>], o: &mut [V<W, F>]",
-        "product_n{n}((&f[..{nn}]).try_into().expect(\"length\"), (&g[..{nn}]).try_into().expect(\"length\"), (&mut o[..{nn}]).try_into().expect(\"length\"))",
-        1,
-        KERNEL_PRODUCT_MAX_ORDER,
-    );
+    product_dispatch(&mut s);
     s
 }
 

@@ -122,6 +122,10 @@ impl<const W: usize, const FMA: bool> Neg for V<W, FMA> {
 }
 
 /// Whether this CPU runs the AVX2 + FMA kernels (x86-64 only).
+///
+/// One relaxed load of a cached level ([`crate::isa::isa`]): the single-call
+/// kernels test it on every call, and two `is_x86_feature_detected!` tests
+/// measured 0.4 ns more per call than one flag (a 3.5 ns evaluation at n = 3).
 #[inline]
 #[must_use]
 pub fn avx2_fma_available() -> bool {
