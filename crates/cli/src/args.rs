@@ -240,7 +240,7 @@ pub struct MethodFlags {
     #[arg(long)]
     pub spheres: Option<usize>,
     /// How MIP texels of normal maps are shaded (ndf): none, unnormalized,
-    /// normalized, toksvig, sh, vmf [default: sh].
+    /// normalized, toksvig, lean, sh, vmf [default: sh].
     #[arg(long)]
     pub normal_filter: Option<String>,
     /// The BRDF the ndf method's effective forms shade (ndf): lambert,

@@ -397,14 +397,15 @@ fn bake(a: &NdfBakeArgs) -> Result<()> {
     }
     for e in &errors {
         println!(
-            "level {:>2} {:>4}×{:<4} single lobe {:.4}{} normalized MIP {:.4} Toksvig {:.4}",
+            "level {:>2} {:>4}×{:<4} single lobe {:.4}{} normalized MIP {:.4} Toksvig {:.4} LEAN {:.4}",
             e.level,
             e.width,
             e.height,
             e.single_lobe,
             e.vmf.map_or_else(String::new, |v| format!("  vMF {v:.4}")),
             e.normalized_mip,
-            e.toksvig
+            e.toksvig,
+            e.lean
         );
     }
     println!(

@@ -175,10 +175,15 @@ impl HudInfo {
             ),
             Line::new(
                 format!(
-                    "{}   a: AA{}   h: hide HUD   s: save   q: quit",
+                    "{}   a: AA{}{}   h: hide HUD   s: save   q: quit",
                     keys.join("  "),
                     if self.clock.is_some() {
                         "   p: play"
+                    } else {
+                        ""
+                    },
+                    if self.method == MethodKind::Ndf {
+                        "   n: normal filter"
                     } else {
                         ""
                     }
@@ -484,7 +489,7 @@ mod tests {
         assert_eq!(e, ErrorReading::NoReference);
         let info = HudInfo::new(&v, &f, e, 20.0);
         let status = info.status_lines();
-        assert!(status[0].text.starts_with("sh [2/5]"), "{:?}", status[0]);
+        assert!(status[0].text.starts_with("sh [2/6]"), "{:?}", status[0]);
         assert!(status[0].text.contains("50 fps"), "{:?}", status[0]);
         assert!(status[1].text.contains("order 3"), "{:?}", status[1]);
         assert!(status[2].text.contains("press 5"), "{:?}", status[2]);
@@ -495,10 +500,34 @@ mod tests {
             "3 fog",
             "4 shexp",
             "5 reference",
+            "6 ndf",
             "q: quit",
         ] {
             assert!(help.contains(k), "{help}");
         }
+        assert!(!help.contains("n: normal filter"), "{help}");
+        // n cycles the normal filter of ndf only.
+        assert!(!v.cycle_normal_filter());
+        v.select(5);
+        let filter = |v: &Viewer| match v.method_options() {
+            MethodOptions::Ndf(o) => o.filter.name(),
+            _ => "not ndf",
+        };
+        assert_eq!(filter(&v), "sh");
+        assert!(v.cycle_normal_filter());
+        assert_eq!(filter(&v), "vmf");
+        assert!(v.cycle_normal_filter());
+        assert_eq!(filter(&v), "none");
+        let ndf_help = HudInfo {
+            method: MethodKind::Ndf,
+            ..info.clone()
+        };
+        let help: String = ndf_help
+            .help_lines()
+            .iter()
+            .map(|l| l.text.clone())
+            .collect();
+        assert!(help.contains("n: normal filter"), "{help}");
         // The reference for this view, then sh again: a measured error.
         v.select(4);
         let r = v.frame(48, 27, false, &NoProgress).unwrap();

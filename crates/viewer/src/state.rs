@@ -79,6 +79,7 @@ impl Default for ViewerOptions {
                 MethodKind::Fog,
                 MethodKind::ShExp,
                 MethodKind::Reference,
+                MethodKind::Ndf,
             ]
             .into_iter()
             .map(MethodOptions::default_for)
@@ -251,6 +252,26 @@ impl Viewer {
         if index < self.slots.len() {
             self.current = index;
         }
+    }
+
+    /// Shows the ndf method's next normal filter (representation or
+    /// baseline, `NdfFilter::next_for`; the `n` key): the method is made and
+    /// prepared again with it. False, and nothing changes, when the method
+    /// shown is not ndf.
+    pub fn cycle_normal_filter(&mut self) -> bool {
+        let slot = &mut self.slots[self.current];
+        let MethodOptions::Ndf(o) = &mut slot.options else {
+            return false;
+        };
+        o.filter = o.filter.next_for(o.brdf);
+        slot.method = None;
+        slot.refused = None;
+        slot.warnings.clear();
+        slot.lit = None;
+        slot.posed_at = None;
+        slot.monte_carlo = None;
+        self.accum = Accumulation::default();
+        true
     }
 
     /// Back to the starting camera and lighting.

@@ -374,6 +374,11 @@ impl<'s, 'e> App<'s, 'e> {
                         viewer.toggle_play();
                         self.tick = None;
                     }
+                    "n" => {
+                        if !viewer.cycle_normal_filter() {
+                            return Ok(());
+                        }
+                    }
                     "h" => self.show_hud = !self.show_hud,
                     "r" => viewer.reset(),
                     "s" => {

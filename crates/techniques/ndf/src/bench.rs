@@ -95,6 +95,19 @@ pub fn bench_ndf(
         bytes: mean.map(|m| m.levels.iter().map(|l| l.2.len() as u64 * 12).sum()),
         target: "-".into(),
     });
+    let mut lean = None;
+    let ms = best(repeats, || {
+        lean = Some(crate::LeanPyramid::build(w, h, &map.texels))
+    });
+    rows.push(NdfBenchRow {
+        what: "bake".into(),
+        representation: "lean (5 moments)".into(),
+        size: w,
+        ms,
+        fps: None,
+        bytes: lean.map(|l| l.bytes()),
+        target: "-".into(),
+    });
     for (filter, brdf, env, target) in [
         (
             NdfFilter::Sh,
@@ -109,6 +122,7 @@ pub fn bench_ndf(
             "vMF J=6, one light ≥ 25 fps at 512²",
         ),
         (NdfFilter::Toksvig, NdfBrdf::Blinn { s: 64.0 }, false, "-"),
+        (NdfFilter::Lean, NdfBrdf::Blinn { s: 64.0 }, false, "-"),
     ] {
         let mut scene = crate::verify::horizon_plane_scene(map, brdf, image, 16.0);
         if env {

@@ -170,7 +170,7 @@ pub fn shade_lobe(brdf: NdfBrdf, n: Vec3, inv_kappa: f32, wo: Vec3, wi: Vec3) ->
 
 /// `D·G·F/(4 cos θ_o cos θ_i) · cos θ_i` in the frame of `n`, F₀ = 1.
 #[inline]
-fn microfacet(
+pub(crate) fn microfacet(
     n: Vec3,
     wo: Vec3,
     wi: Vec3,

@@ -17,11 +17,12 @@
 //! are stored: filtering them linearly is the moment-matching merge.
 
 use crate::effective::{Baseline, NdfBrdf, shade_baseline, shade_lobe, shade_mixture};
+use crate::lean::{LeanTexel, shade_lean};
 use crate::pyramid::{ShadeLobe, VmfPyramid, unpack};
 use crate::sh_ndf::level_size;
 use crate::verify::{directions, footprint_normals};
 use crate::vmf::{KAPPA_MAX, kappa_from_resultant, mean_resultant};
-use crate::{MeanPyramid, NdfError};
+use crate::{Linear, MeanPyramid, NdfError};
 use glam::Vec3;
 use relight_render::NormalMap;
 use serde::Serialize;
@@ -151,9 +152,11 @@ pub struct LevelError {
     /// The same for the vMF lobe chain, when baked.
     pub vmf: Option<f64>,
     /// Baselines beside: the normalized mean normal at the BRDF's own
-    /// roughness, and Toksvig.
+    /// roughness, Toksvig and LEAN.
     pub normalized_mip: f64,
     pub toksvig: f64,
+    /// LEAN mapping (the 5 moments of the footprint, [`crate::lean`]).
+    pub lean: f64,
 }
 
 /// Each level's relative RMS error against the ground truth (exact shading
@@ -178,13 +181,16 @@ pub fn level_errors(
         .map(|(k, l)| {
             let count = l.width * l.height;
             let t = texels_per_level.clamp(1, count);
-            let mut acc = [[0.0f64; 2]; 4];
+            let mut acc = [[0.0f64; 2]; 5];
             for s in 0..t {
                 let ti = s * count / t + (count / t) / 2;
                 let (x, y) = (ti % l.width, ti / l.width);
                 let (fine, wts) = footprint_normals(map, k, x, y);
                 let total: f32 = wts.iter().sum();
                 let m: Vec3 = fine.iter().zip(&wts).map(|(n, w)| *n * *w).sum::<Vec3>() / total;
+                let lean = fine.iter().zip(&wts).fold(LeanTexel::ZERO, |a, (n, w)| {
+                    a.add_scaled(*w / total, LeanTexel::of_normal(*n))
+                });
                 let n = l.normals[ti];
                 let engine = with_parameter(brdf, l.roughness[ti]);
                 let lobes: Vec<ShadeLobe> = chain
@@ -209,6 +215,7 @@ pub fn level_errors(
                             shade_mixture(brdf, &lobes, wo, wi),
                             shade_baseline(brdf, Baseline::Normalized, m, wo, wi),
                             shade_baseline(brdf, Baseline::Toksvig, m, wo, wi),
+                            shade_lean(brdf, &lean, wo, wi),
                         ];
                         for (a, r) in acc.iter_mut().zip(reps) {
                             a[0] += f64::from((r - truth).powi(2));
@@ -228,6 +235,7 @@ pub fn level_errors(
                 vmf: chain.vmf.as_ref().map(|_| err(1)),
                 normalized_mip: err(2),
                 toksvig: err(3),
+                lean: err(4),
             }
         })
         .collect()

@@ -17,6 +17,8 @@
 //!   is the moment-matching merge.
 //! * [`MeanPyramid`]: the mean normal per texel, for the baselines
 //!   (unnormalized / normalized MIP, Toksvig).
+//! * [`lean::LeanPyramid`]: LEAN mapping's 5 moments per texel (Olano &
+//!   Baker 2010), the fourth baseline.
 //! * [`vmf`]: the lobe, `A(κ)` and its inverse, `A_l(κ)` by backward recurrence.
 //! * [`effective`]: effective BRDFs (Lambert; Blinn–Phong `s′ = κs/(κ+s)`;
 //!   GGX/Beckmann `α′² = α² + 2/κ`) and the baselines.
@@ -34,6 +36,7 @@ pub mod bench;
 pub mod effective;
 pub mod em;
 pub mod export;
+pub mod lean;
 pub mod method;
 pub mod pyramid;
 pub mod sh_ndf;
@@ -41,6 +44,7 @@ pub mod verify;
 pub mod vmf;
 
 pub use effective::{Baseline, NdfBrdf};
+pub use lean::{LeanPyramid, LeanTexel};
 pub use method::{NDF_METHOD_NAME, NdfFilter, NdfMethod, NdfOptions};
 pub use pyramid::{VmfBakeOptions, VmfPyramid};
 pub use sh_ndf::ShNdfPyramid;
@@ -61,6 +65,83 @@ pub fn lod_of(duv_dx: Vec2, duv_dy: Vec2, width: usize, height: usize) -> f32 {
     if rho > 1.0 { rho.log2() } else { 0.0 }
 }
 
+/// A per-texel quantity that MIP-filters linearly (box averages and
+/// trilinear taps are weighted sums): the mean normal, LEAN's moments.
+pub trait Linear: Copy + Send + Sync {
+    const ZERO: Self;
+    /// `self + w·x`.
+    #[must_use]
+    fn add_scaled(self, w: f32, x: Self) -> Self;
+}
+
+impl Linear for Vec3 {
+    const ZERO: Self = Vec3::ZERO;
+    #[inline]
+    fn add_scaled(self, w: f32, x: Self) -> Self {
+        self + x * w
+    }
+}
+
+/// The box-average MIP chain of `width × height` texels, level 0 first,
+/// down to 1 × 1. A coarse texel is the average of the fine texels under it
+/// (odd sizes: the edge texels count by the fine texels they cover), so it
+/// is exactly the mean over its footprint.
+#[must_use]
+pub fn box_pyramid<T: Linear>(
+    width: usize,
+    height: usize,
+    texels: Vec<T>,
+) -> Vec<(usize, usize, Vec<T>)> {
+    let mut levels = vec![(width, height, texels)];
+    let mut counts = vec![1.0f32; width * height];
+    while let Some((w, h, m)) = levels.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
+        let (w, h) = (*w, *h);
+        let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
+        let mut next = vec![T::ZERO; nw * nh];
+        let mut nc = vec![0.0f32; nw * nh];
+        next.par_iter_mut()
+            .zip(nc.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (d, c))| {
+                let (x, y) = (i % nw, i / nw);
+                let mut s = T::ZERO;
+                for cy in 2 * y..(2 * y + 2).min(h) {
+                    for cx in 2 * x..(2 * x + 2).min(w) {
+                        let j = cy * w + cx;
+                        s = s.add_scaled(counts[j], m[j]);
+                        *c += counts[j];
+                    }
+                }
+                *d = T::ZERO.add_scaled(1.0 / *c, s);
+            });
+        levels.push((nw, nh, next));
+        counts = nc;
+    }
+    levels
+}
+
+/// Trilinear lookup in a [`box_pyramid`] at `uv` (wrap-around) and level
+/// `lod` (clamped to the chain).
+#[inline]
+#[must_use]
+pub fn sample_pyramid<T: Linear>(levels: &[(usize, usize, Vec<T>)], uv: Vec2, lod: f32) -> T {
+    let top = (levels.len() - 1) as f32;
+    let lod = lod.clamp(0.0, top);
+    let k0 = lod.floor() as usize;
+    let t = lod - k0 as f32;
+    let at = |k: usize, wk: f32, acc: T| {
+        let (w, h, m) = &levels[k];
+        taps(*w, *h, uv)
+            .iter()
+            .fold(acc, |a, &(i, wt)| a.add_scaled(wt * wk, m[i]))
+    };
+    if t > 0.0 && k0 + 1 < levels.len() {
+        at(k0 + 1, t, at(k0, 1.0 - t, T::ZERO))
+    } else {
+        at(k0, 1.0, T::ZERO)
+    }
+}
+
 /// Mean normal per texel per level (unnormalized: `|m| ≤ 1` measures the
 /// spread), box averages of the fine normals as [`ShNdfPyramid`].
 #[derive(Clone, Debug, PartialEq)]
@@ -73,55 +154,16 @@ impl MeanPyramid {
     /// Builds it from `width × height` unit normals.
     #[must_use]
     pub fn build(width: usize, height: usize, normals: &[Vec3]) -> Self {
-        let mut levels = vec![(width, height, normals.to_vec())];
-        let mut counts = vec![1.0f32; width * height];
-        while let Some((w, h, m)) = levels.last().filter(|(w, h, _)| *w > 1 || *h > 1) {
-            let (w, h) = (*w, *h);
-            let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
-            let mut next = vec![Vec3::ZERO; nw * nh];
-            let mut nc = vec![0.0f32; nw * nh];
-            next.par_iter_mut()
-                .zip(nc.par_iter_mut())
-                .enumerate()
-                .for_each(|(i, (d, c))| {
-                    let (x, y) = (i % nw, i / nw);
-                    let mut s = Vec3::ZERO;
-                    for cy in 2 * y..(2 * y + 2).min(h) {
-                        for cx in 2 * x..(2 * x + 2).min(w) {
-                            let j = cy * w + cx;
-                            s += m[j] * counts[j];
-                            *c += counts[j];
-                        }
-                    }
-                    *d = s / *c;
-                });
-            levels.push((nw, nh, next));
-            counts = nc;
+        Self {
+            levels: box_pyramid(width, height, normals.to_vec()),
         }
-        Self { levels }
     }
 
     /// Trilinear lookup (exact averaging: the mean normal is linear).
     #[inline]
     #[must_use]
     pub fn sample(&self, uv: Vec2, lod: f32) -> Vec3 {
-        let top = (self.levels.len() - 1) as f32;
-        let lod = lod.clamp(0.0, top);
-        let k0 = lod.floor() as usize;
-        let t = lod - k0 as f32;
-        let at = |k: usize| {
-            let (w, h, m) = &self.levels[k];
-            taps(*w, *h, uv)
-                .iter()
-                .map(|&(i, wt)| m[i] * wt)
-                .sum::<Vec3>()
-        };
-        let a = at(k0);
-        if t > 0.0 && k0 + 1 < self.levels.len() {
-            a * (1.0 - t) + at(k0 + 1) * t
-        } else {
-            a
-        }
+        sample_pyramid(&self.levels, uv, lod)
     }
 }
 

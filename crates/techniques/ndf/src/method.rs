@@ -24,6 +24,7 @@ use crate::effective::{
     Baseline, NdfBrdf, lambert_mixture_env, lambert_sh_dir, lambert_sh_env, shade_baseline,
     shade_lobe, shade_mixture,
 };
+use crate::lean::{LeanPyramid, LeanTexel, shade_lean};
 use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
 use crate::{MeanPyramid, NdfError, ShNdfPyramid, lod_of};
 use glam::{Mat3, Vec2, Vec3, Vec4};
@@ -54,6 +55,8 @@ pub enum NdfFilter {
     Normalized,
     /// Baseline: Toksvig's widened lobe.
     Toksvig,
+    /// Baseline: LEAN mapping's anisotropic lobe (5 moments per texel).
+    Lean,
     /// The SH NDF (eq. 5.7; Lambert only).
     Sh,
     /// The vMF mixture.
@@ -62,11 +65,12 @@ pub enum NdfFilter {
 
 impl NdfFilter {
     /// Every filter, in a fixed order.
-    pub const ALL: [NdfFilter; 6] = [
+    pub const ALL: [NdfFilter; 7] = [
         Self::None,
         Self::Unnormalized,
         Self::Normalized,
         Self::Toksvig,
+        Self::Lean,
         Self::Sh,
         Self::Vmf,
     ];
@@ -79,9 +83,21 @@ impl NdfFilter {
             Self::Unnormalized => "unnormalized",
             Self::Normalized => "normalized",
             Self::Toksvig => "toksvig",
+            Self::Lean => "lean",
             Self::Sh => "sh",
             Self::Vmf => "vmf",
         }
+    }
+
+    /// The next filter after this one in [`Self::ALL`] (cyclically) that
+    /// `brdf` can use (`sh` is Lambert only): the viewer's key.
+    #[must_use]
+    pub fn next_for(self, brdf: NdfBrdf) -> Self {
+        let at = Self::ALL.iter().position(|f| *f == self).unwrap_or(0);
+        (1..=Self::ALL.len())
+            .map(|k| Self::ALL[(at + k) % Self::ALL.len()])
+            .find(|f| *f != Self::Sh || brdf == NdfBrdf::Lambert)
+            .unwrap_or(self)
     }
 
     /// Parses a flag value.
@@ -94,10 +110,7 @@ impl NdfFilter {
             .find(|f| f.name() == s)
             .ok_or_else(|| {
                 let names: Vec<&str> = Self::ALL.iter().map(|f| f.name()).collect();
-                format!(
-                    "unknown normal filter `{s}` (known: {}; lean is not implemented)",
-                    names.join(", ")
-                )
+                format!("unknown normal filter `{s}` (known: {})", names.join(", "))
             })
     }
 }
@@ -133,6 +146,7 @@ pub struct Baked {
     pub height: usize,
     pub sh: Option<ShNdfPyramid>,
     pub vmf: Option<VmfPyramid>,
+    pub lean: Option<LeanPyramid>,
     pub mean: MeanPyramid,
 }
 
@@ -148,6 +162,8 @@ impl Baked {
                 .then(|| ShNdfPyramid::build(w, h, &map.texels, options.order)),
             vmf: (options.filter == NdfFilter::Vmf)
                 .then(|| VmfPyramid::build(w, h, &map.texels, &options.vmf)),
+            lean: (options.filter == NdfFilter::Lean)
+                .then(|| LeanPyramid::build(w, h, &map.texels)),
             mean: MeanPyramid::build(w, h, &map.texels),
         }
     }
@@ -155,6 +171,7 @@ impl Baked {
     fn bytes(&self) -> u64 {
         self.sh.as_ref().map_or(0, ShNdfPyramid::bytes)
             + self.vmf.as_ref().map_or(0, VmfPyramid::bytes)
+            + self.lean.as_ref().map_or(0, LeanPyramid::bytes)
             + self
                 .mean
                 .levels
@@ -319,6 +336,7 @@ impl NdfMethod {
             Mean(Vec3),
             Sh,
             Vmf,
+            Lean(LeanTexel),
         }
         let rep = match (&o.map, self.options.filter) {
             (None, _) => Rep::Normal(Vec3::Z),
@@ -342,6 +360,11 @@ impl NdfMethod {
                 }
                 Rep::Vmf
             }
+            (Some((_, b)), NdfFilter::Lean) => Rep::Lean(
+                b.lean
+                    .as_ref()
+                    .map_or_else(|| LeanTexel::of_normal(Vec3::Z), |l| l.sample(uv, lod)),
+            ),
             (Some((_, b)), _) => Rep::Mean(b.mean.sample(uv, lod)),
         };
         let baseline = match self.options.filter {
@@ -355,6 +378,7 @@ impl NdfMethod {
                 Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
                 Rep::Sh => lambert_sh_dir(&gamma, wi),
                 Rep::Vmf => shade_mixture(brdf, &lobes[..nl], wo, wi),
+                Rep::Lean(t) => shade_lean(brdf, t, wo, wi),
             }
         };
         let mut out = Vec3::ZERO;
@@ -385,6 +409,10 @@ impl NdfMethod {
                     }
                     Rep::Sh => lambert_sh_env(&gamma, &lt),
                     Rep::Vmf => lambert_mixture_env(&lobes[..nl], &lt),
+                    Rep::Lean(t) => {
+                        relight_sh::eval_sh_into(3, t.normal().to_array(), &mut y);
+                        lambert_sh_env(&y, &lt)
+                    }
                 };
                 out[c] += v;
             }

@@ -20,6 +20,7 @@ use crate::effective::{
     shade_mixture,
 };
 use crate::em::{EmOptions, fit_em, seed_lobes};
+use crate::lean::{LeanPyramid, LeanTexel, shade_lean};
 use crate::method::{NdfFilter, NdfMethod, NdfOptions};
 use crate::pyramid::{ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
 use crate::sh_ndf::level_size;
@@ -247,6 +248,7 @@ pub fn identities() -> Vec<NdfVerifyRow> {
         (num / den).sqrt(),
         Some(1e-3),
     ));
+    rows.extend(lean_identities(&map, n0, &groove, th));
     // A_l(κ) against quadrature over κ ∈ [1e-3, 1e6].
     let mut worst = 0.0f64;
     for &kappa in &[1e-3, 1e-2, 0.3, 3.0, 30.0, 300.0, 3e3, 3e4, 1e6] {
@@ -387,6 +389,77 @@ pub fn identities() -> Vec<NdfVerifyRow> {
     rows
 }
 
+/// LEAN's identities: a constant map keeps `B = b(n0)`, `Σ = 0` at every
+/// level; at `n0 = +Z` it shades exactly the base lobe (GGX, Beckmann,
+/// Blinn); the V-groove `±θ` has `B = 0`, `Σ = diag(tan²θ, 0)` at 1 × 1.
+fn lean_identities(constant: &[Vec3], n0: Vec3, groove: &[Vec3], th: f32) -> Vec<NdfVerifyRow> {
+    let mut rows = Vec::new();
+    let want = LeanTexel::of_normal(n0);
+    let p = LeanPyramid::build(16, 16, constant);
+    let worst = p
+        .levels
+        .iter()
+        .flat_map(|l| l.2.iter())
+        .map(|t| {
+            let c = t.covariance();
+            f64::from(
+                (t.b - want.b)
+                    .abs()
+                    .max_element()
+                    .max(c.abs().max_element()),
+            )
+        })
+        .fold(0.0, f64::max);
+    rows.push(row(
+        "identity",
+        "constant map: max |B − b(n0)|, |Σ|, all levels",
+        "lean",
+        "-",
+        worst,
+        Some(1e-5),
+    ));
+    let z = LeanPyramid::build(4, 4, &[Vec3::Z; 16]);
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for brdf in [
+        NdfBrdf::Ggx { alpha: 0.3 },
+        NdfBrdf::Beckmann { alpha: 0.2 },
+        NdfBrdf::Blinn { s: 64.0 },
+    ] {
+        for wi in directions(0.3) {
+            for wo in directions(1.1) {
+                let want = shade_lobe(brdf, Vec3::Z, 0.0, wo, wi);
+                let got = shade_lean(brdf, &z.texel(2, 0, 0), wo, wi);
+                num += f64::from((got - want).powi(2));
+                den += f64::from(want * want);
+            }
+        }
+    }
+    rows.push(row(
+        "identity",
+        "+Z map at 1×1 vs the base BRDF (ggx:0.3, beckmann:0.2, blinn:64)",
+        "lean",
+        "ggx+beckmann+blinn",
+        (num / den).sqrt(),
+        Some(1e-4),
+    ));
+    let g = LeanPyramid::build(8, 8, groove).texel(3, 0, 0);
+    let c = g.covariance();
+    let t2 = th.tan().powi(2);
+    let err = (g.b.abs().max_element())
+        .max((c.x - t2).abs() / t2)
+        .max(c.y.abs())
+        .max(c.z.abs());
+    rows.push(row(
+        "identity",
+        "V-groove ±0.6 rad at 1×1: B = 0, Σ = diag(tan²θ, 0) (max rel. deviation)",
+        "lean",
+        "-",
+        f64::from(err),
+        Some(1e-5),
+    ));
+    rows
+}
+
 /// The unique fine normals (with counts) under texel `(x, y)` of level `k`.
 pub(crate) fn footprint_normals(
     map: &NormalMap,
@@ -469,6 +542,7 @@ pub fn texel_levels(
     let sh = ShNdfPyramid::build(w, h, &map.texels, 3);
     let vmf = VmfPyramid::build(w, h, &map.texels, &VmfBakeOptions::default());
     let mean = MeanPyramid::build(w, h, &map.texels);
+    let lean = LeanPyramid::build(w, h, &map.texels);
     progress.finish();
     progress.check()?;
     let lam16 = clamped_cosine_bands(16);
@@ -488,11 +562,14 @@ pub fn texel_levels(
         let t = opts.texels_per_level.min(count);
         let texels: Vec<usize> = (0..t).map(|i| i * count / t + (count / t) / 2).collect();
         // Per texel: sums of squared error and reference, per (rep, brdf).
-        // Env Lambert: [sh, vmf, normalized, unnormalized]; glossy per s:
-        // [vmf, toksvig, normalized, unnormalized].
-        // Index 16: SH order 3 against the ground truth band-limited to the
-        // same 3 bands (the NDF representation error alone; shown beside).
-        let sums: Vec<[[f64; 2]; 17]> = texels
+        // Env Lambert: [sh, vmf, normalized, unnormalized, lean]; glossy per
+        // s: [vmf, toksvig, normalized, unnormalized, lean].
+        // Index BAND3: SH order 3 against the ground truth band-limited to
+        // the same 3 bands (the NDF representation error alone; shown beside).
+        const ENV: usize = 5;
+        const GLOSSY: usize = 5;
+        const BAND3: usize = ENV + 3 * GLOSSY;
+        let sums: Vec<[[f64; 2]; BAND3 + 1]> = texels
             .par_iter()
             .map(|&ti| {
                 let (x, y) = (ti % lw, ti / lw);
@@ -504,8 +581,9 @@ pub fn texel_levels(
                     .filter_map(|p| unpack(*p))
                     .collect();
                 let m = mean.levels[k].2[ti];
+                let lt = lean.texel(k, x, y);
                 let gamma = sh.texel(k, x, y);
-                let mut acc = [[0.0f64; 2]; 17];
+                let mut acc = [[0.0f64; 2]; BAND3 + 1];
                 let mut yb = vec![0.0f32; 256];
                 let mut y9 = [0.0f32; 9];
                 // Lambert under the 8 rotated environments.
@@ -534,8 +612,8 @@ pub fn texel_levels(
                         .sum::<f32>()
                         / total;
                     let r9 = lambert_sh_env(gamma, l9);
-                    acc[16][0] += f64::from((r9 - truth9).powi(2));
-                    acc[16][1] += f64::from(truth9 * truth9);
+                    acc[BAND3][0] += f64::from((r9 - truth9).powi(2));
+                    acc[BAND3][1] += f64::from(truth9 * truth9);
                     let mut y_at = |v: Vec3| {
                         relight_sh::eval_sh_into(3, v.to_array(), &mut y9);
                         lambert_sh_env(&y9, l9)
@@ -545,8 +623,9 @@ pub fn texel_levels(
                         lambert_mixture_env(&lobes, l9),
                         y_at(m.normalize_or(Vec3::Z)),
                         y_at(m),
+                        y_at(lt.normal()),
                     ];
-                    for (a, r) in acc[..4].iter_mut().zip(reps) {
+                    for (a, r) in acc[..ENV].iter_mut().zip(reps) {
                         a[0] += f64::from((r - truth).powi(2));
                         a[1] += f64::from(truth * truth);
                     }
@@ -565,8 +644,10 @@ pub fn texel_levels(
                                 shade_baseline(*brdf, Baseline::Toksvig, m, wo, wi),
                                 shade_baseline(*brdf, Baseline::Normalized, m, wo, wi),
                                 shade_baseline(*brdf, Baseline::Unnormalized, m, wo, wi),
+                                shade_lean(*brdf, &lt, wo, wi),
                             ];
-                            for (a, r) in acc[4 + 4 * gi..8 + 4 * gi].iter_mut().zip(reps) {
+                            let at = ENV + GLOSSY * gi;
+                            for (a, r) in acc[at..at + GLOSSY].iter_mut().zip(reps) {
                                 a[0] += f64::from((r - truth).powi(2));
                                 a[1] += f64::from(truth * truth);
                             }
@@ -576,7 +657,7 @@ pub fn texel_levels(
                 acc
             })
             .collect();
-        let mut tot = [[0.0f64; 2]; 17];
+        let mut tot = [[0.0f64; 2]; BAND3 + 1];
         for s in &sums {
             for (t, v) in tot.iter_mut().zip(s) {
                 t[0] += v[0];
@@ -610,15 +691,16 @@ pub fn texel_levels(
         rows.push(mk(
             "sh (order 3) vs 3-band truth",
             "lambert/env".into(),
-            err(16),
+            err(BAND3),
             None,
             "",
         ));
         rows.push(mk("vmf J=6", "lambert/env".into(), err(1), None, ""));
         rows.push(mk("normalized", "lambert/env".into(), err(2), None, ""));
         rows.push(mk("unnormalized", "lambert/env".into(), err(3), None, ""));
+        rows.push(mk("lean", "lambert/env".into(), err(4), None, ""));
         for (gi, brdf) in glossy.iter().enumerate() {
-            let b = 4 + 4 * gi;
+            let b = ENV + GLOSSY * gi;
             let (ev, et) = (err(b), err(b + 1));
             let target = if k >= 3 {
                 (0.05f64).min(0.5 * et)
@@ -634,6 +716,7 @@ pub fn texel_levels(
             rows.push(mk("toksvig", brdf.label(), et, None, ""));
             rows.push(mk("normalized", brdf.label(), err(b + 2), None, ""));
             rows.push(mk("unnormalized", brdf.label(), err(b + 3), None, ""));
+            rows.push(mk("lean", brdf.label(), err(b + 4), None, ""));
         }
         progress.inc(1);
     }

@@ -303,3 +303,79 @@ fn sh_rotation_convention_of_the_vertex_lighting() {
         },
     };
 }
+
+#[test]
+fn lean_moments_of_a_constant_map_and_a_two_normal_groove() {
+    use relight_ndf::LeanPyramid;
+    let slope = |bx: f32, by: f32| Vec3::new(bx, by, 1.0).normalize();
+    // Constant: B = its slope, Σ = 0 at every level.
+    let p = LeanPyramid::build(8, 8, &[slope(0.3, -0.2); 64]);
+    for (_, _, t) in &p.levels {
+        for t in t {
+            assert!((t.b - glam::Vec2::new(0.3, -0.2)).abs().max_element() < 1e-6);
+            assert!(t.covariance().abs().max_element() < 1e-6, "{t:?}");
+        }
+    }
+    // Two slopes (0.4, 0.1) and (−0.2, 0.3) in a checkerboard: B = (0.1, 0.2),
+    // Σ = ((0.09, −0.03), (−0.03, 0.01)) by hand.
+    let g: Vec<Vec3> = (0..64)
+        .map(|i| {
+            if (i % 8 + i / 8) % 2 == 0 {
+                slope(0.4, 0.1)
+            } else {
+                slope(-0.2, 0.3)
+            }
+        })
+        .collect();
+    let t = LeanPyramid::build(8, 8, &g).texel(3, 0, 0);
+    assert!((t.b - glam::Vec2::new(0.1, 0.2)).abs().max_element() < 1e-6);
+    let c = t.covariance();
+    assert!(
+        (c - Vec3::new(0.09, 0.01, -0.03)).abs().max_element() < 1e-5,
+        "{c}"
+    );
+    // Level 1 of the checkerboard is the same mixture.
+    assert!((LeanPyramid::build(8, 8, &g).texel(1, 2, 3).b - t.b).length() < 1e-6);
+}
+
+#[test]
+fn lean_isotropic_spread_is_the_widened_brdf() {
+    use relight_ndf::LeanPyramid;
+    use relight_ndf::lean::shade_lean;
+    // Slopes (±d, 0), (0, ±d): B = 0, Σ = d²/2 I, so LEAN's lobe is the BRDF
+    // widened by 1/κ = d²/2 (α′² = α² + 2/κ): exact for GGX and Beckmann at
+    // every direction, and for Blinn at the peak h = +Z; at d = 0 the base BRDF.
+    for d in [0.0f32, 0.3] {
+        let n = |bx: f32, by: f32| Vec3::new(bx, by, 1.0).normalize();
+        let map = [n(d, 0.0), n(-d, 0.0), n(0.0, -d), n(0.0, d)];
+        let t = LeanPyramid::build(2, 2, &map).texel(1, 0, 0);
+        let ik = 0.5 * d * d;
+        let dirs = [
+            Vec3::new(0.3, 0.1, 0.95),
+            Vec3::new(-0.5, 0.2, 0.84),
+            Vec3::new(0.1, -0.7, 0.7),
+            Vec3::new(0.6, 0.5, 0.62),
+        ];
+        for brdf in [
+            NdfBrdf::Ggx { alpha: 0.3 },
+            NdfBrdf::Beckmann { alpha: 0.2 },
+            NdfBrdf::Blinn { s: 64.0 },
+        ] {
+            for wo in dirs {
+                let wo = wo.normalize();
+                let peak = Vec3::new(-wo.x, -wo.y, wo.z);
+                for wi in dirs.map(Vec3::normalize).into_iter().chain([peak]) {
+                    if matches!(brdf, NdfBrdf::Blinn { .. }) && d > 0.0 && wi != peak {
+                        continue;
+                    }
+                    let want = shade_lobe(brdf, Vec3::Z, ik, wo, wi);
+                    let got = shade_lean(brdf, &t, wo, wi);
+                    assert!(
+                        (got - want).abs() <= 1e-4 * want.abs().max(1e-3),
+                        "{brdf:?} d={d} wo={wo} wi={wi}: LEAN {got} vs widened {want}"
+                    );
+                }
+            }
+        }
+    }
+}
