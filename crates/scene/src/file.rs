@@ -4,7 +4,7 @@
 //! **The format is documented in one place, `docs/scene-format.md`**: every
 //! key with its type, units, frame and default, and complete examples. This
 //! module holds no second copy of that table; a test
-//! (`crates/scene/tests/docs.rs`) fails when a key accepted here is missing
+//! (`crates/scene/tests/it/docs.rs`) fails when a key accepted here is missing
 //! from the document or documented but not accepted.
 //!
 //! The structs only describe the file's shape (names and types). Values are

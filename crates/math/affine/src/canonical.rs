@@ -31,7 +31,7 @@
 //! exactly `0.0` and sparsity counts ([`crate::sparsity`]) count true
 //! non-zeros.
 //!
-//! # OCR corrections to Fig. 4.4 (verified by `tests/canonical.rs`)
+//! # OCR corrections to Fig. 4.4 (verified by `tests/it/canonical.rs`)
 //! * `dr = |r − ½|`, not the signed `r − ½` (the signed form is wrong for
 //!   every `r < ½` in branches 5–8).
 //! * The last branch `else if d ≤ min(dr, minr)` is the plain `else`.

@@ -13,7 +13,7 @@
 //!
 //! **OCR correction:** the thesis prints `2^{l_i} o` in `c`; the
 //! substitution gives `2^{l_j} o` (checked against direct overlap in v and
-//! quadrature in `tests/coupling.rs`). The same holds for every pair of
+//! quadrature in `tests/it/coupling.rs`). The same holds for every pair of
 //! kinds (φ/ψ), with [`canonical`] of those kinds.
 //!
 //! The tripling coefficient `D_ijk(s, o) = ∫ Φ_i(s v + o) Φ_j(v) Φ_k(v) dv`

@@ -106,7 +106,7 @@ pub fn acc_matrix_f32(n: usize, s: f64, o: f64, out: &mut [f32], row: &mut Vec<(
 /// for φ, `2^{−l/2} tent(2^l v − t)` for ψ_{l,t} (`tent(x) = max(0, ½ −
 /// |x − ½|)`). Only targets whose support meets `[v_a, v_b)` are evaluated;
 /// the others are exact zeros. Agrees with [`acc_matrix_f32`] to f32
-/// rounding (`tests/standard.rs`), except that a coefficient the canonical
+/// rounding (`tests/it/standard.rs`), except that a coefficient the canonical
 /// form returns as an exact zero may come out as a rounding residue here.
 pub fn acc_matrix_fast(n: usize, s: f64, o: f64, out: &mut [f32]) {
     out.iter_mut().for_each(|x| *x = 0.0);

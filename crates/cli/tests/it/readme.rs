@@ -21,8 +21,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-const README: &str = include_str!("../../../README.md");
-const GITIGNORE: &str = include_str!("../../../.gitignore");
+const README: &str = include_str!("../../../../README.md");
+const GITIGNORE: &str = include_str!("../../../../.gitignore");
 
 /// `bench`/`verify` suites whose `--quick` run is cheap enough to run here
 /// (about a second each); the others (tens of seconds) are only parsed.
@@ -375,7 +375,7 @@ fn every_readme_command_works_as_written() {
 /// version the workspace declares.
 #[test]
 fn readme_states_the_install_line_and_the_rust_version() {
-    let manifest = include_str!("../../../Cargo.toml");
+    let manifest = include_str!("../../../../Cargo.toml");
     let version = manifest
         .lines()
         .find_map(|l| l.trim().strip_prefix("rust-version = "))

@@ -2,7 +2,7 @@
 //! outputs checked before any work, the bake cache, and one-line messages
 //! that name the problem once (bad files, typos, wrong kinds of image).
 
-mod common;
+use crate::common;
 
 use common::{assert_one_line_error, data, relight, tmp};
 

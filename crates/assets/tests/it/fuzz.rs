@@ -3,7 +3,7 @@
 //! `Ok` or `Err`, never panic. Cut points and flips are sampled (seeded) to
 //! keep the suite fast.
 
-mod common;
+use crate::common;
 
 use relight_assets::*;
 use std::panic::{AssertUnwindSafe, catch_unwind};

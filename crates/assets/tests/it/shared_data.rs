@@ -1,6 +1,6 @@
 //! Loads every real file in `../shared/data` (skips when absent, fails under CI).
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use relight_assets::*;

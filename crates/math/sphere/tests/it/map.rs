@@ -1,7 +1,7 @@
 //! Tests of `EnvMap`: integrals (checked against closed forms and Monte
 //! Carlo), area-correct resampling and rotation.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use glam::{DVec3, Mat3, Vec3};

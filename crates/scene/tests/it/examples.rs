@@ -1,6 +1,6 @@
 //! Every file in `examples/` loads, and loads into what it says.
 
-mod common;
+use crate::common;
 
 use common::{examples_dir, shared_data_present};
 use glam::Vec3;

@@ -1,7 +1,7 @@
 //! Tests of the icosahedral geodesic hierarchy: exact areas (checked by
 //! Monte Carlo hit counting), point location, parent/child structure.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use glam::DVec3;

@@ -7,7 +7,7 @@
 //! Sub-tables are found through their parent's documented type, and every
 //! key of the parent must be documented, so a new table cannot hide.
 
-mod common;
+use crate::common;
 
 use relight_scene::file::*;
 use std::collections::BTreeMap;

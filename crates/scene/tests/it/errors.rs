@@ -1,6 +1,6 @@
 //! Each bad value gives its own one-line error naming the file and the key.
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use relight_scene::{load_scene_file, load_scene_text};

@@ -1,7 +1,7 @@
 //! Tests of the sphere parameterizations: exact solid angles (checked a
 //! second way by Monte Carlo hit counting), round trips, seam continuity.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use glam::{DVec2, DVec3, Vec3};

@@ -1,7 +1,7 @@
 //! `relight verify triple --quick` in CI: every identity and error row with a
 //! target passes; the method's flags and refusals are one-line errors.
 
-mod common;
+use crate::common;
 
 use common::{assert_one_line_error, relight, tmp};
 

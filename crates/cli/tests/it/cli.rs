@@ -1,8 +1,8 @@
 //! End-to-end tests of the `relight` binary: the fresh-machine demo, scene
 //! files, and bad input (one-line error, non-zero exit, never a panic).
 
+use crate::common;
 use std::path::{Path, PathBuf};
-mod common;
 
 use common::{relight, tmp};
 use std::process::{Command, Output};

@@ -3,8 +3,8 @@
 //! cannot render with a one-line error naming the method, and the CLI and
 //! the viewer make the same image.
 
+use crate::common;
 use std::path::{Path, PathBuf};
-mod common;
 
 use common::{assert_one_line_error, relight, tmp};
 use std::process::{Command, Output};

@@ -1,0 +1,10 @@
+//! All of this crate's integration tests in one binary (one link of the
+//! dependency graph instead of one per file); each module is one former
+//! `tests/*.rs` file.
+
+mod cli;
+mod common;
+mod issue11;
+mod methods;
+mod readme;
+mod triple;

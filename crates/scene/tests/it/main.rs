@@ -1,0 +1,8 @@
+//! All of this crate's integration tests in one binary (one link of the
+//! dependency graph instead of one per file); each module is one former
+//! `tests/*.rs` file.
+
+mod common;
+mod docs;
+mod errors;
+mod examples;

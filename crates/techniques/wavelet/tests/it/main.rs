@@ -1,0 +1,6 @@
+//! All of this crate's integration tests in one binary (one link of the
+//! dependency graph instead of one per file); each module is one former
+//! `tests/*.rs` file.
+
+mod method;
+mod wavelet;
