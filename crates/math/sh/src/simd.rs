@@ -128,41 +128,55 @@ pub(crate) struct ColumnPieces {
 
 impl ColumnPieces {
     fn from_rotation(r: &ShRotation<f64>, nv: usize) -> Self {
-        let n = r.order();
-        let mut out = Self {
-            start: vec![0],
-            ..Self::default()
-        };
-        for k in 0..nv {
-            for l in 0..n {
-                let w = 2 * l + 1;
-                let base = l * l;
-                if base + w <= k * LANES || base >= (k + 1) * LANES {
-                    continue;
-                }
-                for j in 0..w {
-                    let mut v = F16::default();
-                    let mut any = false;
-                    for i in 0..w {
-                        let row = base + i;
-                        if row >= k * LANES && row < (k + 1) * LANES {
-                            let x = r.block(l)[i * w + j];
-                            if x.abs() > 1e-12 {
-                                v.0[row - k * LANES] = x as f32;
-                                any = true;
-                            }
+        let (start, cols, vals) = column_pieces::<LANES>(r, nv);
+        Self {
+            start,
+            cols,
+            vals: vals.into_iter().map(F16).collect(),
+        }
+    }
+}
+
+/// A fixed matrix cut into column pieces of `L` rows, for `nv` registers of
+/// `L` lanes: `(start, cols, vals)` with register `k`'s pieces at
+/// `start[k]..start[k+1]`, each `(input coefficient, the L rows of that
+/// column that fall in register k)`; all-zero pieces dropped. Shared by the
+/// AVX-512 (`L = 16`) and AVX2 (`L = 8`) kernels.
+pub(crate) fn column_pieces<const L: usize>(
+    r: &ShRotation<f64>,
+    nv: usize,
+) -> (Vec<usize>, Vec<u32>, Vec<[f32; L]>) {
+    let n = r.order();
+    let (mut start, mut cols, mut vals) = (vec![0], Vec::new(), Vec::new());
+    for k in 0..nv {
+        for l in 0..n {
+            let w = 2 * l + 1;
+            let base = l * l;
+            if base + w <= k * L || base >= (k + 1) * L {
+                continue;
+            }
+            for j in 0..w {
+                let mut v = [0.0f32; L];
+                let mut any = false;
+                for i in 0..w {
+                    let row = base + i;
+                    if (k * L..(k + 1) * L).contains(&row) {
+                        let x = r.block(l)[i * w + j];
+                        if x.abs() > 1e-12 {
+                            v[row - k * L] = x as f32;
+                            any = true;
                         }
                     }
-                    if any {
-                        out.cols.push((base + j) as u32);
-                        out.vals.push(v);
-                    }
+                }
+                if any {
+                    cols.push((base + j) as u32);
+                    vals.push(v);
                 }
             }
-            out.start.push(out.cols.len());
         }
-        out
+        start.push(cols.len());
     }
+    (start, cols, vals)
 }
 
 /// The constant tables of one order.

@@ -37,14 +37,14 @@ const PADDED: usize = 104;
 
 /// Eight f32, 32-byte aligned (one AVX2 register's worth).
 #[repr(C, align(32))]
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 struct F8([f32; LANES]);
 
 /// A fixed matrix in column pieces: register `k` of the output sums
 /// `x[cols[p]] · vals[p]` over `p ∈ start[k]..start[k+1]`, where `vals[p]` are
 /// the 8 rows of that column falling in register `k` (all-zero pieces
 /// dropped).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 struct Pieces8 {
     start: Vec<usize>,
     cols: Vec<u32>,
@@ -53,40 +53,13 @@ struct Pieces8 {
 
 impl Pieces8 {
     fn from_rotation(r: &ShRotation<f64>) -> Self {
-        let n = r.order();
-        let nv = (n * n).div_ceil(LANES);
-        let mut out = Self {
-            start: vec![0],
-            ..Self::default()
-        };
-        for k in 0..nv {
-            for l in 0..n {
-                let (w, base) = (2 * l + 1, l * l);
-                if base + w <= k * LANES || base >= (k + 1) * LANES {
-                    continue;
-                }
-                for j in 0..w {
-                    let mut v = F8::default();
-                    let mut any = false;
-                    for i in 0..w {
-                        let row = base + i;
-                        if (k * LANES..(k + 1) * LANES).contains(&row) {
-                            let x = r.block(l)[i * w + j];
-                            if x.abs() > 1e-12 {
-                                v.0[row - k * LANES] = x as f32;
-                                any = true;
-                            }
-                        }
-                    }
-                    if any {
-                        out.cols.push((base + j) as u32);
-                        out.vals.push(v);
-                    }
-                }
-            }
-            out.start.push(out.cols.len());
+        let nv = (r.order() * r.order()).div_ceil(LANES);
+        let (start, cols, vals) = crate::simd::column_pieces::<LANES>(r, nv);
+        Self {
+            start,
+            cols,
+            vals: vals.into_iter().map(F8).collect(),
         }
-        out
     }
 }
 
