@@ -4,8 +4,20 @@
 use glam::Vec3;
 use relight_ndf::verify::horizon_plane_scene;
 use relight_ndf::{NdfBrdf, NdfFilter, NdfMethod, NdfOptions};
-use relight_render::method::{FrameRequest, Relighter, render_frame};
-use relight_render::{NoProgress, NormalMap};
+use relight_render::method::{FrameRequest, Relighter, Rendered, render_frame};
+use relight_render::{NoProgress, NormalMap, Scene};
+
+/// The ndf method's frame of `scene` with `brdf` under `filter`.
+fn render_with(scene: &Scene, brdf: NdfBrdf, filter: NdfFilter) -> Rendered {
+    let mut m = NdfMethod::new(NdfOptions {
+        filter,
+        brdf,
+        ..NdfOptions::default()
+    })
+    .unwrap();
+    m.prepare(scene, &NoProgress).unwrap();
+    render_frame(&mut m, scene, &FrameRequest::new(scene.camera), &NoProgress).unwrap()
+}
 
 #[test]
 fn constant_map_every_filter_matches_plain_normal_mapping() {
@@ -13,22 +25,7 @@ fn constant_map_every_filter_matches_plain_normal_mapping() {
     let map = NormalMap::from_vectors(16, 16, &[n0; 256]).unwrap();
     for brdf in [NdfBrdf::Lambert, NdfBrdf::Blinn { s: 32.0 }] {
         let scene = horizon_plane_scene(&map, brdf, 48, 2.0);
-        let render = |filter| {
-            let mut m = NdfMethod::new(NdfOptions {
-                filter,
-                brdf,
-                ..NdfOptions::default()
-            })
-            .unwrap();
-            m.prepare(&scene, &NoProgress).unwrap();
-            render_frame(
-                &mut m,
-                &scene,
-                &FrameRequest::new(scene.camera),
-                &NoProgress,
-            )
-            .unwrap()
-        };
+        let render = |filter| render_with(&scene, brdf, filter);
         let truth = render(NdfFilter::None);
         let mask = truth.coverage.as_ref().unwrap().object_mask();
         assert!(truth.image.pixels.iter().any(|p| p.x > 0.0));
@@ -54,22 +51,7 @@ fn lean_on_a_flat_map_renders_the_base_glossy_lobe() {
     let map = NormalMap::from_vectors(16, 16, &[Vec3::Z; 256]).unwrap();
     let brdf = NdfBrdf::Blinn { s: 32.0 };
     let scene = horizon_plane_scene(&map, brdf, 48, 2.0);
-    let render = |filter| {
-        let mut m = NdfMethod::new(NdfOptions {
-            filter,
-            brdf,
-            ..NdfOptions::default()
-        })
-        .unwrap();
-        m.prepare(&scene, &NoProgress).unwrap();
-        render_frame(
-            &mut m,
-            &scene,
-            &FrameRequest::new(scene.camera),
-            &NoProgress,
-        )
-        .unwrap()
-    };
+    let render = |filter| render_with(&scene, brdf, filter);
     let truth = render(NdfFilter::None);
     let mask = truth.coverage.as_ref().unwrap().object_mask();
     let e = render(NdfFilter::Lean)
