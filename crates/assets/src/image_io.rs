@@ -102,7 +102,22 @@ impl ToneMap {
     /// Maps one linear value to display-referred [0, 1] (before sRGB).
     #[must_use]
     pub fn apply(&self, x: f32) -> f32 {
-        let x = (x * self.exposure_ev.exp2()).max(0.0);
+        self.apply_scaled(x, self.scale())
+    }
+
+    /// The exposure factor `2^exposure_ev`, for callers that map many values
+    /// with [`ToneMap::apply_scaled`] (one `exp2` per image, not per channel).
+    #[must_use]
+    pub fn scale(&self) -> f32 {
+        self.exposure_ev.exp2()
+    }
+
+    /// [`ToneMap::apply`] with the exposure factor `scale` = [`ToneMap::scale`]
+    /// computed by the caller: the same result, bit for bit.
+    #[must_use]
+    #[inline]
+    pub fn apply_scaled(&self, x: f32, scale: f32) -> f32 {
+        let x = (x * scale).max(0.0);
         let y = match self.operator {
             ToneOperator::Aces => (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14),
             ToneOperator::Reinhard => x / (1.0 + x),
@@ -608,7 +623,8 @@ pub fn encode_png(
         u32::try_from(height)
             .map_err(|_| AssetError::bad_dims(path, "height too large for PNG"))?,
     );
-    let q = |v: f32| (linear_to_srgb(tone.apply(v)) * 255.0 + 0.5) as u8;
+    let scale = tone.scale();
+    let q = |v: f32| (linear_to_srgb(tone.apply_scaled(v, scale)) * 255.0 + 0.5) as u8;
     let bytes: Vec<u8> = pixels
         .iter()
         .flat_map(|p| [q(p.x), q(p.y), q(p.z)])
@@ -730,6 +746,41 @@ mod tests {
                 Vec3::new(x * 0.37 + 0.01, y * 13.0 + 0.5, 1e-3 + (x * y) * 7.0)
             })
             .collect()
+    }
+
+    #[test]
+    fn apply_scaled_is_apply_bit_for_bit() {
+        for operator in [
+            ToneOperator::Aces,
+            ToneOperator::Reinhard,
+            ToneOperator::Clamp,
+        ] {
+            for ev in [-3.5f32, 0.0, 0.7, 4.0] {
+                let tone = ToneMap {
+                    exposure_ev: ev,
+                    operator,
+                };
+                let scale = tone.scale();
+                assert_eq!(scale, 2f32.powf(ev));
+                for x in [
+                    -1.0f32,
+                    0.0,
+                    1e-6,
+                    0.18,
+                    1.0,
+                    7.3,
+                    1e30,
+                    f32::NAN,
+                    f32::INFINITY,
+                ] {
+                    assert_eq!(
+                        tone.apply_scaled(x, scale).to_bits(),
+                        tone.apply(x).to_bits(),
+                        "{operator:?} ev {ev} x {x}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

@@ -691,6 +691,8 @@ fn mean_image(width: usize, height: usize, sum: &[Vec3], passes: usize) -> Image
 pub fn to_display(image: &Image, out: &mut [u32]) {
     use rayon::prelude::*;
     let tone = relight_assets::ToneMap::default();
+    // One exp2 per frame, not three per pixel (it was 13 % of a wavelet frame).
+    let scale = tone.scale();
     // sRGB of display-referred [0, 1] in 4096 steps.
     let lut: Vec<u32> = (0..4096)
         .map(|i| {
@@ -703,7 +705,7 @@ pub fn to_display(image: &Image, out: &mut [u32]) {
         .zip(image.pixels.par_chunks(w))
         .for_each(|(dst, src)| {
             for (d, p) in dst.iter_mut().zip(src) {
-                let c = |x: f32| lut[(tone.apply(x) * 4095.0 + 0.5) as usize];
+                let c = |x: f32| lut[(tone.apply_scaled(x, scale) * 4095.0 + 0.5) as usize];
                 *d = (c(p.x) << 16) | (c(p.y) << 8) | c(p.z);
             }
         });
