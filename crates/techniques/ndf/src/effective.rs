@@ -21,8 +21,10 @@
 //!   BRDF is not `f(n·ω)` for a fixed ω and eq. 5.3 does not hold. It is not
 //!   offered here (no faked approximation).
 //!
-//! The cosine `max(0, n·ω_i)` of a half-angle model is taken at the lobe
-//! axis μ (and `μ·ω_o > 0` is required), as Han et al. do.
+//! The cosine `max(0, n·ω_i)` of a half-angle model (and the view mask
+//! `n·ω_o > 0`) is taken at the lobe axis μ for GGX and Beckmann, as Han et
+//! al. do; for Blinn–Phong at the axis of the product lobe (`blinn_lobe`),
+//! which a wide NDF lobe moves from μ toward ĥ.
 //!
 //! # Lambert under a directional light, per vMF lobe
 //! `∫ max(0, n·l) γ(n; μ, κ) dn` has no closed form. Its bands `l ≤ 2` are
@@ -137,14 +139,13 @@ pub fn shade_lobe(brdf: NdfBrdf, n: Vec3, inv_kappa: f32, wo: Vec3, wi: Vec3) ->
             }
             lambert_lobe(ci, inv_kappa) / PI
         }
-        _ if co <= 0.0 || ci <= 0.0 => 0.0,
         NdfBrdf::Blinn { s } => {
             let Some(h) = (wo + wi).try_normalize() else {
                 return 0.0;
             };
-            let sp = s / (1.0 + s * inv_kappa);
-            blinn_phong_normalization(s) * (sp / s) * n.dot(h).max(0.0).powf(sp) * ci
+            blinn_phong_normalization(s) * blinn_lobe(s, n, inv_kappa, h, wo, wi)
         }
+        _ if co <= 0.0 || ci <= 0.0 => 0.0,
         NdfBrdf::Ggx { alpha } => {
             let a = (alpha * alpha + 2.0 * inv_kappa).sqrt();
             microfacet(
@@ -166,6 +167,28 @@ pub fn shade_lobe(brdf: NdfBrdf, n: Vec3, inv_kappa: f32, wo: Vec3, wi: Vec3) ->
             )
         }
     }
+}
+
+/// One vMF lobe `(μ, 1/κ)` ⊗ Blinn–Phong `s`, without the normalization:
+/// `(s'/s) (μ·ĥ)^{s'} · max(0, n*·ω_i)`, zero where `n*·ω_o ≤ 0`, with
+/// `s' = κs/(κ+s)` (module docs). The cosine and the view mask are taken at
+/// `n* = (κμ + s ĥ)/|κμ + s ĥ|`, the axis of the product of the NDF lobe
+/// and the BRDF's lobe about ĥ — the normals that make the highlight at ĥ
+/// (its mean direction, Banerjee et al. 2005: vMFs multiply to a vMF of
+/// resultant `κμ + sĥ`). A delta (`1/κ = 0`) has `n* = μ`: plain shading.
+#[inline]
+fn blinn_lobe(s: f32, mu: Vec3, inv_kappa: f32, h: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+    let n = if inv_kappa > 0.0 {
+        (mu + (s * inv_kappa) * h).normalize_or(mu)
+    } else {
+        mu
+    };
+    let ci = n.dot(wi);
+    if n.dot(wo) <= 0.0 || ci <= 0.0 {
+        return 0.0;
+    }
+    let sp = s / (1.0 + s * inv_kappa);
+    (sp / s) * mu.dot(h).max(0.0).powf(sp) * ci
 }
 
 /// `D·G·F/(4 cos θ_o cos θ_i) · cos θ_i` in the frame of `n`, F₀ = 1.
@@ -202,14 +225,7 @@ pub fn shade_mixture(brdf: NdfBrdf, lobes: &[ShadeLobe], wo: Vec3, wi: Vec3) -> 
         let c = blinn_phong_normalization(s);
         return lobes
             .iter()
-            .map(|l| {
-                let ci = l.mu.dot(wi);
-                if l.mu.dot(wo) <= 0.0 || ci <= 0.0 {
-                    return 0.0;
-                }
-                let sp = s / (1.0 + s * l.inv_kappa);
-                l.alpha * c * (sp / s) * l.mu.dot(h).max(0.0).powf(sp) * ci
-            })
+            .map(|l| l.alpha * c * blinn_lobe(s, l.mu, l.inv_kappa, h, wo, wi))
             .sum();
     }
     lobes
@@ -294,6 +310,90 @@ pub fn lambert_sh_env(gamma: &[f32], light: &[f32]) -> f32 {
     s
 }
 
+/// `Λ_l`, the clamped cosine's Funk–Hecke factor (`2π ∫_0^1 t P_l(t) dt`):
+/// π, 2π/3, 0 for odd `l > 1`, and for even `l ≥ 2`
+/// `2π (−1)^{l/2+1} / ((l+2)(l−1)) · C(l, l/2)/2^l` (Ramamoorthi & Hanrahan
+/// 2001, eq. 8): π/4, −π/24, π/64, …
+#[must_use]
+pub fn clamped_cosine_factor(l: usize) -> f64 {
+    use std::f64::consts::PI;
+    match l {
+        0 => PI,
+        1 => 2.0 * PI / 3.0,
+        _ if l % 2 == 1 => 0.0,
+        _ => {
+            // C(l, l/2)/2^l = Π_{k=1}^{l/2} (2k − 1)/(2k).
+            let c: f64 = (1..=l / 2)
+                .map(|k| (2 * k - 1) as f64 / (2 * k) as f64)
+                .product();
+            let sign = if (l / 2) % 2 == 1 { 1.0 } else { -1.0 };
+            2.0 * PI * sign * c / ((l + 2) * (l - 1)) as f64
+        }
+    }
+}
+
+/// SH bands of the lighting the env Lambert tail ([`lambert_tail_env`])
+/// reads at run time: bands 4, 6 and 8 (`Λ_l` of the bands beyond are below
+/// 1 % of Λ_0; under a sun-like light the irradiance they leave out is
+/// ~1.5 % RMS, against ~8 % for the 9-term form alone).
+pub const LAMBERT_TAIL_ORDER: usize = 9;
+
+/// The bands `4 ≤ l < n` of Lambert under SH lighting `light` (`n²`
+/// coefficients, `n ≤ 16`, in the frame of `m`) for an NDF taken beyond its
+/// band 2 as one vMF lobe at its mean normal `m` (`|m| ≤ 1`, κ = A⁻¹(|m|);
+/// `|m|` at the clamp's resultant or beyond is a delta):
+/// `Σ_{even l ≥ 4} Λ_l A_l(κ) Σ_m y_lm(m̂) L_lm / π`. It completes
+/// [`lambert_sh_env`] as [`lambert_sh_dir`]'s remainder does for one
+/// direction: at level 0 (a delta) the sum of the two is the irradiance of
+/// `light`'s `n` bands exactly. `y` is scratch of `≥ n²` floats.
+///
+/// # Panics
+/// If `light` has more than 256 coefficients or `y` is shorter than `light`.
+#[must_use]
+pub fn lambert_tail_env(m: Vec3, light: &[f32], y: &mut [f32]) -> f32 {
+    lambert_tail_channels(m, [light], y)[0]
+}
+
+/// [`lambert_tail_env`] for `C` channels of lighting of one order at once
+/// (one SH evaluation and one `A_l(κ)`).
+///
+/// # Panics
+/// As [`lambert_tail_env`], or if the channels' lengths differ.
+#[must_use]
+pub fn lambert_tail_channels<const C: usize>(
+    m: Vec3,
+    light: [&[f32]; C],
+    y: &mut [f32],
+) -> [f32; C] {
+    let len = light[0].len();
+    assert!(
+        light.iter().all(|l| l.len() == len),
+        "channels of one order"
+    );
+    let n = (len as f64).sqrt() as usize;
+    assert!(n <= 16, "lambert_tail_env: at most 16 bands");
+    let r = m.length();
+    let mut out = [0.0f32; C];
+    if n <= 4 || r <= 0.0 {
+        return out;
+    }
+    let mut a = [1.0f64; 16];
+    if r < 1.0 - 1.5 / crate::vmf::KAPPA_MAX as f32 {
+        crate::vmf::sh_attenuation(crate::vmf::kappa_from_resultant(f64::from(r)), &mut a[..n]);
+    }
+    let y = &mut y[..n * n];
+    relight_sh::eval_sh_into(n, (m / r).to_array(), y);
+    for (o, lc) in out.iter_mut().zip(light) {
+        let mut s = 0.0f64;
+        for l in (4..n).step_by(2) {
+            let band: f32 = (l * l..(l + 1) * (l + 1)).map(|i| y[i] * lc[i]).sum();
+            s += clamped_cosine_factor(l) * a[l] * f64::from(band);
+        }
+        *o = (s / std::f64::consts::PI) as f32;
+    }
+    out
+}
+
 /// Lambert radiance of a vMF mixture under SH lighting `light` (9
 /// coefficients, tangent frame): `Σ_j α_j Σ_l Λ_l A_l(κ_j) y_lm(μ_j) L_lm / π`.
 #[inline]
@@ -316,6 +416,26 @@ pub fn lambert_mixture_env(lobes: &[ShadeLobe], light: &[f32]) -> f32 {
         }
     }
     lambert_sh_env(&gamma, light)
+}
+
+/// [`lambert_mixture_env`] with each lobe's bands `4 ≤ l < n` of `light`
+/// (`n²` coefficients, `n ≤ 16`) added as in [`lambert_tail_env`] (lobe `j`
+/// at `A(κ_j) μ_j`); `y` is scratch of `≥ n²` floats.
+#[must_use]
+pub fn lambert_mixture_env_tail(lobes: &[ShadeLobe], light: &[f32], y: &mut [f32]) -> f32 {
+    let low = lambert_mixture_env(lobes, &light[..9]);
+    let tail: f32 = lobes
+        .iter()
+        .map(|l| {
+            let r = if l.inv_kappa <= 0.0 {
+                1.0
+            } else {
+                crate::vmf::mean_resultant(f64::from(1.0 / l.inv_kappa)) as f32
+            };
+            l.alpha * lambert_tail_env(l.mu * r, light, y)
+        })
+        .sum();
+    low + tail
 }
 
 /// The baselines: one normal per texel from the mean normal `m` of the

@@ -4,7 +4,9 @@
 //! # What it renders
 //! The unshadowed reflection of environment light (Lambert only, through
 //! SH: per-vertex lighting in the tangent frame, a 9-term dot product per
-//! pixel) and point lights (every [`NdfBrdf`]) off normal-mapped objects,
+//! pixel for bands 0–2, plus the bands 4–8 of the environment from the
+//! representation's mean normal, `effective::lambert_tail_env`, evaluated in
+//! the environment's frame) and point lights (every [`NdfBrdf`]) off normal-mapped objects,
 //! each pixel shading the NDF of its MIP footprint: the level is
 //! [`crate::lod_of`] the uv derivatives from
 //! `relight_render::raster::barycentric_derivatives`, and the pyramids are
@@ -21,8 +23,8 @@
 //! memory across `prepare`s; `relight ndf bake` writes them for engines.
 
 use crate::effective::{
-    Baseline, NdfBrdf, lambert_mixture_env, lambert_sh_dir, lambert_sh_env, shade_baseline,
-    shade_lobe, shade_mixture,
+    Baseline, LAMBERT_TAIL_ORDER, NdfBrdf, lambert_mixture_env, lambert_sh_dir, lambert_sh_env,
+    lambert_tail_channels, mean_normal_of_sh, shade_baseline, shade_lobe, shade_mixture,
 };
 use crate::lean::{LeanPyramid, LeanTexel, shade_lean};
 use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
@@ -202,6 +204,11 @@ pub struct NdfMethod {
     objects: Vec<ObjectData>,
     raster: Rasterizer,
     pending_lighting_ms: f64,
+    /// The environment's SH to [`LAMBERT_TAIL_ORDER`] bands per channel, in
+    /// the environment's frame: the Lambert tail's lighting.
+    env_tail: [Vec<f32>; 3],
+    /// `world_from_env` inverted (a rotation).
+    env_from_world: Mat3,
 }
 
 fn invalid(option: &'static str, message: String) -> MethodError {
@@ -283,6 +290,8 @@ impl NdfMethod {
             objects: Vec::new(),
             raster: Rasterizer::new(),
             pending_lighting_ms: 0.0,
+            env_tail: [Vec::new(), Vec::new(), Vec::new()],
+            env_from_world: Mat3::IDENTITY,
         })
     }
 
@@ -416,6 +425,42 @@ impl NdfMethod {
                 };
                 out[c] += v;
             }
+            // Bands 4–8 (effective::lambert_tail_env) in the environment's
+            // frame, from each representation's (mean) normal.
+            let to_env = |t: Vec3| {
+                self.env_from_world * (frame.x * t.x + frame.y * (hand * t.y) + frame.z * t.z)
+            };
+            let mut yt = [0.0f32; LAMBERT_TAIL_ORDER * LAMBERT_TAIL_ORDER];
+            let [r, g, b] = &self.env_tail;
+            let mut tail = |t: Vec3| {
+                if r.is_empty() {
+                    return Vec3::ZERO;
+                }
+                Vec3::from(lambert_tail_channels(to_env(t), [r, g, b], &mut yt))
+            };
+            out += match &rep {
+                Rep::Normal(n) => tail(*n),
+                Rep::Mean(m) => {
+                    let n = m.normalize_or(Vec3::Z);
+                    match baseline {
+                        Baseline::Unnormalized => m.length() * tail(n),
+                        _ => tail(n),
+                    }
+                }
+                Rep::Sh => tail(mean_normal_of_sh(&gamma)),
+                Rep::Vmf => lobes[..nl]
+                    .iter()
+                    .map(|l| {
+                        let r = if l.inv_kappa <= 0.0 {
+                            1.0
+                        } else {
+                            crate::vmf::mean_resultant(f64::from(1.0 / l.inv_kappa)) as f32
+                        };
+                        l.alpha * tail(l.mu * r)
+                    })
+                    .sum(),
+                Rep::Lean(t) => tail(t.normal()),
+            };
         }
         for pl in &scene.point_lights {
             let d = pl.position - position;
@@ -611,11 +656,16 @@ impl Relighter for NdfMethod {
         }
         let env = if scene.has_environment() {
             Some(
-                project_env(&scene.env, 3, Window::None)
+                project_env(&scene.env, LAMBERT_TAIL_ORDER, Window::None)
                     .map_err(|e| MethodError::failed(NDF_METHOD_NAME, NdfError::from(e)))?,
             )
         } else {
             None
+        };
+        self.env_from_world = scene.world_from_env.transpose();
+        self.env_tail = match &env {
+            Some(e) => [0, 1, 2].map(|c| e.channels[c].clone()),
+            None => [Vec::new(), Vec::new(), Vec::new()],
         };
         for o in &mut self.objects {
             progress.check()?;
@@ -637,7 +687,7 @@ impl Relighter for NdfMethod {
                         return;
                     };
                     for c in 0..3 {
-                        sh.apply(&env.channels[c], &mut dst[c * 9..c * 9 + 9]);
+                        sh.apply(&env.channels[c][..9], &mut dst[c * 9..c * 9 + 9]);
                     }
                 });
         }

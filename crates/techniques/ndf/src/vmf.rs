@@ -99,9 +99,12 @@ pub fn kappa_estimate(r: f32) -> f32 {
     (r * (3.0 - r * r) / (1.0 - r * r)).clamp(KAPPA_MIN as f32, KAPPA_MAX as f32)
 }
 
-/// Writes `A_l(κ)` for `l = 0..out.len()` (module docs: backward recurrence
-/// on the ratios, started `30 + 2·len + κ`-ish bands above, where the ratio is
-/// negligible). κ ≥ 0; κ = 0 gives `[1, 0, 0, …]`.
+/// Writes `A_l(κ)` for `l = 0..out.len()` (module docs), without allocating.
+/// For `κ ≥ 4n² + 16` (`n = out.len()`) the forward recurrence from
+/// `A_0 = 1`, `A_1 = A(κ)` is used: every step's factor `(2l+1)/κ` is below
+/// `1/(2n)`, so rounding errors do not grow. Otherwise the ratios' continued
+/// fraction is run backward from `n + 40 + 8√κ` bands up, where the ratio is
+/// negligible. κ ≥ 0; κ = 0 gives `[1, 0, 0, …]`.
 pub fn sh_attenuation(kappa: f64, out: &mut [f64]) {
     if out.is_empty() {
         return;
@@ -112,19 +115,27 @@ pub fn sh_attenuation(kappa: f64, out: &mut [f64]) {
         return;
     }
     let n = out.len();
+    if kappa >= (4 * n * n + 16) as f64 {
+        if n > 1 {
+            out[1] = mean_resultant(kappa);
+        }
+        for l in 1..n.saturating_sub(1) {
+            out[l + 1] = out[l - 1] - (2 * l + 1) as f64 / kappa * out[l];
+        }
+        return;
+    }
     // R_l decays like κ/(2l+1) once 2l+1 ≫ κ; start well beyond both.
     let start = n + 40 + (kappa.sqrt() * 8.0) as usize;
-    let start = start.min(n + 40 + 20_000);
     let mut ratio = 0.0f64; // R_{start+1}
-    let mut ratios = vec![0.0f64; n];
+    // `out[l]` holds R_l first, then the running product.
     for l in (1..=start).rev() {
         ratio = 1.0 / ((2 * l + 1) as f64 / kappa + ratio);
         if l < n {
-            ratios[l] = ratio;
+            out[l] = ratio;
         }
     }
     for l in 1..n {
-        out[l] = out[l - 1] * ratios[l];
+        out[l] *= out[l - 1];
     }
 }
 
