@@ -23,8 +23,9 @@
 //! memory across `prepare`s; `relight ndf bake` writes them for engines.
 
 use crate::effective::{
-    Baseline, LAMBERT_TAIL_ORDER, NdfBrdf, lambert_mixture_env, lambert_sh_dir, lambert_sh_env,
-    lambert_tail_channels, mean_normal_of_sh, shade_baseline, shade_lobe, shade_mixture,
+    Baseline, LAMBERT_TAIL_ORDER, NdfBrdf, lambert_mixture_env, lambert_sh_dir_seen,
+    lambert_sh_env, lambert_tail_channels, mean_normal_of_sh, shade_baseline, shade_lobe,
+    shade_mixture,
 };
 use crate::lean::{LeanPyramid, LeanTexel, shade_lean};
 use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
@@ -385,7 +386,7 @@ impl NdfMethod {
             match &rep {
                 Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
                 Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
-                Rep::Sh => lambert_sh_dir(&gamma, wi),
+                Rep::Sh => lambert_sh_dir_seen(&gamma, wo, wi),
                 Rep::Vmf => shade_mixture(brdf, &lobes[..nl], wo, wi),
                 Rep::Lean(t) => shade_lean(brdf, t, wo, wi),
             }

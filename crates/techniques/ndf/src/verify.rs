@@ -21,7 +21,7 @@
 
 use crate::effective::{
     Baseline, LAMBERT_TAIL_ORDER, NdfBrdf, lambert_mixture_env, lambert_mixture_env_tail,
-    lambert_sh_dir, lambert_sh_env, lambert_tail_env, mean_normal_of_sh, shade_baseline,
+    lambert_sh_dir_seen, lambert_sh_env, lambert_tail_env, mean_normal_of_sh, shade_baseline,
     shade_lobe, shade_mixture,
 };
 use crate::em::{EmOptions, fit_em, seed_lobes};
@@ -714,7 +714,7 @@ pub fn texel_levels(
                             .sum::<f32>()
                             / total;
                         let reps = [
-                            lambert_sh_dir(gamma, wi),
+                            lambert_sh_dir_seen(gamma, wo, wi),
                             shade_mixture(lam, &lobes, wo, wi),
                             shade_baseline(lam, Baseline::Normalized, m, wo, wi),
                             shade_baseline(lam, Baseline::Unnormalized, m, wo, wi),
@@ -841,6 +841,14 @@ pub fn texel_levels(
 
 /// A plane receding to the horizon with `map` tiled `tiles` times, lit by
 /// one point light, a Lambert or Blinn material, `size²` pixels.
+///
+/// The light is high on the viewer's side (14 up, 3 behind the eye's
+/// plane point: 20°–80° above the plane points in view) and the view falls
+/// 9°–34° onto the plane (the far edge near the top of the image): not the
+/// grazing light from the far side the first version had, where most of the
+/// lit fine normals face away from the viewer and the view mask of plain
+/// normal mapping (a normal turned away shades zero), which no
+/// `f(n·ω)` convolution holds, decided the image.
 #[must_use]
 pub fn horizon_plane_scene(map: &NormalMap, brdf: NdfBrdf, size: usize, tiles: f32) -> Scene {
     let mut mesh = relight_geom::shapes::plane(40.0, 8);
@@ -857,8 +865,8 @@ pub fn horizon_plane_scene(map: &NormalMap, brdf: NdfBrdf, size: usize, tiles: f
     let mut object = Object::new(Arc::new(mesh), b);
     object.normal_map = Some(Arc::new(map.clone()));
     let camera = Camera {
-        eye: Vec3::new(0.0, 1.2, 19.0),
-        target: Vec3::new(0.0, 0.0, -2.0),
+        eye: Vec3::new(0.0, 5.0, 19.0),
+        target: Vec3::new(0.0, 0.0, -5.0),
         up: Vec3::Y,
         vfov_deg: 40.0,
         width: size,
@@ -874,8 +882,8 @@ pub fn horizon_plane_scene(map: &NormalMap, brdf: NdfBrdf, size: usize, tiles: f
     );
     let mut scene = Scene::new(vec![object], env, camera);
     scene.point_lights.push(PointLight::new(
-        Vec3::new(0.0, 6.0, -6.0),
-        Vec3::splat(60.0),
+        Vec3::new(0.0, 14.0, 16.0),
+        Vec3::splat(300.0),
     ));
     scene
 }
