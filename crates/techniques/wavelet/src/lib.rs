@@ -47,6 +47,7 @@ pub mod error;
 pub mod figure7;
 pub mod format;
 pub mod lighting;
+pub mod memo;
 pub mod method;
 pub mod octa;
 pub mod render;

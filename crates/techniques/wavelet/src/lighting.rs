@@ -14,24 +14,87 @@ use relight_haar::{Ranking, SparseRgb, forward_2d_with_scratch, top_k_rgb};
 /// over the texel with the exact area element of the map).
 #[must_use]
 pub fn sample_octahedral(n: usize, ss: usize, f: impl Fn(Vec3) -> Vec3 + Sync) -> Vec<[f32; 3]> {
-    let ss = ss.max(1);
-    (0..n * n)
-        .into_par_iter()
-        .map(|t| {
-            let (c, r) = (t % n, t / n);
-            let (mut acc, mut wsum) = (Vec3::ZERO, 0.0f64);
-            for sy in 0..ss {
-                for sx in 0..ss {
-                    let u = (c as f64 + (sx as f64 + 0.5) / ss as f64) / n as f64;
-                    let v = (r as f64 + (sy as f64 + 0.5) / ss as f64) / n as f64;
-                    let w = oct_density(u, v);
-                    acc += f(oct_dir_from_uv(u, v).as_vec3()) * w as f32;
-                    wsum += w;
+    OctSamples::new(n, ss).sample(f)
+}
+
+/// The sample points of [`sample_octahedral`] for one `(n, ss)`: directions
+/// and solid-angle weights, which do not depend on the lighting, computed
+/// once (a lighting change then only evaluates the lighting at them).
+#[derive(Clone, Debug)]
+pub struct OctSamples {
+    n: usize,
+    ss: usize,
+    /// `ss²` directions per texel, texel-major.
+    dirs: Vec<Vec3>,
+    /// The area element at each direction (as f32, the factor it multiplies).
+    weights: Vec<f32>,
+    /// Σ of a texel's weights (summed in f64, then as f32).
+    sums: Vec<f32>,
+}
+
+impl OctSamples {
+    /// The samples of the `n × n` map at `ss × ss` per texel (`ss ≥ 1`).
+    #[must_use]
+    pub fn new(n: usize, ss: usize) -> Self {
+        let ss = ss.max(1);
+        let per: Vec<(Vec<(Vec3, f32)>, f32)> = (0..n * n)
+            .into_par_iter()
+            .map(|t| {
+                let (c, r) = (t % n, t / n);
+                let mut wsum = 0.0f64;
+                let mut pts = Vec::with_capacity(ss * ss);
+                for sy in 0..ss {
+                    for sx in 0..ss {
+                        let u = (c as f64 + (sx as f64 + 0.5) / ss as f64) / n as f64;
+                        let v = (r as f64 + (sy as f64 + 0.5) / ss as f64) / n as f64;
+                        let w = oct_density(u, v);
+                        pts.push((oct_dir_from_uv(u, v).as_vec3(), w as f32));
+                        wsum += w;
+                    }
                 }
+                (pts, wsum as f32)
+            })
+            .collect();
+        let mut out = Self {
+            n,
+            ss,
+            dirs: Vec::with_capacity(n * n * ss * ss),
+            weights: Vec::with_capacity(n * n * ss * ss),
+            sums: Vec::with_capacity(n * n),
+        };
+        for (pts, sum) in per {
+            for (d, w) in pts {
+                out.dirs.push(d);
+                out.weights.push(w);
             }
-            (acc / wsum as f32).to_array()
-        })
-        .collect()
+            out.sums.push(sum);
+        }
+        out
+    }
+
+    /// Map side n and samples per texel side ss.
+    #[must_use]
+    pub fn size(&self) -> (usize, usize) {
+        (self.n, self.ss)
+    }
+
+    /// Texel values of `f` ([`sample_octahedral`]).
+    #[must_use]
+    pub fn sample(&self, f: impl Fn(Vec3) -> Vec3 + Sync) -> Vec<[f32; 3]> {
+        let k = self.ss * self.ss;
+        self.dirs
+            .par_chunks(k)
+            .zip(self.weights.par_chunks(k))
+            .zip(self.sums.par_iter())
+            .map(|((dirs, weights), &sum)| {
+                let mut acc = Vec3::ZERO;
+                for (&d, &w) in dirs.iter().zip(weights) {
+                    acc += f(d) * w;
+                }
+                (acc / sum).to_array()
+            })
+            .collect()
+    }
 }
 
 /// Haar transform (orthonormal, nonstandard) of an RGB `n × n` map.
@@ -65,4 +128,42 @@ pub fn project_lighting(
     let texels = sample_octahedral(n, 2, f);
     let coeffs = haar_rgb(&texels, n);
     (top_k_rgb(&coeffs, n, terms, ranking), coeffs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The samples kept by [`OctSamples`] give the bits of evaluating the
+    /// map's points and weights at every call (the computation they replace).
+    #[test]
+    fn kept_samples_equal_the_direct_area_integral() {
+        let f = |d: Vec3| Vec3::new(1.0 + d.x, (3.0 * d.y).sin().abs(), d.z * d.z);
+        for (n, ss) in [(8, 1), (16, 3), (8, 6)] {
+            let direct: Vec<[f32; 3]> = (0..n * n)
+                .map(|t| {
+                    let (c, r) = (t % n, t / n);
+                    let (mut acc, mut wsum) = (Vec3::ZERO, 0.0f64);
+                    for sy in 0..ss {
+                        for sx in 0..ss {
+                            let u = (c as f64 + (sx as f64 + 0.5) / ss as f64) / n as f64;
+                            let v = (r as f64 + (sy as f64 + 0.5) / ss as f64) / n as f64;
+                            let w = oct_density(u, v);
+                            acc += f(oct_dir_from_uv(u, v).as_vec3()) * w as f32;
+                            wsum += w;
+                        }
+                    }
+                    (acc / wsum as f32).to_array()
+                })
+                .collect();
+            let kept = OctSamples::new(n, ss);
+            for _ in 0..2 {
+                let got = kept.sample(f);
+                assert_eq!(got.len(), direct.len());
+                for (g, d) in got.iter().zip(&direct) {
+                    assert_eq!(g.map(f32::to_bits), d.map(f32::to_bits), "n {n} ss {ss}");
+                }
+            }
+        }
+    }
 }

@@ -427,10 +427,11 @@ impl Relighter for WaveletMethod {
         ))
     }
 
-    /// Step 2 of the last frame (the vertices it shaded: every visible one
-    /// after a view change) at 4 slices × their terms × RGB multiply-adds per
-    /// vertex, plus the Gouraud resolve (3 × RGB per pixel); step 1 as the
-    /// rotation-matrix entries the kept terms touch (nnz × terms / N) × RGB.
+    /// Step 2 of the last frame: the slice terms it multiplied with local
+    /// lighting (the dot products of the visible vertices that the memo did
+    /// not hold, [`crate::memo`]) × RGB, plus the Gouraud resolve (3 × RGB per
+    /// pixel); step 1 as the rotation-matrix entries the kept terms touch
+    /// (nnz × terms / N) × RGB.
     fn frame_work(
         &self,
         _scene: &Scene,
@@ -438,10 +439,9 @@ impl Relighter for WaveletMethod {
     ) -> Option<relight_render::method::FrameWork> {
         let rot = self.rotation.as_ref()?;
         let p = rot.params();
-        let slice_terms = self.options.brdf_terms.min(p.target_len()) as f64;
         let pixels =
             (request.camera.width * request.camera.height * request.aa * request.aa) as f64;
-        let view = self.colors.shaded_last as f64 * 4.0 * slice_terms * 3.0 + pixels * 9.0;
+        let view = self.colors.terms_last as f64 * 3.0 + pixels * 9.0;
         let lighting = rot.nnz() as f64 * self.options.terms as f64 / p.source_len() as f64 * 3.0;
         Some(relight_render::method::FrameWork {
             view_fma: view,

@@ -28,7 +28,8 @@
 
 use crate::brdf_bake::BrdfBake;
 use crate::error::{WaveletError, bad};
-use crate::lighting::{haar_rgb, sample_octahedral};
+use crate::lighting::{OctSamples, haar_rgb};
+use crate::memo::DotMemo;
 use crate::octa::{grid_normal, normal_bilinear, shading_frame, shading_frame_fast};
 use crate::rotation::RotationMatrices;
 use glam::{Mat3, Vec3, Vec3A};
@@ -38,7 +39,7 @@ use relight_render::raster::{Background, DrawCall, NO_TRIANGLE, RasterOptions, R
 use relight_render::{Camera, Image, Scene};
 use relight_sphere::EnvMap;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::time::Instant;
 
 /// How the local lighting of the four sampled normals around a vertex normal
@@ -104,6 +105,23 @@ pub struct WaveletRenderer {
     frames: Vec<relight_sphere::Frame>,
     /// Incremented by every lighting change (keys [`VertexColors`]).
     lighting_generation: u64,
+    /// This renderer among all (keys [`VertexColors`] with the generation).
+    id: u64,
+    /// The sample points of the last lighting's octahedral map.
+    samples: Option<OctSamples>,
+}
+
+/// Source of [`WaveletRenderer`] ids.
+static NEXT_RENDERER_ID: AtomicU64 = AtomicU64::new(1);
+
+/// `w` with its local z raised to just above the horizon (1e-3) when below.
+#[inline]
+fn above_horizon(mut w: Vec3) -> Vec3 {
+    if w.z < 1e-3 {
+        w.z = 1e-3;
+        w = w.normalize();
+    }
+    w
 }
 
 impl std::fmt::Debug for WaveletRenderer {
@@ -142,6 +160,8 @@ impl WaveletRenderer {
                 .map(|k| shading_frame(grid_normal(k, p.ntess).as_vec3()))
                 .collect(),
             lighting_generation: 0,
+            id: NEXT_RENDERER_ID.fetch_add(1, Ordering::Relaxed),
+            samples: None,
         })
     }
 
@@ -200,7 +220,12 @@ impl WaveletRenderer {
     ) -> Result<LightingStats, WaveletError> {
         let t0 = Instant::now();
         let n = self.rot.params().n;
-        let coeffs = haar_rgb(&sample_octahedral(n, ss, f), n);
+        let samples = match self.samples.take() {
+            Some(s) if s.size() == (n, ss.max(1)) => s,
+            _ => OctSamples::new(n, ss),
+        };
+        let coeffs = haar_rgb(&samples.sample(f), n);
+        self.samples = Some(samples);
         self.light = top_k_rgb(&coeffs, n, self.terms, self.ranking);
         let energy = energy_fraction(&self.light, &coeffs);
         let t1 = Instant::now();
@@ -261,13 +286,7 @@ impl WaveletRenderer {
         let (nk, nw) = normal_bilinear(n, ntess);
         let local = &self.local;
         let lit = |c: usize| &local[nk[c] as usize * mm..][..mm];
-        let above = |mut w: Vec3| {
-            if w.z < 1e-3 {
-                w.z = 1e-3;
-                w = w.normalize();
-            }
-            w
-        };
+        let above = above_horizon;
         // A view-independent slice makes both rules identical: take the cheaper.
         let rule = if brdf.view_independent {
             NormalInterp::Paper
@@ -312,6 +331,70 @@ impl WaveletRenderer {
                 out.max(Vec3A::ZERO)
             }
         }
+    }
+
+    /// `𝐅_s · L̃_c`: slice `s` of `brdf` dotted with the local lighting of
+    /// sampled normal `c` (paper Eq. 7), one accumulator in term order — the
+    /// chain [`WaveletRenderer::shade_point`]'s mirror-aligned loop runs per
+    /// neighbour, so the bits are the same.
+    #[inline]
+    fn slice_dot(&self, brdf: &BrdfBake, s: usize, c: usize) -> Vec3A {
+        let mm = self.rot.params().target_len();
+        let l = &self.local[c * mm..][..mm];
+        let (idx, val) = brdf.slice(s);
+        let mut a = Vec3A::ZERO;
+        for (&j, &f) in idx.iter().zip(val) {
+            a += f * l[j as usize];
+        }
+        a
+    }
+
+    /// [`WaveletRenderer::shade_point`] through a [`DotMemo`]: the four
+    /// neighbours' dot products `𝐅_(s_c) · L̃_c` are looked up by the pair
+    /// key `base + s_c · normals + c` (`base` is the bake's first key) and
+    /// blended, `B = Σ_c w_c 𝐅_(s_c) · L̃_c`. Mirror-aligned: the same bits
+    /// as `shade_point`. A view-independent bake uses slice 0 for every view
+    /// (its slices are equal to 1e-6), and the paper's rule blends the
+    /// products of its one slice instead of the lighting (equal by
+    /// linearity, to rounding). Returns the colour and how many products
+    /// were computed.
+    #[inline]
+    fn shade_point_memo(
+        &self,
+        n: Vec3,
+        wo: Vec3,
+        brdf: &BrdfBake,
+        base: u32,
+        memo: &DotMemo,
+    ) -> (Vec3A, u32) {
+        let p = self.rot.params();
+        let normals = p.normals() as u32;
+        let (nk, nw) = normal_bilinear(n, p.ntess);
+        let slices: [usize; 4] = if brdf.view_independent {
+            [0; 4]
+        } else {
+            match self.normal_interp {
+                NormalInterp::Paper => {
+                    [brdf.nearest_slice(above_horizon(shading_frame_fast(n).to_local(wo))); 4]
+                }
+                NormalInterp::MirrorAligned => {
+                    let r = 2.0 * n.dot(wo) * n - wo;
+                    nk.map(|k| {
+                        let rc = self.frames[k as usize].to_local(r);
+                        brdf.nearest_slice(above_horizon(Vec3::new(-rc.x, -rc.y, rc.z)))
+                    })
+                }
+            }
+        };
+        let mut computed = 0;
+        let a: [Vec3A; 4] = std::array::from_fn(|c| {
+            let key = base + slices[c] as u32 * normals + nk[c];
+            let (v, fresh) = memo.get_or(key, || self.slice_dot(brdf, slices[c], nk[c] as usize));
+            computed += u32::from(fresh);
+            v
+        });
+        let out = a[0] * nw[0] + a[1] * nw[1] + a[2] * nw[2] + a[3] * nw[3];
+        (out.max(Vec3A::ZERO), computed)
     }
 
     /// Per-pixel variant of [`WaveletRenderer::render_with_mask`]: the same
@@ -472,8 +555,13 @@ impl WaveletRenderer {
     /// visibility buffer, and only once per eye position and lighting: a
     /// vertex no visible triangle uses cannot change a pixel, and a pass that
     /// moves the image by a sub-pixel offset reuses every colour already
-    /// computed ([`VertexColors`]). The image is the one shading every vertex
-    /// gives.
+    /// computed ([`VertexColors`]); objects with a view-independent bake
+    /// (Lambert) keep their colours across view changes. The dot products
+    /// go through the cache's [`DotMemo`] (each distinct slice × normal pair
+    /// once per lighting, [`crate::memo`]). The image is the one shading
+    /// every vertex with [`WaveletRenderer::shade_point`] gives: bit for bit
+    /// for view-dependent bakes under [`NormalInterp::MirrorAligned`], to
+    /// rounding (1e-5) otherwise.
     ///
     /// # Errors
     /// As [`WaveletRenderer::render`].
@@ -524,12 +612,39 @@ impl WaveletRenderer {
             .iter()
             .map(|o| o.mesh.positions.len())
             .collect();
-        let stamp = cache.begin(camera.eye, self.lighting_generation, &sizes);
+        // The memo's keys: one range of slices × normals per distinct bake.
+        let normals = self.rot.params().normals() as u64;
+        let mut bakes: Vec<usize> = Vec::with_capacity(brdfs.len());
+        let mut bases: Vec<u64> = Vec::with_capacity(brdfs.len());
+        let mut next_key = 0u64;
+        for (i, b) in brdfs.iter().enumerate() {
+            let addr = std::ptr::from_ref::<BrdfBake>(b) as usize;
+            bakes.push(addr);
+            match bakes[..i].iter().position(|&a| a == addr) {
+                Some(j) => bases.push(bases[j]),
+                None => {
+                    bases.push(next_key);
+                    let slices = b.indices.len() / b.params.terms.max(1);
+                    next_key += slices as u64 * normals;
+                }
+            }
+        }
+        let use_memo = next_key <= u64::from(DotMemo::MAX_KEY) + 1;
+        let view_dependent: Vec<bool> = brdfs.iter().map(|b| !b.view_independent).collect();
+        let key = ColorKey {
+            renderer: self.id,
+            lighting: self.lighting_generation,
+            interp: self.normal_interp,
+            bakes,
+            memo: use_memo,
+        };
+        cache.begin(camera.eye, key, &sizes, &view_dependent);
         // Vertices of visible triangles not yet shaded for this eye and lighting.
         let todo = {
             let r = &*raster;
             let g = r.gbuffer();
             let stamps = &cache.stamps;
+            let current = &cache.current;
             g.triangle
                 .par_chunks(g.width.max(1))
                 .fold(Vec::new, |mut todo: Vec<(u32, u32)>, ids| {
@@ -540,6 +655,7 @@ impl WaveletRenderer {
                         }
                         last = id;
                         let Some((d, t)) = r.locate(id) else { continue };
+                        let stamp = current[d];
                         for &v in &draws[d].triangles[t] {
                             if stamps[d][v as usize].swap(stamp, Ordering::Relaxed) != stamp {
                                 todo.push((d as u32, v));
@@ -557,7 +673,9 @@ impl WaveletRenderer {
                 })
         };
         let eye = camera.eye;
-        let shaded: Vec<Vec3> = todo
+        let memo = cache.memo.as_ref().filter(|_| use_memo);
+        let slice_terms = |d: usize| brdfs[d].params.terms as u32;
+        let shaded: Vec<(Vec3, u32)> = todo
             .par_iter()
             .with_min_len(256)
             .map(|&(d, v)| {
@@ -566,13 +684,21 @@ impl WaveletRenderer {
                 let n = mesh.normals[v];
                 let wo = (eye - mesh.positions[v]).normalize_or(n);
                 let a = ao.map_or(1.0, |a| a[d][v]);
-                Vec3::from(self.shade_point(n, wo, brdfs[d])) * a
+                let (c, dots) = match memo {
+                    // Pair keys fit: `bases[d] + s · normals + c < next_key`.
+                    Some(m) => self.shade_point_memo(n, wo, brdfs[d], bases[d] as u32, m),
+                    None => (self.shade_point(n, wo, brdfs[d]), 4),
+                };
+                (Vec3::from(c) * a, dots * slice_terms(d))
             })
             .collect();
-        for (&(d, v), c) in todo.iter().zip(shaded) {
+        let mut terms = 0u64;
+        for (&(d, v), (c, t)) in todo.iter().zip(shaded) {
             cache.colors[d as usize][v as usize] = c;
+            terms += u64::from(t);
         }
         cache.shaded_last = todo.len();
+        cache.terms_last = terms;
         let color_refs: Vec<&[Vec3]> = cache.colors.iter().map(|c| &c[..]).collect();
         let env = &scene.env;
         let env_from_world = self.world_from_env.transpose();
@@ -589,23 +715,46 @@ impl WaveletRenderer {
     }
 }
 
-/// Per-vertex colours kept between frames by [`WaveletRenderer::render_into`]:
-/// valid for one eye position and one lighting (a generation stamp per
-/// vertex says which were shaded for the current pair).
+/// What the colours in a [`VertexColors`] were computed for, besides the
+/// eye: the renderer and its lighting, the blend rule, and the bakes (by
+/// address, object by object).
+#[derive(Clone, Debug, PartialEq)]
+struct ColorKey {
+    renderer: u64,
+    lighting: u64,
+    interp: NormalInterp,
+    bakes: Vec<usize>,
+    /// Whether the pair keys fit the memo.
+    memo: bool,
+}
+
+/// Per-vertex colours kept between frames by [`WaveletRenderer::render_into`],
+/// with the memo of their dot products ([`DotMemo`]). A colour is valid for
+/// one lighting and, for an object whose bake depends on the view, one eye
+/// position: a view-independent (Lambert) object keeps its colours across
+/// view changes. A stamp per vertex says which colours are current; each
+/// object has its own current stamp.
 #[derive(Debug, Default)]
 pub struct VertexColors {
-    key: Option<(Vec3, u64)>,
-    stamp: u32,
+    key: Option<ColorKey>,
+    eye: Option<Vec3>,
+    counter: u32,
+    current: Vec<u32>,
     stamps: Vec<Vec<AtomicU32>>,
     colors: Vec<Vec<Vec3>>,
+    memo: Option<DotMemo>,
     /// Vertices step 2 shaded in the last frame.
     pub shaded_last: usize,
+    /// Slice terms step 2 multiplied with local lighting in the last frame
+    /// (each an RGB multiply-add): the dot products the memo did not hold.
+    pub terms_last: u64,
 }
 
 impl VertexColors {
-    /// Starts a frame for `eye` and lighting `lighting` over meshes of
-    /// `sizes` vertices; returns the stamp of valid colours.
-    fn begin(&mut self, eye: Vec3, lighting: u64, sizes: &[usize]) -> u32 {
+    /// Starts a frame for `eye` and `key` over meshes of `sizes` vertices,
+    /// `view_dependent[i]` when object `i`'s colours change with the eye;
+    /// afterwards `current[i]` is the stamp of object `i`'s valid colours.
+    fn begin(&mut self, eye: Vec3, key: ColorKey, sizes: &[usize], view_dependent: &[bool]) {
         let same_sizes = self.colors.len() == sizes.len()
             && self.colors.iter().zip(sizes).all(|(c, &n)| c.len() == n);
         if !same_sizes {
@@ -614,24 +763,206 @@ impl VertexColors {
                 .iter()
                 .map(|&n| (0..n).map(|_| AtomicU32::new(0)).collect())
                 .collect();
-            self.stamp = 0;
+            self.current = vec![0; sizes.len()];
+            self.counter = 0;
             self.key = None;
         }
-        if self.key != Some((eye, lighting)) {
-            self.key = Some((eye, lighting));
-            self.stamp = self.stamp.wrapping_add(1);
-            if self.stamp == 0 {
-                for s in self.stamps.iter().flatten() {
-                    s.store(0, Ordering::Relaxed);
-                }
-                self.stamp = 1;
+        let new_lighting = self.key.as_ref() != Some(&key);
+        if !new_lighting && self.eye == Some(eye) {
+            return;
+        }
+        self.counter = self.counter.wrapping_add(1);
+        let all = if self.counter == 0 {
+            for s in self.stamps.iter().flatten() {
+                s.store(0, Ordering::Relaxed);
+            }
+            self.counter = 1;
+            true
+        } else {
+            new_lighting
+        };
+        for (c, &dep) in self.current.iter_mut().zip(view_dependent) {
+            if all || dep {
+                *c = self.counter;
             }
         }
-        self.stamp
+        if new_lighting {
+            if key.memo {
+                self.memo.get_or_insert_with(DotMemo::default).reset();
+            }
+            self.key = Some(key);
+        }
+        self.eye = Some(eye);
     }
 
     /// Forgets every colour (the meshes or materials changed).
     pub fn clear(&mut self) {
         self.key = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::brdf_bake::{BrdfBakeParams, bake_brdf};
+    use crate::rotation::{RotationParams, bake_rotation};
+    use relight_brdf::{Brdf, Ggx, Lambert};
+    use relight_geom::shapes;
+    use relight_render::{NoProgress, Object};
+    use relight_sphere::Param;
+
+    /// Two GGX spheres sharing one bake and a Lambert torus, small bakes.
+    fn setup() -> (WaveletRenderer, Scene, Vec<BrdfBake>) {
+        let p = RotationParams::new(16, 8, 1);
+        let rot = Arc::new(bake_rotation(&p, &NoProgress).unwrap());
+        let mut r = WaveletRenderer::new(rot, 64).unwrap();
+        r.set_lighting_fn(|d: Vec3| {
+            let sun = Vec3::new(0.4, 0.8, 0.3).normalize();
+            Vec3::new(0.3, 0.4, 0.5) + Vec3::splat(5.0 * d.dot(sun).max(0.0).powi(20))
+        })
+        .unwrap();
+        let ggx: Arc<dyn Brdf> = Arc::new(Ggx::isotropic(0.2, Vec3::ONE).unwrap());
+        let lambert: Arc<dyn Brdf> = Arc::new(Lambert::new(Vec3::splat(0.8)).unwrap());
+        let bakes = vec![
+            bake_brdf(
+                &BrdfBakeParams::new("ggx", p.m, 16, 32),
+                ggx.as_ref(),
+                &NoProgress,
+            )
+            .unwrap(),
+            bake_brdf(
+                &BrdfBakeParams::new("lambert", p.m, 16, 32),
+                lambert.as_ref(),
+                &NoProgress,
+            )
+            .unwrap(),
+        ];
+        assert!(!bakes[0].view_independent && bakes[1].view_independent);
+        let sphere = |x: f32| Arc::new(shapes::uv_sphere_at(Vec3::new(x, 0.0, 0.0), 0.5, 40, 20));
+        let torus = shapes::torus(0.45, 0.18, 40, 16)
+            .transformed(glam::Affine3A::from_translation(Vec3::new(0.0, -0.6, 0.0)));
+        let scene = Scene::new(
+            vec![
+                Object::new(sphere(-1.1), ggx.clone()),
+                Object::new(Arc::new(torus), lambert),
+                Object::new(sphere(1.1), ggx),
+            ],
+            EnvMap::from_fn(
+                Param::LatLong {
+                    width: 32,
+                    height: 16,
+                },
+                |_| Vec3::ONE,
+            ),
+            Camera {
+                eye: Vec3::new(0.0, 0.5, 4.0),
+                target: Vec3::ZERO,
+                up: Vec3::Y,
+                vfov_deg: 50.0,
+                width: 96,
+                height: 64,
+                image_offset: glam::Vec2::ZERO,
+            },
+        );
+        (r, scene, bakes)
+    }
+
+    /// Every colour `cache` holds as current vs `shade_point` for `eye`:
+    /// bit for bit for view-dependent bakes under the mirror-aligned rule,
+    /// else to 1e-5 (relative, floor 1). Returns how many were checked per object.
+    fn check(
+        r: &WaveletRenderer,
+        scene: &Scene,
+        brdfs: &[&BrdfBake],
+        cache: &VertexColors,
+        eye: Vec3,
+    ) -> Vec<usize> {
+        let exact = r.normal_interp == NormalInterp::MirrorAligned;
+        (0..scene.objects.len())
+            .map(|d| {
+                let mesh = &scene.objects[d].mesh;
+                let mut checked = 0;
+                for v in 0..mesh.positions.len() {
+                    if cache.stamps[d][v].load(Ordering::Relaxed) != cache.current[d] {
+                        continue;
+                    }
+                    let n = mesh.normals[v];
+                    let wo = (eye - mesh.positions[v]).normalize_or(n);
+                    let want = Vec3::from(r.shade_point(n, wo, brdfs[d]));
+                    let got = cache.colors[d][v];
+                    if exact && !brdfs[d].view_independent {
+                        assert_eq!(
+                            got.to_array().map(f32::to_bits),
+                            want.to_array().map(f32::to_bits),
+                            "object {d} vertex {v}"
+                        );
+                    } else {
+                        let e =
+                            (got - want).abs().max_element() / want.abs().max_element().max(1.0);
+                        assert!(e < 1e-5, "object {d} vertex {v}: {got} vs {want}");
+                    }
+                    checked += 1;
+                }
+                checked
+            })
+            .collect()
+    }
+
+    #[test]
+    fn memo_and_kept_colours_equal_shading_every_vertex() {
+        let (mut r, scene, bakes) = setup();
+        let brdfs = [&bakes[0], &bakes[1], &bakes[0]];
+        let (mut raster, mut cache) = (Rasterizer::new(), VertexColors::default());
+        let mut img = Image::new(0, 0);
+        let mut cam = scene.camera;
+        let mut frame = |r: &WaveletRenderer, cam: &Camera, cache: &mut VertexColors| {
+            img = Image::new(cam.width, cam.height);
+            r.render_into(
+                &scene,
+                &brdfs,
+                cam,
+                None,
+                &mut raster,
+                cache,
+                true,
+                &mut img,
+            )
+            .unwrap();
+            check(r, &scene, &brdfs, cache, cam.eye)
+        };
+        let first = frame(&r, &cam, &mut cache);
+        assert!(first.iter().all(|&n| n > 100), "{first:?}");
+        let dots_first = cache.terms_last;
+        // Fewer products than 4 per vertex: neighbours share pairs.
+        assert!(
+            dots_first < 4 * 32 * cache.shaded_last as u64,
+            "{dots_first}"
+        );
+        // A view change: the torus (Lambert) keeps its colours, the spheres are shaded again.
+        cam.eye = Vec3::new(0.6, 0.7, 3.9);
+        let shaded_before = cache.shaded_last;
+        let second = frame(&r, &cam, &mut cache);
+        assert!(second[0] > 100 && second[2] > 100, "{second:?}");
+        assert!(
+            cache.shaded_last < shaded_before,
+            "{} vs {shaded_before}",
+            cache.shaded_last
+        );
+        // Same eye again: nothing to shade.
+        frame(&r, &cam, &mut cache);
+        assert_eq!(cache.shaded_last, 0);
+        // A lighting change: every colour again, matching the new lighting.
+        r.set_lighting_fn(|d: Vec3| Vec3::new(1.0 + d.x, 0.5, 0.8 + 0.5 * d.y))
+            .unwrap();
+        frame(&r, &cam, &mut cache);
+        assert!(
+            cache.shaded_last >= shaded_before / 2,
+            "{}",
+            cache.shaded_last
+        );
+        // The paper's rule (products of one slice blended, to rounding).
+        r.normal_interp = NormalInterp::Paper;
+        let paper = frame(&r, &cam, &mut cache);
+        assert!(paper.iter().all(|&n| n > 100), "{paper:?}");
     }
 }
