@@ -8,11 +8,16 @@
 //! * Single calls: the generated straight-line code, compiled once in
 //!   non-generic, non-inlined functions per operation, so a caller pays one
 //!   call and downstream crates never re-instantiate the kernels (compile
-//!   time). Evaluation and the product have two copies, plain multiply and
-//!   add (`eval_one_portable`, `product_one_portable`) and fused multiply–add
-//!   for AVX2+FMA CPUs (`eval_one_fma`, `product_one_fma`), chosen per call by
-//!   a cached CPU-feature test (`eval_one`, `product_one`); `rotate_one` is
-//!   plain only.
+//!   time). Evaluation, rotation and the product have two copies, plain
+//!   multiply and add (`eval_one_portable`, `rotate_one_portable`,
+//!   `product_one_portable`) and fused multiply–add for AVX2+FMA CPUs
+//!   (`eval_one_fma`, `rotate_one_fma`, `product_one_fma`), chosen per call by
+//!   a cached CPU-feature test (`eval_one`, `rotate_one`, `product_one`);
+//!   `rotate_euler_one` (angles given) is plain only.
+//! * Rotation takes the 3×3 matrix: bands 1 and 2 come straight from it (a
+//!   linear and a quadratic form, no Euler angles: order ≤ 3 needs no square
+//!   root or division), bands ≥ 3 from its ZYZ angles (see
+//!   [`crate::kernels_gen`]).
 //! * RGB variants: one Euler decomposition (rotation), then the mono kernel per
 //!   channel.
 //! * Batches: on an x86-64 CPU with AVX2 and FMA ([`crate::lanes::avx2_fma_available`]),
@@ -126,26 +131,164 @@ pub(crate) unsafe fn eval_one_fma(order: usize, x: f32, y: f32, z: f32, out: &mu
     )
 }
 
+// No `array::map` below: it was not inlined into the kernels' callers
+// (three out-of-line `try_map` calls per rotation, copying through the stack).
 #[inline(always)]
-fn euler_array(e: &EulerZyz<f32>) -> [S; 6] {
+fn euler_array<const F: bool>(e: &EulerZyz<f32>) -> [V<1, F>; 6] {
+    let s = V::splat;
     [
-        e.cos_alpha,
-        e.sin_alpha,
-        e.cos_beta,
-        e.sin_beta,
-        e.cos_gamma,
-        e.sin_gamma,
+        s(e.cos_alpha),
+        s(e.sin_alpha),
+        s(e.cos_beta),
+        s(e.sin_beta),
+        s(e.cos_gamma),
+        s(e.sin_gamma),
     ]
-    .map(S::splat)
 }
 
-/// Generated ZYZ rotation of one f32 vector; `false` above [`KERNEL_ROTATE_MAX_ORDER`].
+#[inline(always)]
+fn matrix_array<const F: bool>(m: &[[f32; 3]; 3]) -> [[V<1, F>; 3]; 3] {
+    let s = V::splat;
+    [
+        [s(m[0][0]), s(m[0][1]), s(m[0][2])],
+        [s(m[1][0]), s(m[1][1]), s(m[1][2])],
+        [s(m[2][0]), s(m[2][1]), s(m[2][2])],
+    ]
+}
+
+/// The generated kernel on one vector, from the matrix: the ZYZ angles
+/// ([`crate::rotation::euler_zyz_direct`]) are only computed from order 4 on
+/// (bands 1 and 2 come straight from the matrix).
+#[inline(always)]
+fn rotate_mat<const F: bool>(
+    order: usize,
+    m: &[[f32; 3]; 3],
+    src: &[f32],
+    dst: &mut [f32],
+) -> bool {
+    let e = if order >= 4 {
+        euler_array::<F>(&crate::rotation::euler_zyz_direct(&Rot3 { m: *m }))
+    } else {
+        [V::splat(0.0); 6]
+    };
+    kernels::rotate::<1, F>(order, &matrix_array::<F>(m), &e, as_v1(src), as_v1_mut(dst))
+}
+
+#[inline(always)]
+fn as_v1<const F: bool>(s: &[f32]) -> &[V<1, F>] {
+    // SAFETY: as `as_v`.
+    unsafe { std::slice::from_raw_parts(s.as_ptr().cast(), s.len()) }
+}
+
+#[inline(always)]
+fn as_v1_mut<const F: bool>(s: &mut [f32]) -> &mut [V<1, F>] {
+    // SAFETY: as `as_v`.
+    unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast(), s.len()) }
+}
+
+/// Generated exact rotation of one f32 vector by the rotation matrix `m` (`m[i][j] = R_ij`); `false`
+/// above [`KERNEL_ROTATE_MAX_ORDER`]. Runs [`rotate_one_fma`] on a CPU with
+/// AVX2 and FMA, else [`rotate_one_portable`].
+///
+/// The matrix is passed by reference and read inside the kernel: the ZYZ
+/// angles are computed there, in registers (passing freshly computed angles
+/// through memory made the kernel's combined loads of them miss store
+/// forwarding).
+///
+/// # Panics
+/// If a slice is shorter than `order²`.
+#[inline]
+pub(crate) fn rotate_one(order: usize, m: &[[f32; 3]; 3], src: &[f32], dst: &mut [f32]) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if crate::lanes::avx2_fma_available() {
+        // SAFETY: AVX2 and FMA were detected.
+        return unsafe { rotate_one_fma(order, m, src, dst) };
+    }
+    rotate_one_portable(order, m, src, dst)
+}
+
+/// [`rotate_one`] with plain multiply and add (the portable path).
 ///
 /// # Panics
 /// If a slice is shorter than `order²`.
 #[inline(never)]
-pub(crate) fn rotate_one(order: usize, e: &EulerZyz<f32>, src: &[f32], dst: &mut [f32]) -> bool {
-    kernels::rotate::<1, false>(order, &euler_array(e), as_v(src), as_v_mut(dst))
+pub(crate) fn rotate_one_portable(
+    order: usize,
+    m: &[[f32; 3]; 3],
+    src: &[f32],
+    dst: &mut [f32],
+) -> bool {
+    rotate_mat::<false>(order, m, src, dst)
+}
+
+/// [`rotate_one`] with fused multiply–add.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+///
+/// # Panics
+/// If a slice is shorter than `order²`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+pub(crate) unsafe fn rotate_one_fma(
+    order: usize,
+    m: &[[f32; 3]; 3],
+    src: &[f32],
+    dst: &mut [f32],
+) -> bool {
+    rotate_mat::<true>(order, m, src, dst)
+}
+
+/// Generated rotation of one f32 vector given its ZYZ angles (the matrix is
+/// rebuilt from them, [`Rot3::from_euler_zyz`]); `false` above
+/// [`KERNEL_ROTATE_MAX_ORDER`]. Plain multiply and add.
+///
+/// # Panics
+/// If a slice is shorter than `order²`.
+#[inline(never)]
+pub(crate) fn rotate_euler_one(
+    order: usize,
+    e: &EulerZyz<f32>,
+    src: &[f32],
+    dst: &mut [f32],
+) -> bool {
+    let m = matrix_array::<false>(&Rot3::from_euler_zyz(e).m);
+    kernels::rotate::<1, false>(order, &m, &euler_array(e), as_v(src), as_v_mut(dst))
+}
+
+/// The three channels of [`rotate_rgb`]: one decomposition, then the kernel
+/// per channel (one copy of it, in a loop).
+#[inline(always)]
+fn rotate_rgb_mat<const F: bool>(
+    order: usize,
+    rot: &Rot3<f32>,
+    src: [&[f32]; 3],
+    dst: [&mut [f32]; 3],
+) {
+    let e = if order >= 4 {
+        euler_array::<F>(&crate::rotation::euler_zyz_direct(rot))
+    } else {
+        [V::splat(0.0); 6]
+    };
+    let m = matrix_array::<F>(&rot.m);
+    for (src, dst) in src.into_iter().zip(dst) {
+        kernels::rotate::<1, F>(order, &m, &e, as_v1(src), as_v1_mut(dst));
+    }
+}
+
+#[inline(never)]
+fn rotate_rgb_portable(order: usize, rot: &Rot3<f32>, src: [&[f32]; 3], dst: [&mut [f32]; 3]) {
+    rotate_rgb_mat::<false>(order, rot, src, dst);
+}
+
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn rotate_rgb_fma(order: usize, rot: &Rot3<f32>, src: [&[f32]; 3], dst: [&mut [f32]; 3]) {
+    rotate_rgb_mat::<true>(order, rot, src, dst);
 }
 
 /// Generated truncated product of two f32 vectors; `false` above [`KERNEL_PRODUCT_MAX_ORDER`].
@@ -226,12 +369,14 @@ pub fn rotate_rgb(
     for c in &dst {
         check_len("dst channel", order, c.len(), nn)?;
     }
-    // One decomposition; the channels run the same kernel one after another
-    // (the kernel's code is shared with the mono path: no three-lane copy).
-    let e = rot.euler_zyz();
-    for (src, dst) in src.into_iter().zip(dst) {
-        rotate_one(order, &e, src, dst);
+    // One decomposition; the channels run the same kernel one after another.
+    #[cfg(target_arch = "x86_64")]
+    if crate::lanes::avx2_fma_available() {
+        // SAFETY: AVX2 and FMA were detected.
+        unsafe { rotate_rgb_fma(order, rot, src, dst) };
+        return Ok(());
     }
+    rotate_rgb_portable(order, rot, src, dst);
     Ok(())
 }
 
@@ -309,31 +454,42 @@ unsafe fn eval8(n: usize, d: &[V8; 3], o: &mut [V8; BATCH_NN]) {
     }
 }
 
-/// The order-`n` ZYZ kernel on eight vectors (`n ≤` [`BATCH_MAX_ORDER`]).
+/// The order-`n` rotation kernel on eight vectors (`n ≤` [`BATCH_MAX_ORDER`]):
+/// matrices `m`, their ZYZ angles `e` (read from order 4 on).
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
-unsafe fn rotate8(n: usize, e: &[V8; 6], v: &[V8; BATCH_NN], d: &mut [V8; BATCH_NN]) {
+unsafe fn rotate8(
+    n: usize,
+    m: &[[V8; 3]; 3],
+    e: &[V8; 6],
+    v: &[V8; BATCH_NN],
+    d: &mut [V8; BATCH_NN],
+) {
     match n {
         1 => kernels::rotate_n1(
+            m,
             e,
             (&v[..1]).try_into().expect("length"),
             (&mut d[..1]).try_into().expect("length"),
         ),
         2 => kernels::rotate_n2(
+            m,
             e,
             (&v[..4]).try_into().expect("length"),
             (&mut d[..4]).try_into().expect("length"),
         ),
         3 => kernels::rotate_n3(
+            m,
             e,
             (&v[..9]).try_into().expect("length"),
             (&mut d[..9]).try_into().expect("length"),
         ),
         4 => kernels::rotate_n4(
+            m,
             e,
             (&v[..16]).try_into().expect("length"),
             (&mut d[..16]).try_into().expect("length"),
@@ -467,8 +623,13 @@ pub(crate) unsafe fn rotate_batch_avx2(
                 a[k].0[j] = v[k];
             }
         }
+        let e = if order >= 4 {
+            euler_of_lanes(&m)
+        } else {
+            [V8::splat(0.0); 6]
+        };
         // SAFETY: the caller checked the features.
-        unsafe { rotate8(order, &euler_of_lanes(&m), &a, &mut b) };
+        unsafe { rotate8(order, &m, &e, &a, &mut b) };
         let cnt = 8.min(rots.len() - i0);
         for j in 0..cnt {
             let o = &mut dst[(i0 + j) * nn..(i0 + j + 1) * nn];
@@ -491,7 +652,7 @@ pub(crate) fn eval_batch_portable(order: usize, dirs: &[[f32; 3]], out: &mut [f3
     }
 }
 
-/// Portable batch rotation: [`rotate_one`] per item.
+/// Portable batch rotation: [`rotate_one_portable`] per item.
 pub(crate) fn rotate_batch_portable(
     order: usize,
     rots: &[Rot3<f32>],
@@ -501,7 +662,7 @@ pub(crate) fn rotate_batch_portable(
     let nn = order * order;
     for (i, r) in rots.iter().enumerate() {
         let span = i * nn..(i + 1) * nn;
-        rotate_one(order, &r.euler_zyz(), &src[span.clone()], &mut dst[span]);
+        rotate_one_portable(order, &r.m, &src[span.clone()], &mut dst[span]);
     }
 }
 

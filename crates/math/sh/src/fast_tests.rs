@@ -249,12 +249,28 @@ fn rotate_kernels_match_portable_zyz() {
         for (i, r) in rs.iter().enumerate() {
             let want = rot_ref(n, r, &vs[i]);
             let tol = 3e-6 * (nn as f64).sqrt() * n as f64;
-            assert!(rotate_one(n, &r.euler_zyz(), &vs[i], &mut one));
+            assert!(rotate_one_portable(n, &r.m, &vs[i], &mut one));
             assert!(
                 max_diff(&one, &want) < tol,
                 "rotate n={n} item {i}: {}",
                 max_diff(&one, &want)
             );
+            assert!(rotate_euler_one(n, &r.euler_zyz(), &vs[i], &mut one));
+            assert!(
+                max_diff(&one, &want) < tol,
+                "rotate from angles n={n} item {i}: {}",
+                max_diff(&one, &want)
+            );
+            #[cfg(target_arch = "x86_64")]
+            if avx {
+                // SAFETY: checked above.
+                assert!(unsafe { rotate_one_fma(n, &r.m, &vs[i], &mut one) });
+                assert!(
+                    max_diff(&one, &want) < tol,
+                    "FMA rotate n={n} item {i}: {}",
+                    max_diff(&one, &want)
+                );
+            }
             if !batched {
                 continue;
             }

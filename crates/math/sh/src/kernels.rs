@@ -404,142 +404,123 @@ pub(crate) fn eval_n8<const W: usize, const F: bool>(x: V<W, F>, y: V<W, F>, z: 
     o[49] = q7_7 * s7;
 }
 
-/// `d = R_z(α) X₋ R_z(β) X₊ R_z(γ) v`, order 1; `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`.
+/// `d = R v`, order 1: bands 0–2 straight from the matrix `m` (`R_ij = m[i][j]`),
+/// bands ≥ 3 as `R_z(α) X₋ R_z(β) X₊ R_z(γ)` with `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`
+/// the ZYZ angles of the same `R` (unused below order 4).
 #[inline(always)]
-pub(crate) fn rotate_n1<const W: usize, const F: bool>(_e: &[V<W, F>; 6], v: &[V<W, F>; 1], d: &mut [V<W, F>; 1]) {
-    let v0 = v[0];
-    let p0 = v0;
-    let q0 = p0;
-    let r0 = q0;
-    let t0 = r0;
-    let u0 = t0;
-    d[0] = u0;
+pub(crate) fn rotate_n1<const W: usize, const F: bool>(_m: &[[V<W, F>; 3]; 3], _e: &[V<W, F>; 6], v: &[V<W, F>; 1], d: &mut [V<W, F>; 1]) {
+    d[0] = v[0];
 }
 
-/// `d = R_z(α) X₋ R_z(β) X₊ R_z(γ) v`, order 2; `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`.
+/// `d = R v`, order 2: bands 0–2 straight from the matrix `m` (`R_ij = m[i][j]`),
+/// bands ≥ 3 as `R_z(α) X₋ R_z(β) X₊ R_z(γ)` with `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`
+/// the ZYZ angles of the same `R` (unused below order 4).
 #[inline(always)]
-pub(crate) fn rotate_n2<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<W, F>; 4], d: &mut [V<W, F>; 4]) {
-    let ac1 = e[0];
-    let as1 = e[1];
-    let bc1 = e[2];
-    let bs1 = e[3];
-    let gc1 = e[4];
-    let gs1 = e[5];
-    let v0 = v[0];
-    let v1 = v[1];
-    let v2 = v[2];
-    let v3 = v[3];
-    let p0 = v0;
-    let p2 = v2;
-    let p3 = v3.mul_add(gc1, -(v1 * gs1));
-    let p1 = v1.mul_add(gc1, v3 * gs1);
-    let q0 = p0;
-    let q1 = p2;
-    let q2 = -p1;
-    let q3 = p3;
-    let r0 = q0;
-    let r2 = q2;
-    let r3 = q3.mul_add(bc1, -(q1 * bs1));
-    let r1 = q1.mul_add(bc1, q3 * bs1);
-    let t0 = r0;
-    let t1 = -r2;
-    let t2 = r1;
-    let t3 = r3;
-    let u0 = t0;
-    let u2 = t2;
-    let u3 = t3.mul_add(ac1, -(t1 * as1));
-    let u1 = t1.mul_add(ac1, t3 * as1);
-    d[0] = u0;
-    d[1] = u1;
-    d[2] = u2;
-    d[3] = u3;
+pub(crate) fn rotate_n2<const W: usize, const F: bool>(m: &[[V<W, F>; 3]; 3], _e: &[V<W, F>; 6], v: &[V<W, F>; 4], d: &mut [V<W, F>; 4]) {
+    d[0] = v[0];
+    let m00 = m[0][0];
+    let m01 = m[0][1];
+    let m02 = m[0][2];
+    let m10 = m[1][0];
+    let m11 = m[1][1];
+    let m12 = m[1][2];
+    let m20 = m[2][0];
+    let m21 = m[2][1];
+    let m22 = m[2][2];
+    let (v1, v2, v3) = (v[1], v[2], v[3]);
+    d[1] = m12.mul_add(-v2, m11.mul_add(v1, m10 * v3));
+    d[2] = m22.mul_add(v2, -(m21.mul_add(v1, m20 * v3)));
+    d[3] = m02.mul_add(-v2, m01.mul_add(v1, m00 * v3));
 }
 
-/// `d = R_z(α) X₋ R_z(β) X₊ R_z(γ) v`, order 3; `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`.
+/// `d = R v`, order 3: bands 0–2 straight from the matrix `m` (`R_ij = m[i][j]`),
+/// bands ≥ 3 as `R_z(α) X₋ R_z(β) X₊ R_z(γ)` with `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`
+/// the ZYZ angles of the same `R` (unused below order 4).
 #[inline(always)]
-pub(crate) fn rotate_n3<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<W, F>; 9], d: &mut [V<W, F>; 9]) {
+pub(crate) fn rotate_n3<const W: usize, const F: bool>(m: &[[V<W, F>; 3]; 3], _e: &[V<W, F>; 6], v: &[V<W, F>; 9], d: &mut [V<W, F>; 9]) {
     let s = V::<W, F>::splat;
-    let ac1 = e[0];
-    let as1 = e[1];
-    let ac2 = ac1.mul_add(ac1, -(as1 * as1));
-    let as2 = as1.mul_add(ac1, ac1 * as1);
-    let bc1 = e[2];
-    let bs1 = e[3];
-    let bc2 = bc1.mul_add(bc1, -(bs1 * bs1));
-    let bs2 = bs1.mul_add(bc1, bc1 * bs1);
-    let gc1 = e[4];
-    let gs1 = e[5];
-    let gc2 = gc1.mul_add(gc1, -(gs1 * gs1));
-    let gs2 = gs1.mul_add(gc1, gc1 * gs1);
-    let v0 = v[0];
-    let v1 = v[1];
-    let v2 = v[2];
-    let v3 = v[3];
-    let v4 = v[4];
-    let v5 = v[5];
-    let v6 = v[6];
-    let v7 = v[7];
-    let v8 = v[8];
-    let p0 = v0;
-    let p2 = v2;
-    let p3 = v3.mul_add(gc1, -(v1 * gs1));
-    let p1 = v1.mul_add(gc1, v3 * gs1);
-    let p6 = v6;
-    let p7 = v7.mul_add(gc1, -(v5 * gs1));
-    let p5 = v5.mul_add(gc1, v7 * gs1);
-    let p8 = v8.mul_add(gc2, -(v4 * gs2));
-    let p4 = v4.mul_add(gc2, v8 * gs2);
-    let q0 = p0;
-    let q1 = p2;
-    let q2 = -p1;
-    let q3 = p3;
-    let q4 = p7;
-    let q5 = -p5;
-    let q6 = p8.mul_add(s(-0.8660254), p6 * s(-0.5));
-    let q7 = -p4;
-    let q8 = p8.mul_add(s(0.5), p6 * s(-0.8660254));
-    let r0 = q0;
-    let r2 = q2;
-    let r3 = q3.mul_add(bc1, -(q1 * bs1));
-    let r1 = q1.mul_add(bc1, q3 * bs1);
-    let r6 = q6;
-    let r7 = q7.mul_add(bc1, -(q5 * bs1));
-    let r5 = q5.mul_add(bc1, q7 * bs1);
-    let r8 = q8.mul_add(bc2, -(q4 * bs2));
-    let r4 = q4.mul_add(bc2, q8 * bs2);
-    let t0 = r0;
-    let t1 = -r2;
-    let t2 = r1;
-    let t3 = r3;
-    let t4 = -r7;
-    let t5 = -r5;
-    let t6 = r8.mul_add(s(-0.8660254), r6 * s(-0.5));
-    let t7 = r4;
-    let t8 = r8.mul_add(s(0.5), r6 * s(-0.8660254));
-    let u0 = t0;
-    let u2 = t2;
-    let u3 = t3.mul_add(ac1, -(t1 * as1));
-    let u1 = t1.mul_add(ac1, t3 * as1);
-    let u6 = t6;
-    let u7 = t7.mul_add(ac1, -(t5 * as1));
-    let u5 = t5.mul_add(ac1, t7 * as1);
-    let u8 = t8.mul_add(ac2, -(t4 * as2));
-    let u4 = t4.mul_add(ac2, t8 * as2);
-    d[0] = u0;
-    d[1] = u1;
-    d[2] = u2;
-    d[3] = u3;
-    d[4] = u4;
-    d[5] = u5;
-    d[6] = u6;
-    d[7] = u7;
-    d[8] = u8;
+    d[0] = v[0];
+    let m00 = m[0][0];
+    let m01 = m[0][1];
+    let m02 = m[0][2];
+    let m10 = m[1][0];
+    let m11 = m[1][1];
+    let m12 = m[1][2];
+    let m20 = m[2][0];
+    let m21 = m[2][1];
+    let m22 = m[2][2];
+    let (v1, v2, v3) = (v[1], v[2], v[3]);
+    d[1] = m12.mul_add(-v2, m11.mul_add(v1, m10 * v3));
+    d[2] = m22.mul_add(v2, -(m21.mul_add(v1, m20 * v3)));
+    d[3] = m02.mul_add(-v2, m01.mul_add(v1, m00 * v3));
+    let k6 = v[6] * s(0.57735026);
+    let (qxy, qyz, qxz) = (v[4], -v[5], -v[7]);
+    let (qxx, qyy, qzz) = (v[8] - k6, -(v[8] + k6), k6 + k6);
+    let p00 = m02.mul_add(qxz, m01.mul_add(qxy, m00 * qxx));
+    let p01 = m02.mul_add(qyz, m01.mul_add(qyy, m00 * qxy));
+    let p02 = m02.mul_add(qzz, m01.mul_add(qyz, m00 * qxz));
+    let p10 = m12.mul_add(qxz, m11.mul_add(qxy, m10 * qxx));
+    let p11 = m12.mul_add(qyz, m11.mul_add(qyy, m10 * qxy));
+    let p12 = m12.mul_add(qzz, m11.mul_add(qyz, m10 * qxz));
+    let p20 = m22.mul_add(qxz, m21.mul_add(qxy, m20 * qxx));
+    let p21 = m22.mul_add(qyz, m21.mul_add(qyy, m20 * qxy));
+    let p22 = m22.mul_add(qzz, m21.mul_add(qyz, m20 * qxz));
+    let wxy = p02.mul_add(m12, p01.mul_add(m11, p00 * m10));
+    let wyz = p12.mul_add(m22, p11.mul_add(m21, p10 * m20));
+    let wxz = p02.mul_add(m22, p01.mul_add(m21, p00 * m20));
+    let wzz = p22.mul_add(m22, p21.mul_add(m21, p20 * m20));
+    let wxx = p02.mul_add(m02, p01.mul_add(m01, p00 * m00));
+    let wyy = p12.mul_add(m12, p11.mul_add(m11, p10 * m10));
+    d[4] = wxy;
+    d[5] = -wyz;
+    d[6] = wzz * s(0.8660254);
+    d[7] = -wxz;
+    d[8] = (wxx - wyy) * s(0.5);
 }
 
-/// `d = R_z(α) X₋ R_z(β) X₊ R_z(γ) v`, order 4; `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`.
+/// `d = R v`, order 4: bands 0–2 straight from the matrix `m` (`R_ij = m[i][j]`),
+/// bands ≥ 3 as `R_z(α) X₋ R_z(β) X₊ R_z(γ)` with `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`
+/// the ZYZ angles of the same `R` (unused below order 4).
 #[inline(always)]
-pub(crate) fn rotate_n4<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<W, F>; 16], d: &mut [V<W, F>; 16]) {
+pub(crate) fn rotate_n4<const W: usize, const F: bool>(m: &[[V<W, F>; 3]; 3], e: &[V<W, F>; 6], v: &[V<W, F>; 16], d: &mut [V<W, F>; 16]) {
     let s = V::<W, F>::splat;
+    d[0] = v[0];
+    let m00 = m[0][0];
+    let m01 = m[0][1];
+    let m02 = m[0][2];
+    let m10 = m[1][0];
+    let m11 = m[1][1];
+    let m12 = m[1][2];
+    let m20 = m[2][0];
+    let m21 = m[2][1];
+    let m22 = m[2][2];
+    let (v1, v2, v3) = (v[1], v[2], v[3]);
+    d[1] = m12.mul_add(-v2, m11.mul_add(v1, m10 * v3));
+    d[2] = m22.mul_add(v2, -(m21.mul_add(v1, m20 * v3)));
+    d[3] = m02.mul_add(-v2, m01.mul_add(v1, m00 * v3));
+    let k6 = v[6] * s(0.57735026);
+    let (qxy, qyz, qxz) = (v[4], -v[5], -v[7]);
+    let (qxx, qyy, qzz) = (v[8] - k6, -(v[8] + k6), k6 + k6);
+    let p00 = m02.mul_add(qxz, m01.mul_add(qxy, m00 * qxx));
+    let p01 = m02.mul_add(qyz, m01.mul_add(qyy, m00 * qxy));
+    let p02 = m02.mul_add(qzz, m01.mul_add(qyz, m00 * qxz));
+    let p10 = m12.mul_add(qxz, m11.mul_add(qxy, m10 * qxx));
+    let p11 = m12.mul_add(qyz, m11.mul_add(qyy, m10 * qxy));
+    let p12 = m12.mul_add(qzz, m11.mul_add(qyz, m10 * qxz));
+    let p20 = m22.mul_add(qxz, m21.mul_add(qxy, m20 * qxx));
+    let p21 = m22.mul_add(qyz, m21.mul_add(qyy, m20 * qxy));
+    let p22 = m22.mul_add(qzz, m21.mul_add(qyz, m20 * qxz));
+    let wxy = p02.mul_add(m12, p01.mul_add(m11, p00 * m10));
+    let wyz = p12.mul_add(m22, p11.mul_add(m21, p10 * m20));
+    let wxz = p02.mul_add(m22, p01.mul_add(m21, p00 * m20));
+    let wzz = p22.mul_add(m22, p21.mul_add(m21, p20 * m20));
+    let wxx = p02.mul_add(m02, p01.mul_add(m01, p00 * m00));
+    let wyy = p12.mul_add(m12, p11.mul_add(m11, p10 * m10));
+    d[4] = wxy;
+    d[5] = -wyz;
+    d[6] = wzz * s(0.8660254);
+    d[7] = -wxz;
+    d[8] = (wxx - wyy) * s(0.5);
     let ac1 = e[0];
     let as1 = e[1];
     let ac2 = ac1.mul_add(ac1, -(as1 * as1));
@@ -558,15 +539,6 @@ pub(crate) fn rotate_n4<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let gs2 = gs1.mul_add(gc1, gc1 * gs1);
     let gc3 = gc2.mul_add(gc1, -(gs2 * gs1));
     let gs3 = gs2.mul_add(gc1, gc2 * gs1);
-    let v0 = v[0];
-    let v1 = v[1];
-    let v2 = v[2];
-    let v3 = v[3];
-    let v4 = v[4];
-    let v5 = v[5];
-    let v6 = v[6];
-    let v7 = v[7];
-    let v8 = v[8];
     let v9 = v[9];
     let v10 = v[10];
     let v11 = v[11];
@@ -574,15 +546,6 @@ pub(crate) fn rotate_n4<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let v13 = v[13];
     let v14 = v[14];
     let v15 = v[15];
-    let p0 = v0;
-    let p2 = v2;
-    let p3 = v3.mul_add(gc1, -(v1 * gs1));
-    let p1 = v1.mul_add(gc1, v3 * gs1);
-    let p6 = v6;
-    let p7 = v7.mul_add(gc1, -(v5 * gs1));
-    let p5 = v5.mul_add(gc1, v7 * gs1);
-    let p8 = v8.mul_add(gc2, -(v4 * gs2));
-    let p4 = v4.mul_add(gc2, v8 * gs2);
     let p12 = v12;
     let p13 = v13.mul_add(gc1, -(v11 * gs1));
     let p11 = v11.mul_add(gc1, v13 * gs1);
@@ -590,15 +553,6 @@ pub(crate) fn rotate_n4<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let p10 = v10.mul_add(gc2, v14 * gs2);
     let p15 = v15.mul_add(gc3, -(v9 * gs3));
     let p9 = v9.mul_add(gc3, v15 * gs3);
-    let q0 = p0;
-    let q1 = p2;
-    let q2 = -p1;
-    let q3 = p3;
-    let q4 = p7;
-    let q5 = -p5;
-    let q6 = p8.mul_add(s(-0.8660254), p6 * s(-0.5));
-    let q7 = -p4;
-    let q8 = p8.mul_add(s(0.5), p6 * s(-0.8660254));
     let q9 = p14.mul_add(s(0.61237246), p12 * s(-0.7905694));
     let q10 = -p10;
     let q11 = p14.mul_add(s(-0.7905694), p12 * s(-0.61237246));
@@ -606,15 +560,6 @@ pub(crate) fn rotate_n4<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let q13 = p15.mul_add(s(-0.96824586), p13 * s(-0.25));
     let q14 = p11.mul_add(s(0.7905694), p9 * s(-0.61237246));
     let q15 = p15.mul_add(s(0.25), p13 * s(-0.96824586));
-    let r0 = q0;
-    let r2 = q2;
-    let r3 = q3.mul_add(bc1, -(q1 * bs1));
-    let r1 = q1.mul_add(bc1, q3 * bs1);
-    let r6 = q6;
-    let r7 = q7.mul_add(bc1, -(q5 * bs1));
-    let r5 = q5.mul_add(bc1, q7 * bs1);
-    let r8 = q8.mul_add(bc2, -(q4 * bs2));
-    let r4 = q4.mul_add(bc2, q8 * bs2);
     let r12 = q12;
     let r13 = q13.mul_add(bc1, -(q11 * bs1));
     let r11 = q11.mul_add(bc1, q13 * bs1);
@@ -622,15 +567,6 @@ pub(crate) fn rotate_n4<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let r10 = q10.mul_add(bc2, q14 * bs2);
     let r15 = q15.mul_add(bc3, -(q9 * bs3));
     let r9 = q9.mul_add(bc3, q15 * bs3);
-    let t0 = r0;
-    let t1 = -r2;
-    let t2 = r1;
-    let t3 = r3;
-    let t4 = -r7;
-    let t5 = -r5;
-    let t6 = r8.mul_add(s(-0.8660254), r6 * s(-0.5));
-    let t7 = r4;
-    let t8 = r8.mul_add(s(0.5), r6 * s(-0.8660254));
     let t9 = r14.mul_add(s(-0.61237246), r12 * s(0.7905694));
     let t10 = -r10;
     let t11 = r14.mul_add(s(0.7905694), r12 * s(0.61237246));
@@ -638,15 +574,6 @@ pub(crate) fn rotate_n4<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let t13 = r15.mul_add(s(-0.96824586), r13 * s(-0.25));
     let t14 = r11.mul_add(s(-0.7905694), r9 * s(0.61237246));
     let t15 = r15.mul_add(s(0.25), r13 * s(-0.96824586));
-    let u0 = t0;
-    let u2 = t2;
-    let u3 = t3.mul_add(ac1, -(t1 * as1));
-    let u1 = t1.mul_add(ac1, t3 * as1);
-    let u6 = t6;
-    let u7 = t7.mul_add(ac1, -(t5 * as1));
-    let u5 = t5.mul_add(ac1, t7 * as1);
-    let u8 = t8.mul_add(ac2, -(t4 * as2));
-    let u4 = t4.mul_add(ac2, t8 * as2);
     let u12 = t12;
     let u13 = t13.mul_add(ac1, -(t11 * as1));
     let u11 = t11.mul_add(ac1, t13 * as1);
@@ -654,15 +581,6 @@ pub(crate) fn rotate_n4<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let u10 = t10.mul_add(ac2, t14 * as2);
     let u15 = t15.mul_add(ac3, -(t9 * as3));
     let u9 = t9.mul_add(ac3, t15 * as3);
-    d[0] = u0;
-    d[1] = u1;
-    d[2] = u2;
-    d[3] = u3;
-    d[4] = u4;
-    d[5] = u5;
-    d[6] = u6;
-    d[7] = u7;
-    d[8] = u8;
     d[9] = u9;
     d[10] = u10;
     d[11] = u11;
@@ -672,10 +590,49 @@ pub(crate) fn rotate_n4<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     d[15] = u15;
 }
 
-/// `d = R_z(α) X₋ R_z(β) X₊ R_z(γ) v`, order 5; `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`.
+/// `d = R v`, order 5: bands 0–2 straight from the matrix `m` (`R_ij = m[i][j]`),
+/// bands ≥ 3 as `R_z(α) X₋ R_z(β) X₊ R_z(γ)` with `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`
+/// the ZYZ angles of the same `R` (unused below order 4).
 #[inline(always)]
-pub(crate) fn rotate_n5<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<W, F>; 25], d: &mut [V<W, F>; 25]) {
+pub(crate) fn rotate_n5<const W: usize, const F: bool>(m: &[[V<W, F>; 3]; 3], e: &[V<W, F>; 6], v: &[V<W, F>; 25], d: &mut [V<W, F>; 25]) {
     let s = V::<W, F>::splat;
+    d[0] = v[0];
+    let m00 = m[0][0];
+    let m01 = m[0][1];
+    let m02 = m[0][2];
+    let m10 = m[1][0];
+    let m11 = m[1][1];
+    let m12 = m[1][2];
+    let m20 = m[2][0];
+    let m21 = m[2][1];
+    let m22 = m[2][2];
+    let (v1, v2, v3) = (v[1], v[2], v[3]);
+    d[1] = m12.mul_add(-v2, m11.mul_add(v1, m10 * v3));
+    d[2] = m22.mul_add(v2, -(m21.mul_add(v1, m20 * v3)));
+    d[3] = m02.mul_add(-v2, m01.mul_add(v1, m00 * v3));
+    let k6 = v[6] * s(0.57735026);
+    let (qxy, qyz, qxz) = (v[4], -v[5], -v[7]);
+    let (qxx, qyy, qzz) = (v[8] - k6, -(v[8] + k6), k6 + k6);
+    let p00 = m02.mul_add(qxz, m01.mul_add(qxy, m00 * qxx));
+    let p01 = m02.mul_add(qyz, m01.mul_add(qyy, m00 * qxy));
+    let p02 = m02.mul_add(qzz, m01.mul_add(qyz, m00 * qxz));
+    let p10 = m12.mul_add(qxz, m11.mul_add(qxy, m10 * qxx));
+    let p11 = m12.mul_add(qyz, m11.mul_add(qyy, m10 * qxy));
+    let p12 = m12.mul_add(qzz, m11.mul_add(qyz, m10 * qxz));
+    let p20 = m22.mul_add(qxz, m21.mul_add(qxy, m20 * qxx));
+    let p21 = m22.mul_add(qyz, m21.mul_add(qyy, m20 * qxy));
+    let p22 = m22.mul_add(qzz, m21.mul_add(qyz, m20 * qxz));
+    let wxy = p02.mul_add(m12, p01.mul_add(m11, p00 * m10));
+    let wyz = p12.mul_add(m22, p11.mul_add(m21, p10 * m20));
+    let wxz = p02.mul_add(m22, p01.mul_add(m21, p00 * m20));
+    let wzz = p22.mul_add(m22, p21.mul_add(m21, p20 * m20));
+    let wxx = p02.mul_add(m02, p01.mul_add(m01, p00 * m00));
+    let wyy = p12.mul_add(m12, p11.mul_add(m11, p10 * m10));
+    d[4] = wxy;
+    d[5] = -wyz;
+    d[6] = wzz * s(0.8660254);
+    d[7] = -wxz;
+    d[8] = (wxx - wyy) * s(0.5);
     let ac1 = e[0];
     let as1 = e[1];
     let ac2 = ac1.mul_add(ac1, -(as1 * as1));
@@ -700,15 +657,6 @@ pub(crate) fn rotate_n5<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let gs3 = gs2.mul_add(gc1, gc2 * gs1);
     let gc4 = gc3.mul_add(gc1, -(gs3 * gs1));
     let gs4 = gs3.mul_add(gc1, gc3 * gs1);
-    let v0 = v[0];
-    let v1 = v[1];
-    let v2 = v[2];
-    let v3 = v[3];
-    let v4 = v[4];
-    let v5 = v[5];
-    let v6 = v[6];
-    let v7 = v[7];
-    let v8 = v[8];
     let v9 = v[9];
     let v10 = v[10];
     let v11 = v[11];
@@ -725,15 +673,6 @@ pub(crate) fn rotate_n5<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let v22 = v[22];
     let v23 = v[23];
     let v24 = v[24];
-    let p0 = v0;
-    let p2 = v2;
-    let p3 = v3.mul_add(gc1, -(v1 * gs1));
-    let p1 = v1.mul_add(gc1, v3 * gs1);
-    let p6 = v6;
-    let p7 = v7.mul_add(gc1, -(v5 * gs1));
-    let p5 = v5.mul_add(gc1, v7 * gs1);
-    let p8 = v8.mul_add(gc2, -(v4 * gs2));
-    let p4 = v4.mul_add(gc2, v8 * gs2);
     let p12 = v12;
     let p13 = v13.mul_add(gc1, -(v11 * gs1));
     let p11 = v11.mul_add(gc1, v13 * gs1);
@@ -750,15 +689,6 @@ pub(crate) fn rotate_n5<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let p17 = v17.mul_add(gc3, v23 * gs3);
     let p24 = v24.mul_add(gc4, -(v16 * gs4));
     let p16 = v16.mul_add(gc4, v24 * gs4);
-    let q0 = p0;
-    let q1 = p2;
-    let q2 = -p1;
-    let q3 = p3;
-    let q4 = p7;
-    let q5 = -p5;
-    let q6 = p8.mul_add(s(-0.8660254), p6 * s(-0.5));
-    let q7 = -p4;
-    let q8 = p8.mul_add(s(0.5), p6 * s(-0.8660254));
     let q9 = p14.mul_add(s(0.61237246), p12 * s(-0.7905694));
     let q10 = -p10;
     let q11 = p14.mul_add(s(-0.7905694), p12 * s(-0.61237246));
@@ -775,15 +705,6 @@ pub(crate) fn rotate_n5<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let q22 = p24.mul_add(s(-0.6614378), p22.mul_add(s(0.5), p20 * s(0.559017)));
     let q23 = p18.mul_add(s(0.9354144), p16 * s(-0.35355338));
     let q24 = p24.mul_add(s(0.125), p22.mul_add(s(-0.6614378), p20 * s(0.73951)));
-    let r0 = q0;
-    let r2 = q2;
-    let r3 = q3.mul_add(bc1, -(q1 * bs1));
-    let r1 = q1.mul_add(bc1, q3 * bs1);
-    let r6 = q6;
-    let r7 = q7.mul_add(bc1, -(q5 * bs1));
-    let r5 = q5.mul_add(bc1, q7 * bs1);
-    let r8 = q8.mul_add(bc2, -(q4 * bs2));
-    let r4 = q4.mul_add(bc2, q8 * bs2);
     let r12 = q12;
     let r13 = q13.mul_add(bc1, -(q11 * bs1));
     let r11 = q11.mul_add(bc1, q13 * bs1);
@@ -800,15 +721,6 @@ pub(crate) fn rotate_n5<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let r17 = q17.mul_add(bc3, q23 * bs3);
     let r24 = q24.mul_add(bc4, -(q16 * bs4));
     let r16 = q16.mul_add(bc4, q24 * bs4);
-    let t0 = r0;
-    let t1 = -r2;
-    let t2 = r1;
-    let t3 = r3;
-    let t4 = -r7;
-    let t5 = -r5;
-    let t6 = r8.mul_add(s(-0.8660254), r6 * s(-0.5));
-    let t7 = r4;
-    let t8 = r8.mul_add(s(0.5), r6 * s(-0.8660254));
     let t9 = r14.mul_add(s(-0.61237246), r12 * s(0.7905694));
     let t10 = -r10;
     let t11 = r14.mul_add(s(0.7905694), r12 * s(0.61237246));
@@ -825,15 +737,6 @@ pub(crate) fn rotate_n5<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let t22 = r24.mul_add(s(-0.6614378), r22.mul_add(s(0.5), r20 * s(0.559017)));
     let t23 = r18.mul_add(s(-0.9354144), r16 * s(0.35355338));
     let t24 = r24.mul_add(s(0.125), r22.mul_add(s(-0.6614378), r20 * s(0.73951)));
-    let u0 = t0;
-    let u2 = t2;
-    let u3 = t3.mul_add(ac1, -(t1 * as1));
-    let u1 = t1.mul_add(ac1, t3 * as1);
-    let u6 = t6;
-    let u7 = t7.mul_add(ac1, -(t5 * as1));
-    let u5 = t5.mul_add(ac1, t7 * as1);
-    let u8 = t8.mul_add(ac2, -(t4 * as2));
-    let u4 = t4.mul_add(ac2, t8 * as2);
     let u12 = t12;
     let u13 = t13.mul_add(ac1, -(t11 * as1));
     let u11 = t11.mul_add(ac1, t13 * as1);
@@ -850,15 +753,6 @@ pub(crate) fn rotate_n5<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let u17 = t17.mul_add(ac3, t23 * as3);
     let u24 = t24.mul_add(ac4, -(t16 * as4));
     let u16 = t16.mul_add(ac4, t24 * as4);
-    d[0] = u0;
-    d[1] = u1;
-    d[2] = u2;
-    d[3] = u3;
-    d[4] = u4;
-    d[5] = u5;
-    d[6] = u6;
-    d[7] = u7;
-    d[8] = u8;
     d[9] = u9;
     d[10] = u10;
     d[11] = u11;
@@ -877,10 +771,49 @@ pub(crate) fn rotate_n5<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     d[24] = u24;
 }
 
-/// `d = R_z(α) X₋ R_z(β) X₊ R_z(γ) v`, order 6; `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`.
+/// `d = R v`, order 6: bands 0–2 straight from the matrix `m` (`R_ij = m[i][j]`),
+/// bands ≥ 3 as `R_z(α) X₋ R_z(β) X₊ R_z(γ)` with `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`
+/// the ZYZ angles of the same `R` (unused below order 4).
 #[inline(always)]
-pub(crate) fn rotate_n6<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<W, F>; 36], d: &mut [V<W, F>; 36]) {
+pub(crate) fn rotate_n6<const W: usize, const F: bool>(m: &[[V<W, F>; 3]; 3], e: &[V<W, F>; 6], v: &[V<W, F>; 36], d: &mut [V<W, F>; 36]) {
     let s = V::<W, F>::splat;
+    d[0] = v[0];
+    let m00 = m[0][0];
+    let m01 = m[0][1];
+    let m02 = m[0][2];
+    let m10 = m[1][0];
+    let m11 = m[1][1];
+    let m12 = m[1][2];
+    let m20 = m[2][0];
+    let m21 = m[2][1];
+    let m22 = m[2][2];
+    let (v1, v2, v3) = (v[1], v[2], v[3]);
+    d[1] = m12.mul_add(-v2, m11.mul_add(v1, m10 * v3));
+    d[2] = m22.mul_add(v2, -(m21.mul_add(v1, m20 * v3)));
+    d[3] = m02.mul_add(-v2, m01.mul_add(v1, m00 * v3));
+    let k6 = v[6] * s(0.57735026);
+    let (qxy, qyz, qxz) = (v[4], -v[5], -v[7]);
+    let (qxx, qyy, qzz) = (v[8] - k6, -(v[8] + k6), k6 + k6);
+    let p00 = m02.mul_add(qxz, m01.mul_add(qxy, m00 * qxx));
+    let p01 = m02.mul_add(qyz, m01.mul_add(qyy, m00 * qxy));
+    let p02 = m02.mul_add(qzz, m01.mul_add(qyz, m00 * qxz));
+    let p10 = m12.mul_add(qxz, m11.mul_add(qxy, m10 * qxx));
+    let p11 = m12.mul_add(qyz, m11.mul_add(qyy, m10 * qxy));
+    let p12 = m12.mul_add(qzz, m11.mul_add(qyz, m10 * qxz));
+    let p20 = m22.mul_add(qxz, m21.mul_add(qxy, m20 * qxx));
+    let p21 = m22.mul_add(qyz, m21.mul_add(qyy, m20 * qxy));
+    let p22 = m22.mul_add(qzz, m21.mul_add(qyz, m20 * qxz));
+    let wxy = p02.mul_add(m12, p01.mul_add(m11, p00 * m10));
+    let wyz = p12.mul_add(m22, p11.mul_add(m21, p10 * m20));
+    let wxz = p02.mul_add(m22, p01.mul_add(m21, p00 * m20));
+    let wzz = p22.mul_add(m22, p21.mul_add(m21, p20 * m20));
+    let wxx = p02.mul_add(m02, p01.mul_add(m01, p00 * m00));
+    let wyy = p12.mul_add(m12, p11.mul_add(m11, p10 * m10));
+    d[4] = wxy;
+    d[5] = -wyz;
+    d[6] = wzz * s(0.8660254);
+    d[7] = -wxz;
+    d[8] = (wxx - wyy) * s(0.5);
     let ac1 = e[0];
     let as1 = e[1];
     let ac2 = ac1.mul_add(ac1, -(as1 * as1));
@@ -911,15 +844,6 @@ pub(crate) fn rotate_n6<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let gs4 = gs3.mul_add(gc1, gc3 * gs1);
     let gc5 = gc4.mul_add(gc1, -(gs4 * gs1));
     let gs5 = gs4.mul_add(gc1, gc4 * gs1);
-    let v0 = v[0];
-    let v1 = v[1];
-    let v2 = v[2];
-    let v3 = v[3];
-    let v4 = v[4];
-    let v5 = v[5];
-    let v6 = v[6];
-    let v7 = v[7];
-    let v8 = v[8];
     let v9 = v[9];
     let v10 = v[10];
     let v11 = v[11];
@@ -947,15 +871,6 @@ pub(crate) fn rotate_n6<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let v33 = v[33];
     let v34 = v[34];
     let v35 = v[35];
-    let p0 = v0;
-    let p2 = v2;
-    let p3 = v3.mul_add(gc1, -(v1 * gs1));
-    let p1 = v1.mul_add(gc1, v3 * gs1);
-    let p6 = v6;
-    let p7 = v7.mul_add(gc1, -(v5 * gs1));
-    let p5 = v5.mul_add(gc1, v7 * gs1);
-    let p8 = v8.mul_add(gc2, -(v4 * gs2));
-    let p4 = v4.mul_add(gc2, v8 * gs2);
     let p12 = v12;
     let p13 = v13.mul_add(gc1, -(v11 * gs1));
     let p11 = v11.mul_add(gc1, v13 * gs1);
@@ -983,15 +898,6 @@ pub(crate) fn rotate_n6<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let p26 = v26.mul_add(gc4, v34 * gs4);
     let p35 = v35.mul_add(gc5, -(v25 * gs5));
     let p25 = v25.mul_add(gc5, v35 * gs5);
-    let q0 = p0;
-    let q1 = p2;
-    let q2 = -p1;
-    let q3 = p3;
-    let q4 = p7;
-    let q5 = -p5;
-    let q6 = p8.mul_add(s(-0.8660254), p6 * s(-0.5));
-    let q7 = -p4;
-    let q8 = p8.mul_add(s(0.5), p6 * s(-0.8660254));
     let q9 = p14.mul_add(s(0.61237246), p12 * s(-0.7905694));
     let q10 = -p10;
     let q11 = p14.mul_add(s(-0.7905694), p12 * s(-0.61237246));
@@ -1019,15 +925,6 @@ pub(crate) fn rotate_n6<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let q33 = p35.mul_add(s(-0.41926274), p33.mul_add(s(0.8125), p31 * s(0.40504628)));
     let q34 = p29.mul_add(s(-0.572822), p27.mul_add(s(0.79549515), p25 * s(-0.19764236)));
     let q35 = p35.mul_add(s(0.0625), p33.mul_add(s(-0.41926274), p31 * s(0.90571105)));
-    let r0 = q0;
-    let r2 = q2;
-    let r3 = q3.mul_add(bc1, -(q1 * bs1));
-    let r1 = q1.mul_add(bc1, q3 * bs1);
-    let r6 = q6;
-    let r7 = q7.mul_add(bc1, -(q5 * bs1));
-    let r5 = q5.mul_add(bc1, q7 * bs1);
-    let r8 = q8.mul_add(bc2, -(q4 * bs2));
-    let r4 = q4.mul_add(bc2, q8 * bs2);
     let r12 = q12;
     let r13 = q13.mul_add(bc1, -(q11 * bs1));
     let r11 = q11.mul_add(bc1, q13 * bs1);
@@ -1055,15 +952,6 @@ pub(crate) fn rotate_n6<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let r26 = q26.mul_add(bc4, q34 * bs4);
     let r35 = q35.mul_add(bc5, -(q25 * bs5));
     let r25 = q25.mul_add(bc5, q35 * bs5);
-    let t0 = r0;
-    let t1 = -r2;
-    let t2 = r1;
-    let t3 = r3;
-    let t4 = -r7;
-    let t5 = -r5;
-    let t6 = r8.mul_add(s(-0.8660254), r6 * s(-0.5));
-    let t7 = r4;
-    let t8 = r8.mul_add(s(0.5), r6 * s(-0.8660254));
     let t9 = r14.mul_add(s(-0.61237246), r12 * s(0.7905694));
     let t10 = -r10;
     let t11 = r14.mul_add(s(0.7905694), r12 * s(0.61237246));
@@ -1091,15 +979,6 @@ pub(crate) fn rotate_n6<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let t33 = r35.mul_add(s(-0.41926274), r33.mul_add(s(0.8125), r31 * s(0.40504628)));
     let t34 = r29.mul_add(s(0.572822), r27.mul_add(s(-0.79549515), r25 * s(0.19764236)));
     let t35 = r35.mul_add(s(0.0625), r33.mul_add(s(-0.41926274), r31 * s(0.90571105)));
-    let u0 = t0;
-    let u2 = t2;
-    let u3 = t3.mul_add(ac1, -(t1 * as1));
-    let u1 = t1.mul_add(ac1, t3 * as1);
-    let u6 = t6;
-    let u7 = t7.mul_add(ac1, -(t5 * as1));
-    let u5 = t5.mul_add(ac1, t7 * as1);
-    let u8 = t8.mul_add(ac2, -(t4 * as2));
-    let u4 = t4.mul_add(ac2, t8 * as2);
     let u12 = t12;
     let u13 = t13.mul_add(ac1, -(t11 * as1));
     let u11 = t11.mul_add(ac1, t13 * as1);
@@ -1127,15 +1006,6 @@ pub(crate) fn rotate_n6<const W: usize, const F: bool>(e: &[V<W, F>; 6], v: &[V<
     let u26 = t26.mul_add(ac4, t34 * as4);
     let u35 = t35.mul_add(ac5, -(t25 * as5));
     let u25 = t25.mul_add(ac5, t35 * as5);
-    d[0] = u0;
-    d[1] = u1;
-    d[2] = u2;
-    d[3] = u3;
-    d[4] = u4;
-    d[5] = u5;
-    d[6] = u6;
-    d[7] = u7;
-    d[8] = u8;
     d[9] = u9;
     d[10] = u10;
     d[11] = u11;
@@ -4012,14 +3882,14 @@ pub(crate) fn eval<const W: usize, const F: bool>(n: usize, x: V<W, F>, y: V<W, 
 /// # Panics
 /// If a slice is shorter than `n²`.
 #[inline(always)]
-pub(crate) fn rotate<const W: usize, const F: bool>(n: usize, e: &[V<W, F>; 6], v: &[V<W, F>], d: &mut [V<W, F>]) -> bool {
+pub(crate) fn rotate<const W: usize, const F: bool>(n: usize, m: &[[V<W, F>; 3]; 3], e: &[V<W, F>; 6], v: &[V<W, F>], d: &mut [V<W, F>]) -> bool {
     match n {
-        1 => rotate_n1(e, (&v[..1]).try_into().expect("length"), (&mut d[..1]).try_into().expect("length")),
-        2 => rotate_n2(e, (&v[..4]).try_into().expect("length"), (&mut d[..4]).try_into().expect("length")),
-        3 => rotate_n3(e, (&v[..9]).try_into().expect("length"), (&mut d[..9]).try_into().expect("length")),
-        4 => rotate_n4(e, (&v[..16]).try_into().expect("length"), (&mut d[..16]).try_into().expect("length")),
-        5 => rotate_n5(e, (&v[..25]).try_into().expect("length"), (&mut d[..25]).try_into().expect("length")),
-        6 => rotate_n6(e, (&v[..36]).try_into().expect("length"), (&mut d[..36]).try_into().expect("length")),
+        1 => rotate_n1(m, e, (&v[..1]).try_into().expect("length"), (&mut d[..1]).try_into().expect("length")),
+        2 => rotate_n2(m, e, (&v[..4]).try_into().expect("length"), (&mut d[..4]).try_into().expect("length")),
+        3 => rotate_n3(m, e, (&v[..9]).try_into().expect("length"), (&mut d[..9]).try_into().expect("length")),
+        4 => rotate_n4(m, e, (&v[..16]).try_into().expect("length"), (&mut d[..16]).try_into().expect("length")),
+        5 => rotate_n5(m, e, (&v[..25]).try_into().expect("length"), (&mut d[..25]).try_into().expect("length")),
+        6 => rotate_n6(m, e, (&v[..36]).try_into().expect("length"), (&mut d[..36]).try_into().expect("length")),
         _ => return false,
     }
     true

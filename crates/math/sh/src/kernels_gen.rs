@@ -9,10 +9,12 @@
 //! * **evaluation**: the associated-Legendre recurrence of [`crate::basis`]
 //!   (via [`crate::basis::legendre_polynomials`]), `Q_l^m` in Horner form in
 //!   `z²`, `(x + iy)^m` by repeated squaring;
-//! * **rotation**: the ZYZ ("ZXZXZ") factorisation of
-//!   [`crate::rotation::ZyzRotation`], `R = R_z(α) X₋ R_z(β) X₊ R_z(γ)` with the
-//!   fixed `X± = R_x(±90°)` band matrices (computed exactly in f64 by
-//!   Ivanic–Ruedenberg) written as sparse literal dot products;
+//! * **rotation**: bands 1 and 2 straight from the 3×3 matrix (a linear and
+//!   a quadratic form, `matrix_bands_1_2`), bands ≥ 3 by the ZYZ ("ZXZXZ")
+//!   factorisation of [`crate::rotation::ZyzRotation`],
+//!   `R = R_z(α) X₋ R_z(β) X₊ R_z(γ)` with the fixed `X± = R_x(±90°)` band
+//!   matrices (computed exactly in f64 by Ivanic–Ruedenberg) written as
+//!   sparse literal dot products;
 //! * **product**: the Gaunt triples of [`crate::product::TripleProduct`]
 //!   grouped by index pair, DirectXMath's factorisation: for the pair `(a, b)`
 //!   `t = f_a g_b + f_b g_a` feeds every `y_k` of its triples `{a, b, k}`, and
@@ -108,9 +110,9 @@ fn eval_kernel(s: &mut String, n: usize) {
     writeln!(s, "}}\n").unwrap();
 }
 
-/// `let {dst}{i} = R_z({ang}) {src}` for all coefficients; `{ang}c{m}, {ang}s{m}` in scope.
-fn z_stage(s: &mut String, n: usize, src: &str, dst: &str, ang: &str) {
-    for l in 0..n {
+/// `let {dst}{i} = R_z({ang}) {src}` for the coefficients of bands `lo..n`; `{ang}c{m}, {ang}s{m}` in scope.
+fn z_stage(s: &mut String, lo: usize, n: usize, src: &str, dst: &str, ang: &str) {
+    for l in lo..n {
         let b = l * (l + 1);
         writeln!(s, "    let {dst}{b} = {src}{b};").unwrap();
         for m in 1..=l {
@@ -124,9 +126,9 @@ fn z_stage(s: &mut String, n: usize, src: &str, dst: &str, ang: &str) {
     }
 }
 
-/// `let {dst}{i} = X {src}` with the sparse literal matrix `x`.
-fn x_stage(s: &mut String, n: usize, x: &ShRotation<f64>, src: &str, dst: &str) {
-    for l in 0..n {
+/// `let {dst}{i} = X {src}` with the sparse literal matrix `x`, bands `lo..n`.
+fn x_stage(s: &mut String, lo: usize, n: usize, x: &ShRotation<f64>, src: &str, dst: &str) {
+    for l in lo..n {
         let b = l * (l + 1);
         let li = l as isize;
         for m1 in -li..=li {
@@ -162,6 +164,88 @@ fn x_stage(s: &mut String, n: usize, x: &ShRotation<f64>, src: &str, dst: &str) 
     }
 }
 
+/// Bands 1 and 2 of an exact rotation straight from the matrix `m`
+/// (`m[i][j]` = `R_ij`, acting on column vectors), no Euler angles.
+///
+/// * Band 1 is a linear form: with `y_{1,−1} ∝ −y`, `y_{1,0} ∝ z`,
+///   `y_{1,1} ∝ −x` (Condon–Shortley, crate docs) the band is `c uᵀω` with
+///   `u = (−v₃, −v₁, v₂)`, and `f(R⁻¹ω)` has `u' = R u`.
+/// * Band 2 is a quadratic form `ωᵀQω`, `Q` symmetric and traceless (the
+///   five `y_{2,m}` are `a·xy`, `−a·yz`, `b(2z² − x² − y²)`, `−a·xz`,
+///   `(a/2)(x² − y²)` on the sphere, `a = ½√(15/π)`, `b = ¼√(5/π)`); the
+///   rotated function has `Q' = R Q Rᵀ`. In units of `a/2`:
+///   `Q = [[v₈ − κv₆, v₄, −v₇], [v₄, −v₈ − κv₆, −v₅], [−v₇, −v₅, 2κv₆]]`,
+///   `κ = 2b/a = 1/√3`, and back `v₄' = Q'_xy`, `v₅' = −Q'_yz`,
+///   `v₆' = (√3/2) Q'_zz`, `v₇' = −Q'_xz`, `v₈' = (Q'_xx − Q'_yy)/2`.
+///   45 multiply–adds, against 25 + 25 for building and applying the 5×5
+///   band matrix (DirectXMath's order-3 code).
+fn matrix_bands_1_2(s: &mut String, n: usize) {
+    if n < 2 {
+        return;
+    }
+    for i in 0..3 {
+        for j in 0..3 {
+            writeln!(s, "    let m{i}{j} = m[{i}][{j}];").unwrap();
+        }
+    }
+    writeln!(
+        s,
+        "    let (v1, v2, v3) = (v[1], v[2], v[3]);\n\
+         \x20   d[1] = m12.mul_add(-v2, m11.mul_add(v1, m10 * v3));\n\
+         \x20   d[2] = m22.mul_add(v2, -(m21.mul_add(v1, m20 * v3)));\n\
+         \x20   d[3] = m02.mul_add(-v2, m01.mul_add(v1, m00 * v3));"
+    )
+    .unwrap();
+    if n < 3 {
+        return;
+    }
+    let kappa = lit(1.0 / 3f64.sqrt());
+    let half_sqrt3 = lit(3f64.sqrt() / 2.0);
+    writeln!(
+        s,
+        "    let k6 = v[6] * {kappa};\n\
+         \x20   let (qxy, qyz, qxz) = (v[4], -v[5], -v[7]);\n\
+         \x20   let (qxx, qyy, qzz) = (v[8] - k6, -(v[8] + k6), k6 + k6);"
+    )
+    .unwrap();
+    // P = R Q (row i of R times column j of the symmetric Q).
+    let q = [
+        ["qxx", "qxy", "qxz"],
+        ["qxy", "qyy", "qyz"],
+        ["qxz", "qyz", "qzz"],
+    ];
+    for i in 0..3 {
+        for j in 0..3 {
+            writeln!(
+                s,
+                "    let p{i}{j} = m{i}2.mul_add({}, m{i}1.mul_add({}, m{i}0 * {}));",
+                q[2][j], q[1][j], q[0][j]
+            )
+            .unwrap();
+        }
+    }
+    // Q' = P Rᵀ: Q'_ij = Σ_k P_ik R_jk, the five entries needed.
+    for (name, i, j) in [
+        ("wxy", 0, 1),
+        ("wyz", 1, 2),
+        ("wxz", 0, 2),
+        ("wzz", 2, 2),
+        ("wxx", 0, 0),
+        ("wyy", 1, 1),
+    ] {
+        writeln!(
+            s,
+            "    let {name} = p{i}2.mul_add(m{j}2, p{i}1.mul_add(m{j}1, p{i}0 * m{j}0));"
+        )
+        .unwrap();
+    }
+    writeln!(
+        s,
+        "    d[4] = wxy;\n    d[5] = -wyz;\n    d[6] = wzz * {half_sqrt3};\n    d[7] = -wxz;\n    d[8] = (wxx - wyy) * s(0.5);"
+    )
+    .unwrap();
+}
+
 fn rotate_kernel(s: &mut String, n: usize) {
     let nn = n * n;
     let xp = ShRotation::<f64>::from_rotation(
@@ -172,47 +256,52 @@ fn rotate_kernel(s: &mut String, n: usize) {
     let xm = xp.inverse();
     writeln!(
         s,
-        "/// `d = R_z(α) X₋ R_z(β) X₊ R_z(γ) v`, order {n}; `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`."
+        "/// `d = R v`, order {n}: bands 0–2 straight from the matrix `m` (`R_ij = m[i][j]`),\n\
+         /// bands ≥ 3 as `R_z(α) X₋ R_z(β) X₊ R_z(γ)` with `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`\n\
+         /// the ZYZ angles of the same `R` (unused below order 4)."
     )
     .unwrap();
     writeln!(s, "#[inline(always)]").unwrap();
-    let us = if n == 1 { "_" } else { "" };
+    let um = if n == 1 { "_" } else { "" };
+    let ue = if n < 4 { "_" } else { "" };
     writeln!(
         s,
-        "pub(crate) fn rotate_n{n}{SIG}({us}e: &[V<W, F>; 6], v: &[V<W, F>; {nn}], d: &mut [V<W, F>; {nn}]) {{"
+        "pub(crate) fn rotate_n{n}{SIG}({um}m: &[[V<W, F>; 3]; 3], {ue}e: &[V<W, F>; 6], v: &[V<W, F>; {nn}], d: &mut [V<W, F>; {nn}]) {{"
     )
     .unwrap();
     if n > 2 {
         writeln!(s, "    let s = V::<W, F>::splat;").unwrap();
     }
-    for (ang, k) in [("a", 0), ("b", 2), ("g", 4)] {
-        if n > 1 {
+    writeln!(s, "    d[0] = v[0];").unwrap();
+    matrix_bands_1_2(s, n);
+    if n > 3 {
+        for (ang, k) in [("a", 0), ("b", 2), ("g", 4)] {
             writeln!(
                 s,
                 "    let {ang}c1 = e[{k}];\n    let {ang}s1 = e[{}];",
                 k + 1
             )
             .unwrap();
+            for m in 2..n {
+                let p = m - 1;
+                writeln!(
+                    s,
+                    "    let {ang}c{m} = {ang}c{p}.mul_add({ang}c1, -({ang}s{p} * {ang}s1));\n    let {ang}s{m} = {ang}s{p}.mul_add({ang}c1, {ang}c{p} * {ang}s1);"
+                )
+                .unwrap();
+            }
         }
-        for m in 2..n {
-            let p = m - 1;
-            writeln!(
-                s,
-                "    let {ang}c{m} = {ang}c{p}.mul_add({ang}c1, -({ang}s{p} * {ang}s1));\n    let {ang}s{m} = {ang}s{p}.mul_add({ang}c1, {ang}c{p} * {ang}s1);"
-            )
-            .unwrap();
+        for i in 9..nn {
+            writeln!(s, "    let v{i} = v[{i}];").unwrap();
         }
-    }
-    for i in 0..nn {
-        writeln!(s, "    let v{i} = v[{i}];").unwrap();
-    }
-    z_stage(s, n, "v", "p", "g");
-    x_stage(s, n, &xp, "p", "q");
-    z_stage(s, n, "q", "r", "b");
-    x_stage(s, n, &xm, "r", "t");
-    z_stage(s, n, "t", "u", "a");
-    for i in 0..nn {
-        writeln!(s, "    d[{i}] = u{i};").unwrap();
+        z_stage(s, 3, n, "v", "p", "g");
+        x_stage(s, 3, n, &xp, "p", "q");
+        z_stage(s, 3, n, "q", "r", "b");
+        x_stage(s, 3, n, &xm, "r", "t");
+        z_stage(s, 3, n, "t", "u", "a");
+        for i in 9..nn {
+            writeln!(s, "    d[{i}] = u{i};").unwrap();
+        }
     }
     writeln!(s, "}}\n").unwrap();
 }
@@ -594,8 +683,8 @@ pub fn generate_kernels_source() -> String {
     dispatch(
         &mut s,
         "rotate",
-        "e: &[V<W, F>; 6], v: &[V<W, F>], d: &mut [V<W, F>]",
-        "rotate_n{n}(e, (&v[..{nn}]).try_into().expect(\"length\"), (&mut d[..{nn}]).try_into().expect(\"length\"))",
+        "m: &[[V<W, F>; 3]; 3], e: &[V<W, F>; 6], v: &[V<W, F>], d: &mut [V<W, F>]",
+        "rotate_n{n}(m, e, (&v[..{nn}]).try_into().expect(\"length\"), (&mut d[..{nn}]).try_into().expect(\"length\"))",
         1,
         KERNEL_ROTATE_MAX_ORDER,
     );

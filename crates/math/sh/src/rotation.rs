@@ -1087,7 +1087,7 @@ impl<T: Real> ZyzRotation<T> {
                 cos_gamma: e.cos_gamma.to_f64() as f32,
                 sin_gamma: e.sin_gamma.to_f64() as f32,
             };
-            if crate::fast::rotate_one(self.order, &e32, s32, d32) {
+            if crate::fast::rotate_euler_one(self.order, &e32, s32, d32) {
                 return;
             }
         }
@@ -1139,9 +1139,25 @@ impl<T: Real> ZyzRotation<T> {
         self.x_minus.apply(tmp, dst);
     }
 
-    /// Decomposes `rot` ([`euler_zyz_direct`]) and applies it.
+    /// Applies `rot`. For f32 up to [`crate::fast::KERNEL_ROTATE_MAX_ORDER`]
+    /// this is the generated kernel of [`crate::fast`] (bands 1 and 2 straight
+    /// from the matrix, bands ≥ 3 by ZYZ, the same products as
+    /// [`apply_euler`](Self::apply_euler) to rounding); otherwise it decomposes
+    /// `rot` ([`euler_zyz_direct`]) and applies the angles.
     #[inline]
     pub fn apply(&self, rot: &Rot3<T>, src: &[T], dst: &mut [T], scratch: &mut [T]) {
+        if let (Some(s32), Some(d32)) = (T::as_f32_slice(src), T::as_f32_slice_mut(dst)) {
+            // `T` is f32 here: the matrix is reinterpreted, not converted.
+            if let Some(m) = T::as_f32_slice(rot.m.as_flattened())
+                && let Ok(m) = <&[f32; 9]>::try_from(m)
+            {
+                // SAFETY: `[f32; 9]` and `[[f32; 3]; 3]` have the same layout.
+                let m = unsafe { &*std::ptr::from_ref(m).cast::<[[f32; 3]; 3]>() };
+                if crate::fast::rotate_one(self.order, m, s32, d32) {
+                    return;
+                }
+            }
+        }
         self.apply_euler(&euler_zyz_direct(rot), src, dst, scratch);
     }
 }
