@@ -267,6 +267,12 @@ impl<T: Real> Exponentiator<T> {
         &self.tp
     }
 
+    /// The fitted OL coefficients (HYB, OL).
+    #[must_use]
+    pub fn ol(&self) -> &OlFit {
+        &self.ol
+    }
+
     /// `out = exp_*(f)` by `kind` (not [`ExpKind::Product`], which has no log:
     /// it copies `f`). Returns the squarings used and whether the rule was capped.
     ///

@@ -22,6 +22,7 @@ pub mod accumulate;
 pub mod bench;
 pub mod cap;
 pub mod exp;
+pub mod lanes;
 pub mod log_table;
 pub mod method;
 pub mod shade;
@@ -32,7 +33,7 @@ pub mod verify_scene;
 
 pub use exp::{ExpKind, Exponentiator, MAX_SQUARINGS, OlFit, SquaringHistogram};
 pub use log_table::{DEFAULT_EIGEN_CLIP, DEFAULT_LOG_ENTRIES, LogTable};
-pub use method::{SHEXP_METHOD_NAME, ShExpMethod, ShExpOptions};
+pub use method::{Kernel, SHEXP_METHOD_NAME, ShExpMethod, ShExpOptions};
 pub use spheres::{FitOptions, Sphere, SphereSet, fit_spheres};
 
 /// Errors of this crate.

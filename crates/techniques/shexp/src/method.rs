@@ -38,6 +38,7 @@
 
 use crate::accumulate::{Scratch, add_blocker_log, mul_blocker_visibility, zonal_rotation_factors};
 use crate::exp::{ExpKind, Exponentiator, OlFit, SquaringHistogram};
+use crate::lanes::{Lane, LaneBlocker, LaneKernel, LaneReceivers, LaneScratch, W};
 use crate::log_table::LogTable;
 use crate::shade::{irradiance_zonal, oct_decode, oct_encode};
 use crate::spheres::{FitOptions, Sphere, SphereSet, fit_spheres};
@@ -146,6 +147,7 @@ pub struct ShExpMethod {
     options: ShExpOptions,
     table: Arc<LogTable>,
     expo: Exponentiator<f32>,
+    lanes: LaneKernel,
     state: Option<State>,
     raster: Rasterizer,
     histogram: SquaringHistogram,
@@ -179,11 +181,15 @@ fn failed(why: &str) -> MethodError {
     )
 }
 
-/// A blocker sphere for one cluster, with its object.
-#[derive(Clone, Copy, Debug)]
-struct Blocker {
-    c: Vec3,
-    r: f32,
+/// Which kernel shades the vertices of a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// [`crate::lanes`]: 16 vertices at once (the default; product
+    /// accumulation always runs per vertex).
+    Lanes,
+    /// One vertex at a time by [`crate::accumulate`] and
+    /// [`Exponentiator::exp`]: the reference the lane kernel is tested against.
+    PerVertex,
 }
 
 impl ShExpMethod {
@@ -216,12 +222,16 @@ impl ShExpMethod {
         let table = Arc::new(
             LogTable::with_defaults(options.order).map_err(|e| invalid("order", e.to_string()))?,
         );
-        let expo = Exponentiator::new(options.order, OlFit::fit(&table))
-            .map_err(|e| invalid("order", e.to_string()))?;
+        let ol = OlFit::fit(&table);
+        let lanes =
+            LaneKernel::new(&table, ol.clone()).map_err(|e| invalid("order", e.to_string()))?;
+        let expo =
+            Exponentiator::new(options.order, ol).map_err(|e| invalid("order", e.to_string()))?;
         Ok(Self {
             options,
             table,
             expo,
+            lanes,
             state: None,
             raster: Rasterizer::new(),
             histogram: SquaringHistogram::new(),
@@ -429,7 +439,14 @@ fn normals_of(mesh: &Mesh) -> Vec<Vec3> {
 
 /// Walks `set`'s hierarchy for a cluster bounded by `(cc, cr)` (culling rules
 /// in the module docs), pushing the spheres to use.
-fn gather(set: &SphereSet, cc: Vec3, cr: f32, sin_min: f32, sin_lod: f32, out: &mut Vec<Blocker>) {
+fn gather(
+    set: &SphereSet,
+    cc: Vec3,
+    cr: f32,
+    sin_min: f32,
+    sin_lod: f32,
+    out: &mut Vec<LaneBlocker>,
+) {
     let mut stack = [0u32; 64];
     let mut top = 0;
     if set.nodes.is_empty() {
@@ -453,8 +470,8 @@ fn gather(set: &SphereSet, cc: Vec3, cr: f32, sin_min: f32, sin_lod: f32, out: &
                 stack[top + 1] = b;
                 top += 2;
             }
-            _ => out.push(Blocker {
-                c: s.c(),
+            _ => out.push(LaneBlocker {
+                c: s.center,
                 r: s.radius,
             }),
         }
@@ -587,6 +604,19 @@ impl ShExpMethod {
     /// # Errors
     /// Not prepared, other meshes than prepared, or a static object moved.
     pub fn shade_vertices(&mut self, scene: &Scene) -> Result<(), MethodError> {
+        self.shade_vertices_with(scene, Kernel::Lanes)
+    }
+
+    /// [`Self::shade_vertices`] by `kernel` (the lane kernel or the
+    /// per-vertex reference; both compute the same colours up to f32 rounding).
+    ///
+    /// # Errors
+    /// As [`Self::shade_vertices`].
+    pub fn shade_vertices_with(
+        &mut self,
+        scene: &Scene,
+        kernel: Kernel,
+    ) -> Result<(), MethodError> {
         let opts = self.options;
         let n = opts.order;
         let nn = n * n;
@@ -657,26 +687,34 @@ impl ShExpMethod {
             .iter()
             .map(|m| vec![Vec3::ZERO; m.positions.len()])
             .collect();
+        let lanes = &self.lanes;
+        let use_lanes = kernel == Kernel::Lanes && opts.exp != ExpKind::Product;
+        let unshadowed = |g: &mut [f32]| {
+            g.fill(0.0);
+            g[0] = (4.0 * std::f32::consts::PI).sqrt();
+        };
         // Per cluster: blockers, then its vertices' colours.
         let results: Vec<Vec<(u32, Vec3)>> = state
             .clusters
             .par_iter()
             .map_init(
-                || {
-                    (
-                        Scratch::new(n),
-                        self.expo.clone(),
-                        Vec::new(),
-                        vec![0.0f32; nn],
-                        vec![0.0f32; nn],
-                    )
+                || PerThread {
+                    scr: Scratch::new(n),
+                    expo: self.expo.clone(),
+                    blockers: Vec::new(),
+                    f: vec![0.0f32; nn],
+                    g: vec![0.0f32; nn],
+                    lane_scratch: LaneScratch::new(n),
+                    rec: LaneReceivers::default(),
+                    fl: vec![[0.0; W]; nn],
+                    gl: vec![[0.0; W]; nn],
                 },
-                |(scr, expo, blockers, f, g), cl| {
+                |t, cl| {
                     let obj = cl.object;
                     let (m, s) = moved[obj];
                     let cc = m.transform_point3(cl.bound.c());
                     let cr = cl.bound.radius * s;
-                    blockers.clear();
+                    t.blockers.clear();
                     if visibility {
                         for (b, set) in sets.iter().enumerate() {
                             let Some(set) = set else { continue };
@@ -685,32 +723,87 @@ impl ShExpMethod {
                             if b == obj || (!dynamic[obj] && !dynamic[b]) {
                                 continue;
                             }
-                            gather(set, cc, cr, sin_min, sin_lod, blockers);
+                            gather(set, cc, cr, sin_min, sin_lod, &mut t.blockers);
                         }
                     }
                     let mesh = &receivers[obj];
                     let so = &state.objects[obj];
+                    let normal = |v: u32| {
+                        mesh.normals
+                            .get(v as usize)
+                            .copied()
+                            .unwrap_or(Vec3::Y)
+                            .normalize_or(Vec3::Y)
+                    };
+                    let shade = |v: u32, nrm: Vec3, g: &[f32]| {
+                        let rgb = if so.lit_transfer.is_empty() {
+                            lh_dot(&state.lh_table, nn, nrm, g)
+                        } else {
+                            let lt =
+                                &so.lit_transfer[v as usize * 3 * nn..(v as usize + 1) * 3 * nn];
+                            Vec3::new(
+                                dot(&lt[..nn], g),
+                                dot(&lt[nn..2 * nn], g),
+                                dot(&lt[2 * nn..], g),
+                            )
+                        };
+                        (v, (rgb * so.albedo).max(Vec3::ZERO))
+                    };
                     let mut local = SquaringHistogram::new();
-                    let out: Vec<(u32, Vec3)> = cl
-                        .vertices
-                        .iter()
-                        .map(|&v| {
+                    let mut out = Vec::with_capacity(cl.vertices.len());
+                    if use_lanes {
+                        for chunk in cl.vertices.chunks(W) {
+                            let mut nrms = [Vec3::ZERO; W];
+                            for j in 0..W {
+                                let v = chunk[j.min(chunk.len() - 1)];
+                                nrms[j] = normal(v);
+                                t.rec.set(j, mesh.positions[v as usize], nrms[j]);
+                            }
+                            let any = if t.blockers.is_empty() {
+                                0
+                            } else {
+                                lanes.accumulate(&t.rec, &t.blockers, &mut t.fl)
+                            };
+                            if any == 0 {
+                                unshadowed(&mut t.g);
+                                for (j, &v) in chunk.iter().enumerate() {
+                                    out.push(shade(v, nrms[j], &t.g));
+                                }
+                                continue;
+                            }
+                            lanes.exp(
+                                opts.exp,
+                                &t.fl,
+                                any,
+                                chunk.len(),
+                                &mut t.lane_scratch,
+                                &mut t.gl,
+                                &mut local,
+                            );
+                            for (j, &v) in chunk.iter().enumerate() {
+                                for (g, gl) in t.g.iter_mut().zip(&t.gl) {
+                                    *g = gl[j];
+                                }
+                                out.push(shade(v, nrms[j], &t.g));
+                            }
+                        }
+                    } else {
+                        let product = opts.exp == ExpKind::Product;
+                        for &v in &cl.vertices {
                             let p = mesh.positions[v as usize];
-                            let nrm = mesh
-                                .normals
-                                .get(v as usize)
-                                .copied()
-                                .unwrap_or(Vec3::Y)
-                                .normalize_or(Vec3::Y);
-                            let any = blockers.iter().any(|b| (b.c - p).dot(nrm) > -b.r);
-                            let product = opts.exp == ExpKind::Product;
+                            let nrm = normal(v);
+                            let (f, g) = (&mut t.f, &mut t.g);
+                            let any = t
+                                .blockers
+                                .iter()
+                                .any(|b| (Vec3::from(b.c) - p).dot(nrm) > -b.r);
                             if any {
                                 f.fill(0.0);
                                 if product {
                                     f[0] = (4.0 * std::f32::consts::PI).sqrt();
                                 }
-                                for b in blockers.iter() {
-                                    let d = b.c - p;
+                                for b in &t.blockers {
+                                    let d = Vec3::from(b.c) - p;
                                     if d.dot(nrm) <= -b.r {
                                         continue;
                                     }
@@ -725,11 +818,11 @@ impl ShExpMethod {
                                     };
                                     if product {
                                         mul_blocker_visibility(
-                                            expo.tensor(),
+                                            t.expo.tensor(),
                                             &factors,
                                             theta,
                                             dir.to_array(),
-                                            scr,
+                                            &mut t.scr,
                                             f,
                                         );
                                     } else {
@@ -738,32 +831,20 @@ impl ShExpMethod {
                                             &factors,
                                             theta,
                                             dir.to_array(),
-                                            scr,
+                                            &mut t.scr,
                                             f,
                                         );
                                     }
                                 }
-                                let (sq, capped) = expo.exp(opts.exp, f, g);
+                                let (sq, capped) = t.expo.exp(opts.exp, f, g);
                                 local.counts[sq as usize] += 1;
                                 local.capped += u64::from(capped);
                             } else {
-                                g.fill(0.0);
-                                g[0] = (4.0 * std::f32::consts::PI).sqrt();
+                                unshadowed(g);
                             }
-                            let rgb = if so.lit_transfer.is_empty() {
-                                lh_dot(&state.lh_table, nn, nrm, g)
-                            } else {
-                                let lt = &so.lit_transfer
-                                    [v as usize * 3 * nn..(v as usize + 1) * 3 * nn];
-                                Vec3::new(
-                                    dot(&lt[..nn], g),
-                                    dot(&lt[nn..2 * nn], g),
-                                    dot(&lt[2 * nn..], g),
-                                )
-                            };
-                            (v, (rgb * so.albedo).max(Vec3::ZERO))
-                        })
-                        .collect();
+                            out.push(shade(v, nrm, g));
+                        }
+                    }
                     hist.lock().expect("histogram lock").merge(&local);
                     out
                 },
@@ -780,6 +861,19 @@ impl ShExpMethod {
             .merge(&hist.into_inner().expect("histogram lock"));
         Ok(())
     }
+}
+
+/// Per-thread buffers of [`ShExpMethod::shade_vertices_with`].
+struct PerThread {
+    scr: Scratch,
+    expo: Exponentiator<f32>,
+    blockers: Vec<LaneBlocker>,
+    f: Vec<f32>,
+    g: Vec<f32>,
+    lane_scratch: LaneScratch,
+    rec: LaneReceivers,
+    fl: Vec<Lane>,
+    gl: Vec<Lane>,
 }
 
 #[inline]

@@ -1,0 +1,792 @@
+//! The per-frame kernel over [`W`] receivers at once (structure of arrays):
+//! the same computation as the per-vertex path of [`crate::accumulate`] and
+//! [`crate::exp`], vectorised across receivers instead of across SH
+//! coefficients.
+//!
+//! For one chunk of `W` receiver vertices of a cluster and every blocker
+//! sphere the cluster keeps (§5.2.4 culling):
+//! 1. **Accumulation** (eq. 5.13): per lane, the blocker's direction `ω` and
+//!    half-angle `θ = asin(r/d)` ([`asin_lane`], a range-reduced Taylor
+//!    series, |error| < 3·10⁻⁷ rad), the zonal log `f_l(θ)` by linear
+//!    interpolation of the [`LogTable`] (the same entries and interpolation as
+//!    [`LogTable::lookup`]), and `f_{l,m} += √(4π/(2l+1)) f_l(θ) y_{l,m}(ω)`
+//!    with `y_{l,m}` written as `Q_{l,m}(z)·{Re, Im}((x + iy)^m)`: the
+//!    polynomials `Q_{l,m}` (real SH with the Condon–Shortley phase, the
+//!    convention of `relight_sh`, the factor `√(4π/(2l+1))` folded in) are
+//!    derived from the Legendre polynomials in [`LaneKernel::new`]. A sphere
+//!    entirely below the tangent plane contributes nothing (the per-vertex
+//!    test of [`crate::method`]).
+//! 2. **Exponential** (eqs. 5.24–5.27): per lane the DC factor, `‖f̂‖` (f64)
+//!    and the squaring rule (5.26, capped at [`MAX_SQUARINGS`]) exactly as
+//!    [`crate::exp::Exponentiator::exp`]; the factored PS*-p series (or the
+//!    fitted OL of HYB/OL) and the squarings run on all lanes with the SH
+//!    product's Gaunt terms grouped by output; a lane needing fewer squarings
+//!    than the chunk's most keeps its value (a per-lane select).
+//!
+//! Results equal the per-vertex path's up to f32 rounding (fused
+//! multiply–adds, another summation order, the series asin); a test compares
+//! them. The body is compiled three times — AVX-512F, AVX2 + FMA, portable —
+//! and picked at run time by [`relight_sh::isa`].
+
+use crate::ShExpError;
+use crate::exp::{ExpKind, MAX_SQUARINGS, OlFit, SquaringHistogram, squarings_rule};
+use crate::log_table::LogTable;
+use relight_sh::product::TripleProduct;
+use std::f64::consts::PI;
+
+/// Receivers per chunk (one AVX-512 register of f32).
+pub const W: usize = 16;
+
+/// One value per receiver of a chunk.
+pub type Lane = [f32; W];
+
+const SQRT_4PI: f32 = 3.544_907_7;
+
+/// A blocker sphere in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LaneBlocker {
+    pub c: [f32; 3],
+    pub r: f32,
+}
+
+/// `W` receivers: positions and unit normals, structure of arrays.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LaneReceivers {
+    pub p: [Lane; 3],
+    pub n: [Lane; 3],
+}
+
+impl LaneReceivers {
+    /// Lane `j` ← position `p`, normal `n`.
+    #[inline]
+    pub fn set(&mut self, j: usize, p: glam::Vec3, n: glam::Vec3) {
+        for a in 0..3 {
+            self.p[a][j] = p[a];
+            self.n[a][j] = n[a];
+        }
+    }
+}
+
+/// One term `w·f_a·f_b` of output `o` of the SH square (`w = Γ_{oaa}` for
+/// `a = b`, `2Γ_{oab}` otherwise); the product `f ∗ g` uses
+/// `(w/2)(f_a g_b + f_b g_a)`.
+#[derive(Clone, Copy, Debug)]
+struct Term {
+    a: u16,
+    b: u16,
+    w: f32,
+}
+
+/// One basis polynomial `k_l Q_{l,m}(z) = z^odd · Σ_i c_i (z²)^i`.
+#[derive(Clone, Copy, Debug)]
+struct BasisPoly {
+    l: u16,
+    m: u16,
+    odd: bool,
+    /// Coefficients in `coef[start..start + len]`, highest power first.
+    start: u32,
+    len: u32,
+}
+
+/// What the kernel needs, built once per order (immutable, shared by threads).
+#[derive(Clone, Debug)]
+pub struct LaneKernel {
+    order: usize,
+    entries: usize,
+    /// Per entry `e`: `f_l(θ_e)`, `l < n`, then `f_l(θ_{e+1}) − f_l(θ_e)`.
+    table: Vec<f32>,
+    basis: Vec<BasisPoly>,
+    coef: Vec<f32>,
+    out_start: Vec<u32>,
+    terms: Vec<Term>,
+    ol: OlFit,
+}
+
+/// Per-thread scratch of [`LaneKernel`] (order² lanes each).
+#[derive(Clone, Debug)]
+pub struct LaneScratch {
+    fh: Vec<Lane>,
+    f2: Vec<Lane>,
+    pw: Vec<Lane>,
+    odd: Vec<Lane>,
+    tmp: Vec<Lane>,
+}
+
+impl LaneScratch {
+    /// For `order` bands.
+    #[must_use]
+    pub fn new(order: usize) -> Self {
+        let z = vec![[0.0; W]; order * order];
+        Self {
+            fh: z.clone(),
+            f2: z.clone(),
+            pw: z.clone(),
+            odd: z.clone(),
+            tmp: z,
+        }
+    }
+}
+
+/// Coefficients (ascending powers) of the Legendre polynomial `P_l`.
+fn legendre_coefficients(l: usize) -> Vec<f64> {
+    let mut prev = vec![1.0];
+    if l == 0 {
+        return prev;
+    }
+    let mut cur = vec![0.0, 1.0];
+    for k in 1..l {
+        // (k+1) P_{k+1} = (2k+1) z P_k − k P_{k−1}
+        let kf = k as f64;
+        let mut next = vec![0.0; k + 2];
+        for (i, c) in cur.iter().enumerate() {
+            next[i + 1] += (2.0 * kf + 1.0) * c / (kf + 1.0);
+        }
+        for (i, c) in prev.iter().enumerate() {
+            next[i] -= kf * c / (kf + 1.0);
+        }
+        prev = cur;
+        cur = next;
+    }
+    cur
+}
+
+/// `asin(x)` for `x ∈ [0, 1]` (lane form; clamps outside): the Taylor series
+/// `x Σ_k c_k x^{2k}`, `c_k = (2k)!/(4^k (k!)² (2k+1))`, to `k = 8` on
+/// `[0, ½]`, and `π/2 − 2 asin(√((1 − x)/2))` above (exact reduction in f32).
+#[inline(always)]
+#[must_use]
+pub fn asin_lane<const F: bool>(x: f32) -> f32 {
+    const C: [f32; 9] = [
+        1.0,
+        1.0 / 6.0,
+        3.0 / 40.0,
+        5.0 / 112.0,
+        35.0 / 1152.0,
+        63.0 / 2816.0,
+        231.0 / 13312.0,
+        143.0 / 10240.0,
+        6435.0 / 557_056.0,
+    ];
+    let x = x.clamp(0.0, 1.0);
+    let hi = x > 0.5;
+    let u = if hi { ((1.0 - x) * 0.5).sqrt() } else { x };
+    let z = u * u;
+    let mut p = C[8];
+    for &c in C[..8].iter().rev() {
+        p = fma::<F>(p, z, c);
+    }
+    let a = u * p;
+    if hi {
+        fma::<F>(-2.0, a, std::f32::consts::FRAC_PI_2)
+    } else {
+        a
+    }
+}
+
+#[inline(always)]
+fn fma<const F: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if F { a.mul_add(b, c) } else { a * b + c }
+}
+
+impl LaneKernel {
+    /// The kernel for `table`'s order, with the OL fit of HYB/OL.
+    ///
+    /// # Errors
+    /// An order the product tensor does not support.
+    pub fn new(table: &LogTable, ol: OlFit) -> Result<Self, ShExpError> {
+        let n = table.order();
+        let entries = table.entries();
+        let mut t = Vec::with_capacity(entries * 2 * n);
+        let mut a = vec![0.0f32; n];
+        let mut b = vec![0.0f32; n];
+        for e in 0..entries {
+            let at = |e: usize, out: &mut [f32]| {
+                for (o, v) in out.iter_mut().zip(table.entry(e.min(entries - 1))) {
+                    *o = *v as f32;
+                }
+            };
+            at(e, &mut a);
+            at(e + 1, &mut b);
+            t.extend_from_slice(&a);
+            t.extend(a.iter().zip(&b).map(|(a, b)| b - a));
+        }
+        // Basis polynomials: k_l · K_{l,m} · (−1)^m · d^m P_l/dz^m.
+        let mut basis = Vec::new();
+        let mut coef = Vec::new();
+        for l in 0..n {
+            let mut p = legendre_coefficients(l);
+            let kl = (4.0 * PI / (2 * l + 1) as f64).sqrt();
+            for m in 0..=l {
+                if m > 0 {
+                    p = p
+                        .iter()
+                        .enumerate()
+                        .skip(1)
+                        .map(|(i, c)| i as f64 * c)
+                        .collect();
+                }
+                let fact_ratio: f64 = ((l - m + 1)..=(l + m)).map(|v| v as f64).product();
+                let mut k = ((2 * l + 1) as f64 / (4.0 * PI) / fact_ratio).sqrt();
+                if m > 0 {
+                    k *= std::f64::consts::SQRT_2;
+                }
+                if m % 2 == 1 {
+                    k = -k;
+                }
+                let odd = (l - m) % 2 == 1;
+                let start = coef.len() as u32;
+                // Powers odd, odd+2, …, l−m of z: highest first, in z².
+                let mut pw = (l - m) as isize;
+                while pw >= 0 {
+                    coef.push((kl * k * p[pw as usize]) as f32);
+                    pw -= 2;
+                }
+                basis.push(BasisPoly {
+                    l: l as u16,
+                    m: m as u16,
+                    odd,
+                    start,
+                    len: coef.len() as u32 - start,
+                });
+            }
+        }
+        // Gaunt terms by output.
+        let tp = TripleProduct::<f64>::new(n)?;
+        let nn = n * n;
+        let mut per_out: Vec<Vec<(u16, u16, f64)>> = vec![Vec::new(); nn];
+        for (i, j, k, v) in tp.entries() {
+            let mut combos = vec![(i, j, k), (j, i, k), (k, i, j)];
+            combos.sort_unstable();
+            combos.dedup();
+            for (o, a, b) in combos {
+                let (a, b) = (a.min(b), a.max(b));
+                per_out[o].push((a as u16, b as u16, if a == b { v } else { 2.0 * v }));
+            }
+        }
+        let mut out_start = vec![0u32];
+        let mut terms = Vec::new();
+        for mut list in per_out {
+            list.sort_unstable_by_key(|e| (e.0, e.1));
+            terms.extend(list.into_iter().map(|(a, b, w)| Term { a, b, w: w as f32 }));
+            out_start.push(terms.len() as u32);
+        }
+        Ok(Self {
+            order: n,
+            entries,
+            table: t,
+            basis,
+            coef,
+            out_start,
+            terms,
+            ol,
+        })
+    }
+
+    /// SH order n.
+    #[must_use]
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// `f = Σ_b log g_b` (order² lanes) over `blockers` for the receivers of
+    /// `rec`, skipping per lane a sphere entirely below the tangent plane;
+    /// bit `j` of the result says lane `j` saw at least one blocker.
+    ///
+    /// # Panics
+    /// If `f` is shorter than order².
+    pub fn accumulate(&self, rec: &LaneReceivers, blockers: &[LaneBlocker], f: &mut [Lane]) -> u32 {
+        self.accumulate_on(LanePath::current(), rec, blockers, f)
+    }
+
+    /// [`Self::accumulate`] on `path` (tests compare the paths).
+    ///
+    /// # Panics
+    /// If this CPU lacks `path`, or `f` is shorter than order².
+    pub fn accumulate_on(
+        &self,
+        path: LanePath,
+        rec: &LaneReceivers,
+        blockers: &[LaneBlocker],
+        f: &mut [Lane],
+    ) -> u32 {
+        assert!(path.supported(), "{path:?} is not available on this CPU");
+        #[cfg(target_arch = "x86_64")]
+        match path {
+            LanePath::Avx512 => {
+                // SAFETY: AVX-512F, AVX2 and FMA were detected (asserted above).
+                return unsafe { accumulate_avx512(self, rec, blockers, f) };
+            }
+            LanePath::Avx2 => {
+                // SAFETY: AVX2 and FMA were detected (asserted above).
+                return unsafe { accumulate_avx2(self, rec, blockers, f) };
+            }
+            LanePath::Portable => {}
+        }
+        accumulate_body::<false>(self, rec, blockers, f)
+    }
+
+    /// `out = exp_*(f)` by `kind` (not [`ExpKind::Product`]) on every lane;
+    /// lanes whose bit in `any` is clear get the unshadowed `(√(4π), 0, …)`.
+    /// The squarings of the lanes `< lanes` that saw a blocker go to `hist`.
+    ///
+    /// # Panics
+    /// On [`ExpKind::Product`], or short slices.
+    #[allow(clippy::too_many_arguments)]
+    pub fn exp(
+        &self,
+        kind: ExpKind,
+        f: &[Lane],
+        any: u32,
+        lanes: usize,
+        s: &mut LaneScratch,
+        out: &mut [Lane],
+        hist: &mut SquaringHistogram,
+    ) {
+        self.exp_on(LanePath::current(), kind, f, any, lanes, s, out, hist);
+    }
+
+    /// [`Self::exp`] on `path` (tests compare the paths).
+    ///
+    /// # Panics
+    /// As [`Self::exp`], or if this CPU lacks `path`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn exp_on(
+        &self,
+        path: LanePath,
+        kind: ExpKind,
+        f: &[Lane],
+        any: u32,
+        lanes: usize,
+        s: &mut LaneScratch,
+        out: &mut [Lane],
+        hist: &mut SquaringHistogram,
+    ) {
+        assert!(
+            kind != ExpKind::Product,
+            "the lane kernel has no product path"
+        );
+        assert!(path.supported(), "{path:?} is not available on this CPU");
+        #[cfg(target_arch = "x86_64")]
+        match path {
+            LanePath::Avx512 => {
+                // SAFETY: AVX-512F, AVX2 and FMA were detected (asserted above).
+                return unsafe { exp_avx512(self, kind, f, any, lanes, s, out, hist) };
+            }
+            LanePath::Avx2 => {
+                // SAFETY: AVX2 and FMA were detected (asserted above).
+                return unsafe { exp_avx2(self, kind, f, any, lanes, s, out, hist) };
+            }
+            LanePath::Portable => {}
+        }
+        exp_body::<false>(self, kind, f, any, lanes, s, out, hist);
+    }
+
+    /// `out = f ∗ f` on every lane (the kernel's squaring, for tests).
+    pub fn square(&self, f: &[Lane], out: &mut [Lane]) {
+        square_body::<false>(self, f, out);
+    }
+}
+
+/// A compiled form of the kernel body.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LanePath {
+    /// AVX-512F (with AVX2 and FMA): a lane is one register.
+    Avx512,
+    /// AVX2 with FMA: a lane is two registers.
+    Avx2,
+    /// The baseline target, plain multiply and add.
+    Portable,
+}
+
+impl LanePath {
+    /// Every path, fastest first.
+    pub const ALL: [Self; 3] = [Self::Avx512, Self::Avx2, Self::Portable];
+
+    /// Whether this CPU runs `self`.
+    #[must_use]
+    pub fn supported(self) -> bool {
+        match self {
+            Self::Portable => true,
+            #[cfg(target_arch = "x86_64")]
+            Self::Avx2 => {
+                std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+            }
+            #[cfg(target_arch = "x86_64")]
+            Self::Avx512 => {
+                Self::Avx2.supported() && std::arch::is_x86_feature_detected!("avx512f")
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The path in use: the fastest this CPU has within [`relight_sh::isa`]'s
+    /// process-wide cap.
+    #[must_use]
+    pub fn current() -> Self {
+        use relight_sh::Isa;
+        match relight_sh::isa() {
+            Isa::Avx512 if Self::Avx512.supported() => Self::Avx512,
+            Isa::Avx512 | Isa::Avx2 if Self::Avx2.supported() => Self::Avx2,
+            _ => Self::Portable,
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+fn accumulate_avx512(
+    k: &LaneKernel,
+    rec: &LaneReceivers,
+    blockers: &[LaneBlocker],
+    f: &mut [Lane],
+) -> u32 {
+    accumulate_body::<true>(k, rec, blockers, f)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn accumulate_avx2(
+    k: &LaneKernel,
+    rec: &LaneReceivers,
+    blockers: &[LaneBlocker],
+    f: &mut [Lane],
+) -> u32 {
+    accumulate_body::<true>(k, rec, blockers, f)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+fn exp_avx512(
+    k: &LaneKernel,
+    kind: ExpKind,
+    f: &[Lane],
+    any: u32,
+    lanes: usize,
+    s: &mut LaneScratch,
+    out: &mut [Lane],
+    hist: &mut SquaringHistogram,
+) {
+    exp_body::<true>(k, kind, f, any, lanes, s, out, hist);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+fn exp_avx2(
+    k: &LaneKernel,
+    kind: ExpKind,
+    f: &[Lane],
+    any: u32,
+    lanes: usize,
+    s: &mut LaneScratch,
+    out: &mut [Lane],
+    hist: &mut SquaringHistogram,
+) {
+    exp_body::<true>(k, kind, f, any, lanes, s, out, hist);
+}
+
+/// Most bands the kernel handles (the method's limit).
+const MAX_N: usize = 8;
+
+#[inline(always)]
+fn accumulate_body<const F: bool>(
+    k: &LaneKernel,
+    rec: &LaneReceivers,
+    blockers: &[LaneBlocker],
+    f: &mut [Lane],
+) -> u32 {
+    let n = k.order;
+    let nn = n * n;
+    let f = &mut f[..nn];
+    for v in f.iter_mut() {
+        *v = [0.0; W];
+    }
+    let scale = (k.entries - 1) as f32 / std::f32::consts::FRAC_PI_2;
+    let last = (k.entries - 1) as f32;
+    let imax = (k.entries - 2) as u32;
+    let mut any = [0.0f32; W];
+    let (mut x, mut y, mut z) = ([0.0f32; W], [0.0f32; W], [0.0f32; W]);
+    let mut wv = [0.0f32; W];
+    let mut idx = [0u32; W];
+    let mut tt = [0.0f32; W];
+    let mut zl = [[0.0f32; W]; MAX_N];
+    let mut cm = [[0.0f32; W]; MAX_N];
+    let mut sm = [[0.0f32; W]; MAX_N];
+    let mut z2 = [0.0f32; W];
+    let tab = &k.table[..];
+    for b in blockers {
+        for j in 0..W {
+            let dx = b.c[0] - rec.p[0][j];
+            let dy = b.c[1] - rec.p[1][j];
+            let dz = b.c[2] - rec.p[2][j];
+            let dn = fma::<F>(dx, rec.n[0][j], fma::<F>(dy, rec.n[1][j], dz * rec.n[2][j]));
+            let vis = dn > -b.r;
+            let dist = fma::<F>(dx, dx, fma::<F>(dy, dy, dz * dz)).sqrt();
+            let inv = 1.0 / dist;
+            let pos = dist > 0.0;
+            x[j] = if pos { dx * inv } else { rec.n[0][j] };
+            y[j] = if pos { dy * inv } else { rec.n[1][j] };
+            z[j] = if pos { dz * inv } else { rec.n[2][j] };
+            let s = if dist <= b.r { 1.0 } else { b.r * inv };
+            let th = asin_lane::<F>(s);
+            let u = (th * scale).clamp(0.0, last);
+            let i = (u as u32).min(imax);
+            idx[j] = i * (2 * n) as u32;
+            tt[j] = u - i as f32;
+            wv[j] = if vis { 1.0 } else { 0.0 };
+            any[j] = any[j].max(wv[j]);
+        }
+        for l in 0..n {
+            let zl = &mut zl[l];
+            for j in 0..W {
+                let e = idx[j] as usize + l;
+                // SAFETY: idx ≤ (entries − 2)·2n and l < n, so e + n < table.len().
+                let (a, d) = unsafe { (*tab.get_unchecked(e), *tab.get_unchecked(e + n)) };
+                zl[j] = fma::<F>(d, tt[j], a) * wv[j];
+            }
+        }
+        for j in 0..W {
+            z2[j] = z[j] * z[j];
+            cm[0][j] = 1.0;
+            sm[0][j] = 0.0;
+        }
+        for m in 1..n {
+            for j in 0..W {
+                let (c, s) = (cm[m - 1][j], sm[m - 1][j]);
+                cm[m][j] = fma::<F>(c, x[j], -(s * y[j]));
+                sm[m][j] = fma::<F>(s, x[j], c * y[j]);
+            }
+        }
+        for bp in &k.basis {
+            let (l, m) = (bp.l as usize, bp.m as usize);
+            let c = &k.coef[bp.start as usize..(bp.start + bp.len) as usize];
+            let mut q = [c[0]; W];
+            for &ci in &c[1..] {
+                for j in 0..W {
+                    q[j] = fma::<F>(q[j], z2[j], ci);
+                }
+            }
+            for j in 0..W {
+                let v = if bp.odd { q[j] * z[j] } else { q[j] };
+                q[j] = v * zl[l][j];
+            }
+            let centre = l * (l + 1);
+            if m == 0 {
+                let o = &mut f[centre];
+                for j in 0..W {
+                    o[j] += q[j];
+                }
+            } else {
+                let o = &mut f[centre + m];
+                for j in 0..W {
+                    o[j] = fma::<F>(q[j], cm[m][j], o[j]);
+                }
+                let o = &mut f[centre - m];
+                for j in 0..W {
+                    o[j] = fma::<F>(q[j], sm[m][j], o[j]);
+                }
+            }
+        }
+    }
+    let mut bits = 0u32;
+    for (j, a) in any.iter().enumerate() {
+        if *a > 0.0 {
+            bits |= 1 << j;
+        }
+    }
+    bits
+}
+
+#[inline(always)]
+fn square_body<const F: bool>(k: &LaneKernel, f: &[Lane], out: &mut [Lane]) {
+    let nn = k.order * k.order;
+    for o in 0..nn {
+        let mut acc = [0.0f32; W];
+        for t in &k.terms[k.out_start[o] as usize..k.out_start[o + 1] as usize] {
+            let (fa, fb) = (&f[t.a as usize], &f[t.b as usize]);
+            for j in 0..W {
+                acc[j] = fma::<F>(t.w, fa[j] * fb[j], acc[j]);
+            }
+        }
+        out[o] = acc;
+    }
+}
+
+#[inline(always)]
+fn product_body<const F: bool>(k: &LaneKernel, f: &[Lane], g: &[Lane], out: &mut [Lane]) {
+    let nn = k.order * k.order;
+    for o in 0..nn {
+        let mut acc = [0.0f32; W];
+        for t in &k.terms[k.out_start[o] as usize..k.out_start[o + 1] as usize] {
+            let (a, b) = (t.a as usize, t.b as usize);
+            let w = 0.5 * t.w;
+            for j in 0..W {
+                let s = fma::<F>(f[a][j], g[b][j], f[b][j] * g[a][j]);
+                acc[j] = fma::<F>(w, s, acc[j]);
+            }
+        }
+        out[o] = acc;
+    }
+}
+
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn exp_body<const F: bool>(
+    k: &LaneKernel,
+    kind: ExpKind,
+    f: &[Lane],
+    any: u32,
+    lanes: usize,
+    s: &mut LaneScratch,
+    out: &mut [Lane],
+    hist: &mut SquaringHistogram,
+) {
+    let n = k.order;
+    let nn = n * n;
+    let sqrt4pi = (4.0 * PI).sqrt();
+    let mut norm2 = [0.0f64; W];
+    for v in &f[1..nn] {
+        for j in 0..W {
+            let x = f64::from(v[j]);
+            norm2[j] += x * x;
+        }
+    }
+    let mut sq = [0u32; W];
+    let mut scale = [0.0f32; W];
+    let mut dc = [0.0f32; W];
+    let mut norm = [0.0f64; W];
+    let mut smax = 0;
+    for j in 0..W {
+        norm[j] = norm2[j].sqrt();
+        dc[j] = (f64::from(f[0][j]) / sqrt4pi).exp() as f32;
+        let (sj, capped) = match kind {
+            ExpKind::Ol => (0, false),
+            _ => {
+                let r = squarings_rule(norm[j]);
+                (r.min(MAX_SQUARINGS), r > MAX_SQUARINGS)
+            }
+        };
+        sq[j] = sj;
+        scale[j] = 0.5f64.powi(sj as i32) as f32;
+        if any & (1 << j) != 0 {
+            smax = smax.max(sj);
+            if j < lanes {
+                hist.counts[sj as usize] += 1;
+                hist.capped += u64::from(capped);
+            }
+        }
+    }
+    let fh = &mut s.fh[..nn];
+    fh[0] = [0.0; W];
+    for i in 1..nn {
+        for j in 0..W {
+            fh[i][j] = f[i][j] * scale[j];
+        }
+    }
+    let out = &mut out[..nn];
+    match kind {
+        ExpKind::PsStar(p) => series_body::<F>(k, p, s, out),
+        _ => {
+            for j in 0..W {
+                let (a, b) = k.ol.at(norm[j] * f64::from(scale[j]));
+                let (a, b) = (a as f32, b as f32);
+                for i in 0..nn {
+                    out[i][j] = b * s.fh[i][j];
+                }
+                out[0][j] = a * SQRT_4PI;
+            }
+        }
+    }
+    for t in 1..=smax {
+        let tmp = &mut s.tmp[..nn];
+        square_body::<F>(k, out, tmp);
+        for i in 0..nn {
+            for j in 0..W {
+                if sq[j] >= t {
+                    out[i][j] = tmp[i][j];
+                }
+            }
+        }
+    }
+    for i in 0..nn {
+        for j in 0..W {
+            out[i][j] *= dc[j];
+        }
+    }
+    for j in 0..W {
+        if any & (1 << j) == 0 {
+            for i in 0..nn {
+                out[i][j] = if i == 0 { SQRT_4PI } else { 0.0 };
+            }
+        }
+    }
+}
+
+/// The factored series (5.27) of degree `p` of `s.fh` into `out`, as
+/// `Exponentiator`'s.
+#[inline(always)]
+fn series_body<const F: bool>(k: &LaneKernel, p: u32, s: &mut LaneScratch, out: &mut [Lane]) {
+    let nn = k.order * k.order;
+    let h = |q: u32| (1.0 / (1..=q).map(f64::from).product::<f64>()) as f32;
+    let LaneScratch {
+        fh,
+        f2,
+        pw,
+        odd,
+        tmp,
+    } = s;
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = [if i == 0 { SQRT_4PI } else { 0.0 }; W];
+    }
+    for (i, o) in odd[..nn].iter_mut().enumerate() {
+        *o = [if i == 0 { SQRT_4PI } else { 0.0 }; W];
+    }
+    let mut odd_is_one = true;
+    if p >= 2 {
+        square_body::<F>(k, fh, f2);
+        pw[..nn].copy_from_slice(&f2[..nn]);
+        let mut kk = 2;
+        loop {
+            let he = h(kk);
+            for i in 0..nn {
+                for j in 0..W {
+                    out[i][j] = fma::<F>(he, pw[i][j], out[i][j]);
+                }
+            }
+            if kk < p {
+                let ho = h(kk + 1);
+                for i in 0..nn {
+                    for j in 0..W {
+                        odd[i][j] = fma::<F>(ho, pw[i][j], odd[i][j]);
+                    }
+                }
+                odd_is_one = false;
+            }
+            kk += 2;
+            if kk > p {
+                break;
+            }
+            product_body::<F>(k, pw, f2, tmp);
+            std::mem::swap(pw, tmp);
+        }
+    }
+    if p >= 1 {
+        if odd_is_one {
+            for i in 0..nn {
+                for j in 0..W {
+                    out[i][j] += fh[i][j];
+                }
+            }
+        } else {
+            product_body::<F>(k, fh, odd, f2);
+            for i in 0..nn {
+                for j in 0..W {
+                    out[i][j] += f2[i][j];
+                }
+            }
+        }
+    }
+}
