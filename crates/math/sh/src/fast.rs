@@ -21,10 +21,13 @@
 //! * RGB variants: one Euler decomposition (rotation), then the mono kernel per
 //!   channel.
 //! * Batches: on an x86-64 CPU with AVX2 and FMA ([`crate::lanes::avx2_fma_available`]),
-//!   eight items per lane group with fused multiply–add (`eval8`, `rotate8`:
-//!   one copy each, shared by the entry points); elsewhere the single-call
-//!   kernels one item at a time. The tail of a batch is padded by repeating its
-//!   last item.
+//!   eight items per lane group in AVX registers ([`crate::lanes::F8`]), one
+//!   loop per order (constant indices, values in registers): directions come
+//!   in by a transposed load of 24 floats (`F8::load_xyz8`), rotation
+//!   matrices and vectors by 8×8 transposes (`load_rows` / `store_rows`),
+//!   evaluations go out as whole registers (coefficient-major). Elsewhere the
+//!   single-call kernels one item at a time. The tail of a batch is padded by
+//!   repeating its last item.
 //!
 //! Every kernel is tested against the portable recurrence / ZYZ / Gaunt code
 //! (`src/fast_tests.rs`); under `CI` those tests fail on a CPU without
@@ -95,7 +98,7 @@ pub(crate) fn eval_one(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) ->
 /// If `out` is shorter than `order²`.
 #[inline(never)]
 pub(crate) fn eval_one_portable(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
-    kernels::eval::<1, false>(order, S::splat(x), S::splat(y), S::splat(z), as_v_mut(out))
+    kernels::eval::<V<1, false>>(order, S::splat(x), S::splat(y), S::splat(z), as_v_mut(out))
 }
 
 /// One f32 with fused multiply–add: only used inside
@@ -122,7 +125,7 @@ fn as_s1_mut(s: &mut [f32]) -> &mut [S1] {
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
 pub(crate) unsafe fn eval_one_fma(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
-    kernels::eval::<1, true>(
+    kernels::eval::<V<1, true>>(
         order,
         S1::splat(x),
         S1::splat(y),
@@ -171,7 +174,7 @@ fn rotate_mat<const F: bool>(
     } else {
         [V::splat(0.0); 6]
     };
-    kernels::rotate::<1, F>(order, &matrix_array::<F>(m), &e, as_v1(src), as_v1_mut(dst))
+    kernels::rotate::<V<1, F>>(order, &matrix_array::<F>(m), &e, as_v1(src), as_v1_mut(dst))
 }
 
 #[inline(always)]
@@ -254,7 +257,7 @@ pub(crate) fn rotate_euler_one(
     dst: &mut [f32],
 ) -> bool {
     let m = matrix_array::<false>(&Rot3::from_euler_zyz(e).m);
-    kernels::rotate::<1, false>(order, &m, &euler_array(e), as_v(src), as_v_mut(dst))
+    kernels::rotate::<V<1, false>>(order, &m, &euler_array(e), as_v(src), as_v_mut(dst))
 }
 
 /// The three channels of [`rotate_rgb`]: one decomposition, then the kernel
@@ -273,7 +276,7 @@ fn rotate_rgb_mat<const F: bool>(
     };
     let m = matrix_array::<F>(&rot.m);
     for (src, dst) in src.into_iter().zip(dst) {
-        kernels::rotate::<1, F>(order, &m, &e, as_v1(src), as_v1_mut(dst));
+        kernels::rotate::<V<1, F>>(order, &m, &e, as_v1(src), as_v1_mut(dst));
     }
 }
 
@@ -428,30 +431,47 @@ pub fn batch_path() -> BatchPath {
     }
 }
 
-/// Eight-lane f32 with fused multiply–add: only used inside
-/// `#[target_feature(enable = "avx2,fma")]` functions.
+/// Eight f32 lanes in one AVX register with fused multiply–add: only used
+/// inside `#[target_feature(enable = "avx2,fma")]` functions.
 #[cfg(target_arch = "x86_64")]
-type V8 = V<8, true>;
+type V8 = crate::lanes::F8;
+
+#[cfg(target_arch = "x86_64")]
+use crate::lanes::Lane;
 
 const BATCH_NN: usize = BATCH_MAX_ORDER * BATCH_MAX_ORDER;
 
-/// The order-`n` evaluation kernel on eight directions (`n ≤` [`BATCH_MAX_ORDER`]).
-/// Not inlined: every batch entry point shares this one copy.
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
+/// Runs `f` with the order-`n` evaluation kernel on eight directions as a
+/// closure over a fixed-size output (`n ≤` [`BATCH_MAX_ORDER`]): one loop per
+/// order, so every coefficient index is a constant and the values stay in
+/// registers.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-unsafe fn eval8(n: usize, d: &[V8; 3], o: &mut [V8; BATCH_NN]) {
-    let [x, y, z] = *d;
-    match n {
-        1 => kernels::eval_n1(x, y, z, (&mut o[..1]).try_into().expect("length")),
-        2 => kernels::eval_n2(x, y, z, (&mut o[..4]).try_into().expect("length")),
-        3 => kernels::eval_n3(x, y, z, (&mut o[..9]).try_into().expect("length")),
-        4 => kernels::eval_n4(x, y, z, (&mut o[..16]).try_into().expect("length")),
-        _ => unreachable!("batch order checked against BATCH_MAX_ORDER"),
-    }
+macro_rules! with_eval8 {
+    ($n:expr, |$nn:ident, $k:ident| $body:expr) => {
+        match $n {
+            1 => {
+                const $nn: usize = 1;
+                let $k = |x, y, z, o: &mut [V8; 1]| kernels::eval_n1(x, y, z, o);
+                $body
+            }
+            2 => {
+                const $nn: usize = 4;
+                let $k = |x, y, z, o: &mut [V8; 4]| kernels::eval_n2(x, y, z, o);
+                $body
+            }
+            3 => {
+                const $nn: usize = 9;
+                let $k = |x, y, z, o: &mut [V8; 9]| kernels::eval_n3(x, y, z, o);
+                $body
+            }
+            4 => {
+                const $nn: usize = 16;
+                let $k = |x, y, z, o: &mut [V8; 16]| kernels::eval_n4(x, y, z, o);
+                $body
+            }
+            _ => unreachable!("batch order checked against BATCH_MAX_ORDER"),
+        }
+    };
 }
 
 /// The order-`n` rotation kernel on eight vectors (`n ≤` [`BATCH_MAX_ORDER`]):
@@ -461,7 +481,7 @@ unsafe fn eval8(n: usize, d: &[V8; 3], o: &mut [V8; BATCH_NN]) {
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-#[inline(never)]
+#[inline]
 unsafe fn rotate8(
     n: usize,
     m: &[[V8; 3]; 3],
@@ -498,19 +518,26 @@ unsafe fn rotate8(
     }
 }
 
-/// Loads items `i0 .. i0 + 8` (clamped to the last item) into lanes.
+/// Directions `i0 .. i0 + 8` as lanes `x, y, z`: a transposed load of 24
+/// floats where eight remain, else a padded copy (the last item repeated).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn dir_lanes(dirs: &[[f32; 3]], i0: usize) -> [V8; 3] {
-    let last = dirs.len() - 1;
-    let mut v = [V8::splat(0.0); 3];
-    for j in 0..8 {
-        let d = dirs[(i0 + j).min(last)];
-        v[0].0[j] = d[0];
-        v[1].0[j] = d[1];
-        v[2].0[j] = d[2];
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn dir_lanes(dirs: &[[f32; 3]], i0: usize) -> [V8; 3] {
+    if i0 + 8 <= dirs.len() {
+        // SAFETY: 8 directions = 24 f32 from `i0` are in the slice.
+        return unsafe { V8::load_xyz8(dirs[i0..i0 + 8].as_flattened().as_ptr()) };
     }
-    v
+    let last = dirs.len() - 1;
+    let mut pad = [[0.0f32; 3]; 8];
+    for (j, p) in pad.iter_mut().enumerate() {
+        *p = dirs[(i0 + j).min(last)];
+    }
+    // SAFETY: `pad` holds 24 f32.
+    unsafe { V8::load_xyz8(pad.as_flattened().as_ptr()) }
 }
 
 /// # Safety
@@ -518,16 +545,32 @@ fn dir_lanes(dirs: &[[f32; 3]], i0: usize) -> [V8; 3] {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 pub(crate) unsafe fn eval_batch_avx2(order: usize, dirs: &[[f32; 3]], out: &mut [f32]) {
-    let (nn, count) = (order * order, dirs.len());
-    let mut y = [V8::splat(0.0); BATCH_NN];
-    for i0 in (0..count).step_by(8) {
-        // SAFETY: the caller checked the features.
-        unsafe { eval8(order, &dir_lanes(dirs, i0), &mut y) };
-        let cnt = 8.min(count - i0);
-        for (k, yk) in y[..nn].iter().enumerate() {
-            out[k * count + i0..k * count + i0 + cnt].copy_from_slice(&yk.0[..cnt]);
+    let count = dirs.len();
+    assert_eq!(
+        out.len(),
+        order * order * count,
+        "eval_batch_avx2 output length"
+    );
+    with_eval8!(order, |NN, kernel| {
+        let mut y = [V8::splat(0.0); NN];
+        for i0 in (0..count).step_by(8) {
+            // SAFETY: the caller checked the features.
+            let [dx, dy, dz] = unsafe { dir_lanes(dirs, i0) };
+            kernel(dx, dy, dz, &mut y);
+            if i0 + 8 <= count {
+                for (k, yk) in y.iter().enumerate() {
+                    // SAFETY: `k·count + i0 + 8 ≤ NN·count = out.len()`.
+                    unsafe { yk.store(out.as_mut_ptr().add(k * count + i0)) };
+                }
+            } else {
+                let cnt = count - i0;
+                for (k, yk) in y.iter().enumerate() {
+                    out[k * count + i0..k * count + i0 + cnt]
+                        .copy_from_slice(&yk.to_array()[..cnt]);
+                }
+            }
         }
-    }
+    });
 }
 
 /// # Safety
@@ -540,31 +583,52 @@ pub(crate) unsafe fn shade_batch_avx2<const C: usize>(
     dirs: &[[f32; 3]],
     out: &mut [[f32; C]],
 ) {
-    let nn = order * order;
-    let mut y = [V8::splat(0.0); BATCH_NN];
-    for i0 in (0..dirs.len()).step_by(8) {
-        // SAFETY: the caller checked the features.
-        unsafe { eval8(order, &dir_lanes(dirs, i0), &mut y) };
-        let mut acc = [V8::splat(0.0); C];
-        for k in 0..nn {
-            for c in 0..C {
-                acc[c] = y[k].mul_add(V8::splat(coeffs[c][k]), acc[c]);
+    assert_eq!(out.len(), dirs.len(), "shade_batch_avx2 output length");
+    with_eval8!(order, |NN, kernel| {
+        let mut ck = [[V8::splat(0.0); NN]; C];
+        for c in 0..C {
+            for k in 0..NN {
+                ck[c][k] = V8::splat(coeffs[c][k]);
             }
         }
-        let cnt = 8.min(dirs.len() - i0);
-        for j in 0..cnt {
-            for c in 0..C {
-                out[i0 + j][c] = acc[c].0[j];
+        let mut y = [V8::splat(0.0); NN];
+        for i0 in (0..dirs.len()).step_by(8) {
+            // SAFETY: the caller checked the features.
+            let [dx, dy, dz] = unsafe { dir_lanes(dirs, i0) };
+            kernel(dx, dy, dz, &mut y);
+            let mut acc = [V8::splat(0.0); C];
+            for k in 0..NN {
+                for c in 0..C {
+                    acc[c] = y[k].mul_add(ck[c][k], acc[c]);
+                }
+            }
+            if C == 1 && i0 + 8 <= dirs.len() {
+                // SAFETY: `out[i0 .. i0 + 8]` is in the slice (one f32 each).
+                unsafe { acc[0].store(out[i0..i0 + 8].as_flattened_mut().as_mut_ptr()) };
+                continue;
+            }
+            let cnt = 8.min(dirs.len() - i0);
+            let a = acc.map(V8::to_array);
+            for j in 0..cnt {
+                for c in 0..C {
+                    out[i0 + j][c] = a[c][j];
+                }
             }
         }
-    }
+    });
 }
 
 /// Lane Euler decomposition, branch-free: [`Rot3::euler_zyz`] with both pole
-/// branches computed and blended per lane.
+/// branches computed and blended per lane. Compiled for AVX2 + FMA itself
+/// (its closure too): a plain `#[inline(always)]` function left the
+/// intrinsics of its closure as out-of-line calls (36 ns per item at n = 4).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn euler_of_lanes(m: &[[V8; 3]; 3]) -> [V8; 6] {
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn euler_of_lanes(m: &[[V8; 3]; 3]) -> [V8; 6] {
     let one = V8::splat(1.0);
     let zero = V8::splat(0.0);
     let norm2 = |c: V8, s: V8| {
@@ -594,6 +658,82 @@ fn euler_of_lanes(m: &[[V8; 3]; 3]) -> [V8; 6] {
     ]
 }
 
+/// Runs `$body` with `$nn` = the order's coefficient count as a constant
+/// (one loop per order: every index is constant, the lanes stay in registers).
+#[cfg(target_arch = "x86_64")]
+macro_rules! with_nn {
+    ($n:expr, |$nn:ident| $body:expr) => {
+        match $n {
+            1 => {
+                const $nn: usize = 1;
+                $body
+            }
+            2 => {
+                const $nn: usize = 4;
+                $body
+            }
+            3 => {
+                const $nn: usize = 9;
+                $body
+            }
+            4 => {
+                const $nn: usize = 16;
+                $body
+            }
+            _ => unreachable!("batch order checked against BATCH_MAX_ORDER"),
+        }
+    };
+}
+
+/// Eight rows of `len` f32 (row `j` at `rows[j]`) as `len` lane vectors:
+/// 8×8 transposes of whole blocks, element loads for the rest.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA; every row valid for `len` reads.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn load_rows<const N: usize>(rows: [*const f32; 8]) -> [V8; N] {
+    let mut out = [V8::splat(0.0); N];
+    let full = N / 8 * 8;
+    for kb in (0..full).step_by(8) {
+        // SAFETY: `kb + 8 ≤ N`, inside every row.
+        let r = rows.map(|p| unsafe { V8::load(p.add(kb)) });
+        out[kb..kb + 8].copy_from_slice(&V8::transpose8(r));
+    }
+    for k in full..N {
+        // SAFETY: `k < N`, inside every row.
+        out[k] = unsafe { V8::from_ptrs(rows.map(|p| p.add(k))) };
+    }
+    out
+}
+
+/// The inverse of [`load_rows`]: lane `j` of `v[k]` to `rows[j][k]`.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA; every row valid for `N` writes, rows
+/// disjoint.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn store_rows<const N: usize>(v: &[V8; N], rows: [*mut f32; 8]) {
+    let full = N / 8 * 8;
+    for kb in (0..full).step_by(8) {
+        let t = V8::transpose8(v[kb..kb + 8].try_into().expect("eight"));
+        for (j, tj) in t.iter().enumerate() {
+            // SAFETY: `kb + 8 ≤ N`, inside row `j`.
+            unsafe { tj.store(rows[j].add(kb)) };
+        }
+    }
+    for k in full..N {
+        let a = v[k].to_array();
+        for j in 0..8 {
+            // SAFETY: `k < N`, inside row `j`.
+            unsafe { *rows[j].add(k) = a[j] };
+        }
+    }
+}
+
 /// # Safety
 /// The CPU must support AVX2 and FMA; lengths as [`rotate_batch`].
 #[cfg(target_arch = "x86_64")]
@@ -604,40 +744,60 @@ pub(crate) unsafe fn rotate_batch_avx2(
     src: &[f32],
     dst: &mut [f32],
 ) {
-    let nn = order * order;
-    let last = rots.len() - 1;
-    let mut a = [V8::splat(0.0); BATCH_NN];
-    let mut b = [V8::splat(0.0); BATCH_NN];
-    for i0 in (0..rots.len()).step_by(8) {
-        let mut m = [[V8::splat(0.0); 3]; 3];
-        for j in 0..8 {
-            let it = (i0 + j).min(last);
-            let r = &rots[it].m;
-            for p in 0..3 {
-                for q in 0..3 {
-                    m[p][q].0[j] = r[p][q];
+    let count = rots.len();
+    assert!(
+        src.len() == order * order * count && dst.len() == order * order * count,
+        "rotate_batch_avx2 lengths"
+    );
+    with_nn!(order, |NN| {
+        let last = count - 1;
+        let mut spill = [0.0f32; 8 * NN];
+        for i0 in (0..count).step_by(8) {
+            let item = |j: usize| (i0 + j).min(last);
+            let mrows: [*const f32; 8] =
+                std::array::from_fn(|j| rots[item(j)].m.as_flattened().as_ptr());
+            let vrows: [*const f32; 8] = std::array::from_fn(|j| src[item(j) * NN..].as_ptr());
+            // SAFETY (loads): every row pointer is a whole matrix (9 f32) or
+            // vector (NN f32) of an item ≤ last.
+            let mf: [V8; 9] = unsafe { load_rows(mrows) };
+            let m = [
+                [mf[0], mf[1], mf[2]],
+                [mf[3], mf[4], mf[5]],
+                [mf[6], mf[7], mf[8]],
+            ];
+            let a: [V8; NN] = unsafe { load_rows(vrows) };
+            let e = if order >= 4 {
+                // SAFETY: the caller checked the features.
+                unsafe { euler_of_lanes(&m) }
+            } else {
+                [V8::splat(0.0); 6]
+            };
+            let mut b = [V8::splat(0.0); NN];
+            let mut pa = [V8::splat(0.0); BATCH_NN];
+            pa[..NN].copy_from_slice(&a);
+            let mut pb = [V8::splat(0.0); BATCH_NN];
+            // SAFETY: the caller checked the features.
+            unsafe { rotate8(order, &m, &e, &pa, &mut pb) };
+            b.copy_from_slice(&pb[..NN]);
+            let cnt = 8.min(count - i0);
+            let base = dst.as_mut_ptr();
+            let sp = spill.as_mut_ptr();
+            // Items past the end write into `spill`.
+            let drows: [*mut f32; 8] = std::array::from_fn(|j| {
+                // SAFETY: `(i0 + j)·NN + NN ≤ dst.len()` for j < cnt; `spill`
+                // holds 8 rows of NN.
+                unsafe {
+                    if j < cnt {
+                        base.add((i0 + j) * NN)
+                    } else {
+                        sp.add(j * NN)
+                    }
                 }
-            }
-            let v = &src[it * nn..(it + 1) * nn];
-            for k in 0..nn {
-                a[k].0[j] = v[k];
-            }
+            });
+            // SAFETY: disjoint rows of NN f32 each (above).
+            unsafe { store_rows(&b, drows) };
         }
-        let e = if order >= 4 {
-            euler_of_lanes(&m)
-        } else {
-            [V8::splat(0.0); 6]
-        };
-        // SAFETY: the caller checked the features.
-        unsafe { rotate8(order, &m, &e, &a, &mut b) };
-        let cnt = 8.min(rots.len() - i0);
-        for j in 0..cnt {
-            let o = &mut dst[(i0 + j) * nn..(i0 + j + 1) * nn];
-            for k in 0..nn {
-                o[k] = b[k].0[j];
-            }
-        }
-    }
+    });
 }
 
 /// Portable batch evaluation: [`eval_one_portable`] per direction (coefficient-major output).
