@@ -133,6 +133,12 @@ impl LeanPyramid {
         sample_pyramid(&self.levels, uv, lod)
     }
 
+    /// The mean over an anisotropic footprint's probes.
+    #[must_use]
+    pub fn sample_footprint(&self, fp: &crate::Footprint) -> LeanTexel {
+        crate::sample_footprint(&self.levels, fp)
+    }
+
     /// Texel `(x, y)` of level `k`.
     #[must_use]
     pub fn texel(&self, k: usize, x: usize, y: usize) -> LeanTexel {

@@ -65,6 +65,99 @@ pub fn lod_of(duv_dx: Vec2, duv_dy: Vec2, width: usize, height: usize) -> f32 {
     if rho > 1.0 { rho.log2() } else { 0.0 }
 }
 
+/// Most probes of an anisotropic [`Footprint`].
+pub const MAX_PROBES: usize = 8;
+
+/// An anisotropic uv footprint as trilinear probes along its major axis
+/// (the scheme of hardware anisotropic filtering): `n = ⌈major/minor⌉`
+/// probes (at most [`MAX_PROBES`]) spread evenly over the major axis
+/// `∂uv/∂x` or `∂uv/∂y` (the longer in texels), each at the level that
+/// covers `ρ = max(major/n, minor)` texels. Every representation here
+/// filters linearly (SH coefficients, packed vMF moments, mean normals,
+/// LEAN's moments), so the probes' mean *is* the footprint's
+/// representation.
+///
+/// # The level
+/// The screen-level truth is the pixel's box (ρ texels wide) over the
+/// bilinearly interpolated level 0: variance `ρ²/12 + 1/6` per axis (in
+/// texels²). A level-k texel is a box of `2^k` fine texels and bilinear
+/// interpolation between level-k texels adds a tent of half-width `2^k`:
+/// variance `4^k (1/12 + 1/6) = 4^k/4`. Equal variances give
+/// `k = ½ log2((ρ² + 2)/3)` — 0 at ρ = 1, `log2 ρ − 0.79` for large ρ —
+/// where the OpenGL rule's `log2 ρ` ([`lod_of`]) blurs twice as wide.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Footprint {
+    pub probes: [Vec2; MAX_PROBES],
+    /// Probes in use (≥ 1).
+    pub count: usize,
+    /// The level every probe reads.
+    pub lod: f32,
+}
+
+impl Footprint {
+    /// One probe at `uv`, level `lod`.
+    #[must_use]
+    pub fn point(uv: Vec2, lod: f32) -> Self {
+        let mut probes = [uv; MAX_PROBES];
+        probes[0] = uv;
+        Self {
+            probes,
+            count: 1,
+            lod,
+        }
+    }
+
+    /// The footprint of a pixel at `uv` with screen derivatives `duv_dx`,
+    /// `duv_dy` on a `width × height` map (type docs); isotropic or
+    /// magnified footprints get one probe.
+    #[must_use]
+    pub fn of(uv: Vec2, duv_dx: Vec2, duv_dy: Vec2, width: usize, height: usize) -> Self {
+        let s = Vec2::new(width as f32, height as f32);
+        let (lx, ly) = ((duv_dx * s).length(), (duv_dy * s).length());
+        let (major, minor, axis) = if lx >= ly {
+            (lx, ly, duv_dx)
+        } else {
+            (ly, lx, duv_dy)
+        };
+        let level = |rho: f32| {
+            if rho > 1.0 {
+                0.5 * ((rho * rho + 2.0) / 3.0).log2()
+            } else {
+                0.0
+            }
+        };
+        if !(major.is_finite() && minor.is_finite()) || major <= 1.0 {
+            return Self::point(uv, 0.0);
+        }
+        let n = ((major / minor.max(1e-6)).ceil() as usize).clamp(1, MAX_PROBES);
+        let lod = level((major / n as f32).max(minor));
+        let mut probes = [uv; MAX_PROBES];
+        for (i, p) in probes.iter_mut().enumerate().take(n) {
+            *p = uv + axis * ((i as f32 + 0.5) / n as f32 - 0.5);
+        }
+        Self {
+            probes,
+            count: n,
+            lod,
+        }
+    }
+
+    /// The probes in use.
+    #[must_use]
+    pub fn probes(&self) -> &[Vec2] {
+        &self.probes[..self.count]
+    }
+}
+
+/// The mean over `fp`'s probes of a linear pyramid ([`sample_pyramid`]).
+#[must_use]
+pub fn sample_footprint<T: Linear>(levels: &[(usize, usize, Vec<T>)], fp: &Footprint) -> T {
+    let w = 1.0 / fp.count as f32;
+    fp.probes().iter().fold(T::ZERO, |a, &p| {
+        a.add_scaled(w, sample_pyramid(levels, p, fp.lod))
+    })
+}
+
 /// A per-texel quantity that MIP-filters linearly (box averages and
 /// trilinear taps are weighted sums): the mean normal, LEAN's moments.
 pub trait Linear: Copy + Send + Sync {
@@ -164,6 +257,12 @@ impl MeanPyramid {
     #[must_use]
     pub fn sample(&self, uv: Vec2, lod: f32) -> Vec3 {
         sample_pyramid(&self.levels, uv, lod)
+    }
+
+    /// The mean over an anisotropic footprint's probes.
+    #[must_use]
+    pub fn sample_footprint(&self, fp: &Footprint) -> Vec3 {
+        sample_footprint(&self.levels, fp)
     }
 }
 

@@ -8,9 +8,10 @@
 //! representation's mean normal, `effective::lambert_tail_env`, evaluated in
 //! the environment's frame) and point lights (every [`NdfBrdf`]) off normal-mapped objects,
 //! each pixel shading the NDF of its MIP footprint: the level is
-//! [`crate::lod_of`] the uv derivatives from
-//! `relight_render::raster::barycentric_derivatives`, and the pyramids are
-//! sampled trilinearly. [`NdfFilter`] picks the representation or a baseline.
+//! [`crate::Footprint::of`] the uv derivatives from
+//! `relight_render::raster::barycentric_derivatives` (anisotropic: up to 8
+//! trilinear probes along the footprint's major axis, averaged — every
+//! representation filters linearly). [`NdfFilter`] picks the representation or a baseline.
 //!
 //! # The BRDF
 //! The method shades the model of [`NdfOptions::brdf`] (the effective forms
@@ -29,7 +30,7 @@ use crate::effective::{
 };
 use crate::lean::{LeanPyramid, LeanTexel, shade_lean};
 use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
-use crate::{MeanPyramid, NdfError, ShNdfPyramid, lod_of};
+use crate::{Footprint, MeanPyramid, NdfError, ShNdfPyramid};
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use relight_render::method::{
     FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support,
@@ -322,7 +323,7 @@ impl NdfMethod {
         frame: &Frame,
         hand: f32,
         uv: Vec2,
-        lod: f32,
+        fp: &Footprint,
         light: &[f32; 27],
         scene: &Scene,
         has_env: bool,
@@ -353,14 +354,39 @@ impl NdfMethod {
             (Some((m, _)), NdfFilter::None) => Rep::Normal(m.sample(uv)),
             (Some((_, b)), NdfFilter::Sh) => {
                 if let Some(sh) = &b.sh {
-                    sh.sample(uv, lod, &mut gamma);
+                    let nn = sh.order * sh.order;
+                    if fp.count == 1 {
+                        sh.sample(fp.probes[0], fp.lod, &mut gamma);
+                    } else {
+                        // Linear: the probes' mean is the footprint's NDF.
+                        let mut one = [0.0f32; 64];
+                        let w = 1.0 / fp.count as f32;
+                        for p in fp.probes() {
+                            sh.sample(*p, fp.lod, &mut one);
+                            for (g, v) in gamma[..nn].iter_mut().zip(&one[..nn]) {
+                                *g += w * v;
+                            }
+                        }
+                    }
                 }
                 Rep::Sh
             }
             (Some((_, b)), NdfFilter::Vmf) => {
                 let mut packed = [Vec4::ZERO; MAX_LOBES];
                 if let Some(v) = &b.vmf {
-                    v.sample(uv, lod, &mut packed);
+                    if fp.count == 1 {
+                        v.sample(fp.probes[0], fp.lod, &mut packed);
+                    } else {
+                        // Packed moments filter linearly (moment-matching merge).
+                        let mut one = [Vec4::ZERO; MAX_LOBES];
+                        let w = 1.0 / fp.count as f32;
+                        for p in fp.probes() {
+                            v.sample(*p, fp.lod, &mut one);
+                            for (q, o) in packed[..v.lobes].iter_mut().zip(&one[..v.lobes]) {
+                                *q += *o * w;
+                            }
+                        }
+                    }
                     for p in &packed[..v.lobes] {
                         if let Some(l) = unpack(*p) {
                             lobes[nl] = l;
@@ -373,9 +399,9 @@ impl NdfMethod {
             (Some((_, b)), NdfFilter::Lean) => Rep::Lean(
                 b.lean
                     .as_ref()
-                    .map_or_else(|| LeanTexel::of_normal(Vec3::Z), |l| l.sample(uv, lod)),
+                    .map_or_else(|| LeanTexel::of_normal(Vec3::Z), |l| l.sample_footprint(fp)),
             ),
-            (Some((_, b)), _) => Rep::Mean(b.mean.sample(uv, lod)),
+            (Some((_, b)), _) => Rep::Mean(b.mean.sample_footprint(fp)),
         };
         let baseline = match self.options.filter {
             NdfFilter::Unnormalized => Baseline::Unnormalized,
@@ -760,7 +786,7 @@ impl Relighter for NdfMethod {
                         let uv = o.uvs[i0] * lam.x + o.uvs[i1] * lam.y + o.uvs[i2] * lam.z;
                         let frame = Frame::from_normal_tangent(n, tg.truncate());
                         let hand = if tg.w < 0.0 { -1.0 } else { 1.0 };
-                        let lod = match &o.map {
+                        let fp = match &o.map {
                             Some((_, b)) => {
                                 let tl = match &cached {
                                     Some((cd, ct, tl)) if *cd == d && *ct == tri => tl,
@@ -775,9 +801,11 @@ impl Relighter for NdfMethod {
                                     }
                                 };
                                 tl.duv(&basis, x as f32 + 0.5, y as f32 + 0.5)
-                                    .map_or(0.0, |[dx, dy]| lod_of(dx, dy, b.width, b.height))
+                                    .map_or(Footprint::point(uv, 0.0), |[dx, dy]| {
+                                        Footprint::of(uv, dx, dy, b.width, b.height)
+                                    })
                             }
-                            None => 0.0,
+                            None => Footprint::point(uv, 0.0),
                         };
                         let mut light = [0.0f32; 27];
                         let (l0, l1, l2) = (
@@ -789,7 +817,7 @@ impl Relighter for NdfMethod {
                             light[j] = l0[j] * lam.x + l1[j] * lam.y + l2[j] * lam.z;
                         }
                         *px = this.shade(
-                            o, position, eye, &frame, hand, uv, lod, &light, scene, has_env,
+                            o, position, eye, &frame, hand, uv, &fp, &light, scene, has_env,
                         );
                     }
                 });

@@ -510,3 +510,41 @@ fn masked_lobes_match_monte_carlo_at_grazing_views() {
         );
     }
 }
+
+#[test]
+fn footprint_probes_span_the_major_axis() {
+    use glam::Vec2;
+    use relight_ndf::Footprint;
+    // The level whose texel ⊗ bilinear tent has the variance of a ρ-texel box
+    // over bilinear level 0: 4^k/4 = ρ²/12 + 1/6.
+    let level = |rho: f32| 0.5 * ((rho * rho + 2.0) / 3.0).log2();
+    let uv = Vec2::new(0.3, 0.6);
+    // Isotropic: one probe.
+    let (dx, dy) = (Vec2::new(4.0, 0.0) / 64.0, Vec2::new(0.0, 4.0) / 64.0);
+    let f = Footprint::of(uv, dx, dy, 64, 64);
+    assert_eq!(f.count, 1);
+    assert!((f.lod - level(4.0)).abs() < 1e-6);
+    assert!((4.0f32.powf(f.lod) / 4.0 - (16.0 / 12.0 + 1.0 / 6.0)).abs() < 1e-5);
+    // 4:1 along y: 4 probes over ∂uv/∂y at the minor axis' level (2 texels).
+    let (dx, dy) = (Vec2::new(2.0, 0.0) / 64.0, Vec2::new(0.0, 8.0) / 64.0);
+    let f = Footprint::of(uv, dx, dy, 64, 64);
+    assert_eq!(f.count, 4);
+    assert!((f.lod - level(2.0)).abs() < 1e-6, "{}", f.lod);
+    let mean = f.probes().iter().copied().sum::<Vec2>() / 4.0;
+    assert!((mean - uv).length() < 1e-6);
+    let span = f.probes()[3] - f.probes()[0];
+    assert!((span - dy * 0.75).length() < 1e-6, "{span}");
+    // 100:1 is capped at 8 probes of 12.5 texels.
+    let f = Footprint::of(
+        uv,
+        Vec2::new(1.0, 0.0) / 64.0,
+        Vec2::new(0.0, 100.0) / 64.0,
+        64,
+        64,
+    );
+    assert_eq!(f.count, relight_ndf::MAX_PROBES);
+    assert!((f.lod - level(12.5)).abs() < 1e-5);
+    // Magnified: level 0.
+    let f = Footprint::of(uv, dx / 4.0, dy / 16.0, 64, 64);
+    assert_eq!((f.count, f.lod), (1, 0.0));
+}
