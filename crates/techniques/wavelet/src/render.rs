@@ -640,7 +640,7 @@ impl WaveletRenderer {
         };
         cache.begin(camera.eye, key, &sizes, &view_dependent);
         // Vertices of visible triangles not yet shaded for this eye and lighting.
-        let todo = {
+        let mut todo = {
             let r = &*raster;
             let g = r.gbuffer();
             let stamps = &cache.stamps;
@@ -657,7 +657,12 @@ impl WaveletRenderer {
                         let Some((d, t)) = r.locate(id) else { continue };
                         let stamp = current[d];
                         for &v in &draws[d].triangles[t] {
-                            if stamps[d][v as usize].swap(stamp, Ordering::Relaxed) != stamp {
+                            // A vertex is seen from several triangles: test
+                            // before the (locked) swap that claims it.
+                            let s = &stamps[d][v as usize];
+                            if s.load(Ordering::Relaxed) != stamp
+                                && s.swap(stamp, Ordering::Relaxed) != stamp
+                            {
                                 todo.push((d as u32, v));
                             }
                         }
@@ -672,6 +677,11 @@ impl WaveletRenderer {
                     a
                 })
         };
+        // In mesh order: neighbouring vertices have nearby normals and views,
+        // so consecutive ones read the same local-lighting rows, slices and
+        // memo pairs while they are in cache (the scan order above jumps
+        // across objects and rows).
+        todo.par_sort_unstable();
         let eye = camera.eye;
         let memo = cache.memo.as_ref().filter(|_| use_memo);
         let slice_terms = |d: usize| brdfs[d].params.terms as u32;
