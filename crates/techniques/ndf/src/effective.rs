@@ -404,7 +404,9 @@ pub const LAMBERT_TAIL_ORDER: usize = 9;
 
 /// The bands `4 ≤ l < n` of Lambert under SH lighting `light` (`n²`
 /// coefficients, `n ≤ 16`, in the frame of `m`) for an NDF taken beyond its
-/// band 2 as one vMF lobe at its mean normal `m` (`|m| ≤ 1`, κ = A⁻¹(|m|);
+/// band 2 as one vMF lobe at its mean normal `m` (`|m| ≤ 1`, κ from `|m|`
+/// by [`crate::vmf::kappa_estimate`], `A_l` by
+/// [`crate::vmf::sh_attenuation_forward`];
 /// `|m|` at the clamp's resultant or beyond is a delta):
 /// `Σ_{even l ≥ 4} Λ_l A_l(κ) Σ_m y_lm(m̂) L_lm / π`. It completes
 /// [`lambert_sh_env`] as [`lambert_sh_dir`]'s remainder does for one
@@ -443,7 +445,8 @@ pub fn lambert_tail_channels<const C: usize>(
     }
     let mut a = [1.0f64; 16];
     if r < 1.0 - 1.5 / crate::vmf::KAPPA_MAX as f32 {
-        crate::vmf::sh_attenuation(crate::vmf::kappa_from_resultant(f64::from(r)), &mut a[..n]);
+        // Per pixel: Banerjee's κ estimate (as `unpack`) and forward steps.
+        crate::vmf::sh_attenuation_forward(f64::from(crate::vmf::kappa_estimate(r)), &mut a[..n]);
     }
     let y = &mut y[..n * n];
     relight_sh::eval_sh_into(n, (m / r).to_array(), y);

@@ -548,3 +548,19 @@ fn footprint_probes_span_the_major_axis() {
     let f = Footprint::of(uv, dx / 4.0, dy / 16.0, 64, 64);
     assert_eq!((f.count, f.lod), (1, 0.0));
 }
+
+#[test]
+fn forward_attenuation_matches_the_backward_recurrence() {
+    use relight_ndf::vmf::sh_attenuation_forward;
+    let mut worst = 0.0f64;
+    for i in 0..=80 {
+        let kappa = 10f64.powf(-3.0 + i as f64 * 0.1); // 1e-3 … 1e5
+        let (mut a, mut b) = ([0.0f64; 16], [0.0f64; 16]);
+        sh_attenuation(kappa, &mut a);
+        sh_attenuation_forward(kappa, &mut b);
+        for (x, y) in a.iter().zip(&b) {
+            worst = worst.max((x - y).abs());
+        }
+    }
+    assert!(worst < 1e-6, "max |forward − backward| = {worst}");
+}
