@@ -46,6 +46,8 @@ pub struct SceneRow {
     pub leaf_spheres: usize,
     pub clusters: usize,
     pub order: usize,
+    /// Blocker spheres per vertex the cluster culling kept (mean).
+    pub blockers_per_vertex: f64,
     pub ms_per_frame: f64,
     pub hz: f64,
     pub target_hz: f64,
@@ -261,6 +263,7 @@ fn bench_scene(
         m.shade_vertices(s)?;
     }
     let ms = t.elapsed().as_secs_f64() * 1e3 / frames as f64;
+    let (pairs, verts) = m.last_frame_pairs();
     let receivers = scene.objects.iter().map(|o| o.mesh.positions.len()).sum();
     Ok(SceneRow {
         scene: name.into(),
@@ -268,6 +271,7 @@ fn bench_scene(
         leaf_spheres: leaf,
         clusters: m.cluster_count(),
         order: opts.order,
+        blockers_per_vertex: pairs as f64 / verts.max(1) as f64,
         ms_per_frame: ms,
         hz: 1e3 / ms,
         target_hz,

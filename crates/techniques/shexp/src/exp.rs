@@ -322,7 +322,10 @@ impl<T: Real> Exponentiator<T> {
         }
         for _ in 0..s {
             let tmp = &mut self.bufs[1];
-            self.tp.square_with(out, tmp, &mut self.scratch);
+            // `product_with` runs the generated straight-line kernel (f32,
+            // orders it covers); `square_with` always takes the n⁴-scratch
+            // portable path. Same product, up to rounding.
+            self.tp.product_with(out, out, tmp, &mut self.scratch);
             out[..nn].copy_from_slice(&tmp[..nn]);
         }
         for v in &mut out[..nn] {
@@ -345,7 +348,7 @@ impl<T: Real> Exponentiator<T> {
         odd[0] = sqrt4pi;
         let mut odd_is_one = true;
         if p >= 2 {
-            self.tp.square_with(fh, f2, scratch);
+            self.tp.product_with(fh, fh, f2, scratch);
             pw[..nn].copy_from_slice(&f2[..nn]);
             let mut k = 2;
             loop {

@@ -506,11 +506,11 @@ fn accumulate_body<const F: bool>(
     }
     let scale = (k.entries - 1) as f32 / std::f32::consts::FRAC_PI_2;
     let last = (k.entries - 1) as f32;
-    let imax = (k.entries - 2) as u32;
+    let imax = (k.entries - 2) as i32;
     let mut any = [0.0f32; W];
     let (mut x, mut y, mut z) = ([0.0f32; W], [0.0f32; W], [0.0f32; W]);
     let mut wv = [0.0f32; W];
-    let mut idx = [0u32; W];
+    let mut idx = [0i32; W];
     let mut tt = [0.0f32; W];
     let mut zl = [[0.0f32; W]; MAX_N];
     let mut cm = [[0.0f32; W]; MAX_N];
@@ -532,9 +532,11 @@ fn accumulate_body<const F: bool>(
             z[j] = if pos { dz * inv } else { rec.n[2][j] };
             let s = if dist <= b.r { 1.0 } else { b.r * inv };
             let th = asin_lane::<F>(s);
-            let u = (th * scale).clamp(0.0, last);
-            let i = (u as u32).min(imax);
-            idx[j] = i * (2 * n) as u32;
+            // max/min, unlike clamp, turn a NaN (from a NaN position) into a bound.
+            let u = (th * scale).max(0.0).min(last);
+            // SAFETY: 0 ≤ u ≤ entries − 1 < 2³¹ and u is not NaN.
+            let i = unsafe { u.to_int_unchecked::<i32>() }.min(imax);
+            idx[j] = i * (2 * n) as i32;
             tt[j] = u - i as f32;
             wv[j] = if vis { 1.0 } else { 0.0 };
             any[j] = any[j].max(wv[j]);

@@ -151,6 +151,9 @@ pub struct ShExpMethod {
     state: Option<State>,
     raster: Rasterizer,
     histogram: SquaringHistogram,
+    /// Blocker–vertex pairs the last frame accumulated (before the
+    /// per-vertex tangent-plane test), and its vertices.
+    last_pairs: (u64, u64),
     pending_lighting_ms: f64,
 }
 
@@ -235,6 +238,7 @@ impl ShExpMethod {
             state: None,
             raster: Rasterizer::new(),
             histogram: SquaringHistogram::new(),
+            last_pairs: (0, 0),
             pending_lighting_ms: 0.0,
         })
     }
@@ -248,6 +252,14 @@ impl ShExpMethod {
     /// Squarings used by the exponentials since the last [`Self::take_histogram`].
     pub fn take_histogram(&mut self) -> SquaringHistogram {
         std::mem::replace(&mut self.histogram, SquaringHistogram::new())
+    }
+
+    /// Of the last frame: (blocker spheres summed over vertices, vertices):
+    /// what §5.2.4's culling left per cluster, before the per-vertex
+    /// tangent-plane test.
+    #[must_use]
+    pub fn last_frame_pairs(&self) -> (u64, u64) {
+        self.last_pairs
     }
 
     /// Leaf spheres of every blocker object (as prepared), with the object index.
@@ -683,6 +695,7 @@ impl ShExpMethod {
         let table = &*self.table;
         let factors = zonal_rotation_factors(n);
         let hist = Mutex::new(SquaringHistogram::new());
+        let pairs = std::sync::atomic::AtomicU64::new(0);
         let mut colors: Vec<Vec<Vec3>> = receivers
             .iter()
             .map(|m| vec![Vec3::ZERO; m.positions.len()])
@@ -846,6 +859,10 @@ impl ShExpMethod {
                         }
                     }
                     hist.lock().expect("histogram lock").merge(&local);
+                    pairs.fetch_add(
+                        (t.blockers.len() * cl.vertices.len()) as u64,
+                        std::sync::atomic::Ordering::Relaxed,
+                    );
                     out
                 },
             )
@@ -859,6 +876,10 @@ impl ShExpMethod {
         state.drawn = receivers;
         self.histogram
             .merge(&hist.into_inner().expect("histogram lock"));
+        self.last_pairs = (
+            pairs.into_inner(),
+            state.clusters.iter().map(|c| c.vertices.len() as u64).sum(),
+        );
         Ok(())
     }
 }

@@ -48,21 +48,51 @@ fn torus_sets_cover_every_vertex_and_the_hierarchy_nests() {
             rmax < 1.5 * (1.3 / (k as f32).sqrt()).max(0.35),
             "{k}: {rmax}"
         );
-        // Every inner node encloses its children; leaves are all reached once.
-        let mut seen = vec![0; s.spheres.len()];
-        for n in &s.nodes {
-            if let Some([a, b]) = n.children {
-                for c in [a, b] {
-                    let ch = s.nodes[c as usize].sphere;
-                    let d = n.sphere.c().distance(ch.c());
-                    assert!(d + ch.radius <= n.sphere.radius * (1.0 + 1e-4) + 1e-5);
+        // Every node encloses every leaf sphere below it, and is no larger than
+        // the sphere enclosing its two children; leaves are all reached once.
+        fn leaves_under(s: &SphereSet, i: usize, out: &mut Vec<usize>) {
+            match s.nodes[i].children {
+                Some([a, b]) => {
+                    leaves_under(s, a as usize, out);
+                    leaves_under(s, b as usize, out);
                 }
+                None => out.push(s.nodes[i].leaf.unwrap() as usize),
+            }
+        }
+        let mut seen = vec![0; s.spheres.len()];
+        for (i, n) in s.nodes.iter().enumerate() {
+            let mut under = Vec::new();
+            leaves_under(&s, i, &mut under);
+            for l in under {
+                let ch = s.spheres[l];
+                let d = n.sphere.c().distance(ch.c());
+                assert!(d + ch.radius <= n.sphere.radius * (1.0 + 1e-4) + 1e-5);
+            }
+            if let Some([a, b]) = n.children {
+                let nested = relight_shexp::Sphere::enclosing(
+                    &s.nodes[a as usize].sphere,
+                    &s.nodes[b as usize].sphere,
+                );
+                assert!(n.sphere.radius <= nested.radius * (1.0 + 1e-5));
             }
             if let Some(l) = n.leaf {
                 seen[l as usize] += 1;
             }
         }
         assert!(seen.iter().all(|&c| c == 1), "{seen:?}");
+        // The root is within 5 % of the ball about the torus' centre (the
+        // origin) that encloses the leaves, not the compounded enclosure of
+        // halves.
+        let about_origin = s
+            .spheres
+            .iter()
+            .map(|l| l.c().length() + l.radius)
+            .fold(0.0, f32::max);
+        assert!(
+            s.nodes[0].sphere.radius <= 1.05 * about_origin,
+            "{k}: root {} vs {about_origin}",
+            s.nodes[0].sphere.radius
+        );
         assert!(s.depth() <= 2 + (s.spheres.len() as f32).log2().ceil() as usize * 2);
         let json = serde_json::to_string(&s).unwrap();
         let back: SphereSet = serde_json::from_str(&json).unwrap();
