@@ -128,6 +128,10 @@ pub fn visible_fraction(t: f32, inv_kappa: f32) -> f32 {
 /// Stegun 7.1.26 (|error| ≤ 1.5e-7).
 #[inline]
 fn normal_cdf(x: f32) -> f32 {
+    // Beyond 6σ the tail (< 1e-9) rounds away: 1 or 0 without the `exp`.
+    if x.abs() > 6.0 {
+        return if x > 0.0 { 1.0 } else { 0.0 };
+    }
     let z = x.abs() * std::f32::consts::FRAC_1_SQRT_2;
     let k = 1.0 / (1.0 + 0.327_591_1 * z);
     let poly = k

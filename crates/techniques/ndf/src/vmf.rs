@@ -182,7 +182,8 @@ pub fn attenuation_012(inv_kappa: f32) -> [f32; 3] {
             k2 / 15.0 - 2.0 * k2 * k2 / 315.0,
         ];
     }
-    let e = (-2.0 * k).exp();
+    // e^{−2κ} < 5e-18 beyond κ = 20: coth κ is 1 in f32, no `exp` needed.
+    let e = if k > 20.0 { 0.0 } else { (-2.0 * k).exp() };
     let a1 = (1.0 + e) / (1.0 - e) - inv_kappa;
     [1.0, a1, 1.0 - 3.0 * a1 * inv_kappa]
 }
