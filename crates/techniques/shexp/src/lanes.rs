@@ -83,7 +83,8 @@ struct BasisPoly {
     l: u16,
     m: u16,
     odd: bool,
-    /// Coefficients in `coef[start..start + len]`, highest power first.
+    /// Coefficients in `coef[start..start + len]` while building (then
+    /// [`LaneKernel::coef4`]), highest power first.
     start: u32,
     len: u32,
 }
@@ -96,7 +97,10 @@ pub struct LaneKernel {
     /// Per entry `e`: `f_l(θ_e)`, `l < n`, then `f_l(θ_{e+1}) − f_l(θ_e)`.
     table: Vec<f32>,
     basis: Vec<BasisPoly>,
-    coef: Vec<f32>,
+    /// Per basis polynomial (index `l(l+1)/2 + m`), its coefficients in `z²`,
+    /// highest first, zero-padded in front to [`HORNER`] (so every Horner
+    /// runs the same, constant, number of steps; leading zeros are exact).
+    coef4: Vec<[f32; HORNER]>,
     out_start: Vec<u32>,
     terms: Vec<Term>,
     ol: OlFit,
@@ -250,6 +254,15 @@ impl LaneKernel {
                 });
             }
         }
+        let coef4 = basis
+            .iter()
+            .map(|bp| {
+                let mut c = [0.0f32; HORNER];
+                let src = &coef[bp.start as usize..(bp.start + bp.len) as usize];
+                c[HORNER - src.len()..].copy_from_slice(src);
+                c
+            })
+            .collect();
         // Gaunt terms by output.
         let tp = TripleProduct::<f64>::new(n)?;
         let nn = n * n;
@@ -275,7 +288,7 @@ impl LaneKernel {
             entries,
             table: t,
             basis,
-            coef,
+            coef4,
             out_start,
             terms,
             ol,
@@ -322,7 +335,7 @@ impl LaneKernel {
             }
             LanePath::Portable => {}
         }
-        accumulate_body::<false>(self, rec, blockers, f)
+        accumulate_by_order::<false, false>(self, rec, blockers, f)
     }
 
     /// `out = exp_*(f)` by `kind` (not [`ExpKind::Product`]) on every lane;
@@ -442,7 +455,7 @@ fn accumulate_avx512(
     blockers: &[LaneBlocker],
     f: &mut [Lane],
 ) -> u32 {
-    accumulate_body::<true>(k, rec, blockers, f)
+    accumulate_by_order::<true, true>(k, rec, blockers, f)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -453,7 +466,7 @@ fn accumulate_avx2(
     blockers: &[LaneBlocker],
     f: &mut [Lane],
 ) -> u32 {
-    accumulate_body::<true>(k, rec, blockers, f)
+    accumulate_by_order::<true, false>(k, rec, blockers, f)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -488,17 +501,61 @@ fn exp_avx2(
     exp_body::<true>(k, kind, f, any, lanes, s, out, hist);
 }
 
+/// `base[idx[j]]` for the 16 lanes, one AVX-512 gather.
+///
+/// # Safety
+/// AVX-512F must be available and every `base + idx[j]` readable.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn gather16(base: *const f32, idx: &[i32; W]) -> Lane {
+    use std::arch::x86_64::{_mm512_i32gather_ps, _mm512_loadu_si512, _mm512_storeu_ps};
+    let mut out = [0.0f32; W];
+    // SAFETY: as the caller promises.
+    unsafe {
+        let vi = _mm512_loadu_si512(idx.as_ptr().cast());
+        let v = _mm512_i32gather_ps::<4>(vi, base.cast());
+        _mm512_storeu_ps(out.as_mut_ptr().cast(), v);
+    }
+    out
+}
+
 /// Most bands the kernel handles (the method's limit).
 const MAX_N: usize = 8;
 
+/// Most coefficients of a basis polynomial in `z²`: `(l − m)/2 + 1` for `l < MAX_N`.
+const HORNER: usize = MAX_N.div_ceil(2);
+
+/// Per order: a body with the order a constant (loops unrolled) for the
+/// usual orders, the run-time order otherwise.
 #[inline(always)]
-fn accumulate_body<const F: bool>(
+fn accumulate_by_order<const F: bool, const G: bool>(
     k: &LaneKernel,
     rec: &LaneReceivers,
     blockers: &[LaneBlocker],
     f: &mut [Lane],
 ) -> u32 {
-    let n = k.order;
+    match k.order {
+        3 => accumulate_body::<F, G, 3>(k, rec, blockers, f),
+        4 => accumulate_body::<F, G, 4>(k, rec, blockers, f),
+        5 => accumulate_body::<F, G, 5>(k, rec, blockers, f),
+        6 => accumulate_body::<F, G, 6>(k, rec, blockers, f),
+        _ => accumulate_body::<F, G, 0>(k, rec, blockers, f),
+    }
+}
+
+/// `N`: the order when non-zero (it must then equal `k.order`), else
+/// `k.order` at run time; `G`: AVX-512 gathers for the table (only inside
+/// [`accumulate_avx512`]).
+#[inline(always)]
+fn accumulate_body<const F: bool, const G: bool, const N: usize>(
+    k: &LaneKernel,
+    rec: &LaneReceivers,
+    blockers: &[LaneBlocker],
+    f: &mut [Lane],
+) -> u32 {
+    let n = if N == 0 { k.order } else { N };
+    debug_assert_eq!(n, k.order);
     let nn = n * n;
     let f = &mut f[..nn];
     for v in f.iter_mut() {
@@ -513,8 +570,6 @@ fn accumulate_body<const F: bool>(
     let mut idx = [0i32; W];
     let mut tt = [0.0f32; W];
     let mut zl = [[0.0f32; W]; MAX_N];
-    let mut cm = [[0.0f32; W]; MAX_N];
-    let mut sm = [[0.0f32; W]; MAX_N];
     let mut z2 = [0.0f32; W];
     let tab = &k.table[..];
     for b in blockers {
@@ -541,8 +596,29 @@ fn accumulate_body<const F: bool>(
             wv[j] = if vis { 1.0 } else { 0.0 };
             any[j] = any[j].max(wv[j]);
         }
+        // Below every lane's tangent plane: nothing to add (an integer
+        // count, which vectorises; a float max-fold is serial).
+        if wv.iter().map(|&w| u32::from(w > 0.0)).sum::<u32>() == 0 {
+            continue;
+        }
         for l in 0..n {
             let zl = &mut zl[l];
+            #[cfg(target_arch = "x86_64")]
+            if G {
+                // SAFETY: only reached inside `accumulate_avx512` (AVX-512F);
+                // idx ≤ (entries − 2)·2n and l < n, so every offset + n is
+                // inside the table.
+                let (a, d) = unsafe {
+                    (
+                        gather16(tab.as_ptr().add(l), &idx),
+                        gather16(tab.as_ptr().add(l + n), &idx),
+                    )
+                };
+                for j in 0..W {
+                    zl[j] = fma::<F>(d[j], tt[j], a[j]) * wv[j];
+                }
+                continue;
+            }
             for j in 0..W {
                 let e = idx[j] as usize + l;
                 // SAFETY: idx ≤ (entries − 2)·2n and l < n, so e + n < table.len().
@@ -552,43 +628,60 @@ fn accumulate_body<const F: bool>(
         }
         for j in 0..W {
             z2[j] = z[j] * z[j];
-            cm[0][j] = 1.0;
-            sm[0][j] = 0.0;
         }
-        for m in 1..n {
-            for j in 0..W {
-                let (c, s) = (cm[m - 1][j], sm[m - 1][j]);
-                cm[m][j] = fma::<F>(c, x[j], -(s * y[j]));
-                sm[m][j] = fma::<F>(s, x[j], c * y[j]);
-            }
-        }
-        for bp in &k.basis {
-            let (l, m) = (bp.l as usize, bp.m as usize);
-            let c = &k.coef[bp.start as usize..(bp.start + bp.len) as usize];
-            let mut q = [c[0]; W];
-            for &ci in &c[1..] {
+        // m-major, so that Re/Im (x + iy)^m stay in registers.
+        let steps = n.div_ceil(2);
+        let (mut cm, mut sm) = ([1.0f32; W], [0.0f32; W]);
+        for m in 0..n {
+            if m > 0 {
+                let (mut c2, mut s2) = ([0.0f32; W], [0.0f32; W]);
                 for j in 0..W {
-                    q[j] = fma::<F>(q[j], z2[j], ci);
+                    c2[j] = fma::<F>(cm[j], x[j], -(sm[j] * y[j]));
+                    s2[j] = fma::<F>(sm[j], x[j], cm[j] * y[j]);
                 }
+                (cm, sm) = (c2, s2);
             }
-            for j in 0..W {
-                let v = if bp.odd { q[j] * z[j] } else { q[j] };
-                q[j] = v * zl[l][j];
-            }
-            let centre = l * (l + 1);
-            if m == 0 {
-                let o = &mut f[centre];
-                for j in 0..W {
-                    o[j] += q[j];
+            for l in m..n {
+                let bi = l * (l + 1) / 2 + m;
+                let bp = &k.basis[bi];
+                let odd = (l - m) % 2 == 1;
+                debug_assert_eq!(
+                    (bp.l as usize, bp.m as usize, bp.odd, bp.len as usize),
+                    (l, m, odd, (l - m) / 2 + 1)
+                );
+                // Horner over the padded coefficients: `steps` = the most any
+                // polynomial of this order needs.
+                let c = &k.coef4[bi];
+                let mut q = [c[HORNER - steps]; W];
+                for &ci in &c[HORNER - steps + 1..] {
+                    for j in 0..W {
+                        q[j] = fma::<F>(q[j], z2[j], ci);
+                    }
                 }
-            } else {
-                let o = &mut f[centre + m];
-                for j in 0..W {
-                    o[j] = fma::<F>(q[j], cm[m][j], o[j]);
+                if odd {
+                    for j in 0..W {
+                        q[j] = q[j] * z[j] * zl[l][j];
+                    }
+                } else {
+                    for j in 0..W {
+                        q[j] *= zl[l][j];
+                    }
                 }
-                let o = &mut f[centre - m];
-                for j in 0..W {
-                    o[j] = fma::<F>(q[j], sm[m][j], o[j]);
+                let centre = l * (l + 1);
+                if m == 0 {
+                    let o = &mut f[centre];
+                    for j in 0..W {
+                        o[j] += q[j];
+                    }
+                } else {
+                    let o = &mut f[centre + m];
+                    for j in 0..W {
+                        o[j] = fma::<F>(q[j], cm[j], o[j]);
+                    }
+                    let o = &mut f[centre - m];
+                    for j in 0..W {
+                        o[j] = fma::<F>(q[j], sm[j], o[j]);
+                    }
                 }
             }
         }
