@@ -7,7 +7,7 @@ use crate::plot::PlotSpec;
 use crate::table::Report;
 use anyhow::{Result, anyhow};
 use relight_methods::MethodKind;
-use relight_viewer::bench::{FrameBenchOptions, MACHINE_GFMA, bench_frames};
+use relight_viewer::bench::{FrameBenchOptions, FrameBenchRow, MACHINE_GFMA, bench_frames};
 
 /// One plot per timed column: ms against image size, one line per method and case.
 const PLOTS: [PlotSpec<'static>; 4] = [
@@ -44,10 +44,17 @@ pub fn run(a: &BenchArgs, bar: &crate::progress::Bar) -> Result<()> {
             .collect::<Result<Vec<_>>>()?;
         opts.cases.retain(|c| kinds.contains(&c.options.kind()));
     }
-    let rows = bench_frames(&opts, bar)?;
+    let mut rows = bench_frames(&opts, bar)?;
     let report = Report {
         json: a.json,
         plot_dir: a.plot.clone(),
+    };
+    // JSON keeps each row's note whole; the text table names it by a key and
+    // lists every distinct note once under the table.
+    let notes = if a.json {
+        Vec::new()
+    } else {
+        note_keys(&mut rows)
     };
     report.table(
         &format!(
@@ -55,5 +62,71 @@ pub fn run(a: &BenchArgs, bar: &crate::progress::Bar) -> Result<()> {
         ),
         &rows,
         &PLOTS,
-    )
+    )?;
+    for (k, n) in notes.iter().enumerate() {
+        println!("{}: {n}", note_key(k));
+    }
+    Ok(())
+}
+
+/// The key of the `k`-th distinct note (`n1`, `n2`, …).
+fn note_key(k: usize) -> String {
+    format!("n{}", k + 1)
+}
+
+/// Replaces every row's note by the key of its text ([`note_key`]) and
+/// returns the distinct texts in order of first appearance.
+fn note_keys(rows: &mut [FrameBenchRow]) -> Vec<String> {
+    let mut notes: Vec<String> = Vec::new();
+    for r in rows {
+        if let Some(n) = r.note.take() {
+            let k = notes.iter().position(|x| *x == n).unwrap_or_else(|| {
+                notes.push(n);
+                notes.len() - 1
+            });
+            r.note = Some(note_key(k));
+        }
+    }
+    notes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(note: Option<&str>) -> FrameBenchRow {
+        FrameBenchRow {
+            method: "sh".into(),
+            case: "c".into(),
+            width: 1,
+            height: 1,
+            prepare_ms: 0.0,
+            view_change_ms: None,
+            light_change_ms: None,
+            first_still_ms: None,
+            refined_ms: None,
+            passes: 0,
+            work_fma: None,
+            machine_fraction: None,
+            note: note.map(str::to_string),
+            target: None,
+            pass: None,
+            source: None,
+        }
+    }
+
+    /// A note repeated on several rows is listed once; rows keep a key.
+    #[test]
+    fn distinct_notes_listed_once() {
+        let mut rows = vec![
+            row(Some("long ring warning")),
+            row(None),
+            row(Some("other")),
+            row(Some("long ring warning")),
+        ];
+        let notes = note_keys(&mut rows);
+        assert_eq!(notes, ["long ring warning", "other"]);
+        let keys: Vec<Option<&str>> = rows.iter().map(|r| r.note.as_deref()).collect();
+        assert_eq!(keys, [Some("n1"), None, Some("n2"), Some("n1")]);
+    }
 }

@@ -162,7 +162,9 @@ impl FrameBenchOptions {
             if first {
                 cases.push(FrameCase {
                     label: "order 6, per pixel, normal map",
-                    options: sh_options(&options_of, relight_shlight::ShRotationMethod::Exact),
+                    // The exact rotation `bench sh` times for this target
+                    // (the method's default, ZYZ: no per-pixel matrix build).
+                    options: sh_options(&options_of, relight_shlight::ShOptions::DEFAULT_ROTATION),
                     scene: BenchScene::NormalMap,
                     width,
                     height,

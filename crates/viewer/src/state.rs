@@ -687,19 +687,27 @@ fn mean_image(width: usize, height: usize, sum: &[Vec3], passes: usize) -> Image
     img
 }
 
+/// sRGB bytes of display-referred [0, 1] in 4096 steps, built once per
+/// process (it was rebuilt every frame).
+fn srgb_lut() -> &'static [u32; 4096] {
+    static LUT: std::sync::OnceLock<Box<[u32; 4096]>> = std::sync::OnceLock::new();
+    LUT.get_or_init(|| {
+        let mut lut = Box::new([0u32; 4096]);
+        for (i, v) in lut.iter_mut().enumerate() {
+            let s = relight_assets::linear_to_srgb(i as f32 / 4095.0);
+            *v = (s * 255.0 + 0.5).clamp(0.0, 255.0) as u32;
+        }
+        lut
+    })
+}
+
 /// Tone-maps `image` (ACES, sRGB) into 0x00RRGGBB words for a window.
 pub fn to_display(image: &Image, out: &mut [u32]) {
     use rayon::prelude::*;
     let tone = relight_assets::ToneMap::default();
     // One exp2 per frame, not three per pixel (it was 13 % of a wavelet frame).
     let scale = tone.scale();
-    // sRGB of display-referred [0, 1] in 4096 steps.
-    let lut: Vec<u32> = (0..4096)
-        .map(|i| {
-            let v = relight_assets::linear_to_srgb(i as f32 / 4095.0);
-            (v * 255.0 + 0.5).clamp(0.0, 255.0) as u32
-        })
-        .collect();
+    let lut = srgb_lut();
     let w = image.width.max(1);
     out.par_chunks_mut(w)
         .zip(image.pixels.par_chunks(w))

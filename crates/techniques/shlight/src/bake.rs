@@ -319,7 +319,7 @@ impl BrdfShTable {
 
     /// Interpolation position of `cos θ_o`: lower sample and weight, or
     /// `None` below the horizon (also for NaN).
-    #[inline]
+    #[inline(always)]
     fn locate(&self, cos_theta_o: f32) -> Option<(usize, f32)> {
         if cos_theta_o.is_nan() || cos_theta_o <= 0.0 {
             return None;
@@ -361,6 +361,51 @@ impl BrdfShTable {
         );
         for ((o, x), y) in out.iter_mut().zip(s0).zip(s1) {
             *o = x + a * (y - x);
+        }
+        true
+    }
+
+    /// [`BrdfShTable::lookup_mono`] times the band window `h` (one factor
+    /// per coefficient, `order²`), in one pass, for a table that has the
+    /// rank-1 factorisation (else `false`, `out` untouched). `F`: fused
+    /// multiply-adds (inside a caller compiled for FMA).
+    ///
+    /// # Panics
+    /// As [`BrdfShTable::lookup_mono`], or if `h` is shorter than `order²`.
+    #[inline(always)]
+    pub(crate) fn lookup_mono_windowed<const F: bool>(
+        &self,
+        cos_theta_o: f32,
+        order: usize,
+        h: &[f32],
+        out: &mut [f32],
+    ) -> bool {
+        assert!(
+            order <= self.order,
+            "lookup order {order} above the baked {}",
+            self.order
+        );
+        let Some((_, m)) = &self.mono else {
+            return false;
+        };
+        let k = order * order;
+        let (out, h) = (&mut out[..k], &h[..k]);
+        let Some((j0, a)) = self.locate(cos_theta_o) else {
+            out.fill(0.0);
+            return true;
+        };
+        let nn = self.order * self.order;
+        let (s0, s1) = (
+            &m[j0 * nn..j0 * nn + k],
+            &m[(j0 + 1) * nn..(j0 + 1) * nn + k],
+        );
+        for (((o, x), y), w) in out.iter_mut().zip(s0).zip(s1).zip(h) {
+            let v = if F {
+                a.mul_add(y - x, *x)
+            } else {
+                x + a * (y - x)
+            };
+            *o = v * w;
         }
         true
     }

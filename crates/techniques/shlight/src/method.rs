@@ -32,9 +32,10 @@ use crate::bake::{BakeOptions, BrdfShTable};
 use crate::relight::{Background, check_meshes};
 use crate::{LitScene, NormalMap, ShLightError, ShRenderer, ShRotationMethod};
 use relight_render::method::{
-    FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
+    FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
 };
 use relight_render::{Image, Progress, Scene};
+use relight_sh::rotation::ZyzRotation;
 use relight_sh::window::{ChosenWindow, WindowChoice};
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -302,6 +303,64 @@ impl Relighter for ShMethod {
             std::mem::take(&mut self.pending_lighting_ms),
             t,
         ))
+    }
+
+    /// The last frame's covered samples at [`crate::shade`]'s count per
+    /// sample (by object: its rotation, normal map and channels), read from
+    /// the last raster (the view of `request` once it was rendered); the
+    /// lighting change as the vertices of the whole scene lit by ZYZ, an upper
+    /// bound (a lighting change lights only the vertices frames see).
+    fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
+        let _ = request;
+        let state = self.state.as_ref()?;
+        let order = self.options.order;
+        let x_nnz = ZyzRotation::<f32>::new(order).ok()?.x_nonzeros();
+        let raster = state.raster();
+        let tables = state.tables();
+        let mut samples = vec![0u64; tables.len()];
+        for &id in &raster.gbuffer().triangle {
+            if let Some((d, _)) = raster.locate(id)
+                && let Some(c) = samples.get_mut(d)
+            {
+                *c += 1;
+            }
+        }
+        let view_fma = samples
+            .iter()
+            .enumerate()
+            .map(|(d, &n)| {
+                let channels = if tables[d].mono_colour().is_some() {
+                    1
+                } else {
+                    3
+                };
+                let mapped = scene.objects.get(d).is_some_and(|o| o.normal_map.is_some());
+                n as f64
+                    * crate::shade::sample_fma(
+                        order,
+                        self.options.rotation,
+                        mapped,
+                        channels,
+                        x_nnz,
+                    )
+            })
+            .sum();
+        let vertices: usize = scene
+            .objects
+            .iter()
+            .map(|o| {
+                let m = &o.mesh;
+                if m.tangents.len() == m.positions.len() && !m.positions.is_empty() {
+                    m.positions.len()
+                } else {
+                    3 * m.indices.len()
+                }
+            })
+            .sum();
+        Some(FrameWork {
+            view_fma,
+            lighting_fma: vertices as f64 * crate::relight::vertex_fma(order, x_nnz),
+        })
     }
 
     /// Bytes of the distinct BRDF tables of the prepared scene.

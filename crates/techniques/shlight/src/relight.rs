@@ -53,7 +53,7 @@
 //! are left out).
 
 use crate::bake::{BakeOptions, BrdfShTable};
-use crate::shade::{Bg, Pass};
+use crate::shade::{Bg, Pass, triangle_offsets};
 use crate::{MAX_SHADING_ORDER, NormalMap, ShLightError, check_shading_order};
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
@@ -66,6 +66,7 @@ use relight_sh::taylor::{TaylorOrder, TaylorRotation};
 use relight_sh::window::{ChosenWindow, LobeSet, WindowChoice};
 use relight_sphere::Frame;
 use std::str::FromStr;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// Which empty samples of a frame get the environment
@@ -250,7 +251,24 @@ pub(crate) struct Lit {
     filtered_background: Option<(f32, [Vec<f32>; 3])>,
     /// Inverse of the lighting rotation, for background lookups.
     env_from_world: Mat3,
+    /// The lighting of the last [`ShRenderer::light`] (world frame, rotated
+    /// and filtered), `order_max²` per channel, that vertices are lit from
+    /// when they are first seen ([`Lit::shade_into`]); `None` before.
+    world_light: Option<[Vec<f32>; 3]>,
+    /// Stamp of `world_light`: a vertex whose stamp
+    /// ([`DrawData::stamp`]) equals it holds `L_v` of that lighting.
+    epoch: u32,
+    /// The ZYZ plan of the per-vertex rotation at `order_max`.
+    vertex_zyz: ZyzRotation<f32>,
+    /// The rotation machinery of the last frame's (order, method, β limit).
+    rotator: Mutex<Option<Arc<Rotator>>>,
+    /// Vertices lit by the last [`Lit::shade_into`] (for the work count).
+    pub(crate) last_relit: usize,
 }
+
+/// A [`DrawData::stamp`] of a vertex that the visible-vertex scan of a
+/// frame found stale ([`Lit::relight_visible`]).
+const STAMP_NEEDED: u32 = u32::MAX;
 
 /// [`Lit`] rasterized for one camera at `k × k` samples per pixel; shaded
 /// by [`Prepared::shade`].
@@ -268,8 +286,12 @@ pub(crate) struct DrawData {
     /// Per vertex: normal (3), tangent (4, w = handedness), uv (2).
     pub(crate) verts: Vec<[f32; 9]>,
     /// Per vertex the lighting in its frame, `L_v`: 3 channels × `order_max²`
-    /// (`light[v · 3n² + c · n² + i]`).
+    /// (`light[v · 3n² + c · n² + i]`), valid where [`DrawData::stamp`]
+    /// equals [`Lit`]'s epoch.
     pub(crate) light: Vec<f32>,
+    /// Per vertex: the epoch of the lighting `light` holds (0: never lit), or
+    /// [`STAMP_NEEDED`] during a frame's visible-vertex scan.
+    stamp: Vec<AtomicU32>,
 }
 
 impl ShRenderer {
@@ -530,6 +552,7 @@ impl ShRenderer {
         progress.check()?;
         let light = project_env(&scene.env, order_max, Window::None)?;
         self.light(&mut lit, &light, progress)?;
+        lit.relight_all();
         let k = self.supersampling;
         let mut camera = scene.camera;
         camera.width *= k;
@@ -605,6 +628,7 @@ impl ShRenderer {
                 .collect();
             draws.push(DrawData {
                 light: vec![0.0f32; positions.len() * 3 * nn],
+                stamp: (0..positions.len()).map(|_| AtomicU32::new(0)).collect(),
                 positions,
                 triangles,
                 verts,
@@ -618,14 +642,21 @@ impl ShRenderer {
             windows,
             filtered_background: None,
             env_from_world: Mat3::IDENTITY,
+            world_light: None,
+            epoch: 0,
+            vertex_zyz: ZyzRotation::new(order_max)?,
+            rotator: Mutex::new(None),
+            last_relit: 0,
         })
     }
 
     /// Steps 1–2 for `lit`: `light` (the environment projected onto
     /// `lit.order_max` bands in its own frame) rotated exactly by the
-    /// lighting rotation ([`ShRenderer::with_lighting_rotation`]), filtered
-    /// ([`ShRenderer::with_lighting_filter`]) and rotated into every vertex
-    /// frame (exact Ivanic–Ruedenberg matrix per vertex, in parallel).
+    /// lighting rotation ([`ShRenderer::with_lighting_rotation`]) and
+    /// filtered ([`ShRenderer::with_lighting_filter`]); each vertex frame
+    /// gets it (exact ZYZ per vertex, in parallel) when a frame first sees
+    /// the vertex ([`Lit::shade_into`]), or all at once by
+    /// [`Lit::relight_all`].
     ///
     /// # Errors
     /// `light` of another order than `lit`, cancellation.
@@ -667,42 +698,15 @@ impl ShRenderer {
             }
             filtered_background = Some((f.direct, filtered.channels));
         }
-        let nn = order_max * order_max;
-        let zyz = ZyzRotation::<f32>::new(order_max)?;
-        let total: u64 = lit.draws.iter().map(|d| d.positions.len() as u64).sum();
-        progress.start("sh per-vertex lighting", total.max(1));
-        for d in &mut lit.draws {
-            progress.check()?;
-            let verts = &d.verts;
-            d.light
-                .par_chunks_mut(3 * nn)
-                .zip(verts.par_iter())
-                .with_min_len(256)
-                .for_each_init(
-                    || vec![0.0f32; nn],
-                    |tmp, (dst, a)| {
-                        let n = Vec3::new(a[0], a[1], a[2]);
-                        let t = Vec3::new(a[3], a[4], a[5]);
-                        let f = Frame::from_normal_tangent(n, t);
-                        // local_from_world: rows are the frame axes (exact ZYZ:
-                        // three Z rotations and two fixed sparse X matrices).
-                        let e =
-                            Rot3::new_unchecked([f.x.to_array(), f.y.to_array(), f.z.to_array()])
-                                .euler_zyz();
-                        for c in 0..3 {
-                            zyz.apply_euler(
-                                &e,
-                                &light.channels[c],
-                                &mut dst[c * nn..(c + 1) * nn],
-                                tmp,
-                            );
-                        }
-                    },
-                );
-            progress.inc(d.positions.len() as u64);
-        }
-        progress.finish();
+        // Step 2 is lazy: a vertex is rotated into its frame when a frame
+        // first sees it after this change (`Lit::relight_visible`), so a
+        // lighting change costs the visible vertices only.
         progress.check()?;
+        lit.world_light = Some(light.channels);
+        lit.epoch = match lit.epoch.wrapping_add(1) {
+            0 | STAMP_NEEDED => 1,
+            e => e,
+        };
         lit.filtered_background = filtered_background;
         lit.env_from_world = env_from_world;
         Ok(())
@@ -791,10 +795,22 @@ fn flip_sign(i: usize) -> f32 {
     if m < 0 { -s } else { s }
 }
 
+/// Fused multiply-adds of lighting one vertex at `order` bands
+/// ([`Lit::relight_visible`]): its frame and Euler angles (≈ 40), then per
+/// channel three Z rotations and the two fixed X matrices of the ZYZ plan
+/// (`x_nonzeros` non-zeros each).
+#[must_use]
+pub(crate) fn vertex_fma(order: usize, x_nonzeros: usize) -> f64 {
+    let n = order as f64;
+    let z = 2.0 * n * n + 4.0 * n;
+    40.0 + 3.0 * (3.0 * z + 2.0 * x_nonzeros as f64)
+}
+
 /// The rotation machinery of one (order, method).
 pub(crate) struct Rotator {
     order: usize,
     method: ShRotationMethod,
+    beta_lim: f32,
     exact: Option<IvanicRuedenberg<f32>>,
     zyz: Option<ZyzRotation<f32>>,
     taylor: Option<TaylorRotation<f32>>,
@@ -805,6 +821,7 @@ impl Rotator {
         Ok(Self {
             order,
             method,
+            beta_lim,
             exact: (method == ShRotationMethod::Exact)
                 .then(|| IvanicRuedenberg::new(order))
                 .transpose()?,
@@ -885,9 +902,33 @@ impl Prepared {
         beta_lim: f32,
         env_background: bool,
     ) -> Result<ShImage, ShLightError> {
+        self.shade_with(
+            scene,
+            order,
+            method,
+            normal_map,
+            beta_lim,
+            env_background,
+            false,
+        )
+    }
+
+    /// [`Prepared::shade`]; `portable` forces the portable copy of the
+    /// per-pixel pass (tests compare it with the AVX2 + FMA copy).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn shade_with(
+        &self,
+        scene: &Scene,
+        order: usize,
+        method: ShRotationMethod,
+        normal_map: Option<&NormalMap>,
+        beta_lim: f32,
+        env_background: bool,
+        portable: bool,
+    ) -> Result<ShImage, ShLightError> {
         let maps = vec![normal_map; self.lit.draws.len()];
         let mut hi = Image::new(self.camera.width, self.camera.height);
-        self.lit.shade_into(
+        self.lit.shade_lit(
             &self.raster,
             &self.camera,
             scene,
@@ -901,6 +942,7 @@ impl Prepared {
                 Background::Black
             },
             &mut hi,
+            portable,
         )?;
         if self.k == 1 {
             let mask = self.raster.gbuffer().coverage_mask();
@@ -953,6 +995,164 @@ impl Lit {
     /// geometry.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade_into(
+        &mut self,
+        raster: &Rasterizer,
+        camera: &Camera,
+        scene: &Scene,
+        order: usize,
+        method: ShRotationMethod,
+        normal_maps: &[Option<&NormalMap>],
+        beta_lim: f32,
+        background: Background,
+        out: &mut Image,
+    ) -> Result<(), ShLightError> {
+        self.check_raster(raster)?;
+        self.last_relit = self.relight_visible(raster);
+        self.shade_lit(
+            raster,
+            camera,
+            scene,
+            order,
+            method,
+            normal_maps,
+            beta_lim,
+            background,
+            out,
+            false,
+        )
+    }
+
+    /// A raster of this geometry: every triangle id in range.
+    fn check_raster(&self, raster: &Rasterizer) -> Result<(), ShLightError> {
+        let g = raster.gbuffer();
+        let ntri: usize = self.draws.iter().map(|d| d.triangles.len()).sum();
+        if g.triangle
+            .iter()
+            .any(|&t| t != NO_TRIANGLE && t as usize >= ntri)
+        {
+            return Err(RasterError::DrawMismatch { draw: 0 }.into());
+        }
+        Ok(())
+    }
+
+    /// Lights every vertex from the last lighting (eager step 2).
+    pub(crate) fn relight_all(&mut self) {
+        for d in &self.draws {
+            for s in &d.stamp {
+                s.store(STAMP_NEEDED, Ordering::Relaxed);
+            }
+        }
+        self.relight_needed();
+    }
+
+    /// Lights the vertices of every triangle the visibility buffer of
+    /// `raster` shows whose lighting is stale (step 2, lazily); returns how
+    /// many were lit. Rows are scanned in parallel, marking vertices
+    /// [`STAMP_NEEDED`]; then the marked vertices are rotated in parallel.
+    fn relight_visible(&mut self, raster: &Rasterizer) -> usize {
+        if self.world_light.is_none() {
+            return 0;
+        }
+        let g = raster.gbuffer();
+        let offsets = triangle_offsets(&self.draws);
+        let epoch = self.epoch;
+        let draws = &self.draws;
+        let w = g.width.max(1);
+        g.triangle.par_chunks(w).for_each(|ids| {
+            let mut last = NO_TRIANGLE;
+            let mut d = 0usize;
+            for &id in ids {
+                if id == NO_TRIANGLE || id == last {
+                    continue;
+                }
+                last = id;
+                if !(id >= offsets[d] && id < offsets[d + 1]) {
+                    d = offsets.partition_point(|&x| x <= id) - 1;
+                }
+                let draw = &draws[d];
+                for v in draw.triangles[(id - offsets[d]) as usize] {
+                    let st = &draw.stamp[v as usize];
+                    if st.load(Ordering::Relaxed) != epoch {
+                        st.store(STAMP_NEEDED, Ordering::Relaxed);
+                    }
+                }
+            }
+        });
+        self.relight_needed()
+    }
+
+    /// Rotates the lighting into the frame of every vertex marked
+    /// [`STAMP_NEEDED`] (exact ZYZ: three Z rotations and two fixed sparse X
+    /// matrices per channel) and stamps it; returns how many.
+    fn relight_needed(&mut self) -> usize {
+        let Some(light) = &self.world_light else {
+            return 0;
+        };
+        let nn = self.order_max * self.order_max;
+        let zyz = &self.vertex_zyz;
+        let epoch = self.epoch;
+        let mut count = 0;
+        for d in &mut self.draws {
+            let (verts, stamp) = (&d.verts, &d.stamp);
+            count += d
+                .light
+                .par_chunks_mut(3 * nn)
+                .zip(verts.par_iter().zip(stamp.par_iter()))
+                .with_min_len(1024)
+                .map_init(
+                    || vec![0.0f32; nn],
+                    |tmp, (dst, (a, st))| {
+                        if st.load(Ordering::Relaxed) != STAMP_NEEDED {
+                            return 0usize;
+                        }
+                        let n = Vec3::new(a[0], a[1], a[2]);
+                        let t = Vec3::new(a[3], a[4], a[5]);
+                        let f = Frame::from_normal_tangent(n, t);
+                        // local_from_world: rows are the frame axes.
+                        let e =
+                            Rot3::new_unchecked([f.x.to_array(), f.y.to_array(), f.z.to_array()])
+                                .euler_zyz();
+                        for c in 0..3 {
+                            zyz.apply_euler(&e, &light[c], &mut dst[c * nn..(c + 1) * nn], tmp);
+                        }
+                        st.store(epoch, Ordering::Relaxed);
+                        1
+                    },
+                )
+                .sum::<usize>();
+        }
+        count
+    }
+
+    /// The rotation machinery of (order, method, β limit), kept from the
+    /// last frame when it matches.
+    fn rotator(
+        &self,
+        order: usize,
+        method: ShRotationMethod,
+        beta_lim: f32,
+    ) -> Result<Arc<Rotator>, ShLightError> {
+        let mut cached = self
+            .rotator
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(r) = cached.as_ref()
+            && r.order == order
+            && r.method == method
+            && r.beta_lim.to_bits() == beta_lim.to_bits()
+        {
+            return Ok(r.clone());
+        }
+        let r = Arc::new(Rotator::new(order, method, beta_lim)?);
+        *cached = Some(r.clone());
+        Ok(r)
+    }
+
+    /// [`Lit::shade_into`] of vertices already lit (every vertex the raster
+    /// shows: after [`Lit::relight_all`] or [`Lit::relight_visible`]);
+    /// `portable` forces the portable copy of the pass (tests).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn shade_lit(
         &self,
         raster: &Rasterizer,
         camera: &Camera,
@@ -963,6 +1163,7 @@ impl Lit {
         beta_lim: f32,
         background: Background,
         out: &mut Image,
+        portable: bool,
     ) -> Result<(), ShLightError> {
         if normal_maps.len() != self.draws.len() {
             return Err(ShLightError::InvalidParameter {
@@ -981,15 +1182,7 @@ impl Lit {
                 why: format!("{order} exceeds the prepared order {}", self.order_max),
             });
         }
-        let g = raster.gbuffer();
-        let ntri: usize = self.draws.iter().map(|d| d.triangles.len()).sum();
-        if g.triangle
-            .iter()
-            .any(|&t| t != NO_TRIANGLE && t as usize >= ntri)
-        {
-            return Err(RasterError::DrawMismatch { draw: 0 }.into());
-        }
-        let rotator = Rotator::new(order, method, beta_lim)?;
+        let rotator = self.rotator(order, method, beta_lim)?;
         let k2 = order * order;
         let flip: Vec<f32> = (0..k2).map(flip_sign).collect();
         // Window factors per coefficient: the prepared ones at order_max, else
@@ -1039,7 +1232,7 @@ impl Lit {
             Background::All => Bg::All(bg_fn),
             Background::Partial(k) => Bg::Partial(k, bg_fn),
         };
-        pass.run(raster, camera, bg, out);
+        pass.run(raster, camera, bg, out, portable);
         Ok(())
     }
 }
@@ -1047,6 +1240,215 @@ impl Lit {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use relight_brdf::{Ggx, Lambert};
+    use relight_render::{NoProgress, Object};
+    use relight_sphere::{EnvMap, Param};
+
+    fn camera(eye: Vec3) -> Camera {
+        Camera {
+            eye,
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 45.0,
+            width: 64,
+            height: 48,
+            image_offset: Vec2::ZERO,
+        }
+    }
+
+    fn sky() -> EnvMap {
+        let sun = Vec3::new(0.5, 0.7, 0.4).normalize();
+        EnvMap::from_fn(
+            Param::LatLong {
+                width: 64,
+                height: 32,
+            },
+            move |d| {
+                let lobe = d.dot(sun).max(0.0).powi(8) * 6.0;
+                Vec3::new(0.3 + lobe, 0.35 + 0.8 * lobe, 0.5 + 0.3 * d.y.max(0.0))
+            },
+        )
+    }
+
+    /// A bumpy GGX sphere and a plain Lambert one.
+    fn scene() -> (Scene, NormalMap) {
+        let nm = NormalMap::bumps(64, 6, 0.6);
+        let a = Object::new(
+            Arc::new(relight_geom::shapes::uv_sphere_at(
+                Vec3::new(-0.6, 0.0, 0.0),
+                0.55,
+                32,
+                16,
+            )),
+            Arc::new(Ggx::isotropic(0.3, Vec3::new(1.0, 0.8, 0.5)).unwrap()),
+        );
+        let b = Object::new(
+            Arc::new(relight_geom::shapes::uv_sphere_at(
+                Vec3::new(0.6, 0.0, 0.0),
+                0.55,
+                32,
+                16,
+            )),
+            Arc::new(Lambert::new(Vec3::splat(0.7)).unwrap()),
+        );
+        (
+            Scene::new(vec![a, b], sky(), camera(Vec3::new(0.0, 0.4, 3.2))),
+            nm,
+        )
+    }
+
+    /// The AVX2 + FMA copy of the per-pixel pass computes what the portable
+    /// copy does (fused rounding only), for every rotation method.
+    #[test]
+    fn fma_pass_matches_the_portable_pass() {
+        let (scene, nm) = scene();
+        if !crate::shade::fma_path() {
+            eprintln!("no AVX2 + FMA on this CPU: both copies are the portable one");
+        }
+        for method in ShRotationMethod::ALL {
+            let r = ShRenderer::new(6, method).unwrap();
+            let p = r.prepare(&scene, Some(&nm), 6, &NoProgress).unwrap();
+            let shade = |portable| {
+                p.shade_with(&scene, 6, method, Some(&nm), f32::INFINITY, false, portable)
+                    .unwrap()
+            };
+            let (fast, slow) = (shade(false), shade(true));
+            let mut lit = 0;
+            for (i, (a, b)) in fast.image.pixels.iter().zip(&slow.image.pixels).enumerate() {
+                let tol = 1e-4 * b.abs().max_element().max(1.0);
+                assert!(
+                    (*a - *b).abs().max_element() <= tol,
+                    "{method}: pixel {i}: {a} vs {b}"
+                );
+                lit += usize::from(b.max_element() > 0.0);
+            }
+            assert!(lit > 500, "{method}: only {lit} lit pixels");
+        }
+    }
+
+    /// Lighting only the vertices a frame sees, after a lighting change and
+    /// a view change, gives the image of lighting every vertex (bit for bit:
+    /// a stale vertex would hold the old lighting), and lights fewer.
+    #[test]
+    fn lazy_vertex_lighting_equals_eager() {
+        let (scene, nm) = scene();
+        let maps = [Some(&nm), None];
+        let mut r = ShRenderer::new(6, ShRotationMethod::Zyz).unwrap();
+        let mut lit = r.build(&scene, 6, &|_| true, &NoProgress).unwrap();
+        let light = project_env(&scene.env, 6, Window::None).unwrap();
+        r.light(&mut lit, &light, &NoProgress).unwrap();
+        let mut raster = Rasterizer::new();
+        let mut img = Image::new(1, 1);
+        let cam_a = camera(Vec3::new(0.0, 0.4, 3.2));
+        let shade = |lit: &mut Lit, raster: &mut Rasterizer, cam: &Camera, img: &mut Image| {
+            lit.rasterize(cam, raster).unwrap();
+            lit.shade_into(
+                raster,
+                cam,
+                &scene,
+                6,
+                ShRotationMethod::Zyz,
+                &maps,
+                f32::INFINITY,
+                Background::Black,
+                img,
+            )
+            .unwrap();
+        };
+        shade(&mut lit, &mut raster, &cam_a, &mut img);
+        let total: usize = lit.draws.iter().map(|d| d.positions.len()).sum();
+        assert!(
+            lit.last_relit > 0 && lit.last_relit < total,
+            "{} of {total}",
+            lit.last_relit
+        );
+        // A lighting change, then a view from the side (other vertices).
+        r.set_lighting_rotation(Mat3::from_rotation_y(0.7)).unwrap();
+        r.light(&mut lit, &light, &NoProgress).unwrap();
+        let cam_b = camera(Vec3::new(2.4, 1.0, 2.0));
+        shade(&mut lit, &mut raster, &cam_b, &mut img);
+        assert!(lit.last_relit > 0 && lit.last_relit < total);
+        // The same view again lights nothing.
+        let lazy = img.clone();
+        shade(&mut lit, &mut raster, &cam_b, &mut img);
+        assert_eq!(lit.last_relit, 0);
+        assert_eq!(img.pixels, lazy.pixels);
+        lit.relight_all();
+        let mut eager = Image::new(1, 1);
+        lit.shade_lit(
+            &raster,
+            &cam_b,
+            &scene,
+            6,
+            ShRotationMethod::Zyz,
+            &maps,
+            f32::INFINITY,
+            Background::Black,
+            &mut eager,
+            false,
+        )
+        .unwrap();
+        assert_eq!(lazy.pixels, eager.pixels);
+    }
+
+    /// A shading normal that faces away from the viewer (here every vertex
+    /// normal of a quad that faces the camera, with and without a flat
+    /// normal map) sees the view at the horizon (`above_horizon`, the
+    /// reference's convention) instead of going black: under a uniform white
+    /// sky a Lambert surface of albedo 0.8 shows 0.8 everywhere.
+    #[test]
+    fn normals_facing_away_are_shaded_at_the_horizon_not_black() {
+        let n = Vec3::new(1.0, 0.0, -0.3).normalize();
+        let mesh = relight_geom::Mesh {
+            positions: vec![
+                Vec3::new(-1.0, -1.0, 0.0),
+                Vec3::new(1.0, -1.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(-1.0, 1.0, 0.0),
+            ],
+            normals: vec![n; 4],
+            uvs: vec![
+                Vec2::new(0.0, 0.0),
+                Vec2::new(1.0, 0.0),
+                Vec2::new(1.0, 1.0),
+                Vec2::new(0.0, 1.0),
+            ],
+            tangents: vec![Vec4::new(0.0, 1.0, 0.0, 1.0); 4],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+        };
+        let white = EnvMap::from_fn(
+            Param::LatLong {
+                width: 32,
+                height: 16,
+            },
+            |_| Vec3::ONE,
+        );
+        let o = Object::new(
+            Arc::new(mesh),
+            Arc::new(Lambert::new(Vec3::splat(0.8)).unwrap()),
+        );
+        let scene = Scene::new(vec![o], white, camera(Vec3::new(0.0, 0.0, 3.0)));
+        let flat = NormalMap::bumps(8, 1, 0.0);
+        for (method, nm) in [
+            (ShRotationMethod::Zyz, Some(&flat)),
+            (ShRotationMethod::Taylor1, Some(&flat)),
+            (ShRotationMethod::Zyz, None),
+        ] {
+            let img = ShRenderer::new(6, method)
+                .unwrap()
+                .with_env_background(false)
+                .render(&scene, nm, &NoProgress)
+                .unwrap();
+            let covered = img.mask.iter().filter(|&&m| m).count();
+            assert!(covered > 1000, "{covered}");
+            for (p, _) in img.image.pixels.iter().zip(&img.mask).filter(|(_, m)| **m) {
+                assert!(
+                    (*p - Vec3::splat(0.8)).abs().max_element() < 0.02,
+                    "{method}: {p}"
+                );
+            }
+        }
+    }
 
     /// The per-vertex lighting rotation (ZYZ from the frame's Euler angles)
     /// equals the Ivanic–Ruedenberg matrix of the same frame.

@@ -31,13 +31,74 @@ use crate::relight::{DrawData, Rotator};
 use crate::{MAX_SHADING_ORDER, NormalMap, ShRotationMethod};
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
-use relight_render::raster::{NO_TRIANGLE, Rasterizer};
+use relight_render::camera::CameraRays;
+use relight_render::raster::{GBuffer, NO_TRIANGLE, Rasterizer};
+use relight_render::reference::surface::above_horizon;
 use relight_render::{Camera, Image};
 use relight_sh::rotation::{ShRotation, rotate_z};
 use relight_sphere::Frame;
 use std::sync::Arc;
 
 const MAXN: usize = MAX_SHADING_ORDER * MAX_SHADING_ORDER;
+
+/// Draws whose triangle offsets [`Pass::run`] keeps on the stack.
+const MAX_DRAWS: usize = 64;
+
+/// First global triangle id of every draw, and the total.
+pub(crate) fn triangle_offsets(draws: &[DrawData]) -> Vec<u32> {
+    let mut offsets = Vec::with_capacity(draws.len() + 1);
+    let mut total = 0u32;
+    offsets.push(0);
+    for d in draws {
+        total += d.triangles.len() as u32;
+        offsets.push(total);
+    }
+    offsets
+}
+
+/// Fused multiply-adds of one covered sample at `order` bands (module docs,
+/// "Work per covered sample"): `channels` transfer vectors (1 for a rank-1
+/// table, else 3) rotated by `method` where `normal_mapped`, else only
+/// turned about z; `x_nonzeros` is one fixed X matrix's non-zeros of the
+/// ZYZ plan. A multiply or add alone counts as one.
+#[must_use]
+pub(crate) fn sample_fma(
+    order: usize,
+    method: ShRotationMethod,
+    normal_mapped: bool,
+    channels: usize,
+    x_nonzeros: usize,
+) -> f64 {
+    let n = order as f64;
+    let nn = n * n;
+    let ch = channels as f64;
+    // Interpolation (9 attributes, position), geometric normal, view and
+    // normal normalisation: ≈ 60; two Gram–Schmidt frames, the normal-map
+    // lookup and the local view: ≈ 90; acos and the table position: ≈ 10.
+    let setup = 160.0;
+    // Lerp and window: 2 per coefficient and channel.
+    let lookup = 2.0 * nn * ch;
+    // A Z rotation: 2 per coefficient plus the cos/sin recurrence of m φ.
+    let z = 2.0 * nn + 4.0 * n;
+    let band_sq: f64 = (0..order).map(|l| ((2 * l + 1) * (2 * l + 1)) as f64).sum();
+    let rotation = if !normal_mapped || method == ShRotationMethod::None {
+        z * ch
+    } else {
+        // T = F_vᵀ F_p R_z: two 3×3 products, then the SH rotation.
+        54.0 + ch
+            * match method {
+                ShRotationMethod::Exact => 16.0 * band_sq,
+                ShRotationMethod::Zyz => 3.0 * z + 2.0 * x_nonzeros as f64,
+                ShRotationMethod::Taylor1 => 2.0 * z + 3.0 * nn,
+                ShRotationMethod::Taylor15 => 2.0 * z + 4.0 * nn,
+                ShRotationMethod::Taylor2 => 2.0 * z + 5.0 * nn,
+                ShRotationMethod::None => 0.0,
+            }
+    };
+    // Three vertices' lighting, three output channels.
+    let dot = 9.0 * nn + 9.0;
+    setup + lookup + rotation + dot
+}
 
 /// Background of the empty samples (module docs).
 #[derive(Clone, Copy)]
@@ -107,13 +168,21 @@ impl Locator<'_> {
     }
 }
 
-/// `Σ_j λ_j ⟨l_j, b⟩` over the first `b.len()` coefficients (8-lane sums
-/// that the compiler vectorises).
-#[inline]
-fn dot3(l0: &[f32], l1: &[f32], l2: &[f32], lam: Vec3, b: &[f32]) -> f32 {
+/// `a · b + c`, fused where `F` (the caller runs with the FMA target
+/// feature, [`Pass::run`]).
+#[inline(always)]
+fn madd<const F: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if F { a.mul_add(b, c) } else { a * b + c }
+}
+
+/// `Σ_j λ_j ⟨l_j, b⟩` over the first `b.len()` coefficients: three dot
+/// products in 8-lane sums that the compiler vectorises (3 FMA per
+/// coefficient), then one blend by `λ`.
+#[inline(always)]
+fn dot3<const F: bool>(l0: &[f32], l1: &[f32], l2: &[f32], lam: Vec3, b: &[f32]) -> f32 {
     let k = b.len();
     let (l0, l1, l2) = (&l0[..k], &l1[..k], &l2[..k]);
-    let mut acc = [0.0f32; 8];
+    let (mut s0, mut s1, mut s2) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
     let chunks = l0
         .chunks_exact(8)
         .zip(l1.chunks_exact(8))
@@ -121,82 +190,176 @@ fn dot3(l0: &[f32], l1: &[f32], l2: &[f32], lam: Vec3, b: &[f32]) -> f32 {
         .zip(b.chunks_exact(8));
     for (((a0, a1), a2), bb) in chunks {
         for j in 0..8 {
-            acc[j] += (lam.x * a0[j] + lam.y * a1[j] + lam.z * a2[j]) * bb[j];
+            s0[j] = madd::<F>(a0[j], bb[j], s0[j]);
+            s1[j] = madd::<F>(a1[j], bb[j], s1[j]);
+            s2[j] = madd::<F>(a2[j], bb[j], s2[j]);
         }
     }
-    let mut s: f32 = acc.iter().sum();
     for i in k / 8 * 8..k {
-        s += (lam.x * l0[i] + lam.y * l1[i] + lam.z * l2[i]) * b[i];
+        let j = i % 8;
+        s0[j] = madd::<F>(l0[i], b[i], s0[j]);
+        s1[j] = madd::<F>(l1[i], b[i], s1[j]);
+        s2[j] = madd::<F>(l2[i], b[i], s2[j]);
     }
-    s
+    let (d0, d1, d2): (f32, f32, f32) = (s0.iter().sum(), s1.iter().sum(), s2.iter().sum());
+    madd::<F>(lam.x, d0, madd::<F>(lam.y, d1, lam.z * d2))
+}
+
+/// The frame of `n` and `t` by Gram–Schmidt: the arithmetic of
+/// [`Frame::from_normal_tangent`] inlined into the pass (a call per frame,
+/// two per pixel, was 6 % of a frame), with its fallback.
+#[inline(always)]
+fn frame_of(n: Vec3, t: Vec3) -> Frame {
+    match (t - n * n.dot(t)).try_normalize() {
+        Some(x) => Frame {
+            x,
+            y: n.cross(x),
+            z: n,
+        },
+        None => Frame::from_z(n),
+    }
+}
+
+/// Whether this CPU runs the pass's AVX2 + FMA copy ([`Pass::run`]).
+#[inline]
+pub(crate) fn fma_path() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// What every row of one pass reads.
+struct Rows<'a> {
+    g: &'a GBuffer,
+    rays: CameraRays,
+    eye: Vec3,
+    offsets: &'a [u32],
+    bg: Bg<'a>,
 }
 
 impl Pass<'_> {
     /// Shades the visibility buffer of `raster` (rasterized for `camera`,
-    /// supersampling included) into `out`.
-    pub(crate) fn run(&self, raster: &Rasterizer, camera: &Camera, bg: Bg, out: &mut Image) {
+    /// supersampling included) into `out`. Rows run in parallel; on a CPU
+    /// with AVX2 and FMA ([`fma_path`]) through a copy of the row loop
+    /// compiled for them (8-lane fused dot products and lerps), elsewhere
+    /// through the portable copy, unless `portable` forces it (tests).
+    pub(crate) fn run(
+        &self,
+        raster: &Rasterizer,
+        camera: &Camera,
+        bg: Bg,
+        out: &mut Image,
+        portable: bool,
+    ) {
         let g = raster.gbuffer();
-        let (w, h) = (g.width, g.height);
+        let w = g.width;
         out.width = w;
-        out.height = h;
-        out.pixels.resize(w * h, Vec3::ZERO);
-        let rays = camera.ray_frame();
-        let eye = camera.eye;
-        let mut offsets = Vec::with_capacity(self.draws.len() + 1);
-        let mut total = 0u32;
-        offsets.push(0);
-        for d in self.draws {
-            total += d.triangles.len() as u32;
-            offsets.push(total);
-        }
+        out.height = g.height;
+        out.pixels.resize(w * g.height, Vec3::ZERO);
+        let mut offsets = [0u32; MAX_DRAWS + 1];
+        let offsets: &[u32] = if self.draws.len() <= MAX_DRAWS {
+            let mut total = 0u32;
+            for (i, d) in self.draws.iter().enumerate() {
+                total += d.triangles.len() as u32;
+                offsets[i + 1] = total;
+            }
+            &offsets[..=self.draws.len()]
+        } else {
+            &triangle_offsets(self.draws)
+        };
+        let rows = Rows {
+            g,
+            rays: camera.ray_frame(),
+            eye: camera.eye,
+            offsets,
+            bg,
+        };
+        let fma = !portable && fma_path();
         out.pixels
-            .par_chunks_mut(w)
+            .par_chunks_mut(w.max(1))
             .enumerate()
             .for_each_init(Scratch::new, |s, (y, row)| {
-                let mut loc = Locator {
-                    offsets: &offsets,
-                    draw: 0,
-                };
-                let ids = &g.triangle[y * w..(y + 1) * w];
-                let bary = &g.barycentrics[y * w..(y + 1) * w];
-                for (x, px) in row.iter_mut().enumerate() {
-                    let id = ids[x];
-                    if id == NO_TRIANGLE {
-                        *px = match bg {
-                            Bg::Black => Vec3::ZERO,
-                            Bg::All(f) => f(rays.dir(x as f32 + 0.5, y as f32 + 0.5)),
-                            Bg::Partial(k, f) => {
-                                let (bx, by) = (x / k * k, y / k * k);
-                                let touched = (by..(by + k).min(h)).any(|yy| {
-                                    g.triangle[yy * w + bx..yy * w + (bx + k).min(w)]
-                                        .iter()
-                                        .any(|&t| t != NO_TRIANGLE)
-                                });
-                                if touched {
-                                    f(rays.dir(x as f32 + 0.5, y as f32 + 0.5))
-                                } else {
-                                    Vec3::ZERO
-                                }
-                            }
-                        };
-                        continue;
-                    }
-                    *px = match loc.locate(id) {
-                        Some((d, t)) => self.sample(s, eye, d, t, bary[x]),
-                        None => Vec3::ZERO,
-                    };
+                #[cfg(target_arch = "x86_64")]
+                if fma {
+                    // SAFETY: AVX2 and FMA were detected at run time (`fma_path`).
+                    unsafe { self.row_fma(s, &rows, y, row) };
+                    return;
                 }
+                let _ = fma;
+                self.row::<false>(s, &rows, y, row);
             });
     }
 
+    /// [`Pass::row`] compiled for AVX2 and FMA.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn row_fma(&self, s: &mut Scratch, rows: &Rows, y: usize, row: &mut [Vec3]) {
+        self.row::<true>(s, rows, y, row);
+    }
+
+    /// Row `y` of the pass (`F`: fused multiply-adds).
+    #[inline(always)]
+    fn row<const F: bool>(&self, s: &mut Scratch, rows: &Rows, y: usize, row: &mut [Vec3]) {
+        let g = rows.g;
+        let (w, h) = (g.width, g.height);
+        let mut loc = Locator {
+            offsets: rows.offsets,
+            draw: 0,
+        };
+        let ids = &g.triangle[y * w..(y + 1) * w];
+        let bary = &g.barycentrics[y * w..(y + 1) * w];
+        for (x, px) in row.iter_mut().enumerate() {
+            let id = ids[x];
+            if id == NO_TRIANGLE {
+                *px = match rows.bg {
+                    Bg::Black => Vec3::ZERO,
+                    Bg::All(f) => f(rows.rays.dir(x as f32 + 0.5, y as f32 + 0.5)),
+                    Bg::Partial(k, f) => {
+                        let (bx, by) = (x / k * k, y / k * k);
+                        let touched = (by..(by + k).min(h)).any(|yy| {
+                            g.triangle[yy * w + bx..yy * w + (bx + k).min(w)]
+                                .iter()
+                                .any(|&t| t != NO_TRIANGLE)
+                        });
+                        if touched {
+                            f(rows.rays.dir(x as f32 + 0.5, y as f32 + 0.5))
+                        } else {
+                            Vec3::ZERO
+                        }
+                    }
+                };
+                continue;
+            }
+            *px = match loc.locate(id) {
+                Some((d, t)) => self.sample::<F>(s, rows.eye, d, t, bary[x]),
+                None => Vec3::ZERO,
+            };
+        }
+    }
+
     /// One covered sample of draw `d`, triangle `t` (module docs).
-    #[inline]
-    fn sample(&self, s: &mut Scratch, eye: Vec3, d: usize, t: usize, bary: [f32; 2]) -> Vec3 {
+    #[inline(always)]
+    fn sample<const F: bool>(
+        &self,
+        s: &mut Scratch,
+        eye: Vec3,
+        d: usize,
+        t: usize,
+        bary: [f32; 2],
+    ) -> Vec3 {
         let draw = &self.draws[d];
         let [i0, i1, i2] = draw.triangles[t].map(|i| i as usize);
         let lam = Vec3::new(1.0 - bary[0] - bary[1], bary[0], bary[1]);
         let (v0, v1, v2) = (&draw.verts[i0], &draw.verts[i1], &draw.verts[i2]);
-        let mix = |k: usize| lam.x * v0[k] + lam.y * v1[k] + lam.z * v2[k];
+        let mix = |k: usize| madd::<F>(lam.x, v0[k], madd::<F>(lam.y, v1[k], lam.z * v2[k]));
         let (p0, p1, p2) = (draw.positions[i0], draw.positions[i1], draw.positions[i2]);
         let position = p0 * lam.x + p1 * lam.y + p2 * lam.z;
         let geo = (p1 - p0).cross(p2 - p0);
@@ -207,15 +370,16 @@ impl Pass<'_> {
         let back = wo_world.dot(geo) < 0.0;
         let sgn = if back { -1.0 } else { 1.0 };
         let normal_map = self.normal_maps[d];
-        let fv = Frame::from_normal_tangent(sgn * n_i, t_i.truncate());
+        let fv = frame_of(sgn * n_i, t_i.truncate());
         let fp = match normal_map {
-            Some(m) => Frame::from_normal_tangent(sgn * m.perturb(n_i, t_i, uv), t_i.truncate()),
+            Some(m) => frame_of(sgn * m.perturb(n_i, t_i, uv), t_i.truncate()),
             None => fv,
         };
-        let wo = fp.to_local(wo_world);
-        if wo.z <= 0.0 {
-            return Vec3::ZERO;
-        }
+        // A shading normal turned away from the viewer (by the normal map, or
+        // an interpolated normal at a silhouette) sees the view at the
+        // horizon, the reference renderer's convention (`above_horizon`):
+        // no black pixels.
+        let wo = above_horizon(fp.to_local(wo_world));
         let order = self.order;
         let k = order * order;
         let table = &self.tables[d];
@@ -224,13 +388,13 @@ impl Pass<'_> {
         let channels = if mono.is_some() { 1 } else { 3 };
         let b = &mut s.b[..channels * k];
         if mono.is_some() {
-            table.lookup_mono(wo.z, order, b);
+            table.lookup_mono_windowed::<F>(wo.z, order, h, b);
         } else {
             table.lookup(wo.z, order, b);
-        }
-        for c in 0..channels {
-            for (v, hw) in b[c * k..(c + 1) * k].iter_mut().zip(h) {
-                *v *= hw;
+            for c in 0..channels {
+                for (v, hw) in b[c * k..(c + 1) * k].iter_mut().zip(h) {
+                    *v *= hw;
+                }
             }
         }
         let rxy = (wo.x * wo.x + wo.y * wo.y).sqrt();
@@ -290,7 +454,7 @@ impl Pass<'_> {
                 &bz[c * k..(c + 1) * k]
             };
             let r = c * nn..c * nn + k;
-            *o = dot3(&l0[r.clone()], &l1[r.clone()], &l2[r], lam, bc);
+            *o = dot3::<F>(&l0[r.clone()], &l1[r.clone()], &l2[r], lam, bc);
         }
         let v = Vec3::from_array(out);
         match mono {
