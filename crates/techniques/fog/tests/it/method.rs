@@ -135,7 +135,12 @@ fn point_light_part_is_render_fog() {
 
 #[test]
 fn without_fog_the_environment_part_is_plain_sh_shading() {
-    let opts = FogOptions::default();
+    // The per-pixel environment part (the per-vertex one is compared with
+    // it in `env_vertex`).
+    let opts = FogOptions {
+        env_shading: relight_fog::EnvShading::PerPixel,
+        ..FogOptions::default()
+    };
     for medium in [None, fog(0.0, 1.0, 10.0)] {
         let mut s = scene(sky(1.0), medium);
         s.point_lights.clear();
