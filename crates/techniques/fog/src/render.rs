@@ -451,6 +451,13 @@ fn shade_gbuffer(
     first.push(total);
     // Background directions are the camera rays through the pixel centres.
     let rays = camera.ray_frame();
+    // A surface that reflects nothing: only the airlight term remains.
+    let black = MaterialConst {
+        kd: Vec3::ZERO,
+        ks: Vec3::ZERO,
+        n: 1.0,
+        g: model.stand_in_table(),
+    };
     let eye = camera.eye;
     let beta = model.beta;
     out.pixels
@@ -525,18 +532,23 @@ fn shade_gbuffer(
             }
             let [dx, dy, dz] = &s.bg_d;
             if let Some(radius) = ball {
-                // The ray leaves the ball (eye inside) at t = −b + √(b² − c).
+                // The ray leaves the ball (eye inside) at t = −b + √(b² − c):
+                // the airlight to that point is the surface model's airlight
+                // term to a black surface there, so the batch's (AVX2) loop
+                // computes it.
                 let c = eye.length_squared() - radius * radius;
-                for (i, &x) in s.bg_x.iter().enumerate() {
+                let start = s.batch.len();
+                for i in 0..s.bg_x.len() {
                     let d = Vec3::new(dx[i], dy[i], dz[i]);
                     let b = eye.dot(d);
                     let t = -b + (b * b - c).max(0.0).sqrt();
-                    let hit = Some((eye + t * d, t, (-beta * t).exp()));
-                    let mut sum = Vec3::ZERO;
-                    for l in lights {
-                        sum += l.intensity * model.airlight(l, d, hit);
-                    }
-                    row[x as usize] = sum;
+                    s.batch.push_point(eye + t * d, -d);
+                }
+                s.batch.prepare(eye, beta, start);
+                let end = s.batch.len();
+                shade_surface_run(model, lights, &black, &mut s.batch, start..end);
+                for (i, &x) in s.bg_x.iter().enumerate() {
+                    row[x as usize] = s.batch.radiance(start + i);
                 }
             } else {
                 let [cr, cg, cb] = &mut s.bg_c;
