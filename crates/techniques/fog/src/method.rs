@@ -60,6 +60,7 @@ use crate::render::{
 use crate::table::{FogTables, Interp};
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
+use relight_geom::Mesh;
 use relight_render::method::{
     FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
     coverage_of_raster,
@@ -67,6 +68,7 @@ use relight_render::method::{
 use relight_render::raster::{NO_TRIANGLE, Rasterizer};
 use relight_render::{Camera, Image, Progress, Scene};
 use relight_shlight::{Background, LightingFilter, LitScene, ShRenderer, ShRotationMethod};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// The method's name on the command line.
@@ -207,6 +209,9 @@ pub struct FogRelighter {
     env_lighting: Option<EnvLighting>,
     lighting: Option<Lighting>,
     rasterizer: Rasterizer,
+    /// What `rasterizer` holds: the (supersampled) camera and the meshes
+    /// drawn, so a lighting change under a still camera draws no triangles.
+    rasterized: Option<(Camera, Vec<Arc<Mesh>>)>,
     phase: Phase,
 }
 
@@ -258,6 +263,7 @@ impl FogRelighter {
             env_lighting: None,
             lighting: None,
             rasterizer: Rasterizer::new(),
+            rasterized: None,
             phase: Phase::isotropic(),
         })
     }
@@ -386,6 +392,7 @@ impl FogRelighter {
                 e => failed(e),
             };
             if self.opengl() {
+                self.rasterized = None;
                 render_fog_into(
                     &mut self.rasterizer,
                     &objects,
@@ -396,7 +403,20 @@ impl FogRelighter {
                 )
                 .map_err(fog_err)?;
             } else {
-                rasterize_objects(&mut self.rasterizer, &objects, &big).map_err(fog_err)?;
+                let same = self.rasterized.as_ref().is_some_and(|(c, meshes)| {
+                    *c == big
+                        && meshes.len() == scene.objects.len()
+                        && meshes
+                            .iter()
+                            .zip(&scene.objects)
+                            .all(|(m, o)| Arc::ptr_eq(m, &o.mesh))
+                });
+                if !same {
+                    self.rasterized = None;
+                    rasterize_objects(&mut self.rasterizer, &objects, &big).map_err(fog_err)?;
+                    self.rasterized =
+                        Some((big, scene.objects.iter().map(|o| o.mesh.clone()).collect()));
+                }
                 shade_fog_raster(
                     &self.rasterizer,
                     &objects,
