@@ -32,6 +32,7 @@
 //! to it).
 
 pub mod bench;
+pub mod env_vertex;
 pub mod fast;
 pub mod method;
 pub mod model;
@@ -46,6 +47,7 @@ pub mod verify;
 pub mod volumetric;
 
 pub use bench::{BenchRow, bench_fog, bench_fog_scene};
+pub use env_vertex::EnvShading;
 pub use method::{FogOptions, FogRelighter};
 pub use model::{FogMaterial, FogModel, Phase, PointLight};
 pub use render::{

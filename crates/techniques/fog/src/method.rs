@@ -17,6 +17,11 @@
 //!    L = e^{−βD} L_s + (1 − e^{−βD}) a e^{−T} L̄ with L̄ = (1/4π)∫L dω, the
 //!    environment's attenuated light scattered once into the view ray under
 //!    the same assumption (every point lit as the ball's centre).
+//!    By default the surface part is shaded at the frame's visible vertices
+//!    and interpolated ([`crate::env_vertex`], [`EnvShading::PerVertex`]);
+//!    [`EnvShading::PerPixel`] shades every sample with `env_rotation`.
+//!
+//! Both parts shade one visibility buffer: the frame is rasterized once.
 //!
 //! What it reads: β, albedo and R from `scene.medium` (none, or β = 0: plain
 //! direct lighting of the point lights plus the unfogged environment), the
@@ -37,18 +42,25 @@
 //! inside it too. BRDFs other than Lambert + Phong are fitted, not evaluated.
 //!
 //! # Timings
-//! `set_lighting` — the PSF weights of eq. 3.35, light checks, and (when the
-//! environment, its rotation or the medium changed) the filtered
-//! environment's SH rotated into every vertex frame
-//! ([`relight_shlight::LitScene::light`]) — is the lighting change; `render`
-//! — both rasterizations and the per-pixel shading — is the view change.
+//! `set_lighting` — the PSF weights of eq. 3.35, light checks, and the
+//! filtered environment's SH rotated to the world frame (per vertex: one
+//! rotation of n² coefficients, [`EnvLighting`]; per pixel: into every
+//! vertex frame, [`relight_shlight::LitScene::light`], when the
+//! environment, its rotation or the medium changed) — is the lighting
+//! change; `render` — the rasterization, the visible vertices' environment
+//! shading and the per-pixel passes — is the view change.
 
 use crate::FogError;
+use crate::env_vertex::{EnvLighting, EnvShading, VertexFrame, VertexShader, faces_eye};
 use crate::model::{FogMaterial, Phase, PointLight};
-use crate::render::{FogMode, FogObject, FogSettings, render_fog_into, validate_lights};
+use crate::render::{
+    FogMode, FogObject, FogSettings, rasterize_objects, render_fog_into, shade_fog_raster,
+    validate_lights,
+};
 use crate::table::{FogTables, Interp};
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
+use relight_geom::Mesh;
 use relight_render::method::{
     FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
     coverage_of_raster,
@@ -56,6 +68,7 @@ use relight_render::method::{
 use relight_render::raster::{NO_TRIANGLE, Rasterizer};
 use relight_render::{Camera, Image, Progress, Scene};
 use relight_shlight::{Background, LightingFilter, LitScene, ShRenderer, ShRotationMethod};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// The method's name on the command line.
@@ -90,6 +103,10 @@ pub struct FogOptions {
     /// Reject point lights inside closed meshes (brute force per lighting
     /// change, O(lights × triangles)).
     pub check_lights_inside: bool,
+    /// Where the environment part is shaded: at the visible vertices
+    /// (Gouraud, [`crate::env_vertex`]; the default, what the thesis' model
+    /// allows "for each vertex or pixel") or per sample with `env_rotation`.
+    pub env_shading: EnvShading,
 }
 
 impl Default for FogOptions {
@@ -102,6 +119,7 @@ impl Default for FogOptions {
             env_rotation: ShRotationMethod::Exact,
             factorized_psf: true,
             check_lights_inside: true,
+            env_shading: EnvShading::PerVertex,
         }
     }
 }
@@ -182,10 +200,18 @@ pub struct FogRelighter {
     /// The environment part's SH state between frames (scenes with an
     /// environment), so a view change only rasterizes and shades it.
     env: Option<LitScene>,
-    /// The environment part of the last frame (supersampled), reused.
+    /// The environment part of the last frame (supersampled), reused
+    /// ([`EnvShading::PerPixel`]).
     env_image: Image,
+    /// [`EnvShading::PerVertex`]: the objects' transfers, the world-frame
+    /// lighting of the last lighting change and the per-vertex colours.
+    vertex: Option<(VertexShader, VertexFrame)>,
+    env_lighting: Option<EnvLighting>,
     lighting: Option<Lighting>,
     rasterizer: Rasterizer,
+    /// What `rasterizer` holds: the (supersampled) camera and the meshes
+    /// drawn, so a lighting change under a still camera draws no triangles.
+    rasterized: Option<(Camera, Vec<Arc<Mesh>>)>,
     phase: Phase,
 }
 
@@ -233,8 +259,11 @@ impl FogRelighter {
             sh,
             env: None,
             env_image: Image::new(1, 1),
+            vertex: None,
+            env_lighting: None,
             lighting: None,
             rasterizer: Rasterizer::new(),
+            rasterized: None,
             phase: Phase::isotropic(),
         })
     }
@@ -314,7 +343,8 @@ impl FogRelighter {
             Background::All
         };
         let maps = vec![None; scene.objects.len()];
-        env.render_into(
+        env.shade_raster_into(
+            &self.rasterizer,
             scene,
             camera,
             self.options.env_order,
@@ -326,6 +356,156 @@ impl FogRelighter {
         )
         .map_err(failed)?;
         Ok(true)
+    }
+}
+
+impl FogRelighter {
+    /// One supersampled frame (`request.aa` per side) under `lighting`:
+    /// one rasterization, the point lights per pixel, then the environment
+    /// part carried along each covered pixel's view segment.
+    fn frame(
+        &mut self,
+        scene: &Scene,
+        request: &FrameRequest,
+        lighting: &Lighting,
+        progress: &dyn Progress,
+    ) -> Result<Image, MethodError> {
+        let k = request.aa;
+        let mut big = request.camera;
+        big.width *= k;
+        big.height *= k;
+        let m = lighting.medium;
+        // 1. Point lights, on the frame's one visibility buffer.
+        let mut image = Image::new(big.width, big.height);
+        {
+            let objects = self.objects(scene);
+            let tables = self.tables.as_ref().expect("built by prepare");
+            let mut settings = FogSettings::new(tables, m.beta);
+            settings.phase = self.phase.clone();
+            settings.interp = self.options.interp;
+            settings.mode = self.options.mode;
+            settings.check_lights_inside = false;
+            settings.albedo = m.albedo;
+            settings.ball_radius = m.radius;
+            let fog_err = |e| match e {
+                FogError::Cancelled => MethodError::Cancelled,
+                e => failed(e),
+            };
+            if self.opengl() {
+                self.rasterized = None;
+                render_fog_into(
+                    &mut self.rasterizer,
+                    &objects,
+                    &big,
+                    &lighting.lights,
+                    &settings,
+                    &mut image,
+                )
+                .map_err(fog_err)?;
+            } else {
+                let same = self.rasterized.as_ref().is_some_and(|(c, meshes)| {
+                    *c == big
+                        && meshes.len() == scene.objects.len()
+                        && meshes
+                            .iter()
+                            .zip(&scene.objects)
+                            .all(|(m, o)| Arc::ptr_eq(m, &o.mesh))
+                });
+                if !same {
+                    self.rasterized = None;
+                    rasterize_objects(&mut self.rasterizer, &objects, &big).map_err(fog_err)?;
+                    self.rasterized =
+                        Some((big, scene.objects.iter().map(|o| o.mesh.clone()).collect()));
+                }
+                shade_fog_raster(
+                    &self.rasterizer,
+                    &objects,
+                    &big,
+                    &lighting.lights,
+                    &settings,
+                    &mut image,
+                )
+                .map_err(fog_err)?;
+            }
+        }
+        progress.check()?;
+        let ambient = if self.opengl() {
+            Vec3::ZERO
+        } else {
+            lighting.env_mean * (m.albedo * (-m.env_thickness()).exp())
+        };
+        let r = &self.rasterizer;
+        let g = r.gbuffer();
+        let eye = big.eye;
+        let w = big.width;
+        // The view segment: e^{−βD} L_s + (1 − e^{−βD}) a e^{−T} L̄.
+        let segment = |d: usize, tri: usize, b: [f32; 2], e: Vec3| {
+            if m.beta <= 0.0 {
+                return e;
+            }
+            let mesh = &scene.objects[d].mesh;
+            let t = mesh.indices[tri];
+            let p = mesh.positions[t[0] as usize] * (1.0 - b[0] - b[1])
+                + mesh.positions[t[1] as usize] * b[0]
+                + mesh.positions[t[2] as usize] * b[1];
+            let f = (-m.beta * (p - eye).length()).exp();
+            e * f + ambient * (1.0 - f)
+        };
+        // 2. The environment.
+        let opengl = self.opengl();
+        if let (Some((shader, vframe)), Some(light)) = (self.vertex.as_mut(), &self.env_lighting) {
+            progress.check()?;
+            vframe.shade(scene, r, eye, shader, light);
+            let vframe = &*vframe;
+            let rays = big.ray_frame();
+            image
+                .pixels
+                .par_chunks_mut(w)
+                .enumerate()
+                .for_each(|(y, row)| {
+                    for (x, px) in row.iter_mut().enumerate() {
+                        let i = y * w + x;
+                        let id = g.triangle[i];
+                        match (id != NO_TRIANGLE).then(|| r.locate(id)).flatten() {
+                            Some((d, tri)) => {
+                                let mesh = &scene.objects[d].mesh;
+                                let t = mesh.indices[tri];
+                                let b = g.barycentrics[i];
+                                let lam = Vec3::new(1.0 - b[0] - b[1], b[0], b[1]);
+                                let front = faces_eye(&mesh.positions, t, eye);
+                                *px += segment(d, tri, b, vframe.at(d, t, lam, front));
+                            }
+                            None if !opengl => {
+                                *px += light.background(
+                                    &scene.env,
+                                    rays.dir(x as f32 + 0.5, y as f32 + 0.5),
+                                );
+                            }
+                            None => {}
+                        }
+                    }
+                });
+        } else if self.environment_image(scene, &big, progress)? {
+            let env = &self.env_image;
+            let r = &self.rasterizer;
+            let g = r.gbuffer();
+            image
+                .pixels
+                .par_chunks_mut(w)
+                .zip(env.pixels.par_chunks(w))
+                .enumerate()
+                .for_each(|(y, (row, env_row))| {
+                    for (x, (px, e)) in row.iter_mut().zip(env_row).enumerate() {
+                        let i = y * w + x;
+                        let id = g.triangle[i];
+                        *px += match (id != NO_TRIANGLE).then(|| r.locate(id)).flatten() {
+                            Some((d, tri)) => segment(d, tri, g.barycentrics[i], *e),
+                            None => *e,
+                        };
+                    }
+                });
+        }
+        Ok(image)
     }
 }
 
@@ -372,10 +552,17 @@ impl Relighter for FogRelighter {
         }
         progress.check()?;
         let previous = self.env.take();
+        self.vertex = None;
+        self.env_lighting = None;
         if scene.has_environment() {
-            self.env = Some(
-                LitScene::build(&self.sh, scene, &|_| false, previous, progress).map_err(failed)?,
-            );
+            let env =
+                LitScene::build(&self.sh, scene, &|_| false, previous, progress).map_err(failed)?;
+            if self.options.env_shading == EnvShading::PerVertex {
+                let shader = VertexShader::new(self.options.env_order, env.tables(), env.windows())
+                    .map_err(failed)?;
+                self.vertex = Some((shader, VertexFrame::new(scene)));
+            }
+            self.env = Some(env);
         }
         self.set_lighting(scene, progress)?;
         Ok(())
@@ -446,11 +633,20 @@ impl Relighter for FogRelighter {
             } else {
                 filter.2.clone()
             };
-            self.sh.set_lighting_filter(Some(filter)).map_err(failed)?;
-            self.sh
-                .set_lighting_rotation(scene.world_from_env)
-                .map_err(failed)?;
-            env.light(&self.sh, scene, progress).map_err(failed)?;
+            if self.vertex.is_some() {
+                // World-frame lighting only: no per-vertex rotation.
+                let projection = env.projection(scene).map_err(failed)?;
+                self.env_lighting = Some(
+                    EnvLighting::new(projection, scene.world_from_env, Some(&filter))
+                        .map_err(failed)?,
+                );
+            } else {
+                self.sh.set_lighting_filter(Some(filter)).map_err(failed)?;
+                self.sh
+                    .set_lighting_rotation(scene.world_from_env)
+                    .map_err(failed)?;
+                env.light(&self.sh, scene, progress).map_err(failed)?;
+            }
         }
         self.lighting = Some(Lighting {
             medium,
@@ -477,76 +673,11 @@ impl Relighter for FogRelighter {
             timings.lighting_ms = self.set_lighting(scene, progress)?;
         }
         let start = Instant::now();
-        let lighting = self.lighting.clone().expect("set by prepare");
+        let lighting = self.lighting.take().expect("set by prepare");
+        let frame = self.frame(scene, request, &lighting, progress);
+        self.lighting = Some(lighting);
+        let image = frame?;
         let k = request.aa;
-        let mut big = request.camera;
-        big.width *= k;
-        big.height *= k;
-        let m = lighting.medium;
-        // 1. Point lights (also the visibility buffer of this frame).
-        let mut image = Image::new(big.width, big.height);
-        {
-            let objects = self.objects(scene);
-            let tables = self.tables.as_ref().expect("built by prepare");
-            let mut settings = FogSettings::new(tables, m.beta);
-            settings.phase = self.phase.clone();
-            settings.interp = self.options.interp;
-            settings.mode = self.options.mode;
-            settings.check_lights_inside = false;
-            settings.albedo = m.albedo;
-            settings.ball_radius = m.radius;
-            render_fog_into(
-                &mut self.rasterizer,
-                &objects,
-                &big,
-                &lighting.lights,
-                &settings,
-                &mut image,
-            )
-            .map_err(|e| match e {
-                FogError::Cancelled => MethodError::Cancelled,
-                e => failed(e),
-            })?;
-        }
-        progress.check()?;
-        // 2. The environment, carried along each covered pixel's view segment.
-        if self.environment_image(scene, &big, progress)? {
-            let env = &self.env_image;
-            let ambient = if self.opengl() {
-                Vec3::ZERO
-            } else {
-                lighting.env_mean * (m.albedo * (-m.env_thickness()).exp())
-            };
-            let r = &self.rasterizer;
-            let g = r.gbuffer();
-            let eye = big.eye;
-            let w = big.width;
-            image
-                .pixels
-                .par_chunks_mut(w)
-                .zip(env.pixels.par_chunks(w))
-                .enumerate()
-                .for_each(|(y, (row, env_row))| {
-                    for (x, (px, e)) in row.iter_mut().zip(env_row).enumerate() {
-                        let i = y * w + x;
-                        let id = g.triangle[i];
-                        let add = match (id != NO_TRIANGLE).then(|| r.locate(id)).flatten() {
-                            Some((d, tri)) if m.beta > 0.0 => {
-                                let mesh = &scene.objects[d].mesh;
-                                let t = mesh.indices[tri];
-                                let b = g.barycentrics[i];
-                                let p = mesh.positions[t[0] as usize] * (1.0 - b[0] - b[1])
-                                    + mesh.positions[t[1] as usize] * b[0]
-                                    + mesh.positions[t[2] as usize] * b[1];
-                                let f = (-m.beta * (p - eye).length()).exp();
-                                *e * f + ambient * (1.0 - f)
-                            }
-                            _ => *e,
-                        };
-                        *px += add;
-                    }
-                });
-        }
         // Coverage from this frame's own visibility buffer.
         let coverage = coverage_of_raster(
             &self.rasterizer,
@@ -554,7 +685,11 @@ impl Relighter for FogRelighter {
             request.camera.height,
             k,
         );
-        let image = image.box_downsample(k);
+        let image = if k == 1 {
+            image
+        } else {
+            image.box_downsample(k)
+        };
         timings.view_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(Rendered {
             image,

@@ -13,7 +13,7 @@
 use crate::FogError;
 use crate::model::{FogMaterial, FogModel, Phase, PointLight, PreparedLight, opengl_fog_pixel};
 use crate::shade::{MaterialConst, PixelBatch, shade_background, shade_surface_run};
-use crate::table::{FogTables, Interp, Table2};
+use crate::table::{FogTables, Interp};
 use glam::Vec3;
 use rayon::prelude::*;
 use relight_geom::Mesh;
@@ -222,14 +222,51 @@ pub fn render_fog_into(
     settings: &FogSettings,
     out: &mut Image,
 ) -> Result<(), FogError> {
+    match settings.mode {
+        FogMode::Analytic => {
+            check_frame(objects, camera, lights, settings)?;
+            rasterize_objects(rasterizer, objects, camera)?;
+            shade_fog_raster(rasterizer, objects, camera, lights, settings, out)
+        }
+        FogMode::OpenGl { fog_color } => {
+            check_frame(objects, camera, lights, settings)?;
+            frame_model(objects, camera, lights, settings)?;
+            render_opengl(
+                rasterizer, objects, camera, lights, settings, fog_color, out,
+            )
+        }
+    }
+}
+
+/// Rasterizes `objects` (draw i = object i, positions and indices) for
+/// `camera` into `rasterizer`: the visibility buffer [`shade_fog_raster`]
+/// shades.
+///
+/// # Errors
+/// Rasterizer errors (image size, camera, indices).
+pub fn rasterize_objects(
+    rasterizer: &mut Rasterizer,
+    objects: &[FogObject],
+    camera: &Camera,
+) -> Result<(), FogError> {
+    let draws: Vec<DrawCall> = objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32))
+        .collect();
+    let options = RasterOptions::default().fit_depth(camera, &draws);
+    rasterizer.rasterize(camera, &draws, &options)?;
+    Ok(())
+}
+
+/// The checks of [`render_fog_into`] (lights, β, the fog ball around the eye).
+fn check_frame(
+    objects: &[FogObject],
+    camera: &Camera,
+    lights: &[PointLight],
+    settings: &FogSettings,
+) -> Result<(), FogError> {
     validate_lights(objects, lights, settings.beta, settings.check_lights_inside)?;
-    let model = FogModel::new(
-        settings.tables,
-        settings.beta,
-        &settings.phase,
-        settings.interp,
-    )?
-    .with_albedo(settings.albedo)?;
     if let Some(r) = settings.ball_radius
         && !(r.is_finite() && r > 0.0 && camera.eye.length() < r)
     {
@@ -238,97 +275,130 @@ pub fn render_fog_into(
             value: f64::from(r),
         });
     }
-    let g_tables: Vec<Option<&Table2>> = objects
+    Ok(())
+}
+
+/// The analytic model's pass over a visibility buffer that
+/// [`rasterize_objects`] drew for `camera` (or any rasterization of the
+/// same meshes, draw i = object i): what [`render_fog_into`] does after
+/// rasterizing, so a caller that needs the buffer for other passes (the
+/// fog method's environment part) rasterizes once. Ignores `settings.mode`.
+///
+/// # Errors
+/// As [`render_fog_into`].
+pub fn shade_fog_raster(
+    rasterizer: &Rasterizer,
+    objects: &[FogObject],
+    camera: &Camera,
+    lights: &[PointLight],
+    settings: &FogSettings,
+    out: &mut Image,
+) -> Result<(), FogError> {
+    check_frame(objects, camera, lights, settings)?;
+    let (model, mats, prepared) = frame_model(objects, camera, lights, settings)?;
+    shade_gbuffer(
+        rasterizer,
+        objects,
+        &mats,
+        camera,
+        &model,
+        &prepared,
+        settings.ball_radius,
+        out,
+    );
+    Ok(())
+}
+
+/// The model of one frame: the medium's [`FogModel`], every object's
+/// constants (its G table checked) and the lights prepared for the eye.
+fn frame_model<'a>(
+    objects: &[FogObject],
+    camera: &Camera,
+    lights: &[PointLight],
+    settings: &'a FogSettings<'a>,
+) -> Result<(FogModel<'a>, Vec<MaterialConst<'a>>, Vec<PreparedLight>), FogError> {
+    let model = FogModel::new(
+        settings.tables,
+        settings.beta,
+        &settings.phase,
+        settings.interp,
+    )?
+    .with_albedo(settings.albedo)?;
+    let mats = objects
         .iter()
         .map(|o| {
-            if o.material.ks == Vec3::ZERO {
-                Ok(None)
+            let g = if o.material.ks == Vec3::ZERO {
+                None
             } else {
-                model.g_table(o.material.n).map(Some)
+                Some(model.g_table(o.material.n)?)
+            };
+            Ok(MaterialConst::new(&model, &o.material, g))
+        })
+        .collect::<Result<Vec<_>, FogError>>()?;
+    let prepared = model.prepare_lights(camera.eye, lights)?;
+    Ok((model, mats, prepared))
+}
+
+/// [`FogMode::OpenGl`]: classic exponential fog, rasterized and shaded in
+/// one pass.
+fn render_opengl(
+    rasterizer: &mut Rasterizer,
+    objects: &[FogObject],
+    camera: &Camera,
+    lights: &[PointLight],
+    settings: &FogSettings,
+    fog_color: Vec3,
+    out: &mut Image,
+) -> Result<(), FogError> {
+    let eye = camera.eye;
+    // Smooth normals as a 3-float vertex attribute where the mesh has them.
+    let normals: Vec<Vec<f32>> = objects
+        .iter()
+        .map(|o| {
+            if o.mesh.normals.len() == o.mesh.positions.len() {
+                o.mesh.normals.iter().flat_map(|n| n.to_array()).collect()
+            } else {
+                Vec::new()
             }
         })
-        .collect::<Result<_, _>>()?;
-    let eye = camera.eye;
-    let prepared = model.prepare_lights(eye, lights)?;
-    match settings.mode {
-        FogMode::Analytic => {
-            let draws: Vec<DrawCall> = objects
-                .iter()
-                .enumerate()
-                .map(|(i, o)| {
-                    DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32)
-                })
-                .collect();
-            let options = RasterOptions::default().fit_depth(camera, &draws);
-            rasterizer.rasterize(camera, &draws, &options)?;
-            let mats: Vec<MaterialConst> = objects
-                .iter()
-                .zip(&g_tables)
-                .map(|(o, g)| MaterialConst::new(&model, &o.material, *g))
-                .collect();
-            shade_gbuffer(
-                rasterizer,
-                objects,
-                &mats,
-                camera,
-                &model,
-                &prepared,
-                settings.ball_radius,
-                out,
-            );
-        }
-        FogMode::OpenGl { fog_color } => {
-            // Smooth normals as a 3-float vertex attribute where the mesh has them.
-            let normals: Vec<Vec<f32>> = objects
-                .iter()
-                .map(|o| {
-                    if o.mesh.normals.len() == o.mesh.positions.len() {
-                        o.mesh.normals.iter().flat_map(|n| n.to_array()).collect()
-                    } else {
-                        Vec::new()
-                    }
-                })
-                .collect();
-            let draws: Vec<DrawCall> = objects
-                .iter()
-                .zip(&normals)
-                .enumerate()
-                .map(|(i, (o, n))| {
-                    let d =
-                        DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32);
-                    if n.is_empty() {
-                        d
-                    } else {
-                        d.with_attributes(3, n)
-                    }
-                })
-                .collect();
-            let options = RasterOptions::default().fit_depth(camera, &draws);
-            let beta = settings.beta;
-            rasterizer.render(
-                camera,
-                &draws,
-                |f| {
-                    let n = if f.attributes.len() == 3 {
-                        Vec3::from_slice(f.attributes).normalize_or(f.normal)
-                    } else {
-                        f.normal
-                    };
-                    opengl_fog_pixel(
-                        eye,
-                        -f.to_eye,
-                        lights,
-                        beta,
-                        fog_color,
-                        Some((f.position, n, &objects[f.object as usize].material)),
-                    )
-                },
-                Background::Color(fog_color),
-                &options,
-                out,
-            )?;
-        }
-    }
+        .collect();
+    let draws: Vec<DrawCall> = objects
+        .iter()
+        .zip(&normals)
+        .enumerate()
+        .map(|(i, (o, n))| {
+            let d = DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32);
+            if n.is_empty() {
+                d
+            } else {
+                d.with_attributes(3, n)
+            }
+        })
+        .collect();
+    let options = RasterOptions::default().fit_depth(camera, &draws);
+    let beta = settings.beta;
+    rasterizer.render(
+        camera,
+        &draws,
+        |f| {
+            let n = if f.attributes.len() == 3 {
+                Vec3::from_slice(f.attributes).normalize_or(f.normal)
+            } else {
+                f.normal
+            };
+            opengl_fog_pixel(
+                eye,
+                -f.to_eye,
+                lights,
+                beta,
+                fog_color,
+                Some((f.position, n, &objects[f.object as usize].material)),
+            )
+        },
+        Background::Color(fog_color),
+        &options,
+        out,
+    )?;
     Ok(())
 }
 
@@ -381,6 +451,13 @@ fn shade_gbuffer(
     first.push(total);
     // Background directions are the camera rays through the pixel centres.
     let rays = camera.ray_frame();
+    // A surface that reflects nothing: only the airlight term remains.
+    let black = MaterialConst {
+        kd: Vec3::ZERO,
+        ks: Vec3::ZERO,
+        n: 1.0,
+        g: model.stand_in_table(),
+    };
     let eye = camera.eye;
     let beta = model.beta;
     out.pixels
@@ -455,18 +532,23 @@ fn shade_gbuffer(
             }
             let [dx, dy, dz] = &s.bg_d;
             if let Some(radius) = ball {
-                // The ray leaves the ball (eye inside) at t = −b + √(b² − c).
+                // The ray leaves the ball (eye inside) at t = −b + √(b² − c):
+                // the airlight to that point is the surface model's airlight
+                // term to a black surface there, so the batch's (AVX2) loop
+                // computes it.
                 let c = eye.length_squared() - radius * radius;
-                for (i, &x) in s.bg_x.iter().enumerate() {
+                let start = s.batch.len();
+                for i in 0..s.bg_x.len() {
                     let d = Vec3::new(dx[i], dy[i], dz[i]);
                     let b = eye.dot(d);
                     let t = -b + (b * b - c).max(0.0).sqrt();
-                    let hit = Some((eye + t * d, t, (-beta * t).exp()));
-                    let mut sum = Vec3::ZERO;
-                    for l in lights {
-                        sum += l.intensity * model.airlight(l, d, hit);
-                    }
-                    row[x as usize] = sum;
+                    s.batch.push_point(eye + t * d, -d);
+                }
+                s.batch.prepare(eye, beta, start);
+                let end = s.batch.len();
+                shade_surface_run(model, lights, &black, &mut s.batch, start..end);
+                for (i, &x) in s.bg_x.iter().enumerate() {
+                    row[x as usize] = s.batch.radiance(start + i);
                 }
             } else {
                 let [cr, cg, cb] = &mut s.bg_c;

@@ -196,6 +196,62 @@ impl LitScene {
         )
     }
 
+    /// [`LitScene::render_into`] shading from a visibility buffer the caller
+    /// rasterized: `raster` must hold `scene`'s meshes (positions and
+    /// indices, draw `i` = object `i`, in order) drawn for `camera`. That
+    /// buffer equals the one [`LitScene::render_into`] draws (meshes without
+    /// tangents are shaded on one vertex per corner, in the same triangle
+    /// order and at the same positions), so a caller that needs the
+    /// visibility buffer anyway (the fog method's point-light pass)
+    /// rasterizes once per frame.
+    ///
+    /// # Errors
+    /// As [`LitScene::render_into`]; a raster with another triangle count.
+    #[allow(clippy::too_many_arguments)]
+    pub fn shade_raster_into(
+        &self,
+        raster: &Rasterizer,
+        scene: &Scene,
+        camera: &Camera,
+        order: usize,
+        rotation: ShRotationMethod,
+        normal_maps: &[Option<&NormalMap>],
+        beta_lim: f32,
+        background: Background,
+        out: &mut Image,
+    ) -> Result<(), ShLightError> {
+        self.lit.shade_into(
+            raster,
+            camera,
+            scene,
+            order,
+            rotation,
+            normal_maps,
+            beta_lim,
+            background,
+            out,
+        )
+    }
+
+    /// The environment's projection in its own frame at the built order
+    /// (projected again first if `scene`'s texels changed since), for a
+    /// caller that shades in the world frame itself (the fog method's
+    /// per-vertex environment part) and so needs no per-vertex lighting.
+    ///
+    /// # Errors
+    /// The projection's.
+    pub fn projection(&mut self, scene: &Scene) -> Result<&ShRgb, ShLightError> {
+        let fp = env_fingerprint(&scene.env);
+        if fp != self.env.0 {
+            self.env = (
+                fp,
+                project_env(&scene.env, self.lit.order_max, Window::None)?,
+            );
+            self.lit_with = None;
+        }
+        Ok(&self.env.1)
+    }
+
     /// The rasterizer of the last [`LitScene::render_into`] (its visibility
     /// buffer gives the frame's coverage).
     #[must_use]

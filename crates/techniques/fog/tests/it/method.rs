@@ -135,7 +135,12 @@ fn point_light_part_is_render_fog() {
 
 #[test]
 fn without_fog_the_environment_part_is_plain_sh_shading() {
-    let opts = FogOptions::default();
+    // The per-pixel environment part (the per-vertex one is compared with
+    // it in `env_vertex`).
+    let opts = FogOptions {
+        env_shading: relight_fog::EnvShading::PerPixel,
+        ..FogOptions::default()
+    };
     for medium in [None, fog(0.0, 1.0, 10.0)] {
         let mut s = scene(sky(1.0), medium);
         s.point_lights.clear();
@@ -259,6 +264,60 @@ fn empty_pixels_integrate_the_airlight_to_the_ball_edge() {
             "pixel ({x}, {y}): {got} vs eq. 3.5 to the ball edge {want}"
         );
     }
+}
+
+/// Every empty pixel inside a fog ball (shaded by the batch loop as the
+/// airlight to a black surface at the ball's edge) equals the scalar
+/// `FogModel::airlight` to that point, summed over the lights.
+#[test]
+fn batched_ball_edge_airlight_equals_the_scalar_airlight() {
+    let (beta, albedo, radius) = (0.15f32, 0.6f32, 6.0f32);
+    let mut s = scene(black(), fog(beta, albedo, radius));
+    s.objects.truncate(1);
+    let objects = scene_objects(&s);
+    let tables = FogTables::build_for(64, objects.iter().map(|o| &o.material)).unwrap();
+    let mut settings = FogSettings::new(&tables, beta);
+    settings.albedo = albedo;
+    settings.ball_radius = Some(radius);
+    let lights: Vec<relight_fog::PointLight> = s
+        .point_lights
+        .iter()
+        .map(|l| relight_fog::PointLight::new(l.position, l.intensity))
+        .collect();
+    let img = render_fog(&objects, &s.camera, &lights, &settings).unwrap();
+    let model = relight_fog::FogModel::new(&tables, beta, &settings.phase, settings.interp)
+        .unwrap()
+        .with_albedo(albedo)
+        .unwrap();
+    let prepared = model.prepare_lights(s.camera.eye, &lights).unwrap();
+    let rays = s.camera.ray_frame();
+    let eye = s.camera.eye;
+    let mut r = relight_render::raster::Rasterizer::new();
+    relight_fog::render::rasterize_objects(&mut r, &objects, &s.camera).unwrap();
+    let mut empty = 0;
+    for y in 0..s.camera.height {
+        for x in 0..s.camera.width {
+            if r.gbuffer().triangle[y * s.camera.width + x] != relight_render::raster::NO_TRIANGLE {
+                continue;
+            }
+            empty += 1;
+            let d = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
+            let b = eye.dot(d);
+            let t = -b
+                + (b * b - (eye.length_squared() - radius * radius))
+                    .max(0.0)
+                    .sqrt();
+            let hit = Some((eye + t * d, t, (-beta * t).exp()));
+            let want: Vec3 = prepared
+                .iter()
+                .map(|l| l.intensity * model.airlight(l, d, hit))
+                .sum();
+            let got = img.pixels[y * s.camera.width + x];
+            let e = (got - want).abs().max_element() / want.max_element().max(1e-12);
+            assert!(e < 2e-3, "pixel ({x}, {y}): batch {got} vs scalar {want}");
+        }
+    }
+    assert!(empty > 100, "{empty} empty pixels");
 }
 
 #[test]

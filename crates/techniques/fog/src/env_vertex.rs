@@ -1,0 +1,445 @@
+//! The fog method's environment part shaded per vertex (Gouraud), the
+//! default of [`crate::method::FogRelighter`] ([`EnvShading::PerVertex`]).
+//!
+//! The surface radiance of the environment part (sun-thesis-2008 §3.6.4,
+//! eqs. 3.35–3.37: the SH lighting L′ filtered by the fog's PSF) is the SH
+//! shading of Kautz et al. 2002, `L_o = ⟨L′, B(n, ω_o)⟩`, the transfer of
+//! the BRDF for normal n and view ω_o. The thesis computes its model "for
+//! each vertex or pixel" (§3.5, after eq. 3.29); here the environment term
+//! is evaluated at the vertices of the triangles the frame shows and
+//! interpolated with the rasterizer's perspective-correct barycentrics
+//! (the point-light part stays per pixel). Per shaded vertex:
+//!
+//! 1. the local frame z = n, x = the view's tangent part (so ω_o has azimuth
+//!    0 and no Z rotation is needed), y = z × x;
+//! 2. `B(θ_o)` from the BRDF's table ([`BrdfShTable::lookup_mono`], one
+//!    vector where the table is rank-1, else three), times the band window;
+//! 3. `B` rotated from the local frame to world (exact ZYZ: three Z
+//!    rotations and two fixed X matrices) and dotted with the world-frame
+//!    lighting `L′` ([`EnvLighting`]), three channels.
+//!
+//! So a lighting change rotates only the n² lighting coefficients (no
+//! per-vertex lighting), and a frame's work is O(visible vertices · n³)
+//! instead of O(covered samples · n³).
+//!
+//! Where the view is below a vertex's shading horizon (n·ω_o ≤
+//! [`MIN_COS_VIEW`], silhouettes) the transfer is read at that grazing
+//! cosine instead of zero (the per-pixel path returns black there).
+//! Two-sided like the per-pixel path: a vertex of a triangle seen from the
+//! back shades with −n.
+
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+use relight_render::Scene;
+use relight_render::raster::{NO_TRIANGLE, Rasterizer};
+use relight_sh::project::ShRgb;
+use relight_sh::rotation::{EulerZyz, IvanicRuedenberg, Rot3, ShRotation, ZyzRotation};
+use relight_shlight::{BrdfShTable, ChosenWindow, LightingFilter, ShLightError};
+use relight_sphere::EnvMap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
+
+/// Where the environment part of the fog method is shaded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EnvShading {
+    /// At the visible vertices, interpolated (module docs); the default.
+    PerVertex,
+    /// At every sample ([`relight_shlight::LitScene`], per-pixel rotation).
+    PerPixel,
+}
+
+/// The smallest cosine between a vertex normal and the view at which the
+/// transfer is read (module docs).
+pub const MIN_COS_VIEW: f32 = 0.05;
+
+/// The most SH coefficients per channel (order 8).
+const MAXN: usize = 64;
+
+/// The environment lighting of one lighting change in the world frame:
+/// the projection rotated by `world_from_env` (exact Ivanic–Ruedenberg)
+/// and filtered ([`LightingFilter`]: L′_lm = (direct + bands[l]) L_lm).
+#[derive(Clone, Debug)]
+pub struct EnvLighting {
+    order: usize,
+    /// L′ in the world frame, per channel `order²`.
+    lit: [Vec<f32>; 3],
+    /// The filter's direct weight and its filtered part alone (for empty
+    /// pixels; `None` without a filter or with all band weights zero).
+    filtered: Option<[Vec<f32>; 3]>,
+    direct: f32,
+    env_from_world: Mat3,
+}
+
+impl EnvLighting {
+    /// `projection` (the environment's SH in its own frame) turned by
+    /// `world_from_env` and filtered by `filter`.
+    ///
+    /// # Errors
+    /// A matrix that is not a rotation, an unsupported order.
+    pub fn new(
+        projection: &ShRgb,
+        world_from_env: Mat3,
+        filter: Option<&LightingFilter>,
+    ) -> Result<Self, ShLightError> {
+        let order = projection.order;
+        let mut light = projection.clone();
+        let mut env_from_world = Mat3::IDENTITY;
+        if world_from_env != Mat3::IDENTITY {
+            let r = Rot3::try_from_mat3(world_from_env)?;
+            let plan = IvanicRuedenberg::<f32>::new(order)?;
+            let mut rot = ShRotation::<f32>::identity(order)?;
+            plan.build(&r, &mut rot);
+            light = light.rotated(&rot);
+            env_from_world = world_from_env.transpose();
+        }
+        let (mut direct, mut filtered) = (1.0, None);
+        if let Some(f) = filter {
+            direct = f.direct;
+            let band = |i: usize| {
+                let l = relight_sh::sh_lm(i).0;
+                f.bands.get(l).copied().unwrap_or(0.0)
+            };
+            let only: [Vec<f32>; 3] = std::array::from_fn(|c| {
+                light.channels[c]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, v)| v * band(i))
+                    .collect()
+            });
+            for c in &mut light.channels {
+                for (i, v) in c.iter_mut().enumerate() {
+                    *v *= f.direct + band(i);
+                }
+            }
+            if f.bands.iter().any(|&w| w != 0.0) {
+                filtered = Some(only);
+            }
+        }
+        Ok(Self {
+            order,
+            lit: light.channels,
+            filtered,
+            direct,
+            env_from_world,
+        })
+    }
+
+    /// Bands.
+    #[must_use]
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// What an empty sample in world direction `d` (unit) shows:
+    /// direct · env(d) + max(0, the filtered part at d), as the per-pixel
+    /// path's background.
+    #[must_use]
+    pub fn background(&self, env: &EnvMap, d: Vec3) -> Vec3 {
+        let seen = env.eval(self.env_from_world * d);
+        let Some(sh) = &self.filtered else {
+            return self.direct * seen;
+        };
+        let nn = self.order * self.order;
+        let mut y = [0.0f32; MAXN];
+        relight_sh::basis::eval_sh_into(self.order, d.to_array(), &mut y[..nn]);
+        let dot = |c: &[f32]| c.iter().zip(&y[..nn]).map(|(a, b)| a * b).sum::<f32>();
+        self.direct * seen + Vec3::new(dot(&sh[0]), dot(&sh[1]), dot(&sh[2])).max(Vec3::ZERO)
+    }
+}
+
+/// One object's transfer: its BRDF table and band window per coefficient.
+#[derive(Clone, Debug)]
+struct Transfer {
+    table: Arc<BrdfShTable>,
+    window: Vec<f32>,
+}
+
+/// Per-thread buffers of [`VertexShader::shade`].
+pub struct Scratch {
+    b: [f32; 3 * MAXN],
+    bw: [f32; 3 * MAXN],
+    tmp: [f32; MAXN],
+}
+
+impl Scratch {
+    /// Zeroed buffers.
+    #[must_use]
+    pub fn new() -> Box<Self> {
+        Box::new(Self {
+            b: [0.0; 3 * MAXN],
+            bw: [0.0; 3 * MAXN],
+            tmp: [0.0; MAXN],
+        })
+    }
+}
+
+/// The per-vertex environment shading of a scene's objects (module docs).
+pub struct VertexShader {
+    order: usize,
+    zyz: ZyzRotation<f32>,
+    transfers: Vec<Transfer>,
+}
+
+impl std::fmt::Debug for VertexShader {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VertexShader")
+            .field("order", &self.order)
+            .field("objects", &self.transfers.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl VertexShader {
+    /// Shading at `order` bands with one (table, window) per object (the
+    /// window's factors per band, as [`relight_shlight::LitScene::windows`]).
+    ///
+    /// # Errors
+    /// An order above a table's or above 8, tables and windows of
+    /// different counts.
+    pub fn new(
+        order: usize,
+        tables: &[Arc<BrdfShTable>],
+        windows: &[ChosenWindow],
+    ) -> Result<Self, ShLightError> {
+        let bad = |why: String| ShLightError::InvalidParameter {
+            what: "per-vertex environment",
+            why,
+        };
+        if tables.len() != windows.len() {
+            return Err(bad(format!(
+                "{} tables but {} windows",
+                tables.len(),
+                windows.len()
+            )));
+        }
+        if order * order > MAXN || tables.iter().any(|t| t.order() < order) {
+            return Err(bad(format!("order {order} above a table's or above 8")));
+        }
+        let transfers = tables
+            .iter()
+            .zip(windows)
+            .map(|(t, w)| Transfer {
+                table: t.clone(),
+                window: (0..order * order)
+                    .map(|i| {
+                        w.factors
+                            .get(relight_sh::sh_lm(i).0)
+                            .copied()
+                            .unwrap_or(1.0) as f32
+                    })
+                    .collect(),
+            })
+            .collect();
+        Ok(Self {
+            order,
+            zyz: ZyzRotation::new(order)?,
+            transfers,
+        })
+    }
+
+    /// Bands.
+    #[must_use]
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// `L_o = ⟨L′, B(n, ω_o)⟩` of object `obj` for unit shading normal `n`
+    /// and unit direction to the eye `wo` (module docs, steps 1–3).
+    #[must_use]
+    pub fn shade(
+        &self,
+        obj: usize,
+        light: &EnvLighting,
+        n: Vec3,
+        wo: Vec3,
+        s: &mut Scratch,
+    ) -> Vec3 {
+        let tr = &self.transfers[obj];
+        let order = self.order;
+        let k = order * order;
+        let c = n.dot(wo);
+        let x = (wo - c * n)
+            .try_normalize()
+            .unwrap_or_else(|| n.any_orthonormal_vector());
+        let y = n.cross(x);
+        let c = c.clamp(MIN_COS_VIEW, 1.0);
+        let mono = tr.table.mono_colour();
+        let channels = if mono.is_some() { 1 } else { 3 };
+        let b = &mut s.b[..channels * k];
+        if mono.is_some() {
+            tr.table.lookup_mono(c, order, b);
+        } else {
+            tr.table.lookup(c, order, b);
+        }
+        for ch in b.chunks_exact_mut(k) {
+            for (v, h) in ch.iter_mut().zip(&tr.window) {
+                *v *= h;
+            }
+        }
+        // Local (x, y, n) → world.
+        let e: EulerZyz<f32> = Rot3::from_mat3_unchecked(Mat3::from_cols(x, y, n)).euler_zyz();
+        let bw = &mut s.bw[..channels * k];
+        for (src, dst) in b.chunks_exact(k).zip(bw.chunks_exact_mut(k)) {
+            self.zyz.apply_euler(&e, src, dst, &mut s.tmp[..k]);
+        }
+        let dot = |a: &[f32], b: &[f32]| a[..k].iter().zip(b).map(|(x, y)| x * y).sum::<f32>();
+        match mono {
+            Some(rho) => {
+                let w = &bw[..k];
+                Vec3::new(
+                    dot(&light.lit[0], w),
+                    dot(&light.lit[1], w),
+                    dot(&light.lit[2], w),
+                ) * Vec3::from_array(rho)
+            }
+            None => Vec3::new(
+                dot(&light.lit[0], &bw[..k]),
+                dot(&light.lit[1], &bw[k..2 * k]),
+                dot(&light.lit[2], &bw[2 * k..3 * k]),
+            ),
+        }
+    }
+}
+
+/// Bits of a vertex mark: seen on a front- or back-facing triangle.
+const FRONT: u8 = 1;
+const BACK: u8 = 2;
+
+/// The per-vertex colours of one frame (module docs).
+pub struct VertexFrame {
+    /// Per object, per vertex: which sides the frame shows (reset by
+    /// [`VertexFrame::shade`]).
+    marks: Vec<Vec<AtomicU8>>,
+    /// Per object, per vertex: the radiance of the front and back side.
+    front: Vec<Vec<Vec3>>,
+    back: Vec<Vec<Vec3>>,
+}
+
+impl std::fmt::Debug for VertexFrame {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VertexFrame")
+            .field("objects", &self.marks.len())
+            .finish_non_exhaustive()
+    }
+}
+
+/// Whether triangle `t` of `mesh` faces the eye (its geometric normal
+/// towards it; the sign is the same at every point of its plane).
+#[inline]
+#[must_use]
+pub fn faces_eye(positions: &[Vec3], t: [u32; 3], eye: Vec3) -> bool {
+    let (p0, p1, p2) = (
+        positions[t[0] as usize],
+        positions[t[1] as usize],
+        positions[t[2] as usize],
+    );
+    (p1 - p0).cross(p2 - p0).dot(eye - p0) >= 0.0
+}
+
+impl VertexFrame {
+    /// Buffers for `scene`'s objects.
+    #[must_use]
+    pub fn new(scene: &Scene) -> Self {
+        let sizes: Vec<usize> = scene
+            .objects
+            .iter()
+            .map(|o| o.mesh.positions.len())
+            .collect();
+        Self {
+            marks: sizes
+                .iter()
+                .map(|&n| (0..n).map(|_| AtomicU8::new(0)).collect())
+                .collect(),
+            front: sizes.iter().map(|&n| vec![Vec3::ZERO; n]).collect(),
+            back: sizes.iter().map(|&n| vec![Vec3::ZERO; n]).collect(),
+        }
+    }
+
+    /// Whether the buffers fit `scene`'s objects.
+    #[must_use]
+    pub fn fits(&self, scene: &Scene) -> bool {
+        self.marks.len() == scene.objects.len()
+            && self
+                .marks
+                .iter()
+                .zip(&scene.objects)
+                .all(|(m, o)| m.len() == o.mesh.positions.len())
+    }
+
+    /// Shades every vertex side of the triangles visible in `raster`
+    /// (rasterized from `scene`'s meshes, draw i = object i, seen from
+    /// `eye`) with `shader` under `light`.
+    pub fn shade(
+        &mut self,
+        scene: &Scene,
+        raster: &Rasterizer,
+        eye: Vec3,
+        shader: &VertexShader,
+        light: &EnvLighting,
+    ) {
+        let g = raster.gbuffer();
+        let w = g.width.max(1);
+        let marks = &self.marks;
+        g.triangle.par_chunks(w).for_each(|ids| {
+            let mut last = NO_TRIANGLE;
+            for &id in ids {
+                if id == NO_TRIANGLE || id == last {
+                    continue;
+                }
+                last = id;
+                let Some((d, tri)) = raster.locate(id) else {
+                    continue;
+                };
+                let mesh = &scene.objects[d].mesh;
+                let t = mesh.indices[tri];
+                let bit = if faces_eye(&mesh.positions, t, eye) {
+                    FRONT
+                } else {
+                    BACK
+                };
+                for v in t {
+                    let m = &marks[d][v as usize];
+                    if m.load(Ordering::Relaxed) & bit == 0 {
+                        m.fetch_or(bit, Ordering::Relaxed);
+                    }
+                }
+            }
+        });
+        for (d, o) in scene.objects.iter().enumerate() {
+            let mesh = &o.mesh;
+            self.marks[d]
+                .par_iter()
+                .zip(self.front[d].par_iter_mut())
+                .zip(self.back[d].par_iter_mut())
+                .enumerate()
+                .with_min_len(512)
+                .for_each_init(Scratch::new, |s, (v, ((m, f), b))| {
+                    let bits = m.load(Ordering::Relaxed);
+                    if bits == 0 {
+                        return;
+                    }
+                    m.store(0, Ordering::Relaxed);
+                    let p = mesh.positions[v];
+                    let n = mesh.normals.get(v).copied().unwrap_or(Vec3::Z);
+                    let n = n.normalize_or(Vec3::Z);
+                    let wo = (eye - p).normalize_or(n);
+                    if bits & FRONT != 0 {
+                        *f = shader.shade(d, light, n, wo, s);
+                    }
+                    if bits & BACK != 0 {
+                        *b = shader.shade(d, light, -n, wo, s);
+                    }
+                });
+        }
+    }
+
+    /// The interpolated radiance on triangle `t` of object `d` at
+    /// barycentrics `lam` (weights of its three vertices), on its `front`
+    /// or back side, after [`VertexFrame::shade`] of a frame that shows it.
+    #[inline]
+    #[must_use]
+    pub fn at(&self, d: usize, t: [u32; 3], lam: Vec3, front: bool) -> Vec3 {
+        let c = if front { &self.front[d] } else { &self.back[d] };
+        c[t[0] as usize] * lam.x + c[t[1] as usize] * lam.y + c[t[2] as usize] * lam.z
+    }
+}
