@@ -285,11 +285,21 @@ fn rotate_kernel(s: &mut String, n: usize) {
                 k + 1
             )
             .unwrap();
-            for m in 2..n {
-                let p = m - 1;
+            // cos mθ, sin mθ by the Chebyshev recurrence
+            // x_m = 2 cos θ · x_{m−1} − x_{m−2}: one multiply–add per value
+            // and one per step on the dependency chain (the angle-addition
+            // formula took two of each).
+            writeln!(s, "    let {ang}t = {ang}c1 + {ang}c1;").unwrap();
+            writeln!(
+                s,
+                "    let {ang}c2 = {ang}t.mul_add({ang}c1, s(-1.0));\n    let {ang}s2 = {ang}t * {ang}s1;"
+            )
+            .unwrap();
+            for m in 3..n {
+                let (p, q) = (m - 1, m - 2);
                 writeln!(
                     s,
-                    "    let {ang}c{m} = {ang}c{p}.mul_add({ang}c1, -({ang}s{p} * {ang}s1));\n    let {ang}s{m} = {ang}s{p}.mul_add({ang}c1, {ang}c{p} * {ang}s1);"
+                    "    let {ang}c{m} = {ang}t.mul_add({ang}c{p}, -{ang}c{q});\n    let {ang}s{m} = {ang}t.mul_add({ang}s{p}, -{ang}s{q});"
                 )
                 .unwrap();
             }

@@ -116,8 +116,10 @@ pub(crate) fn euler_zyz_direct<T: Real>(rot: &Rot3<T>) -> EulerZyz<T> {
     let m = &rot.m;
     let sb2 = m[0][2] * m[0][2] + m[1][2] * m[1][2];
     if sb2.to_f64() >= 0.01 {
+        // 1/sin β as sin β · (1/sin² β): the square root and the division
+        // run side by side instead of one after the other.
         let sb = sb2.sqrt();
-        let inv = T::ONE / sb;
+        let inv = sb * (T::ONE / sb2);
         EulerZyz {
             cos_alpha: m[0][2] * inv,
             sin_alpha: m[1][2] * inv,
