@@ -96,7 +96,7 @@ pub fn write_file(
     Ok(())
 }
 
-/// A validated bake file, read into (huge-page) memory.
+/// A validated, memory-mapped bake file.
 pub struct MappedFile {
     pub map: memmap2::Mmap,
     pub header: Header,
@@ -109,39 +109,16 @@ impl MappedFile {
     }
 }
 
-/// The bytes of `path` in anonymous memory asked to be backed by huge pages
-/// (Linux transparent huge pages, `MADV_HUGEPAGE`). The rotation matrices
-/// are hundreds of MB read at random columns on every lighting change: with
-/// 4 KiB pages (a file mapping) nearly every column read is a TLB miss.
-/// Reading the file costs a copy at load, which the checksum pass reads in
-/// full anyway.
-fn read_to_memory(path: &Path) -> Result<memmap2::Mmap, WaveletError> {
-    use std::io::Read;
-    let mut f = std::fs::File::open(path).map_err(io(path))?;
-    let len = f.metadata().map_err(io(path))?.len();
-    let len = usize::try_from(len).map_err(|_| {
-        io(path)(std::io::Error::other(format!(
-            "{len} bytes do not fit in memory"
-        )))
-    })?;
-    let mut mem = memmap2::MmapMut::map_anon(len.max(1)).map_err(io(path))?;
-    #[cfg(target_os = "linux")]
-    {
-        // Only a hint: without huge pages the data is the same.
-        let _ = mem.advise(memmap2::Advice::HugePage);
-    }
-    f.read_exact(&mut mem[..len]).map_err(io(path))?;
-    let map = mem.make_read_only().map_err(io(path))?;
-    Ok(map)
-}
-
-/// Opens, reads ([`read_to_memory`]) and validates a bake file of kind `magic`.
+/// Opens, maps and validates a bake file of kind `magic`.
 pub fn read_file(
     path: &Path,
     magic: [u8; 8],
     kind: &'static str,
 ) -> Result<MappedFile, WaveletError> {
-    let map = read_to_memory(path)?;
+    let f = std::fs::File::open(path).map_err(io(path))?;
+    // SAFETY: the file is opened read-only; relight replaces bake files only
+    // by atomic rename, never by writing in place, so the mapping is stable.
+    let map = unsafe { memmap2::Mmap::map(&f) }.map_err(io(path))?;
     let corrupt = |why: String| WaveletError::Corrupt {
         path: path.to_path_buf(),
         why,

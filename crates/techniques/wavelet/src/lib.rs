@@ -26,7 +26,7 @@
 //!   slices (and per-vertex AO), `set_lighting` is step 1 with the scene's
 //!   `world_from_env`, `render` step 2 and the raster at the frame's `aa`.
 //! * `relight bake rotation`: [`RotationParams::new`] → [`bake_rotation`] →
-//!   [`RotationMatrices::save`]; [`RotationMatrices::load_expect`] reads it back (huge pages).
+//!   [`RotationMatrices::save`]; [`RotationMatrices::load_expect`] memory-maps it back.
 //! * `relight bake brdf`: [`BrdfBakeParams::new`] → [`bake_brdf`] → [`BrdfBake::save`].
 //! * `relight render --method wavelet`: [`bake_or_load_rotation`] and
 //!   [`bake_or_load_brdf`] (cache keyed by every parameter, [`default_cache_dir`]),

@@ -219,7 +219,7 @@ enum Store {
     },
 }
 
-/// All rotation matrices of one bake (owned after baking, read into huge-page memory after loading).
+/// All rotation matrices of one bake (owned after baking, memory-mapped after loading).
 pub struct RotationMatrices {
     params: RotationParams,
     store: Store,
@@ -711,7 +711,7 @@ impl RotationMatrices {
         )
     }
 
-    /// Reads and validates a bake file (magic, version, size, checksum, structure).
+    /// Memory-maps and validates a bake file (magic, version, size, checksum, structure).
     ///
     /// # Errors
     /// IO, foreign, stale-version, truncated or corrupted files.

@@ -572,7 +572,7 @@ pub fn verify_wavelet_with_sh(
                 }
                 let mut r = WaveletRenderer::new(rot, terms.min(rp.source_len()))?;
                 // Each timing is of a second call: the first one pages in the
-                // bake files (hundreds of MB at N = 64²) into the caches.
+                // memory-mapped bake files (hundreds of MB at N = 64²).
                 r.set_lighting(&sc.env, glam::Mat3::IDENTITY)?;
                 let t0 = Instant::now();
                 r.set_lighting(&sc.env, glam::Mat3::IDENTITY)?;
