@@ -209,7 +209,7 @@ impl LitScene {
     /// As [`LitScene::render_into`]; a raster with another triangle count.
     #[allow(clippy::too_many_arguments)]
     pub fn shade_raster_into(
-        &self,
+        &mut self,
         raster: &Rasterizer,
         scene: &Scene,
         camera: &Camera,
