@@ -33,7 +33,6 @@ use glam::{Mat3, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 use relight_render::camera::CameraRays;
 use relight_render::raster::{GBuffer, NO_TRIANGLE, Rasterizer};
-use relight_render::reference::surface::above_horizon;
 use relight_render::{Camera, Image};
 use relight_sh::rotation::{ShRotation, rotate_z};
 use relight_sphere::Frame;
@@ -378,11 +377,10 @@ impl Pass<'_> {
             Some(m) => frame_of(sgn * m.perturb(n_i, t_i, uv), t_i.truncate()),
             None => fv,
         };
-        // A shading normal turned away from the viewer (by the normal map, or
-        // an interpolated normal at a silhouette) sees the view at the
-        // horizon, the reference renderer's convention (`above_horizon`):
-        // no black pixels.
-        let wo = above_horizon(fp.to_local(wo_world));
+        let wo = fp.to_local(wo_world);
+        if wo.z <= 0.0 {
+            return Vec3::ZERO;
+        }
         let order = self.order;
         let k = order * order;
         let table = &self.tables[d];
