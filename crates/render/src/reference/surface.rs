@@ -8,11 +8,11 @@
 //! (`surface_vertex`) the shading normal is the interpolated vertex normal,
 //! perturbed by the object's normal map ([`NormalMap::perturb`] at the hit's
 //! uv and tangent, the lookup every method shares), then both normals are
-//! turned towards the viewer (surfaces are two-sided). Where the shading
-//! normal (interpolated, or turned by a normal map) still faces away from
-//! the viewer, the BRDF sees the view at the horizon (`above_horizon`: no
-//! black fringes at silhouettes nor black pixels under a normal map; the SH
-//! method shares this convention, and the helper). The BSDF is the
+//! turned towards the viewer (surfaces are two-sided). Where an
+//! interpolated shading normal (no normal map) still faces away from the
+//! viewer, the BRDF sees the view at the horizon (`above_horizon`: no black
+//! fringes at silhouettes). A normal map that turns the normal away keeps
+//! the convention the SH method shares: the BRDF is zero there. The BSDF is the
 //! object's BRDF, or with a [`BrdfBlend`] the mixture
 //! `f = (1 − w) f₁ + w f₂`, `w` = the blend weight at the hit's uv, sampled by
 //! picking lobe 2 with probability `w` and reporting the mixture density
@@ -260,7 +260,13 @@ pub(crate) fn surface_vertex<'s>(
         p: sp.position,
         ng,
         frame,
-        wo: above_horizon(wo),
+        // Normal-mapped surfaces keep the shared convention of the methods
+        // (zero where the map turns the normal away from the viewer).
+        wo: if object.normal_map.is_some() {
+            wo
+        } else {
+            above_horizon(wo)
+        },
         bsdf: SurfaceBsdf::of_object(object, sp.uv),
     };
     (sp, sc)
@@ -268,7 +274,7 @@ pub(crate) fn surface_vertex<'s>(
 
 /// Least `cos θ_o` of the view direction in the shading frame
 /// ([`above_horizon`]): about 87°.
-pub const MIN_COS_VIEW: f32 = 0.05;
+pub(crate) const MIN_COS_VIEW: f32 = 0.05;
 
 /// The local view direction `wo` (unit), raised to at least
 /// [`MIN_COS_VIEW`] above the shading horizon, keeping its azimuth.
@@ -282,11 +288,9 @@ pub const MIN_COS_VIEW: f32 = 0.05;
 /// the silhouette; the shading normal itself is kept, so a Lambert surface
 /// shows the irradiance about its shading normal, as the SH and wavelet
 /// methods (which shade by the normal) do. Views above the horizon (almost
-/// every pixel) are unchanged. Public so that every method that shades by
-/// a local view direction shares this one convention (the SH method does).
+/// every pixel) are unchanged.
 #[must_use]
-#[inline]
-pub fn above_horizon(wo: Vec3) -> Vec3 {
+pub(crate) fn above_horizon(wo: Vec3) -> Vec3 {
     if wo.z >= MIN_COS_VIEW {
         return wo;
     }

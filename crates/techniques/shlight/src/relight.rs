@@ -1391,65 +1391,6 @@ mod tests {
         assert_eq!(lazy.pixels, eager.pixels);
     }
 
-    /// A shading normal that faces away from the viewer (here every vertex
-    /// normal of a quad that faces the camera, with and without a flat
-    /// normal map) sees the view at the horizon (`above_horizon`, the
-    /// reference's convention) instead of going black: under a uniform white
-    /// sky a Lambert surface of albedo 0.8 shows 0.8 everywhere.
-    #[test]
-    fn normals_facing_away_are_shaded_at_the_horizon_not_black() {
-        let n = Vec3::new(1.0, 0.0, -0.3).normalize();
-        let mesh = relight_geom::Mesh {
-            positions: vec![
-                Vec3::new(-1.0, -1.0, 0.0),
-                Vec3::new(1.0, -1.0, 0.0),
-                Vec3::new(1.0, 1.0, 0.0),
-                Vec3::new(-1.0, 1.0, 0.0),
-            ],
-            normals: vec![n; 4],
-            uvs: vec![
-                Vec2::new(0.0, 0.0),
-                Vec2::new(1.0, 0.0),
-                Vec2::new(1.0, 1.0),
-                Vec2::new(0.0, 1.0),
-            ],
-            tangents: vec![Vec4::new(0.0, 1.0, 0.0, 1.0); 4],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-        };
-        let white = EnvMap::from_fn(
-            Param::LatLong {
-                width: 32,
-                height: 16,
-            },
-            |_| Vec3::ONE,
-        );
-        let o = Object::new(
-            Arc::new(mesh),
-            Arc::new(Lambert::new(Vec3::splat(0.8)).unwrap()),
-        );
-        let scene = Scene::new(vec![o], white, camera(Vec3::new(0.0, 0.0, 3.0)));
-        let flat = NormalMap::bumps(8, 1, 0.0);
-        for (method, nm) in [
-            (ShRotationMethod::Zyz, Some(&flat)),
-            (ShRotationMethod::Taylor1, Some(&flat)),
-            (ShRotationMethod::Zyz, None),
-        ] {
-            let img = ShRenderer::new(6, method)
-                .unwrap()
-                .with_env_background(false)
-                .render(&scene, nm, &NoProgress)
-                .unwrap();
-            let covered = img.mask.iter().filter(|&&m| m).count();
-            assert!(covered > 1000, "{covered}");
-            for (p, _) in img.image.pixels.iter().zip(&img.mask).filter(|(_, m)| **m) {
-                assert!(
-                    (*p - Vec3::splat(0.8)).abs().max_element() < 0.02,
-                    "{method}: {p}"
-                );
-            }
-        }
-    }
-
     /// The per-vertex lighting rotation (ZYZ from the frame's Euler angles)
     /// equals the Ivanic–Ruedenberg matrix of the same frame.
     #[test]
