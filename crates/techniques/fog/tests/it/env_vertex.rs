@@ -81,7 +81,12 @@ fn vertex_shade_equals_the_per_pixel_formula() {
         let brdf = spec.parse::<BrdfSpec>().unwrap().build();
         let table = renderer.table(&brdf, order, 0, &NoProgress).unwrap();
         let window = renderer.window_of(&table, order).unwrap();
-        let shader = VertexShader::new(order, &[table.clone()], &[window.clone()]).unwrap();
+        let shader = VertexShader::new(
+            order,
+            std::slice::from_ref(&table),
+            std::slice::from_ref(&window),
+        )
+        .unwrap();
         let mut s = Scratch::new();
         let mut worst = 0.0f32;
         for j in 0..60 {
