@@ -353,39 +353,16 @@ impl NdfMethod {
             (Some((m, _)), NdfFilter::None) => Rep::Normal(m.sample(uv)),
             (Some((_, b)), NdfFilter::Sh) => {
                 if let Some(sh) = &b.sh {
-                    let nn = sh.order * sh.order;
-                    if fp.count == 1 {
-                        sh.sample(fp.probes[0], fp.lod, &mut gamma);
-                    } else {
-                        // Linear: the probes' mean is the footprint's NDF.
-                        let mut one = [0.0f32; 64];
-                        let w = 1.0 / fp.count as f32;
-                        for p in fp.probes() {
-                            sh.sample(*p, fp.lod, &mut one);
-                            for (g, v) in gamma[..nn].iter_mut().zip(&one[..nn]) {
-                                *g += w * v;
-                            }
-                        }
-                    }
+                    // Linear: the probes' mean is the footprint's NDF.
+                    sh.sample_footprint(fp, &mut gamma);
                 }
                 Rep::Sh
             }
             (Some((_, b)), NdfFilter::Vmf) => {
                 let mut packed = [Vec4::ZERO; MAX_LOBES];
                 if let Some(v) = &b.vmf {
-                    if fp.count == 1 {
-                        v.sample(fp.probes[0], fp.lod, &mut packed);
-                    } else {
-                        // Packed moments filter linearly (moment-matching merge).
-                        let mut one = [Vec4::ZERO; MAX_LOBES];
-                        let w = 1.0 / fp.count as f32;
-                        for p in fp.probes() {
-                            v.sample(*p, fp.lod, &mut one);
-                            for (q, o) in packed[..v.lobes].iter_mut().zip(&one[..v.lobes]) {
-                                *q += *o * w;
-                            }
-                        }
-                    }
+                    // Packed moments filter linearly (moment-matching merge).
+                    v.sample_footprint(fp, &mut packed);
                     for p in &packed[..v.lobes] {
                         if let Some(l) = unpack(*p) {
                             lobes[nl] = l;

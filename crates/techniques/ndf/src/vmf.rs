@@ -162,8 +162,9 @@ pub fn sh_attenuation_forward(kappa: f64, out: &mut [f64]) {
         return;
     }
     out[1] = mean_resultant(kappa);
+    let inv = 1.0 / kappa;
     for l in 1..out.len() - 1 {
-        let next = out[l - 1] - (2 * l + 1) as f64 / kappa * out[l];
+        let next = out[l - 1] - (2 * l + 1) as f64 * inv * out[l];
         out[l + 1] = next.clamp(0.0, out[l]);
     }
 }

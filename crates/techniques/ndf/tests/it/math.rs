@@ -460,6 +460,77 @@ fn prepared_lambert_tail_matches_the_portable_one() {
 }
 
 #[test]
+fn footprint_sampling_is_the_mean_of_the_probes_samples() {
+    use glam::{Vec2, Vec4};
+    use relight_ndf::Footprint;
+    let map = relight_render::NormalMap::bumps(32, 4, 0.8);
+    let (w, h) = (map.width, map.height);
+    let sh = ShNdfPyramid::build(w, h, &map.texels, 3);
+    let sh5 = ShNdfPyramid::build(w, h, &map.texels, 5);
+    let mean = MeanPyramid::build(w, h, &map.texels);
+    let vmf = VmfPyramid::build(
+        w,
+        h,
+        &map.texels,
+        &VmfBakeOptions {
+            lobes: 3,
+            ..VmfBakeOptions::default()
+        },
+    );
+    let uv = Vec2::new(0.37, 0.61);
+    // Isotropic, 3:1, 40:1 (capped), magnified.
+    for (dx, dy) in [
+        (Vec2::new(3.0, 0.5), Vec2::new(-0.5, 3.0)),
+        (Vec2::new(1.0, 0.2), Vec2::new(0.3, 3.0)),
+        (Vec2::new(40.0, 1.0), Vec2::new(0.0, 1.0)),
+        (Vec2::new(0.3, 0.0), Vec2::new(0.0, 0.2)),
+    ] {
+        let fp = Footprint::of(uv, dx / w as f32, dy / h as f32, w, h);
+        let n = fp.count as f32;
+        for pyr in [&sh, &sh5] {
+            let nn = pyr.order * pyr.order;
+            let mut want = vec![0.0f32; nn];
+            let mut one = vec![0.0f32; nn];
+            for p in fp.probes() {
+                pyr.sample(*p, fp.lod, &mut one);
+                for (a, b) in want.iter_mut().zip(&one) {
+                    *a += b / n;
+                }
+            }
+            let mut got = vec![0.0f32; nn];
+            pyr.sample_footprint(&fp, &mut got);
+            for (a, b) in got.iter().zip(&want) {
+                assert!((a - b).abs() < 1e-6, "sh order {}: {a} vs {b}", pyr.order);
+            }
+        }
+        let mut want = [Vec4::ZERO; 3];
+        let mut one = [Vec4::ZERO; 3];
+        for p in fp.probes() {
+            vmf.sample(*p, fp.lod, &mut one);
+            for (a, b) in want.iter_mut().zip(&one) {
+                *a += *b / n;
+            }
+        }
+        let mut got = [Vec4::ZERO; 3];
+        vmf.sample_footprint(&fp, &mut got);
+        for (a, b) in got.iter().zip(&want) {
+            assert!((*a - *b).abs().max_element() < 1e-6, "vmf: {a} vs {b}");
+        }
+        let want: Vec3 = fp
+            .probes()
+            .iter()
+            .map(|p| mean.sample(*p, fp.lod))
+            .sum::<Vec3>()
+            / n;
+        let got = mean.sample_footprint(&fp);
+        assert!(
+            (got - want).abs().max_element() < 1e-6,
+            "mean: {got} vs {want}"
+        );
+    }
+}
+
+#[test]
 fn visible_fraction_matches_monte_carlo() {
     use relight_ndf::effective::visible_fraction;
     for &kappa in &[3.0f64, 20.0, 100.0, 1000.0] {
