@@ -9,7 +9,7 @@
 //! the environment's frame) and point lights (every [`NdfBrdf`]) off normal-mapped objects,
 //! each pixel shading the NDF of its MIP footprint: the level is
 //! [`crate::Footprint::of`] the uv derivatives from
-//! `relight_render::raster::barycentric_derivatives` (anisotropic: up to 8
+//! `relight_render::raster::barycentric_derivatives` (anisotropic: up to [`crate::MAX_PROBES`]
 //! trilinear probes along the footprint's major axis, averaged — every
 //! representation filters linearly). [`NdfFilter`] picks the representation or a baseline.
 //!
@@ -24,9 +24,8 @@
 //! memory across `prepare`s; `relight ndf bake` writes them for engines.
 
 use crate::effective::{
-    Baseline, LAMBERT_TAIL_ORDER, NdfBrdf, lambert_mixture_env, lambert_sh_dir_seen,
-    lambert_sh_env, lambert_tail_channels, mean_normal_of_sh, shade_baseline, shade_lobe,
-    shade_mixture,
+    Baseline, LAMBERT_TAIL_ORDER, LambertTail, NdfBrdf, lambert_mixture_env, lambert_sh_dir_seen,
+    lambert_sh_env, mean_normal_of_sh, shade_baseline, shade_lobe, shade_mixture,
 };
 use crate::lean::{LeanPyramid, LeanTexel, shade_lean};
 use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
@@ -207,8 +206,8 @@ pub struct NdfMethod {
     raster: Rasterizer,
     pending_lighting_ms: f64,
     /// The environment's SH to [`LAMBERT_TAIL_ORDER`] bands per channel, in
-    /// the environment's frame: the Lambert tail's lighting.
-    env_tail: [Vec<f32>; 3],
+    /// the environment's frame, prepared: the Lambert tail's lighting.
+    env_tail: LambertTail,
     /// `world_from_env` inverted (a rotation).
     env_from_world: Mat3,
 }
@@ -292,7 +291,7 @@ impl NdfMethod {
             objects: Vec::new(),
             raster: Rasterizer::new(),
             pending_lighting_ms: 0.0,
-            env_tail: [Vec::new(), Vec::new(), Vec::new()],
+            env_tail: LambertTail::default(),
             env_from_world: Mat3::IDENTITY,
         })
     }
@@ -354,39 +353,16 @@ impl NdfMethod {
             (Some((m, _)), NdfFilter::None) => Rep::Normal(m.sample(uv)),
             (Some((_, b)), NdfFilter::Sh) => {
                 if let Some(sh) = &b.sh {
-                    let nn = sh.order * sh.order;
-                    if fp.count == 1 {
-                        sh.sample(fp.probes[0], fp.lod, &mut gamma);
-                    } else {
-                        // Linear: the probes' mean is the footprint's NDF.
-                        let mut one = [0.0f32; 64];
-                        let w = 1.0 / fp.count as f32;
-                        for p in fp.probes() {
-                            sh.sample(*p, fp.lod, &mut one);
-                            for (g, v) in gamma[..nn].iter_mut().zip(&one[..nn]) {
-                                *g += w * v;
-                            }
-                        }
-                    }
+                    // Linear: the probes' mean is the footprint's NDF.
+                    sh.sample_footprint(fp, &mut gamma);
                 }
                 Rep::Sh
             }
             (Some((_, b)), NdfFilter::Vmf) => {
                 let mut packed = [Vec4::ZERO; MAX_LOBES];
                 if let Some(v) = &b.vmf {
-                    if fp.count == 1 {
-                        v.sample(fp.probes[0], fp.lod, &mut packed);
-                    } else {
-                        // Packed moments filter linearly (moment-matching merge).
-                        let mut one = [Vec4::ZERO; MAX_LOBES];
-                        let w = 1.0 / fp.count as f32;
-                        for p in fp.probes() {
-                            v.sample(*p, fp.lod, &mut one);
-                            for (q, o) in packed[..v.lobes].iter_mut().zip(&one[..v.lobes]) {
-                                *q += *o * w;
-                            }
-                        }
-                    }
+                    // Packed moments filter linearly (moment-matching merge).
+                    v.sample_footprint(fp, &mut packed);
                     for p in &packed[..v.lobes] {
                         if let Some(l) = unpack(*p) {
                             lobes[nl] = l;
@@ -457,14 +433,7 @@ impl NdfMethod {
             let to_env = |t: Vec3| {
                 self.env_from_world * (frame.x * t.x + frame.y * (hand * t.y) + frame.z * t.z)
             };
-            let mut yt = [0.0f32; LAMBERT_TAIL_ORDER * LAMBERT_TAIL_ORDER];
-            let [r, g, b] = &self.env_tail;
-            let mut tail = |t: Vec3| {
-                if r.is_empty() {
-                    return Vec3::ZERO;
-                }
-                Vec3::from(lambert_tail_channels(to_env(t), [r, g, b], &mut yt))
-            };
+            let tail = |t: Vec3| self.env_tail.eval(to_env(t));
             out += match &rep {
                 Rep::Normal(n) => tail(*n),
                 Rep::Mean(m) => {
@@ -691,8 +660,8 @@ impl Relighter for NdfMethod {
         };
         self.env_from_world = scene.world_from_env.transpose();
         self.env_tail = match &env {
-            Some(e) => [0, 1, 2].map(|c| e.channels[c].clone()),
-            None => [Vec::new(), Vec::new(), Vec::new()],
+            Some(e) => LambertTail::new([0, 1, 2].map(|c| &e.channels[c][..])),
+            None => LambertTail::default(),
         };
         for o in &mut self.objects {
             progress.check()?;

@@ -334,6 +334,24 @@ impl VmfPyramid {
         }
     }
 
+    /// The mean of [`Self::sample`] over an anisotropic footprint's probes
+    /// into `out` (`J` entries; packed moments filter linearly).
+    #[inline]
+    pub fn sample_footprint(&self, fp: &crate::Footprint, out: &mut [Vec4]) {
+        let j = self.lobes;
+        let out = &mut out[..j];
+        out.fill(Vec4::ZERO);
+        let dims = |k: usize| (self.levels[k].width, self.levels[k].height);
+        fp.for_each_tap(self.levels.len(), dims, |k, i, w| {
+            for (o, v) in out
+                .iter_mut()
+                .zip(&self.levels[k].lobes[i * j..(i + 1) * j])
+            {
+                *o += *v * w;
+            }
+        });
+    }
+
     /// Packed lobes of texel `(x, y)` of level `k`.
     #[must_use]
     pub fn texel(&self, k: usize, x: usize, y: usize) -> &[Vec4] {

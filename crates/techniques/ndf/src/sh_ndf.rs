@@ -126,6 +126,36 @@ impl ShNdfPyramid {
         }
     }
 
+    /// The mean of [`Self::sample`] over an anisotropic footprint's probes
+    /// into `out` (`order²` entries; SH coefficients filter linearly).
+    #[inline]
+    pub fn sample_footprint(&self, fp: &crate::Footprint, out: &mut [f32]) {
+        let nn = self.order * self.order;
+        let out = &mut out[..nn];
+        out.fill(0.0);
+        let dims = |k: usize| (self.levels[k].width, self.levels[k].height);
+        if nn == 9 {
+            // Lambert's order, with fixed-size loops the compiler unrolls.
+            let mut o9 = [0.0f32; 9];
+            fp.for_each_tap(self.levels.len(), dims, |k, i, w| {
+                let c: &[f32; 9] = self.levels[k].coeffs[i * 9..i * 9 + 9]
+                    .try_into()
+                    .expect("9 per texel");
+                for j in 0..9 {
+                    o9[j] += w * c[j];
+                }
+            });
+            out.copy_from_slice(&o9);
+            return;
+        }
+        fp.for_each_tap(self.levels.len(), dims, |k, i, w| {
+            let c = &self.levels[k].coeffs[i * nn..(i + 1) * nn];
+            for (o, v) in out.iter_mut().zip(c) {
+                *o += w * v;
+            }
+        });
+    }
+
     /// [`Self::sample`] for order 3 (9 coefficients per texel).
     #[inline]
     fn sample9(&self, uv: glam::Vec2, lod: f32) -> [f32; 9] {

@@ -54,8 +54,13 @@ pub fn mean_resultant(kappa: f64) -> f64 {
     if kappa < 1e-3 {
         return kappa / 3.0 - kappa.powi(3) / 45.0;
     }
-    // coth κ = (1 + e^{−2κ}) / (1 − e^{−2κ}).
-    let e = (-2.0 * kappa).exp();
+    // coth κ = (1 + e^{−2κ}) / (1 − e^{−2κ}); beyond κ = 20, e^{−2κ} < 5e-18
+    // leaves both sums at 1 in f64 (half an ulp is 5.5e-17): no `exp`.
+    let e = if kappa > 20.0 {
+        0.0
+    } else {
+        (-2.0 * kappa).exp()
+    };
     (1.0 + e) / (1.0 - e) - 1.0 / kappa
 }
 
@@ -157,8 +162,9 @@ pub fn sh_attenuation_forward(kappa: f64, out: &mut [f64]) {
         return;
     }
     out[1] = mean_resultant(kappa);
+    let inv = 1.0 / kappa;
     for l in 1..out.len() - 1 {
-        let next = out[l - 1] - (2 * l + 1) as f64 / kappa * out[l];
+        let next = out[l - 1] - (2 * l + 1) as f64 * inv * out[l];
         out[l + 1] = next.clamp(0.0, out[l]);
     }
 }

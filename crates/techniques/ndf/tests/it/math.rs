@@ -426,6 +426,111 @@ fn lambert_tail_of_a_delta_completes_the_irradiance() {
 }
 
 #[test]
+fn prepared_lambert_tail_matches_the_portable_one() {
+    use relight_ndf::effective::{LAMBERT_TAIL_ORDER, LambertTail, lambert_tail_channels};
+    let nn = LAMBERT_TAIL_ORDER * LAMBERT_TAIL_ORDER;
+    let chan = |k: usize| -> Vec<f32> {
+        (0..nn)
+            .map(|i| (((i * 37 + k * 13) % 11) as f32 - 5.0) * 0.1)
+            .collect()
+    };
+    let (r, g, b) = (chan(0), chan(1), chan(2));
+    let tail = LambertTail::new([&r, &g, &b]);
+    let mut rng = Rng(0x5eed_7a11);
+    let mut scratch = vec![0.0f32; nn];
+    let mut worst = 0.0f32;
+    // Delta (|m| = 1), sharp, wide and near-isotropic lobes.
+    for len in [1.0f32, 0.999_9, 0.99, 0.9, 0.6, 0.2, 0.01] {
+        for _ in 0..20 {
+            let d = Vec3::new(
+                rng.f() as f32 - 0.5,
+                rng.f() as f32 - 0.5,
+                rng.f() as f32 - 0.5,
+            )
+            .normalize();
+            let m = d * len;
+            let want = Vec3::from(lambert_tail_channels(m, [&r, &g, &b], &mut scratch));
+            let got = tail.eval(m);
+            worst = worst.max((got - want).abs().max_element());
+        }
+    }
+    // The tail's scale here is ~0.1 (coefficients ≤ 0.5).
+    assert!(worst < 1e-6, "prepared vs portable: {worst}");
+    assert_eq!(LambertTail::new([&[], &[], &[]]).eval(Vec3::Z), Vec3::ZERO);
+}
+
+#[test]
+fn footprint_sampling_is_the_mean_of_the_probes_samples() {
+    use glam::{Vec2, Vec4};
+    use relight_ndf::Footprint;
+    let map = relight_render::NormalMap::bumps(32, 4, 0.8);
+    let (w, h) = (map.width, map.height);
+    let sh = ShNdfPyramid::build(w, h, &map.texels, 3);
+    let sh5 = ShNdfPyramid::build(w, h, &map.texels, 5);
+    let mean = MeanPyramid::build(w, h, &map.texels);
+    let vmf = VmfPyramid::build(
+        w,
+        h,
+        &map.texels,
+        &VmfBakeOptions {
+            lobes: 3,
+            ..VmfBakeOptions::default()
+        },
+    );
+    let uv = Vec2::new(0.37, 0.61);
+    // Isotropic, 3:1, 40:1 (capped), magnified.
+    for (dx, dy) in [
+        (Vec2::new(3.0, 0.5), Vec2::new(-0.5, 3.0)),
+        (Vec2::new(1.0, 0.2), Vec2::new(0.3, 3.0)),
+        (Vec2::new(40.0, 1.0), Vec2::new(0.0, 1.0)),
+        (Vec2::new(0.3, 0.0), Vec2::new(0.0, 0.2)),
+    ] {
+        let fp = Footprint::of(uv, dx / w as f32, dy / h as f32, w, h);
+        let n = fp.count as f32;
+        for pyr in [&sh, &sh5] {
+            let nn = pyr.order * pyr.order;
+            let mut want = vec![0.0f32; nn];
+            let mut one = vec![0.0f32; nn];
+            for p in fp.probes() {
+                pyr.sample(*p, fp.lod, &mut one);
+                for (a, b) in want.iter_mut().zip(&one) {
+                    *a += b / n;
+                }
+            }
+            let mut got = vec![0.0f32; nn];
+            pyr.sample_footprint(&fp, &mut got);
+            for (a, b) in got.iter().zip(&want) {
+                assert!((a - b).abs() < 1e-6, "sh order {}: {a} vs {b}", pyr.order);
+            }
+        }
+        let mut want = [Vec4::ZERO; 3];
+        let mut one = [Vec4::ZERO; 3];
+        for p in fp.probes() {
+            vmf.sample(*p, fp.lod, &mut one);
+            for (a, b) in want.iter_mut().zip(&one) {
+                *a += *b / n;
+            }
+        }
+        let mut got = [Vec4::ZERO; 3];
+        vmf.sample_footprint(&fp, &mut got);
+        for (a, b) in got.iter().zip(&want) {
+            assert!((*a - *b).abs().max_element() < 1e-6, "vmf: {a} vs {b}");
+        }
+        let want: Vec3 = fp
+            .probes()
+            .iter()
+            .map(|p| mean.sample(*p, fp.lod))
+            .sum::<Vec3>()
+            / n;
+        let got = mean.sample_footprint(&fp);
+        assert!(
+            (got - want).abs().max_element() < 1e-6,
+            "mean: {got} vs {want}"
+        );
+    }
+}
+
+#[test]
 fn visible_fraction_matches_monte_carlo() {
     use relight_ndf::effective::visible_fraction;
     for &kappa in &[3.0f64, 20.0, 100.0, 1000.0] {
@@ -534,7 +639,7 @@ fn footprint_probes_span_the_major_axis() {
     assert!((mean - uv).length() < 1e-6);
     let span = f.probes()[3] - f.probes()[0];
     assert!((span - dy * 0.75).length() < 1e-6, "{span}");
-    // 100:1 is capped at 8 probes of 12.5 texels.
+    // 100:1 is capped at MAX_PROBES = 4 probes of 25 texels.
     let f = Footprint::of(
         uv,
         Vec2::new(1.0, 0.0) / 64.0,
@@ -543,7 +648,7 @@ fn footprint_probes_span_the_major_axis() {
         64,
     );
     assert_eq!(f.count, relight_ndf::MAX_PROBES);
-    assert!((f.lod - level(12.5)).abs() < 1e-5);
+    assert!((f.lod - level(100.0 / relight_ndf::MAX_PROBES as f32)).abs() < 1e-5);
     // Magnified: level 0.
     let f = Footprint::of(uv, dx / 4.0, dy / 16.0, 64, 64);
     assert_eq!((f.count, f.lod), (1, 0.0));
