@@ -450,13 +450,68 @@ fn prepared_lambert_tail_matches_the_portable_one() {
             .normalize();
             let m = d * len;
             let want = Vec3::from(lambert_tail_channels(m, [&r, &g, &b], &mut scratch));
-            let got = tail.eval(m);
+            let got = tail.eval_exact(m);
             worst = worst.max((got - want).abs().max_element());
         }
     }
     // The tail's scale here is ~0.1 (coefficients ≤ 0.5).
     assert!(worst < 1e-6, "prepared vs portable: {worst}");
     assert_eq!(LambertTail::new([&[], &[], &[]]).eval(Vec3::Z), Vec3::ZERO);
+    assert_eq!(
+        LambertTail::new([&[], &[], &[]]).eval_exact(Vec3::Z),
+        Vec3::ZERO
+    );
+}
+
+#[test]
+fn baked_lambert_tail_matches_the_portable_one() {
+    use relight_ndf::effective::{LAMBERT_TAIL_ORDER, LambertTail, lambert_tail_channels};
+    let nn = LAMBERT_TAIL_ORDER * LAMBERT_TAIL_ORDER;
+    // Every coefficient of the same size: band 8 as strong as band 4, a
+    // harder case than an environment's falling spectrum.
+    let chan = |k: usize| -> Vec<f32> {
+        (0..nn)
+            .map(|i| (((i * 37 + k * 13) % 11) as f32 - 5.0) * 0.1)
+            .collect()
+    };
+    let (r, g, b) = (chan(0), chan(1), chan(2));
+    let tail = LambertTail::new([&r, &g, &b]);
+    let mut rng = Rng(0x7ab1_e5ed);
+    let mut scratch = vec![0.0f32; nn];
+    let (mut worst, mut scale) = (0.0f32, 0.0f32);
+    let mut dirs: Vec<Vec3> = (0..2000)
+        .map(|_| {
+            Vec3::new(
+                rng.f() as f32 - 0.5,
+                rng.f() as f32 - 0.5,
+                rng.f() as f32 - 0.5,
+            )
+            .normalize()
+        })
+        .collect();
+    // The octahedral map's seams, folds and corners.
+    for t in [-0.999f32, -0.5, -1e-4, 0.0, 1e-4, 0.3, 0.999] {
+        dirs.push(Vec3::new(t, 1e-6, -(1.0 - t * t).sqrt()).normalize());
+        dirs.push(Vec3::new(1e-6, t, -(1.0 - t * t).sqrt()).normalize());
+        dirs.push(Vec3::new(t, -1e-6, -0.999).normalize());
+    }
+    dirs.extend([Vec3::Z, -Vec3::Z, Vec3::X, -Vec3::Y]);
+    for len in [1.0f32, 0.999_9, 0.99, 0.9, 0.6, 0.2] {
+        for d in &dirs {
+            let m = *d * len;
+            let want = Vec3::from(lambert_tail_channels(m, [&r, &g, &b], &mut scratch));
+            let got = tail.eval(m);
+            worst = worst.max((got - want).abs().max_element());
+            scale = scale.max(want.abs().max_element());
+        }
+    }
+    eprintln!("baked tail: worst {worst:.3e} at scale {scale:.3e}");
+    // Interpolation error of band-8 content on a 256² octahedral grid:
+    // within 1 % of the tail's scale.
+    assert!(
+        worst < 1e-2 * scale,
+        "baked vs portable: {worst} (scale {scale})"
+    );
 }
 
 #[test]
