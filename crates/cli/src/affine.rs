@@ -64,7 +64,7 @@ pub fn bench(a: &BenchArgs, report: &Report) -> Result<()> {
         &[],
     )?;
     report.table(
-        "relight bench affine: §4.6.2 zoom, wavelet domain (propagate_2d) vs pixel path (inverse Haar → box resampling → forward Haar), one thread",
+        "relight bench affine: §4.6.2 zoom, wavelet domain (sparse couplings, zoom_sparse) vs pixel path (inverse Haar → box resampling → forward Haar), one thread",
         &b.zoom,
         &[],
     )

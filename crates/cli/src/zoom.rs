@@ -1,7 +1,8 @@
 //! `relight wavelet zoom`: image dilation and translation directly in the
 //! Haar wavelet domain (thesis §4.6.2): forward Haar of each channel, keep
 //! the largest source terms, propagate by the affine coupling coefficients
-//! (`relight_affine::separable::propagate_2d`), inverse Haar. Equal to
+//! (`relight_affine::zoom::zoom_sparse`: only the couplings that can be
+//! non-zero), inverse Haar. Equal to
 //! inverse Haar → box resampling → forward Haar (checked by `relight verify
 //! affine`); exact at 100 % (`--scale 1 --center 0.5,0.5`).
 
@@ -68,13 +69,19 @@ pub fn run(c: WaveletCommand) -> Result<()> {
     let dense = kept.to_dense(n * n);
     let (s, o) = relight_affine::separable::zoom_transform(scale, center);
     let mut out = vec![[0.0f32; 3]; n * n];
-    let mut chan = vec![0.0f32; n * n];
+    let mut chan = Vec::with_capacity(n * n);
     let mut res = vec![0.0f64; n * n];
+    let mut scratch = relight_affine::zoom::ZoomScratch::default();
     for c in 0..3 {
-        for (d, v) in chan.iter_mut().zip(&dense) {
-            *d = v[c];
-        }
-        relight_affine::separable::propagate_2d(&chan, n, s, o, &mut res);
+        chan.clear();
+        chan.extend(
+            dense
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v[c] != 0.0)
+                .map(|(k, v)| (k as u32, v[c])),
+        );
+        relight_affine::zoom::zoom_sparse(&chan, n, s, o, n, &mut res, &mut scratch);
         for (d, v) in out.iter_mut().zip(&res) {
             d[c] = *v as f32;
         }

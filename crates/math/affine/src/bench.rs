@@ -83,9 +83,10 @@ pub struct BenchAffine {
 }
 
 /// One zoom timing (§4.6.2, Fig. 4.13): the wavelet path (source terms
-/// kept → [`crate::separable::propagate_2d`]) against the pixel path
-/// (inverse Haar → [`crate::separable::box_resample_2d`] → forward Haar)
-/// of the same coefficients.
+/// kept → [`crate::zoom::zoom_sparse`], optionally only the coarse target
+/// levels) against the pixel path (inverse Haar →
+/// [`crate::separable::box_resample_2d`] → forward Haar) of the same
+/// coefficients.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ZoomRow {
     /// Image side.
@@ -94,6 +95,9 @@ pub struct ZoomRow {
     pub scale: f64,
     /// Fraction of the n² source coefficients kept (largest |c|).
     pub source_terms: f64,
+    /// Fraction of the n² target coefficients computed: the levels below
+    /// `log₂ side`, `side²/n²` (Fig. 4.13's "dst" compression by level).
+    pub target_terms: f64,
     /// Wavelet path, ms per zoom (one thread).
     pub wavelet_ms: f64,
     /// Pixel path, ms per zoom (one thread).
@@ -107,8 +111,9 @@ pub struct ZoomRow {
     /// PSNR (dB) of the zoomed image against the pixel path of the full
     /// image (peak: its largest |pixel|).
     pub psnr_db: f64,
-    /// Max |wavelet − pixel path| coefficient ÷ the largest |coefficient|
-    /// (f32 transforms; the exactness check, ≤ 1e-5 at 100 %).
+    /// Max |wavelet − pixel path| over the computed coefficients ÷ the
+    /// largest |coefficient| (f32 transforms; the exactness check, ≤ 1e-5
+    /// at 100 %).
     pub max_diff: f64,
     /// Where the target comes from.
     pub source: &'static str,
@@ -132,60 +137,83 @@ fn zoom_image(n: usize) -> Vec<f32> {
         .collect()
 }
 
+/// Mean ms per call of `f`, repeated until at least `min_ms` have passed.
+fn time_ms(min_ms: f64, mut f: impl FnMut()) -> f64 {
+    let t0 = Instant::now();
+    let mut reps = 0u32;
+    loop {
+        f();
+        reps += 1;
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        if ms >= min_ms {
+            return ms / f64::from(reps);
+        }
+    }
+}
+
 /// The zoom rows: `n × n` image (256; quick 64), magnification 2 about
-/// (0.45, 0.55), source terms 100 %, 5 %, 1 %.
+/// (0.45, 0.55); source terms 100 %, 5 %, 1 % with every target level, and
+/// 5 % / 1 % with the target cut to the levels below `n/4` (6.25 %) and
+/// `n/8` (1.56 %).
 #[must_use]
 pub fn zoom_rows(quick: bool) -> Vec<ZoomRow> {
-    use crate::separable::{box_resample_2d, propagate_2d, zoom_transform};
+    use crate::separable::{box_resample_2d, zoom_transform};
+    use crate::zoom::{ZoomScratch, zoom_sparse};
     use relight_haar::{try_forward_2d, try_inverse_2d};
     let n = if quick { 64 } else { 256 };
+    let min_ms = if quick { 2.0 } else { 40.0 };
     let scale = 2.0;
     let (s, o) = zoom_transform(scale, [0.45, 0.55]);
     let mut coeffs = zoom_image(n);
     if try_forward_2d(&mut coeffs, n).is_err() {
         return Vec::new();
     }
-    let reps = if quick { 2 } else { 5 };
     // Pixel path: decompress, resample, recompress (Fig. 4.13's timing).
     let (mut img, mut tmp, mut px) = (
         vec![0.0f32; n * n],
         vec![0.0f32; n * n],
         vec![0.0f32; n * n],
     );
-    let t0 = Instant::now();
-    for _ in 0..reps {
+    let pixel_ms = time_ms(min_ms, || {
         img.copy_from_slice(&coeffs);
         let _ = try_inverse_2d(&mut img, n);
         box_resample_2d(&img, n, s, o, &mut tmp, &mut px);
         let _ = try_forward_2d(&mut px, n);
-    }
-    let pixel_ms = t0.elapsed().as_secs_f64() * 1e3 / reps as f64;
+    });
     let mut want = px.clone();
     let _ = try_inverse_2d(&mut want, n);
     let peak = want.iter().fold(0.0f32, |a, &b| a.max(b.abs()));
+    let top = px.iter().fold(0.0f64, |a, &b| a.max(f64::from(b).abs()));
     let mut order: Vec<usize> = (0..n * n).collect();
     order.sort_by(|&a, &b| coeffs[b].abs().total_cmp(&coeffs[a].abs()).then(a.cmp(&b)));
-    let mut out = vec![0.0f64; n * n];
+    let mut scratch = ZoomScratch::default();
     let mut rows = Vec::new();
-    for (frac, target) in [(1.0, None), (0.05, Some(15.0)), (0.01, Some(60.0))] {
+    let cases = [
+        (1.0, n, None),
+        (0.05, n, Some(15.0)),
+        (0.01, n, Some(60.0)),
+        (0.05, n / 4, Some(15.0)),
+        (0.01, n / 8, Some(60.0)),
+    ];
+    for (frac, side, target) in cases {
         let keep = ((frac * (n * n) as f64).round() as usize).clamp(1, n * n);
-        let mut src = vec![0.0f32; n * n];
-        for &k in &order[..keep] {
-            src[k] = coeffs[k];
+        let mut kept: Vec<usize> = order[..keep].to_vec();
+        kept.sort_unstable();
+        let src: Vec<(u32, f32)> = kept.iter().map(|&k| (k as u32, coeffs[k])).collect();
+        let mut out = vec![0.0f64; side * side];
+        let wavelet_ms = time_ms(min_ms, || {
+            zoom_sparse(&src, n, s, o, side, &mut out, &mut scratch);
+        });
+        let mut max_diff = 0.0f64;
+        let mut got = vec![0.0f32; n * n];
+        for r in 0..side {
+            for c in 0..side {
+                let v = out[r * side + c];
+                max_diff = max_diff.max((v - f64::from(px[r * n + c])).abs());
+                got[r * n + c] = v as f32;
+            }
         }
-        let t0 = Instant::now();
-        for _ in 0..reps {
-            propagate_2d(&src, n, s, o, &mut out);
-        }
-        let wavelet_ms = t0.elapsed().as_secs_f64() * 1e3 / reps as f64;
-        let top = px.iter().fold(0.0f64, |a, &b| a.max(f64::from(b).abs()));
-        let max_diff = out
-            .iter()
-            .zip(&px)
-            .map(|(a, b)| (a - f64::from(*b)).abs())
-            .fold(0.0, f64::max)
-            / top.max(1e-30);
-        let mut got: Vec<f32> = out.iter().map(|&x| x as f32).collect();
+        let max_diff = max_diff / top.max(1e-30);
         let _ = try_inverse_2d(&mut got, n);
         let mse = got
             .iter()
@@ -199,6 +227,7 @@ pub fn zoom_rows(quick: bool) -> Vec<ZoomRow> {
             n,
             scale,
             source_terms: frac,
+            target_terms: (side * side) as f64 / (n * n) as f64,
             wavelet_ms,
             pixel_ms,
             speedup,

@@ -24,7 +24,8 @@
 //! `relight-haar` (§4.4.4); [`other_bases`] gives the pixel and Fourier
 //! forms (eqs. 4.18–4.19) for the complexity table of §4.4.3; [`standard`]
 //! is the tensor-product 2D basis and the two-step separable propagation of
-//! §4.5.5 that near-field relighting (`relight-nearfield`) runs per vertex.
+//! §4.5.5 that near-field relighting (`relight-nearfield`) runs per vertex;
+//! [`zoom`] is the sparse 2D propagation of image zoom (§4.6.2).
 //!
 //! # Corrections to the OCR'd thesis
 //! Each is checked by a test against exact overlap and quadrature:
@@ -56,6 +57,7 @@ pub mod sparsity;
 pub mod standard;
 pub mod table;
 pub mod verify;
+pub mod zoom;
 
 pub use atom::{Atom, Kind};
 pub use canonical::canonical;

@@ -575,7 +575,9 @@ fn separable_rows() -> Vec<VerifyRow> {
     if try_forward_2d(&mut c2, n2).is_ok() {
         let (s, o) = crate::separable::zoom_transform(1.0, [0.5, 0.5]);
         let mut out = vec![0.0; n2 * n2];
-        propagate_2d(&c2, n2, s, o, &mut out);
+        let src: Vec<(u32, f32)> = c2.iter().enumerate().map(|(k, &v)| (k as u32, v)).collect();
+        let mut scratch = crate::zoom::ZoomScratch::default();
+        crate::zoom::zoom_sparse(&src, n2, s, o, n2, &mut out, &mut scratch);
         let mut back: Vec<f32> = out.iter().map(|&x| x as f32).collect();
         if try_inverse_2d(&mut back, n2).is_ok() {
             e_id = img2

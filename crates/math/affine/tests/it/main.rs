@@ -7,3 +7,4 @@ mod coupling;
 mod separable;
 mod sparsity;
 mod standard;
+mod zoom;

@@ -103,7 +103,7 @@ fn propagation_2d_equals_pixel_box_resampling() {
 #[test]
 fn zoom_rows_are_exact_at_full_terms() {
     let rows = relight_affine::bench::zoom_rows(true);
-    assert_eq!(rows.len(), 3);
+    assert_eq!(rows.len(), 5);
     assert!(rows[0].max_diff <= 1e-5, "{:?}", rows[0]);
     assert!(
         rows[1].psnr_db > 20.0 && rows[1].psnr_db.is_finite(),
