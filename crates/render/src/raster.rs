@@ -190,6 +190,11 @@ pub struct DrawCall<'a> {
     pub triangles: &'a [[u32; 3]],
     pub attributes: VertexAttributes<'a>,
     pub object_id: u32,
+    /// Culling of this draw's triangles; `None` follows
+    /// [`RasterOptions::cull`]. A closed, outward-oriented mesh can cull its
+    /// back faces without changing the image (every back face it shows is
+    /// behind one of its own front faces), an open one (a floor) cannot.
+    pub cull: Option<CullMode>,
 }
 
 impl<'a> DrawCall<'a> {
@@ -201,7 +206,15 @@ impl<'a> DrawCall<'a> {
             triangles,
             attributes: VertexAttributes::NONE,
             object_id: 0,
+            cull: None,
         }
+    }
+
+    /// The same draw with its own culling mode (see [`DrawCall::cull`]).
+    #[must_use]
+    pub fn with_cull(mut self, cull: CullMode) -> Self {
+        self.cull = Some(cull);
+        self
     }
 
     /// The same draw with `stride` attributes per vertex from `data`.
@@ -666,6 +679,10 @@ impl Rasterizer {
                 let draw = &draws[d];
                 let vo = vertex_offsets[d];
                 let first_id = triangle_offsets[d];
+                let setup = BinSetup {
+                    cull: draw.cull.unwrap_or(setup.cull),
+                    ..setup
+                };
                 chunk.bins.resize_with(n_strips, Vec::new);
                 chunk.bins.truncate(n_strips);
                 for b in &mut chunk.bins {
@@ -1153,7 +1170,8 @@ impl ResolveContext {
     }
 }
 
-/// Binning constants of one frame.
+/// Binning constants of one frame (the culling mode per draw).
+#[derive(Clone, Copy)]
 struct BinSetup {
     vp: Viewport,
     width: i64,
@@ -1985,6 +2003,30 @@ mod tests {
         )
         .unwrap();
         assert_eq!(img.get(16, 16), Vec3::Z);
+    }
+
+    /// A draw's own culling mode overrides the frame's, for that draw only.
+    #[test]
+    fn per_draw_culling_overrides_the_options() {
+        let cam = flat_camera(32);
+        let positions = [
+            Vec3::new(-0.5, -0.5, 0.0),
+            Vec3::new(0.5, -0.5, 0.0),
+            Vec3::new(0.0, 0.5, 0.0),
+        ];
+        let cw = [[0u32, 2, 1]];
+        let mut r = Rasterizer::new();
+        let binned = |r: &mut Rasterizer, draws: &[DrawCall], o: &RasterOptions| {
+            r.rasterize(&cam, draws, o).unwrap().binned
+        };
+        let culled = DrawCall::new(&positions, &cw).with_cull(CullMode::Back);
+        let kept = DrawCall::new(&positions, &cw).with_cull(CullMode::None);
+        assert_eq!(binned(&mut r, &[culled], &options()), 0);
+        assert_eq!(binned(&mut r, &[kept], &options().cull_back()), 1);
+        assert!(r.gbuffer().covered_pixels() > 100);
+        // Two draws in one frame: only the one asking for culling loses it.
+        let plain = DrawCall::new(&positions, &cw);
+        assert_eq!(binned(&mut r, &[plain, culled], &options()), 1);
     }
 
     #[test]

@@ -553,6 +553,34 @@ impl Mesh {
         (edges.len(), boundary)
     }
 
+    /// Whether the position-welded mesh is closed and consistently oriented
+    /// with outward normals: every directed edge `a → b` is used by exactly
+    /// one triangle and its reverse `b → a` by exactly one other, and the
+    /// signed volume `Σ p0 · (p1 × p2) / 6` (divergence theorem) is
+    /// positive. Seen from outside, such a mesh hides each of its back faces
+    /// behind one of its front faces, so a rasterizer may cull them.
+    #[must_use]
+    pub fn is_closed_outward(&self) -> bool {
+        if self.indices.is_empty() {
+            return false;
+        }
+        let (weld, _) = self.weld_map();
+        let mut edges: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.indices.len() * 3);
+        let mut volume = 0.0f64;
+        for tri in &self.indices {
+            let w = tri.map(|i| weld[i as usize]);
+            for k in 0..3 {
+                *edges.entry((w[k], w[(k + 1) % 3])).or_insert(0) += 1;
+            }
+            let [a, b, c] = tri.map(|i| self.positions[i as usize].as_dvec3());
+            volume += a.dot(b.cross(c));
+        }
+        volume > 0.0
+            && edges
+                .iter()
+                .all(|(&(a, b), &n)| n == 1 && a != b && edges.get(&(b, a)) == Some(&1))
+    }
+
     /// Euler characteristic V − E + F of the position-welded mesh
     /// (2 for a closed genus-0 surface, 0 for a torus).
     #[must_use]
@@ -764,5 +792,26 @@ mod tests {
         let m = tetra();
         assert_eq!(m.edge_counts(), (6, 0));
         assert_eq!(m.euler_characteristic(), 2);
+    }
+
+    #[test]
+    fn closed_outward_needs_every_edge_paired_and_a_positive_volume() {
+        assert!(tetra().is_closed_outward());
+        let mut inverted = tetra();
+        for t in &mut inverted.indices {
+            t.swap(1, 2);
+        }
+        assert!(!inverted.is_closed_outward(), "inside-out");
+        let mut flipped = tetra();
+        flipped.indices[3].swap(1, 2);
+        assert!(!flipped.is_closed_outward(), "one face flipped");
+        let mut open = tetra();
+        open.indices.pop();
+        assert!(!open.is_closed_outward(), "a hole");
+        assert!(!Mesh::default().is_closed_outward());
+        assert!(!crate::shapes::plane(1.0, 4).is_closed_outward());
+        // Seams welded by position: the builtin solids are closed.
+        assert!(crate::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 24, 12).is_closed_outward());
+        assert!(crate::shapes::torus(1.0, 0.3, 24, 12).is_closed_outward());
     }
 }

@@ -35,7 +35,9 @@ use crate::rotation::RotationMatrices;
 use glam::{Mat3, Vec3, Vec3A};
 use rayon::prelude::*;
 use relight_haar::{Ranking, SparseRgb, energy_fraction, top_k_rgb};
-use relight_render::raster::{Background, DrawCall, NO_TRIANGLE, RasterOptions, Rasterizer};
+use relight_render::raster::{
+    Background, CullMode, DrawCall, NO_TRIANGLE, RasterOptions, Rasterizer,
+};
 use relight_render::{Camera, Image, Scene};
 use relight_sphere::EnvMap;
 use std::sync::Arc;
@@ -595,12 +597,22 @@ impl WaveletRenderer {
                 ));
             }
         }
+        // Closed, outward meshes cull their back faces: the same visible
+        // triangles (each back face is behind a front face of its own mesh),
+        // half the triangles to raster. Open ones (the floor) keep both sides.
+        let closed = cache.closed_meshes(scene);
         let draws: Vec<DrawCall> = scene
             .objects
             .iter()
+            .zip(&closed)
             .enumerate()
-            .map(|(i, o)| {
-                DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32)
+            .map(|(i, (o, &closed))| {
+                let d = DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32);
+                if closed {
+                    d.with_cull(CullMode::Back)
+                } else {
+                    d
+                }
             })
             .collect();
         let opts = RasterOptions::default().fit_depth(camera, &draws);
@@ -753,6 +765,9 @@ pub struct VertexColors {
     stamps: Vec<Vec<AtomicU32>>,
     colors: Vec<Vec<Vec3>>,
     memo: Option<DotMemo>,
+    /// Per object: its mesh (positions and indices, by address and length)
+    /// and whether it is closed and outward ([`relight_geom::Mesh::is_closed_outward`]).
+    closed: Vec<(MeshId, bool)>,
     /// Vertices step 2 shaded in the last frame.
     pub shaded_last: usize,
     /// Slice terms step 2 multiplied with local lighting in the last frame
@@ -760,7 +775,36 @@ pub struct VertexColors {
     pub terms_last: u64,
 }
 
+/// A mesh by the addresses and lengths of its positions and indices.
+type MeshId = [usize; 4];
+
+fn mesh_id(m: &relight_geom::Mesh) -> MeshId {
+    [
+        m.positions.as_ptr() as usize,
+        m.positions.len(),
+        m.indices.as_ptr() as usize,
+        m.indices.len(),
+    ]
+}
+
 impl VertexColors {
+    /// Whether each object's mesh is closed and outward, computed once per
+    /// mesh (kept while the object's mesh is the same).
+    fn closed_meshes(&mut self, scene: &Scene) -> Vec<bool> {
+        let ids: Vec<MeshId> = scene.objects.iter().map(|o| mesh_id(&o.mesh)).collect();
+        let same = self.closed.len() == ids.len()
+            && self.closed.iter().zip(&ids).all(|((a, _), b)| a == b);
+        if !same {
+            self.closed = scene
+                .objects
+                .par_iter()
+                .zip(ids)
+                .map(|(o, id)| (id, o.mesh.is_closed_outward()))
+                .collect();
+        }
+        self.closed.iter().map(|&(_, c)| c).collect()
+    }
+
     /// Starts a frame for `eye` and `key` over meshes of `sizes` vertices,
     /// `view_dependent[i]` when object `i`'s colours change with the eye;
     /// afterwards `current[i]` is the stamp of object `i`'s valid colours.
@@ -808,6 +852,7 @@ impl VertexColors {
     /// Forgets every colour (the meshes or materials changed).
     pub fn clear(&mut self) {
         self.key = None;
+        self.closed.clear();
     }
 }
 
@@ -916,6 +961,59 @@ mod tests {
                 checked
             })
             .collect()
+    }
+
+    /// Culling the back faces of the closed meshes (the spheres and the
+    /// torus) draws the image drawing both sides gives, bit for bit.
+    #[test]
+    fn culling_closed_meshes_keeps_the_image() {
+        let (r, scene, bakes) = setup();
+        let brdfs = [&bakes[0], &bakes[1], &bakes[0]];
+        let mut raster = Rasterizer::new();
+        for eye in [Vec3::new(0.0, 0.5, 4.0), Vec3::new(-2.5, 1.5, 2.0)] {
+            let cam = Camera {
+                eye,
+                ..scene.camera
+            };
+            let mut draw = |cull: bool| {
+                let mut cache = VertexColors::default();
+                let mut img = Image::new(cam.width, cam.height);
+                let mut go = |cache: &mut VertexColors| {
+                    r.render_into(
+                        &scene,
+                        &brdfs,
+                        &cam,
+                        None,
+                        &mut raster,
+                        cache,
+                        true,
+                        &mut img,
+                    )
+                    .unwrap();
+                };
+                go(&mut cache);
+                assert!(cache.closed.iter().all(|c| c.1), "all three are closed");
+                if !cull {
+                    // Same meshes: the flags are kept, so clearing them sticks.
+                    cache.key = None;
+                    for c in &mut cache.closed {
+                        c.1 = false;
+                    }
+                    go(&mut cache);
+                }
+                (img, raster.gbuffer().covered_pixels())
+            };
+            let (culled, covered) = draw(true);
+            let (both, covered_both) = draw(false);
+            assert!(covered > 300, "{covered}");
+            assert_eq!(covered, covered_both);
+            for (a, b) in culled.pixels.iter().zip(&both.pixels) {
+                assert_eq!(
+                    a.to_array().map(f32::to_bits),
+                    b.to_array().map(f32::to_bits)
+                );
+            }
+        }
     }
 
     #[test]
