@@ -75,6 +75,16 @@ const TARGETS: &[Target] = &[
     ),
     (
         "directxmath",
+        "XMSHEvalDirection",
+        "apply",
+        "eval_array",
+        Field::Apply,
+        &[2, 3, 4, 5, 6],
+        1.0,
+        "issue 17: eval, order fixed at compile time (eval_sh_array) ≤ 1.0× XMSHEvalDirection",
+    ),
+    (
+        "directxmath",
         "XMSHMultiply",
         "apply",
         "product",

@@ -96,6 +96,8 @@ impl HasTables for f32 {
 }
 
 /// The recurrence for any order (no fast path), written once for f32/f64.
+/// Out of line, so that the always-inlined [`eval_sh_into`] stays small.
+#[inline(never)]
 fn eval_recurrence<T: Real>(tab: &Tables<T>, order: usize, x: T, y: T, z: T, out: &mut [T]) {
     let out = &mut out[..order * order];
     let (mut c, mut s) = (T::ONE, T::ZERO);
@@ -134,15 +136,26 @@ fn eval_recurrence<T: Real>(tab: &Tables<T>, order: usize, x: T, y: T, z: T, out
 
 /// Dispatch to the generated code where it exists.
 trait FastEval: Real {
+    /// The inlined small orders (checks its own output length); `false`
+    /// (nothing done) where the type has none or the order is larger.
+    fn eval_small(order: usize, x: Self, y: Self, z: Self, out: &mut [Self]) -> bool;
     fn eval_fast(order: usize, x: Self, y: Self, z: Self, out: &mut [Self]) -> bool;
 }
 impl FastEval for f32 {
+    #[inline(always)]
+    fn eval_small(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
+        crate::fast::eval_inline(order, x, y, z, out)
+    }
     #[inline(always)]
     fn eval_fast(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
         crate::fast::eval_one(order, x, y, z, out)
     }
 }
 impl FastEval for f64 {
+    #[inline(always)]
+    fn eval_small(_order: usize, _x: f64, _y: f64, _z: f64, _out: &mut [f64]) -> bool {
+        false
+    }
     #[inline(always)]
     fn eval_fast(order: usize, x: f64, y: f64, z: f64, out: &mut [f64]) -> bool {
         crate::generated::eval_sh_fast_f64(order, x, y, z, out)
@@ -165,17 +178,49 @@ impl ShFloat for f64 {}
 /// # Panics
 /// If `order` is 0 or > [`MAX_ORDER`] or `out.len() < order²`; see
 /// [`try_eval_sh_into`] for the checked variant.
-#[inline]
+///
+/// Always inlined: for f32 at `order ≤` [`crate::fast::INLINE_EVAL_MAX_ORDER`]
+/// the generated straight-line code lands in the caller (no call, no CPU test);
+/// larger orders call one out-of-line kernel.
+#[inline(always)]
 pub fn eval_sh_into<T: ShFloat>(order: usize, dir: [T; 3], out: &mut [T]) {
+    let [x, y, z] = dir;
+    if T::eval_small(order, x, y, z, out) {
+        return;
+    }
     assert!(
         (1..=MAX_ORDER).contains(&order) && out.len() >= order * order,
         "eval_sh_into: order {order} out of range or output too short ({})",
         out.len()
     );
-    let [x, y, z] = dir;
     if !T::eval_fast(order, x, y, z, out) {
         eval_recurrence(T::tables(), order, x, y, z, out);
     }
+}
+
+/// Evaluates all `NN = n²` f32 basis functions at the unit direction `dir`
+/// into a fixed-size array, for an order `n` (1 ≤ n ≤ 8) known at compile
+/// time: the generated straight-line code with no order dispatch and no
+/// length check (n ≤ 4 inlined into the caller, plain multiply and add;
+/// n ≥ 5 one call into the FMA kernel). Same values and layout as
+/// [`eval_sh_into`]; `NN` other than 1, 4, 9, …, 64 does not compile.
+///
+/// ```
+/// let y: [f32; 9] = relight_sh::eval_sh_array([0.0, 0.0, 1.0]);
+/// assert!((y[2] - 0.488_602_5).abs() < 1e-6); // y_{1,0}(+Z) = √(3/4π)
+/// ```
+#[inline(always)]
+#[must_use]
+pub fn eval_sh_array<const NN: usize>(dir: [f32; 3]) -> [f32; NN] {
+    let mut out = [0.0f32; NN];
+    crate::fast::eval_array(dir[0], dir[1], dir[2], &mut out);
+    out
+}
+
+/// [`eval_sh_array`] into a caller's array (no return copy).
+#[inline(always)]
+pub fn eval_sh_array_into<const NN: usize>(dir: [f32; 3], out: &mut [f32; NN]) {
+    crate::fast::eval_array(dir[0], dir[1], dir[2], out);
 }
 
 /// Evaluates with the tabulated recurrence only (no generated fast path); used

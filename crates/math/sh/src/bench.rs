@@ -23,7 +23,7 @@ use std::time::Instant;
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ShBenchRow {
     /// `ivanic_ruedenberg`, `zyz`, `taylor1`, `taylor15`, `taylor2`, `z`, `zonal`,
-    /// `eval`, `eval_recurrence`, `product`, `square`, `exp_ps*4`, `exp_hyb`, `log`, `project_latlong`.
+    /// `eval`, `eval_array`, `eval_recurrence`, `product`, `square`, `exp_ps*4`, `exp_hyb`, `log`, `project_latlong`.
     pub method: String,
     /// Number of bands n (n² coefficients).
     pub order: usize,
@@ -147,6 +147,31 @@ fn row(
         ns_total,
         note,
     }
+}
+
+/// [`crate::eval_sh_array_into`] at order `n ≤ 8` (one instantiation per
+/// order, the order a compile-time constant as in a caller that fixes it).
+fn time_eval_array(n: usize, reps: usize, batches: usize, dirs: &[[f32; 3]]) -> Option<f64> {
+    fn t<const NN: usize>(reps: usize, batches: usize, dirs: &[[f32; 3]]) -> f64 {
+        // On the heap, as the other rows' outputs (and the kit's).
+        let mut out = Box::new([0.0f32; NN]);
+        let o = &mut *out;
+        time_ns(reps, batches, |i| {
+            crate::eval_sh_array_into(*opaque(&dirs[i % SET]), o);
+            escape(&o[..]);
+        })
+    }
+    Some(match n {
+        1 => t::<1>(reps, batches, dirs),
+        2 => t::<4>(reps, batches, dirs),
+        3 => t::<9>(reps, batches, dirs),
+        4 => t::<16>(reps, batches, dirs),
+        5 => t::<25>(reps, batches, dirs),
+        6 => t::<36>(reps, batches, dirs),
+        7 => t::<49>(reps, batches, dirs),
+        8 => t::<64>(reps, batches, dirs),
+        _ => return None,
+    })
 }
 
 /// Runs all benchmarks. `quick` cuts repetitions ~50× (a smoke test, noisy).
@@ -309,6 +334,16 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
                 "recurrence".into()
             },
         ));
+        if let Some(a) = time_eval_array(n, reps, batches, &dirs) {
+            rows.push(row(
+                "eval_array",
+                n,
+                0.0,
+                a,
+                a,
+                "eval_sh_array_into: order fixed at compile time".into(),
+            ));
+        }
         let a = time_ns(reps, batches, |i| {
             crate::basis::eval_sh_recurrence_into(n, *opaque(&dirs[i % SET]), &mut dst);
             escape(&dst[..]);

@@ -13,7 +13,13 @@
 //!   `product_one_portable`) and fused multiply–add for AVX2+FMA CPUs
 //!   (`eval_one_fma`, `rotate_one_fma`, `product_one_fma`), chosen per call by
 //!   a cached CPU-feature test (`eval_one`, `rotate_one`, `product_one`);
-//!   `rotate_euler_one` (angles given) is plain only.
+//!   `rotate_euler_one` (angles given) is plain only. Two exceptions:
+//!   evaluation at n ≤ [`INLINE_EVAL_MAX_ORDER`] is inlined into the caller
+//!   (`eval_inline`, plain multiply and add: no CPU test, no call), and
+//!   rotation from order `AVX512_ROTATE_MIN_ORDER` (6) on has a third copy
+//!   compiled for AVX-512F (`rotate_one_avx512`: the same scalar code with 32
+//!   registers instead of 16, fewer spills). [`crate::eval_sh_array`] takes
+//!   the order as an array length, so even the order dispatch goes.
 //! * Rotation takes the 3×3 matrix: bands 1 and 2 come straight from it (a
 //!   linear and a quadratic form, no Euler angles: order ≤ 3 needs no square
 //!   root or division), bands ≥ 3 from its ZYZ angles (see
@@ -79,14 +85,92 @@ fn as_v_mut<const W: usize>(s: &mut [f32]) -> &mut [V<W, false>] {
 ///
 /// # Panics
 /// If `out` is shorter than `order²`.
-#[inline]
+#[inline(always)]
 pub(crate) fn eval_one(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
+    if order <= INLINE_EVAL_MAX_ORDER {
+        return eval_inline(order, x, y, z, out);
+    }
     #[cfg(target_arch = "x86_64")]
     if crate::lanes::avx2_fma_available() {
         // SAFETY: AVX2 and FMA were detected.
         return unsafe { eval_one_fma(order, x, y, z, out) };
     }
     eval_one_portable(order, x, y, z, out)
+}
+
+/// Largest order whose evaluation [`eval_one`] inlines into its caller: plain
+/// multiply and add, no CPU-feature test, no call, no order dispatch once the
+/// caller's order is known. At n ≤ 4 (at most 16 values, ≈ 20 multiplies)
+/// the test, the call and the jump table of the FMA copy cost more than FMA
+/// saves; the code is small enough to copy into every caller.
+pub const INLINE_EVAL_MAX_ORDER: usize = 4;
+
+/// [`eval_one`] for `order ≤` [`INLINE_EVAL_MAX_ORDER`], inlined: the
+/// generated kernels with plain multiply and add; `false` (nothing written)
+/// for larger orders. Each order checks its own output length (one compare),
+/// so the caller needs no general length check on this path.
+///
+/// # Panics
+/// If `out` is shorter than `order²`.
+#[inline(always)]
+pub(crate) fn eval_inline(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
+    #[inline(always)]
+    fn arr<const K: usize>(out: &mut [f32]) -> &mut [f32; K] {
+        let len = out.len();
+        match out.get_mut(..K) {
+            Some(o) => o.try_into().expect("length K"),
+            None => panic!("eval_sh_into: output has {len} values, the order needs {K}"),
+        }
+    }
+    match order {
+        1 => eval_array(x, y, z, arr::<1>(out)),
+        2 => eval_array(x, y, z, arr::<4>(out)),
+        3 => eval_array(x, y, z, arr::<9>(out)),
+        4 => eval_array(x, y, z, arr::<16>(out)),
+        _ => return false,
+    }
+    true
+}
+
+/// All `NN = n²` basis values at `(x, y, z)` into a fixed-size array, the
+/// order known at compile time: `n ≤` [`INLINE_EVAL_MAX_ORDER`] inlined
+/// (plain multiply and add), larger `n ≤` [`KERNEL_EVAL_MAX_ORDER`] through
+/// the out-of-line FMA dispatch of [`eval_one`]. `NN` must be one of
+/// 1, 4, 9, …, 64 (a compile-time error otherwise).
+#[inline(always)]
+pub(crate) fn eval_array<const NN: usize>(x: f32, y: f32, z: f32, out: &mut [f32; NN]) {
+    const {
+        assert!(
+            matches!(NN, 1 | 4 | 9 | 16 | 25 | 36 | 49 | 64),
+            "eval_sh_array: NN must be n² for an order n = 1..=8"
+        );
+    }
+    #[inline(always)]
+    fn v<const K: usize>(out: &mut [f32]) -> &mut [S; K] {
+        debug_assert!(out.len() == K);
+        // SAFETY: `S` = V<1, false> is repr(C) around one f32 (see `as_v`) and
+        // `out` holds exactly K values (the caller's array of that length).
+        unsafe { &mut *out.as_mut_ptr().cast::<[S; K]>() }
+    }
+    let (xs, ys, zs) = (S::splat(x), S::splat(y), S::splat(z));
+    match NN {
+        1 => kernels::eval_n1(xs, ys, zs, v::<1>(out)),
+        4 => kernels::eval_n2(xs, ys, zs, v::<4>(out)),
+        9 => kernels::eval_n3(xs, ys, zs, v::<9>(out)),
+        16 => kernels::eval_n4(xs, ys, zs, v::<16>(out)),
+        _ => {
+            let n = if NN == 25 {
+                5
+            } else if NN == 36 {
+                6
+            } else if NN == 49 {
+                7
+            } else {
+                8
+            };
+            eval_one(n, x, y, z, out);
+        }
+    }
 }
 
 /// [`eval_one`] with plain multiply and add (the portable path).
@@ -203,6 +287,11 @@ fn as_v1_mut<const F: bool>(s: &mut [f32]) -> &mut [V<1, F>] {
 #[inline]
 pub(crate) fn rotate_one(order: usize, m: &[[f32; 3]; 3], src: &[f32], dst: &mut [f32]) -> bool {
     #[cfg(target_arch = "x86_64")]
+    if order >= AVX512_ROTATE_MIN_ORDER && crate::simd::available() {
+        // SAFETY: AVX-512F was detected.
+        return unsafe { rotate_one_avx512(order, m, src, dst) };
+    }
+    #[cfg(target_arch = "x86_64")]
     if crate::lanes::avx2_fma_available() {
         // SAFETY: AVX2 and FMA were detected.
         return unsafe { rotate_one_fma(order, m, src, dst) };
@@ -235,6 +324,34 @@ pub(crate) fn rotate_one_portable(
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
 pub(crate) unsafe fn rotate_one_fma(
+    order: usize,
+    m: &[[f32; 3]; 3],
+    src: &[f32],
+    dst: &mut [f32],
+) -> bool {
+    rotate_mat::<true>(order, m, src, dst)
+}
+
+/// Smallest order at which [`rotate_one`] takes [`rotate_one_avx512`]. Same
+/// process, pinned, alternating the two copies (`set_isa_limit`): order 6
+/// 65.9 ns against 72.7 ns for the AVX2 copy, order 5 49.4 against 46.9 ns,
+/// orders ≤ 4 equal.
+#[cfg(target_arch = "x86_64")]
+pub(crate) const AVX512_ROTATE_MIN_ORDER: usize = 6;
+
+/// [`rotate_one`] compiled for AVX-512F: the same scalar kernel, but EVEX
+/// encoding gives it 32 vector registers instead of 16, so the ≈ 360
+/// operations of order 6 spill less (no 512-bit arithmetic is asked for).
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+///
+/// # Panics
+/// If a slice is shorter than `order²`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+pub(crate) unsafe fn rotate_one_avx512(
     order: usize,
     m: &[[f32; 3]; 3],
     src: &[f32],

@@ -21,6 +21,19 @@ fn avx2_or_skip() -> bool {
     false
 }
 
+/// True when the AVX-512F copies can run; under `CI` a CPU without AVX-512F
+/// fails the test (as [`avx2_or_skip`]).
+fn avx512_or_skip() -> bool {
+    if crate::simd::available() {
+        return true;
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "CI: this CPU lacks AVX-512F, so the AVX-512 rotation copy cannot be tested here; run CI on an x86-64 CPU with AVX-512F"
+    );
+    false
+}
+
 fn rng(seed: u64) -> impl FnMut() -> f64 {
     let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
     move || {
@@ -115,6 +128,30 @@ fn prod_ref(n: usize, f: &[f32], g: &[f32]) -> Vec<f64> {
     o
 }
 
+/// [`crate::eval_sh_array`] at a run-time order (one instantiation per order).
+fn eval_array_dyn(n: usize, d: [f32; 3]) -> Vec<f32> {
+    match n {
+        1 => crate::eval_sh_array::<1>(d).to_vec(),
+        2 => crate::eval_sh_array::<4>(d).to_vec(),
+        3 => crate::eval_sh_array::<9>(d).to_vec(),
+        4 => crate::eval_sh_array::<16>(d).to_vec(),
+        5 => crate::eval_sh_array::<25>(d).to_vec(),
+        6 => crate::eval_sh_array::<36>(d).to_vec(),
+        7 => crate::eval_sh_array::<49>(d).to_vec(),
+        8 => crate::eval_sh_array::<64>(d).to_vec(),
+        _ => unreachable!("order {n}"),
+    }
+}
+
+/// The inlined path checks the output length itself (the general assert of
+/// `eval_sh_into` is skipped there).
+#[test]
+#[should_panic(expected = "the order needs 9")]
+fn eval_inline_short_output_panics() {
+    let mut out = [0.0f32; 8];
+    crate::eval_sh_into(3, [0.0, 0.0, 1.0], &mut out);
+}
+
 #[test]
 fn eval_kernels_match_recurrence() {
     let ds = dirs(40, 1);
@@ -154,6 +191,28 @@ fn eval_kernels_match_recurrence() {
             }
             assert!(eval_one(n, x, y, z, &mut one));
             assert!(max_diff(&one, &want) < tol, "eval n={n} dir {d:?}");
+            // The inlined small orders and the public entry points.
+            one.fill(f32::NAN);
+            assert_eq!(
+                eval_inline(n, x, y, z, &mut one),
+                n <= INLINE_EVAL_MAX_ORDER
+            );
+            if n <= INLINE_EVAL_MAX_ORDER {
+                assert!(
+                    max_diff(&one, &want) < tol,
+                    "inline eval n={n} dir {d:?}: {}",
+                    max_diff(&one, &want)
+                );
+            }
+            one.fill(f32::NAN);
+            crate::eval_sh_into(n, d, &mut one);
+            assert!(max_diff(&one, &want) < tol, "eval_sh_into n={n} dir {d:?}");
+            let arr = eval_array_dyn(n, d);
+            assert!(
+                max_diff(&arr, &want) < tol,
+                "eval_sh_array n={n} dir {d:?}: {}",
+                max_diff(&arr, &want)
+            );
             if !batched {
                 continue;
             }
@@ -268,6 +327,16 @@ fn rotate_kernels_match_portable_zyz() {
                 assert!(
                     max_diff(&one, &want) < tol,
                     "FMA rotate n={n} item {i}: {}",
+                    max_diff(&one, &want)
+                );
+            }
+            #[cfg(target_arch = "x86_64")]
+            if avx512_or_skip() {
+                // SAFETY: checked.
+                assert!(unsafe { rotate_one_avx512(n, &r.m, &vs[i], &mut one) });
+                assert!(
+                    max_diff(&one, &want) < tol,
+                    "AVX-512 rotate n={n} item {i}: {}",
                     max_diff(&one, &want)
                 );
             }

@@ -97,7 +97,8 @@ pub mod taylor;
 pub mod window;
 
 pub use basis::{
-    ShFloat as ShFloatExt, eval_sh, eval_sh_f64, eval_sh_into, try_eval_sh, try_eval_sh_into,
+    ShFloat as ShFloatExt, eval_sh, eval_sh_array, eval_sh_array_into, eval_sh_f64, eval_sh_into,
+    try_eval_sh, try_eval_sh_into,
 };
 pub use bench::{ShBenchRow, bench_sh};
 pub use isa::{Isa, detected_isa, isa, set_isa_limit};
