@@ -141,3 +141,11 @@ fn blockers_follow_the_animation_and_product_space_agrees() {
         (num / den).sqrt()
     );
 }
+
+/// §5.2.4's cluster culling and LOD change the bench scene's shading by at
+/// most `CULLING_RMS_TARGET` against every leaf sphere (and do drop pairs).
+#[test]
+fn culling_and_lod_stay_close_to_every_leaf_sphere() {
+    let row = relight_shexp::bench::verify_culling().expect("verify row");
+    assert_eq!(row.pass, Some(true), "{}", row.measured);
+}
