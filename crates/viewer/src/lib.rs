@@ -376,6 +376,32 @@ mod tests {
         assert_eq!(out[1] & 0xffff, 0);
     }
 
+    /// The blocked, vectorised `to_display` gives every pixel of rows longer
+    /// than a block (and a partial last block) the word of the per-channel
+    /// formula: ACES, then sRGB to 8 bits, NaN and ±∞ included.
+    #[test]
+    fn display_words_match_the_per_channel_formula() {
+        let (w, h) = (150, 3);
+        let mut img = relight_render::Image::new(w, h);
+        let specials = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1.0, 0.0, 1e30];
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            let x = (i as f32 * 0.37).sin().abs() * 4.0;
+            *p = glam::Vec3::new(x, specials[i % specials.len()], 0.01 * i as f32);
+        }
+        let mut out = vec![0u32; w * h];
+        to_display(&img, &mut out);
+        let tone = relight_assets::ToneMap::default();
+        let byte = |x: f32| {
+            let y = tone.apply(x);
+            let s = relight_assets::linear_to_srgb((y * 4095.0 + 0.5).floor() / 4095.0);
+            (s * 255.0 + 0.5).clamp(0.0, 255.0) as u32
+        };
+        for (i, (p, &o)) in img.pixels.iter().zip(&out).enumerate() {
+            let want = (byte(p.x) << 16) | (byte(p.y) << 8) | byte(p.z);
+            assert_eq!(o, want, "pixel {i}: {p:?}");
+        }
+    }
+
     /// A floor under a sphere that slides 1 unit in x over 1 s, unshadowed.
     fn sliding_sphere() -> relight_render::Scene {
         let sphere =

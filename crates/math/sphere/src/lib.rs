@@ -51,6 +51,7 @@
 
 #![warn(missing_docs)]
 
+pub mod atan;
 pub mod frame;
 pub mod icosahedral;
 pub mod map;

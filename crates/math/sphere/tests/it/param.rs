@@ -496,3 +496,56 @@ mod properties {
         }
     }
 }
+
+/// The f32 lat-long path of `Param::bilinear` puts the same weight on every
+/// texel as the f64 footprint, to f32 rounding of the position, including
+/// directions on the seam (φ = 0), at the poles and on texel edges.
+#[test]
+fn latlong_bilinear_f32_matches_f64() {
+    use std::collections::HashMap;
+    let mut rng = Rng(11);
+    for (w, h) in [
+        (1, 1),
+        (2, 1),
+        (3, 5),
+        (16, 8),
+        (64, 32),
+        (1024, 512),
+        (4096, 2048),
+    ] {
+        let p = Param::LatLong {
+            width: w,
+            height: h,
+        };
+        let mut dirs: Vec<DVec3> = (0..2000).map(|_| rng.sphere()).collect();
+        dirs.extend([
+            DVec3::Y,
+            -DVec3::Y,
+            DVec3::Z,
+            -DVec3::X,
+            DVec3::new(0.0, 0.3, 1.0),
+        ]);
+        // Texel edges and centres.
+        dirs.extend((0..200).map(|i| {
+            let uv = DVec2::new((i % 20) as f64 / 20.0, (i / 20) as f64 / 10.0 + 0.01);
+            p.dir_from_uv(uv)
+        }));
+        let mut worst = 0.0f64;
+        for d in dirs {
+            let d = d.normalize();
+            let b32 = p.bilinear(d.as_vec3());
+            let b64 = p.bilinear_f64(d);
+            let mut diff: HashMap<usize, f64> = HashMap::new();
+            for k in 0..4 {
+                assert!((b32.texels[k] as usize) < p.len(), "{p:?} {d:?}: {b32:?}");
+                *diff.entry(b32.texels[k] as usize).or_default() += f64::from(b32.weights[k]);
+                *diff.entry(b64.texels[k]).or_default() -= b64.weights[k];
+            }
+            let moved: f64 = diff.values().map(|x| x.abs()).sum();
+            assert!(moved < 2e-3, "{w}×{h}: {d:?}: {b32:?} vs {b64:?}");
+            worst = worst.max(moved);
+        }
+        // A position error of ε texels moves at most 4ε of weight.
+        assert!(worst < 2e-3, "{w}×{h}: weight moved {worst:e}");
+    }
+}
