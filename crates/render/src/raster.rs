@@ -548,7 +548,12 @@ pub struct Rasterizer {
     vertex_offsets: Vec<usize>,
     triangle_offsets: Vec<u32>,
     chunks: Vec<Chunk>,
+    /// [`Rasterizer::generation`].
+    generation: u64,
 }
+
+/// Source of [`Rasterizer::generation`]: unique across the process.
+static NEXT_GENERATION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 /// Counts of one rasterization.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -571,6 +576,16 @@ impl Rasterizer {
     #[must_use]
     pub fn gbuffer(&self) -> &GBuffer {
         &self.gbuffer
+    }
+
+    /// Which rasterization the visibility buffer holds: 0 before the first
+    /// successful [`rasterize`](Self::rasterize), then a number unique across
+    /// every rasterizer of the process, new with each call. A caller that
+    /// kept the generation with the camera and draws it rasterized can reuse
+    /// the buffer while all three are unchanged (nothing else writes it).
+    #[must_use]
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 
     /// Pass 1: resolves the nearest triangle and its depth for every pixel
@@ -596,6 +611,8 @@ impl Rasterizer {
         }
         validate_camera(camera)?;
         validate_draws(draws)?;
+        // From here the buffers change: a call that fails leaves none valid.
+        self.generation = 0;
 
         // Offsets.
         self.vertex_offsets.clear();
@@ -766,6 +783,7 @@ impl Rasterizer {
                     }
                 }
             });
+        self.generation = NEXT_GENERATION.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         Ok(stats)
     }
 

@@ -40,6 +40,10 @@ pub struct LitScene {
     /// fingerprint, the lighting filter and rotation (`None`: unlit).
     lit_with: Option<LitWith>,
     raster: Rasterizer,
+    /// The camera `raster` was last rasterized for and the generation that
+    /// produced ([`Rasterizer::generation`]); the geometry is fixed per
+    /// build, so a lighting change under this camera keeps the buffer.
+    rastered: Option<(u64, Camera)>,
 }
 
 /// The inputs of one [`LitScene::light`].
@@ -109,6 +113,7 @@ impl LitScene {
             env,
             lit_with: None,
             raster,
+            rastered: None,
         })
     }
 
@@ -161,7 +166,8 @@ impl LitScene {
     }
 
     /// A view change: rasterizes for `camera` (whose size is the output's,
-    /// supersampling included) and shades every sample into `out` at
+    /// supersampling included; kept from the last call when that was for the
+    /// same camera, as after a lighting change) and shades every sample into `out` at
     /// `order` bands with per-pixel `rotation` (`beta_lim`: the Taylor
     /// rotations' switch to exact), object `i` with `normal_maps[i]`; empty
     /// samples as `background` says. `scene` gives the environment for the
@@ -182,7 +188,14 @@ impl LitScene {
         background: Background,
         out: &mut Image,
     ) -> Result<(), ShLightError> {
-        self.lit.rasterize(camera, &mut self.raster)?;
+        let kept = self
+            .rastered
+            .is_some_and(|(g, c)| g != 0 && g == self.raster.generation() && c == *camera);
+        if !kept {
+            self.rastered = None;
+            self.lit.rasterize(camera, &mut self.raster)?;
+            self.rastered = Some((self.raster.generation(), *camera));
+        }
         self.lit.shade_into(
             &self.raster,
             camera,

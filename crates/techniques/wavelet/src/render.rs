@@ -553,6 +553,10 @@ impl WaveletRenderer {
     /// triangle ids, draw `i` = object `i`). `env_background` false leaves
     /// empty pixels black (for a caller that fills them itself).
     ///
+    /// The rasterization is skipped when `raster` still holds the one this
+    /// cache last asked for with the same camera and meshes (a lighting
+    /// change, [`Rasterizer::generation`]).
+    ///
     /// Step 2 runs only for the vertices of triangles seen in this frame's
     /// visibility buffer, and only once per eye position and lighting: a
     /// vertex no visible triangle uses cannot change a pixel, and a pass that
@@ -615,10 +619,20 @@ impl WaveletRenderer {
                 }
             })
             .collect();
-        let opts = RasterOptions::default().fit_depth(camera, &draws);
-        raster
-            .rasterize(camera, &draws, &opts)
-            .map_err(|e| bad("raster", e, "rasterization failed"))?;
+        // A lighting change keeps the camera: the visibility buffer of the
+        // last frame is this frame's when the rasterizer still holds it.
+        if !cache.raster_holds(raster, camera, scene, &closed) {
+            let opts = RasterOptions::default().fit_depth(camera, &draws);
+            raster
+                .rasterize(camera, &draws, &opts)
+                .map_err(|e| bad("raster", e, "rasterization failed"))?;
+            cache.rastered = Some(RasterKey {
+                generation: raster.generation(),
+                camera: *camera,
+                meshes: scene.objects.iter().map(|o| o.mesh.clone()).collect(),
+                closed: closed.clone(),
+            });
+        }
         let sizes: Vec<usize> = scene
             .objects
             .iter()
@@ -768,11 +782,25 @@ pub struct VertexColors {
     /// Per object: its mesh (positions and indices, by address and length)
     /// and whether it is closed and outward ([`relight_geom::Mesh::is_closed_outward`]).
     closed: Vec<(MeshId, bool)>,
+    /// What the caller's rasterizer was last rasterized for here.
+    rastered: Option<RasterKey>,
     /// Vertices step 2 shaded in the last frame.
     pub shaded_last: usize,
     /// Slice terms step 2 multiplied with local lighting in the last frame
     /// (each an RGB multiply-add): the dot products the memo did not hold.
     pub terms_last: u64,
+}
+
+/// The rasterization a [`VertexColors`] asked for: the rasterizer's
+/// generation it produced ([`Rasterizer::generation`]), the camera, and the
+/// draws (each object's mesh, kept alive so that its address stays its own,
+/// and whether its back faces were culled).
+#[derive(Debug)]
+struct RasterKey {
+    generation: u64,
+    camera: Camera,
+    meshes: Vec<std::sync::Arc<relight_geom::Mesh>>,
+    closed: Vec<bool>,
 }
 
 /// A mesh by the addresses and lengths of its positions and indices.
@@ -790,6 +818,28 @@ fn mesh_id(m: &relight_geom::Mesh) -> MeshId {
 impl VertexColors {
     /// Whether each object's mesh is closed and outward, computed once per
     /// mesh (kept while the object's mesh is the same).
+    /// Whether `raster` holds this cache's last rasterization and it is the
+    /// one `camera`, `scene`'s meshes and `closed` ask for.
+    fn raster_holds(
+        &self,
+        raster: &Rasterizer,
+        camera: &Camera,
+        scene: &Scene,
+        closed: &[bool],
+    ) -> bool {
+        self.rastered.as_ref().is_some_and(|k| {
+            k.generation != 0
+                && k.generation == raster.generation()
+                && k.camera == *camera
+                && k.closed == closed
+                && k.meshes.len() == scene.objects.len()
+                && k.meshes
+                    .iter()
+                    .zip(&scene.objects)
+                    .all(|(m, o)| std::sync::Arc::ptr_eq(m, &o.mesh))
+        })
+    }
+
     fn closed_meshes(&mut self, scene: &Scene) -> Vec<bool> {
         let ids: Vec<MeshId> = scene.objects.iter().map(|o| mesh_id(&o.mesh)).collect();
         let same = self.closed.len() == ids.len()
@@ -1072,5 +1122,59 @@ mod tests {
         r.normal_interp = NormalInterp::Paper;
         let paper = frame(&r, &cam, &mut cache);
         assert!(paper.iter().all(|&n| n > 100), "{paper:?}");
+    }
+
+    /// A lighting change under the same camera reuses the visibility buffer
+    /// (the rasterizer's generation stays) and draws the image a fresh
+    /// rasterizer and cache draw, bit for bit; a rasterization by anyone
+    /// else in between, or another camera, rasterizes again.
+    #[test]
+    fn lighting_change_reuses_the_visibility_buffer() {
+        let (mut r, scene, bakes) = setup();
+        let brdfs = [&bakes[0], &bakes[1], &bakes[0]];
+        let cam = scene.camera;
+        let draw = |r: &WaveletRenderer, raster: &mut Rasterizer, cache: &mut VertexColors| {
+            let mut img = Image::new(cam.width, cam.height);
+            r.render_into(&scene, &brdfs, &cam, None, raster, cache, true, &mut img)
+                .unwrap();
+            img
+        };
+        let bits = |img: &Image| -> Vec<[u32; 3]> {
+            img.pixels
+                .iter()
+                .map(|p| p.to_array().map(f32::to_bits))
+                .collect()
+        };
+        let (mut raster, mut cache) = (Rasterizer::new(), VertexColors::default());
+        draw(&r, &mut raster, &mut cache);
+        let g0 = raster.generation();
+        assert_ne!(g0, 0);
+        r.set_lighting_fn(|d: Vec3| Vec3::new(1.0 + d.x, 0.5, 0.8 + 0.5 * d.y))
+            .unwrap();
+        let kept = draw(&r, &mut raster, &mut cache);
+        assert_eq!(raster.generation(), g0, "the buffer was rasterized again");
+        let fresh = draw(&r, &mut Rasterizer::new(), &mut VertexColors::default());
+        assert_eq!(bits(&kept), bits(&fresh));
+        // Someone else draws into the rasterizer: this cache must not trust it.
+        let other = Camera {
+            eye: Vec3::new(-2.5, 1.5, 2.0),
+            ..cam
+        };
+        r.render_into(
+            &scene,
+            &brdfs,
+            &other,
+            None,
+            &mut raster,
+            &mut VertexColors::default(),
+            true,
+            &mut Image::new(cam.width, cam.height),
+        )
+        .unwrap();
+        let g1 = raster.generation();
+        assert_ne!(g1, g0);
+        let again = draw(&r, &mut raster, &mut cache);
+        assert_ne!(raster.generation(), g1, "a stale buffer was reused");
+        assert_eq!(bits(&again), bits(&fresh));
     }
 }
