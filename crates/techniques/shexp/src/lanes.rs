@@ -920,7 +920,10 @@ fn series_body<const F: bool>(k: &LaneKernel, p: u32, s: &mut LaneScratch, out: 
 /// [`LaneBlocker`] (no gathers but the log table's `2N`), and the division
 /// and both square roots (`1/d`, and `√((1 − x)/2)` in [`asin_lane`]'s range
 /// reduction) are `rsqrt14` with one Newton step (relative error ≈ 2⁻²³,
-/// f32 rounding; a test compares this path with the portable one).
+/// f32 rounding; a test compares this path with the portable one). The
+/// table is read from [`LaneKernel::table_soa`] by a two-register permute
+/// when the chunk's entries lie within 32 (gathers otherwise), and the
+/// `asin` series runs by Estrin's scheme (shorter dependency chain).
 ///
 /// # Safety
 /// AVX-512F and FMA must be available; `k.order == N`, `f.len() ≥ N²`.
@@ -1002,10 +1005,19 @@ unsafe fn accumulate_zmm<const N: usize>(
             let sv = _mm512_maskz_mul_ps(vpos, v, rsqrt(v));
             let u = _mm512_mask_blend_ps(hi, s, sv);
             let u2 = _mm512_mul_ps(u, u);
-            let mut p = _mm512_set1_ps(C[8]);
-            for &c in C[..8].iter().rev() {
-                p = _mm512_fmadd_ps(p, u2, _mm512_set1_ps(c));
-            }
+            // The series in u² by Estrin's scheme (depth 4, not Horner's 8:
+            // this chain limits the loop).
+            let c = |i: usize| _mm512_set1_ps(C[i]);
+            let u4 = _mm512_mul_ps(u2, u2);
+            let u8 = _mm512_mul_ps(u4, u4);
+            let e01 = _mm512_fmadd_ps(c(1), u2, c(0));
+            let e23 = _mm512_fmadd_ps(c(3), u2, c(2));
+            let e45 = _mm512_fmadd_ps(c(5), u2, c(4));
+            let e67 = _mm512_fmadd_ps(c(7), u2, c(6));
+            let e03 = _mm512_fmadd_ps(e23, u4, e01);
+            let e47 = _mm512_fmadd_ps(e67, u4, e45);
+            let e07 = _mm512_fmadd_ps(e47, u8, e03);
+            let p = _mm512_fmadd_ps(_mm512_mul_ps(c(8), u8), u8, e07);
             let a = _mm512_mul_ps(u, p);
             let th = _mm512_mask_blend_ps(
                 hi,
