@@ -96,6 +96,10 @@ pub struct LaneKernel {
     entries: usize,
     /// Per entry `e`: `f_l(θ_e)`, `l < n`, then `f_l(θ_{e+1}) − f_l(θ_e)`.
     table: Vec<f32>,
+    /// The same, one row per coefficient: row `l` holds `f_l(θ_e)` and row
+    /// `n + l` the difference, each [`SOA_ROW`] long (the tail zero), for
+    /// [`accumulate_zmm`]'s two-register lookups.
+    table_soa: Vec<f32>,
     basis: Vec<BasisPoly>,
     /// Per basis polynomial (index `l(l+1)/2 + m`), its coefficients in `z²`,
     /// highest first, zero-padded in front to [`HORNER`] (so every Horner
@@ -286,6 +290,15 @@ impl LaneKernel {
         Ok(Self {
             order: n,
             entries,
+            table_soa: {
+                let mut soa = vec![0.0f32; 2 * n * soa_row(entries)];
+                for (e, row) in t.chunks(2 * n).enumerate() {
+                    for (c, v) in row.iter().enumerate() {
+                        soa[c * soa_row(entries) + e] = *v;
+                    }
+                }
+                soa
+            },
             table: t,
             basis,
             coef4,
@@ -455,7 +468,16 @@ fn accumulate_avx512(
     blockers: &[LaneBlocker],
     f: &mut [Lane],
 ) -> u32 {
-    accumulate_by_order::<true, true>(k, rec, blockers, f)
+    // SAFETY: AVX-512F and FMA are enabled here; the order matches.
+    unsafe {
+        match k.order {
+            3 => accumulate_zmm::<3>(k, rec, blockers, f),
+            4 => accumulate_zmm::<4>(k, rec, blockers, f),
+            5 => accumulate_zmm::<5>(k, rec, blockers, f),
+            6 => accumulate_zmm::<6>(k, rec, blockers, f),
+            _ => accumulate_by_order::<true, true>(k, rec, blockers, f),
+        }
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -518,6 +540,12 @@ unsafe fn gather16(base: *const f32, idx: &[i32; W]) -> Lane {
         _mm512_storeu_ps(out.as_mut_ptr().cast(), v);
     }
     out
+}
+
+/// Row length of [`LaneKernel::table_soa`]: the entries and a 32-float tail,
+/// so that the 32 floats from any entry below `entries − 1` are readable.
+const fn soa_row(entries: usize) -> usize {
+    entries + 32
 }
 
 /// Most bands the kernel handles (the method's limit).
@@ -883,5 +911,216 @@ fn series_body<const F: bool>(k: &LaneKernel, p: u32, s: &mut LaneScratch, out: 
                 }
             }
         }
+    }
+}
+
+/// [`accumulate_body`] written for AVX-512F registers, the order `N` a
+/// constant (3…6): the `N²` accumulators stay in `zmm` registers across the
+/// blocker loop (eq. 5.13's sum), a blocker is broadcast from its
+/// [`LaneBlocker`] (no gathers but the log table's `2N`), and the division
+/// and both square roots (`1/d`, and `√((1 − x)/2)` in [`asin_lane`]'s range
+/// reduction) are `rsqrt14` with one Newton step (relative error ≈ 2⁻²³,
+/// f32 rounding; a test compares this path with the portable one). The
+/// table is read from [`LaneKernel::table_soa`] by a two-register permute
+/// when the chunk's entries lie within 32 (gathers otherwise), and the
+/// `asin` series runs by Estrin's scheme (shorter dependency chain).
+///
+/// # Safety
+/// AVX-512F and FMA must be available; `k.order == N`, `f.len() ≥ N²`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+#[allow(clippy::too_many_lines)]
+unsafe fn accumulate_zmm<const N: usize>(
+    k: &LaneKernel,
+    rec: &LaneReceivers,
+    blockers: &[LaneBlocker],
+    f: &mut [Lane],
+) -> u32 {
+    use std::arch::x86_64::*;
+    debug_assert_eq!(N, k.order);
+    const MAXNN: usize = 36;
+    let nn = N * N;
+    assert!(N <= 6 && f.len() >= nn);
+    // SAFETY (whole body): AVX-512F and FMA as the caller promises; every
+    // load and store is of a `Lane` (16 f32) or inside the table as
+    // `accumulate_body` argues.
+    unsafe {
+        let ld = |l: &Lane| _mm512_loadu_ps(l.as_ptr());
+        let (px, py, pz) = (ld(&rec.p[0]), ld(&rec.p[1]), ld(&rec.p[2]));
+        let (nx, ny, nz) = (ld(&rec.n[0]), ld(&rec.n[1]), ld(&rec.n[2]));
+        let one = _mm512_set1_ps(1.0);
+        let half = _mm512_set1_ps(0.5);
+        let three_halves = _mm512_set1_ps(1.5);
+        let zero = _mm512_setzero_ps();
+        let scale = _mm512_set1_ps((k.entries - 1) as f32 / std::f32::consts::FRAC_PI_2);
+        let last = _mm512_set1_ps((k.entries - 1) as f32);
+        let imax = _mm512_set1_epi32((k.entries - 2) as i32);
+        let stride = _mm512_set1_epi32((2 * N) as i32);
+        const C: [f32; 9] = [
+            1.0,
+            1.0 / 6.0,
+            3.0 / 40.0,
+            5.0 / 112.0,
+            35.0 / 1152.0,
+            63.0 / 2816.0,
+            231.0 / 13312.0,
+            143.0 / 10240.0,
+            6435.0 / 557_056.0,
+        ];
+        // 1/√v for v > 0: rsqrt14 and one Newton step y(3 − v y²)/2.
+        let rsqrt = |v: __m512| {
+            let y = _mm512_rsqrt14_ps(v);
+            let hv = _mm512_mul_ps(half, v);
+            _mm512_mul_ps(y, _mm512_fnmadd_ps(_mm512_mul_ps(hv, y), y, three_halves))
+        };
+        let tab = k.table.as_ptr();
+        let mut acc = [zero; MAXNN];
+        let mut any: __mmask16 = 0;
+        for b in blockers {
+            let dx = _mm512_sub_ps(_mm512_set1_ps(b.c[0]), px);
+            let dy = _mm512_sub_ps(_mm512_set1_ps(b.c[1]), py);
+            let dz = _mm512_sub_ps(_mm512_set1_ps(b.c[2]), pz);
+            let dn = _mm512_fmadd_ps(dx, nx, _mm512_fmadd_ps(dy, ny, _mm512_mul_ps(dz, nz)));
+            let r = _mm512_set1_ps(b.r);
+            let vis = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(dn, _mm512_set1_ps(-b.r));
+            // Below every lane's tangent plane: nothing to add.
+            if vis == 0 {
+                continue;
+            }
+            any |= vis;
+            let d2 = _mm512_fmadd_ps(dx, dx, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dz, dz)));
+            let pos = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(d2, zero);
+            let inv = rsqrt(d2);
+            let x = _mm512_mask_mul_ps(nx, pos, dx, inv);
+            let y = _mm512_mask_mul_ps(ny, pos, dy, inv);
+            let z = _mm512_mask_mul_ps(nz, pos, dz, inv);
+            // sin θ = r/d, 1 inside the sphere (d ≤ r, d = 0 included).
+            let inside = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(d2, _mm512_mul_ps(r, r));
+            let s = _mm512_mask_blend_ps(inside, _mm512_mul_ps(r, inv), one);
+            let s = _mm512_min_ps(_mm512_max_ps(s, zero), one);
+            // asin_lane: the series on [0, ½], π/2 − 2 asin(√((1 − s)/2)) above.
+            let hi = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(s, half);
+            let v = _mm512_mul_ps(_mm512_sub_ps(one, s), half);
+            let vpos = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(v, zero);
+            let sv = _mm512_maskz_mul_ps(vpos, v, rsqrt(v));
+            let u = _mm512_mask_blend_ps(hi, s, sv);
+            let u2 = _mm512_mul_ps(u, u);
+            // The series in u² by Estrin's scheme (depth 4, not Horner's 8:
+            // this chain limits the loop).
+            let c = |i: usize| _mm512_set1_ps(C[i]);
+            let u4 = _mm512_mul_ps(u2, u2);
+            let u8 = _mm512_mul_ps(u4, u4);
+            let e01 = _mm512_fmadd_ps(c(1), u2, c(0));
+            let e23 = _mm512_fmadd_ps(c(3), u2, c(2));
+            let e45 = _mm512_fmadd_ps(c(5), u2, c(4));
+            let e67 = _mm512_fmadd_ps(c(7), u2, c(6));
+            let e03 = _mm512_fmadd_ps(e23, u4, e01);
+            let e47 = _mm512_fmadd_ps(e67, u4, e45);
+            let e07 = _mm512_fmadd_ps(e47, u8, e03);
+            let p = _mm512_fmadd_ps(_mm512_mul_ps(c(8), u8), u8, e07);
+            let a = _mm512_mul_ps(u, p);
+            let th = _mm512_mask_blend_ps(
+                hi,
+                a,
+                _mm512_fmadd_ps(
+                    _mm512_set1_ps(-2.0),
+                    a,
+                    _mm512_set1_ps(std::f32::consts::FRAC_PI_2),
+                ),
+            );
+            // Table position; max/min turn a NaN into a bound.
+            let t = _mm512_min_ps(_mm512_max_ps(_mm512_mul_ps(th, scale), zero), last);
+            let i = _mm512_min_epi32(_mm512_cvttps_epi32(t), imax);
+            let tt = _mm512_sub_ps(t, _mm512_cvtepi32_ps(i));
+            let idx = _mm512_mullo_epi32(i, stride);
+            let mut zl = [zero; 6];
+            // Every index below is a literal and `N` a constant, so that the
+            // accumulators, `zl` and the powers stay in registers.
+            // The chunk's receivers are neighbours, so their table entries
+            // usually lie within 32 of each other: two loads of each row and
+            // a two-register permute; gathers otherwise.
+            let i0 = _mm512_reduce_min_epi32(i);
+            let rel = _mm512_sub_epi32(i, _mm512_set1_epi32(i0));
+            let near = _mm512_cmplt_epu32_mask(rel, _mm512_set1_epi32(32)) == 0xffff;
+            let row = soa_row(k.entries);
+            let soa = k.table_soa.as_ptr().add(i0 as usize);
+            macro_rules! table {
+                ($($l:literal)*) => {$(
+                    if $l < N {
+                        let (a, d) = if near {
+                            let ra = soa.add($l * row);
+                            let rd = soa.add(($l + N) * row);
+                            (
+                                _mm512_permutex2var_ps(
+                                    _mm512_loadu_ps(ra),
+                                    rel,
+                                    _mm512_loadu_ps(ra.add(16)),
+                                ),
+                                _mm512_permutex2var_ps(
+                                    _mm512_loadu_ps(rd),
+                                    rel,
+                                    _mm512_loadu_ps(rd.add(16)),
+                                ),
+                            )
+                        } else {
+                            (
+                                _mm512_i32gather_ps::<4>(idx, tab.add($l).cast()),
+                                _mm512_i32gather_ps::<4>(idx, tab.add($l + N).cast()),
+                            )
+                        };
+                        zl[$l] = _mm512_maskz_fmadd_ps(vis, d, tt, a);
+                    }
+                )*};
+            }
+            table!(0 1 2 3 4 5);
+            let z2 = _mm512_mul_ps(z, z);
+            // Re/Im (x + iy)^m.
+            let mut cm = [one; 6];
+            let mut sm = [zero; 6];
+            macro_rules! powers {
+                ($($m:literal)*) => {$(
+                    if $m < N {
+                        cm[$m] = _mm512_fmsub_ps(cm[$m - 1], x, _mm512_mul_ps(sm[$m - 1], y));
+                        sm[$m] = _mm512_fmadd_ps(sm[$m - 1], x, _mm512_mul_ps(cm[$m - 1], y));
+                    }
+                )*};
+            }
+            cm[1] = x;
+            sm[1] = y;
+            powers!(2 3 4 5);
+            macro_rules! terms {
+                ($(($l:literal, $m:literal))*) => {$(
+                    if $l < N {
+                        let bi = $l * ($l + 1) / 2 + $m;
+                        let len = ($l - $m) / 2 + 1;
+                        let c = &k.coef4[bi][HORNER - len..];
+                        let mut q = _mm512_set1_ps(c[0]);
+                        for &ci in &c[1..] {
+                            q = _mm512_fmadd_ps(q, z2, _mm512_set1_ps(ci));
+                        }
+                        if ($l - $m) % 2 == 1 {
+                            q = _mm512_mul_ps(q, z);
+                        }
+                        q = _mm512_mul_ps(q, zl[$l]);
+                        let centre = $l * ($l + 1);
+                        if $m == 0 {
+                            acc[centre] = _mm512_add_ps(acc[centre], q);
+                        } else {
+                            acc[centre + $m] = _mm512_fmadd_ps(q, cm[$m], acc[centre + $m]);
+                            acc[centre - $m] = _mm512_fmadd_ps(q, sm[$m], acc[centre - $m]);
+                        }
+                    }
+                )*};
+            }
+            terms!(
+                (0, 0)(1, 0)(1, 1)(2, 0)(2, 1)(2, 2)(3, 0)(3, 1)(3, 2)(3, 3)(4, 0)(4, 1)(4, 2)(
+                    4, 3
+                )(4, 4)(5, 0)(5, 1)(5, 2)(5, 3)(5, 4)(5, 5)
+            );
+        }
+        for (o, a) in f[..nn].iter_mut().zip(&acc) {
+            _mm512_storeu_ps(o.as_mut_ptr(), *a);
+        }
+        u32::from(any)
     }
 }

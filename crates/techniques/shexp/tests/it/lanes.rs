@@ -243,3 +243,60 @@ fn frames_by_the_lane_kernel_match_the_per_vertex_kernel() {
         assert!(worst < 1e-4, "{exp:?}: worst relative difference {worst}");
     }
 }
+
+/// Every compiled accumulation against the portable one, on receivers close
+/// together (table entries within 32: the AVX-512 path's permute lookup) and
+/// spread out (its gathers), with a receiver at a blocker's centre (d = 0)
+/// and on a sphere's surface: the fast paths' `rsqrt14` + Newton step and
+/// lookups must agree with plain division and square roots within the
+/// per-vertex test's tolerance (the tangent sphere puts θ near 90°, where
+/// `asin` magnifies an ulp of `r/d`).
+#[test]
+fn compiled_accumulations_match_the_portable_path() {
+    for n in [2, 3, 4, 5, 6, 7] {
+        let table = LogTable::with_defaults(n).unwrap();
+        let k = LaneKernel::new(&table, OlFit::fit(&table)).unwrap();
+        for (case, spread) in [0.02f32, 0.3, 3.0].into_iter().enumerate() {
+            let mut rng = Rng::new(100 + n as u64, case as u64);
+            let (_, mut blockers, _) = setup(&mut rng);
+            let mut rec = LaneReceivers::default();
+            for j in 0..W {
+                let p = Vec3::new(
+                    spread * (rng.next_f32() - 0.5),
+                    0.0,
+                    spread * (rng.next_f32() - 0.5),
+                );
+                let nrm = Vec3::new(0.3 * (rng.next_f32() - 0.5), 1.0, 0.0).normalize();
+                rec.set(j, p, nrm);
+            }
+            let p0 = Vec3::new(rec.p[0][0], rec.p[1][0], rec.p[2][0]);
+            let p1 = Vec3::new(rec.p[0][1], rec.p[1][1], rec.p[2][1]);
+            blockers.push(LaneBlocker {
+                c: p0.to_array(),
+                r: 0.1,
+            });
+            blockers.push(LaneBlocker {
+                c: (p1 + Vec3::Y * 0.25).to_array(),
+                r: 0.25,
+            });
+            let mut want = vec![[0.0f32; W]; n * n];
+            let any_want = k.accumulate_on(LanePath::Portable, &rec, &blockers, &mut want);
+            for path in paths() {
+                let mut got = vec![[0.0f32; W]; n * n];
+                let any = k.accumulate_on(path, &rec, &blockers, &mut got);
+                assert_eq!(any, any_want, "{path:?} n = {n} case {case}");
+                for j in 0..W {
+                    let scale = want.iter().map(|v| v[j].abs()).fold(1.0f32, f32::max);
+                    for i in 0..n * n {
+                        assert!(
+                            got[i][j].is_finite() && (got[i][j] - want[i][j]).abs() <= 2e-5 * scale,
+                            "{path:?} n = {n} case {case} lane {j} coefficient {i}: {} vs {}",
+                            got[i][j],
+                            want[i][j]
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
