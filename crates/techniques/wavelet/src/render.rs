@@ -816,8 +816,6 @@ fn mesh_id(m: &relight_geom::Mesh) -> MeshId {
 }
 
 impl VertexColors {
-    /// Whether each object's mesh is closed and outward, computed once per
-    /// mesh (kept while the object's mesh is the same).
     /// Whether `raster` holds this cache's last rasterization and it is the
     /// one `camera`, `scene`'s meshes and `closed` ask for.
     fn raster_holds(
@@ -840,6 +838,8 @@ impl VertexColors {
         })
     }
 
+    /// Whether each object's mesh is closed and outward, computed once per
+    /// mesh (kept while the object's mesh is the same).
     fn closed_meshes(&mut self, scene: &Scene) -> Vec<bool> {
         let ids: Vec<MeshId> = scene.objects.iter().map(|o| mesh_id(&o.mesh)).collect();
         let same = self.closed.len() == ids.len()
