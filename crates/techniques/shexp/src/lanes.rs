@@ -158,23 +158,27 @@ fn legendre_coefficients(l: usize) -> Vec<f64> {
     cur
 }
 
+/// Taylor coefficients of `asin x / x` in `x²`, `(2k)! / (4^k (k!)² (2k + 1))`
+/// for k = 0..8: the series [`asin_lane`] and the AVX-512 kernel share.
+const ASIN_SERIES: [f32; 9] = [
+    1.0,
+    1.0 / 6.0,
+    3.0 / 40.0,
+    5.0 / 112.0,
+    35.0 / 1152.0,
+    63.0 / 2816.0,
+    231.0 / 13312.0,
+    143.0 / 10240.0,
+    6435.0 / 557_056.0,
+];
+
 /// `asin(x)` for `x ∈ [0, 1]` (lane form; clamps outside): the Taylor series
 /// `x Σ_k c_k x^{2k}`, `c_k = (2k)!/(4^k (k!)² (2k+1))`, to `k = 8` on
 /// `[0, ½]`, and `π/2 − 2 asin(√((1 − x)/2))` above (exact reduction in f32).
 #[inline(always)]
 #[must_use]
 pub fn asin_lane<const F: bool>(x: f32) -> f32 {
-    const C: [f32; 9] = [
-        1.0,
-        1.0 / 6.0,
-        3.0 / 40.0,
-        5.0 / 112.0,
-        35.0 / 1152.0,
-        63.0 / 2816.0,
-        231.0 / 13312.0,
-        143.0 / 10240.0,
-        6435.0 / 557_056.0,
-    ];
+    const C: [f32; 9] = ASIN_SERIES;
     let x = x.clamp(0.0, 1.0);
     let hi = x > 0.5;
     let u = if hi { ((1.0 - x) * 0.5).sqrt() } else { x };
@@ -956,17 +960,7 @@ unsafe fn accumulate_zmm<const N: usize>(
         let last = _mm512_set1_ps((k.entries - 1) as f32);
         let imax = _mm512_set1_epi32((k.entries - 2) as i32);
         let stride = _mm512_set1_epi32((2 * N) as i32);
-        const C: [f32; 9] = [
-            1.0,
-            1.0 / 6.0,
-            3.0 / 40.0,
-            5.0 / 112.0,
-            35.0 / 1152.0,
-            63.0 / 2816.0,
-            231.0 / 13312.0,
-            143.0 / 10240.0,
-            6435.0 / 557_056.0,
-        ];
+        const C: [f32; 9] = ASIN_SERIES;
         // 1/√v for v > 0: rsqrt14 and one Newton step y(3 − v y²)/2.
         let rsqrt = |v: __m512| {
             let y = _mm512_rsqrt14_ps(v);
