@@ -121,7 +121,7 @@ pub fn verify(a: &VerifyArgs, report: &Report) -> Result<()> {
         floor,
         bunny.as_ref(),
     )?);
-    rows.push(relight_shexp::bench::verify_culling()?);
+    rows.extend(relight_shexp::bench::verify_culling()?);
     report.table("relight verify shexp", &rows, &[])?;
     Ok(())
 }

@@ -63,6 +63,21 @@ fn torus_sets_cover_every_vertex_and_the_hierarchy_nests() {
         for (i, n) in s.nodes.iter().enumerate() {
             let mut under = Vec::new();
             leaves_under(&s, i, &mut under);
+            // The proxy, from the leaves directly: r²-weighted centre, √Σr².
+            let w: f64 = under
+                .iter()
+                .map(|&l| f64::from(s.spheres[l].radius).powi(2))
+                .sum();
+            let c = under
+                .iter()
+                .map(|&l| s.spheres[l].c().as_dvec3() * f64::from(s.spheres[l].radius).powi(2))
+                .sum::<glam::DVec3>()
+                / w;
+            assert!((f64::from(n.proxy.radius) - w.sqrt()).abs() <= 1e-5 * w.sqrt());
+            assert!(n.proxy.c().as_dvec3().distance(c) <= 1e-5 * (1.0 + c.length()));
+            if n.leaf.is_some() {
+                assert_eq!(n.proxy, n.sphere);
+            }
             for l in under {
                 let ch = s.spheres[l];
                 let d = n.sphere.c().distance(ch.c());
