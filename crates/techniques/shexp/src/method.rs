@@ -79,7 +79,7 @@ pub struct ShExpOptions {
     /// Blockers under this half-angle (degrees) from a cluster are dropped. Default 1°.
     pub min_angle_deg: f32,
     /// A hierarchy node under this half-angle is used whole (its proxy sphere)
-    /// instead of its children. Default 6°.
+    /// instead of its children. Default 7°.
     pub lod_angle_deg: f32,
     /// Strata per side of the static self-shadowing bake (rays = side²). Default 12.
     pub bake_strata: usize,
@@ -96,7 +96,7 @@ impl Default for ShExpOptions {
             spheres: 32,
             cluster_vertices: 512,
             min_angle_deg: 1.0,
-            lod_angle_deg: 6.0,
+            lod_angle_deg: 7.0,
             bake_strata: 12,
             flat_receiver_vertices: 16_384,
         }

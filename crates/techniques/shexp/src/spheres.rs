@@ -41,8 +41,8 @@
 //! children, blocks several times that solid angle. On the thesis-like
 //! scenes of `relight bench shexp`, at a 3° LOD threshold, the proxies took
 //! the culling's error from 0.17 % to 0.03 % of the radiance (dino-like) and
-//! let the threshold rise to 6° (`relight verify shexp` reports the error at
-//! the defaults). A leaf's proxy is itself. The culling tests still use the
+//! let the threshold rise (`ShExpOptions::lod_angle_deg`; `relight verify
+//! shexp` reports the error at the defaults). A leaf's proxy is itself. The culling tests still use the
 //! bounding sphere: it bounds the angle every leaf below could subtend.
 
 use rayon::prelude::*;
