@@ -6,10 +6,10 @@
 //! For one chunk of `W` receiver vertices of a cluster and every blocker
 //! sphere the cluster keeps (§5.2.4 culling):
 //! 1. **Accumulation** (eq. 5.13): per lane, the blocker's direction `ω` and
-//!    half-angle `θ = asin(r/d)` ([`asin_lane`], a range-reduced Taylor
-//!    series, |error| < 3·10⁻⁷ rad), the zonal log `f_l(θ)` by linear
-//!    interpolation of the [`LogTable`] (the same entries and interpolation as
-//!    [`LogTable::lookup`]), and `f_{l,m} += √(4π/(2l+1)) f_l(θ) y_{l,m}(ω)`
+//!    the table coordinate `tan(θ/2)` of its half-angle straight from
+//!    `sin θ = r/d` ([`crate::log_table::tan_half_of_sin`]: no `asin`), the
+//!    zonal log `f_l(θ)` by linear interpolation of the [`LogTable`] (the same
+//!    entries and interpolation as [`LogTable::lookup`]), and `f_{l,m} += √(4π/(2l+1)) f_l(θ) y_{l,m}(ω)`
 //!    with `y_{l,m}` written as `Q_{l,m}(z)·{Re, Im}((x + iy)^m)`: the
 //!    polynomials `Q_{l,m}` (real SH with the Condon–Shortley phase, the
 //!    convention of `relight_sh`, the factor `√(4π/(2l+1))` folded in) are
@@ -24,7 +24,8 @@
 //!    than the chunk's most keeps its value (a per-lane select).
 //!
 //! Results equal the per-vertex path's up to f32 rounding (fused
-//! multiply–adds, another summation order, the series asin); a test compares
+//! multiply–adds, another summation order, `tan(θ/2)` from `sin θ` rather
+//! than from `asin`); a test compares
 //! them. The body is compiled three times — AVX-512F, AVX2 + FMA, portable —
 //! and picked at run time by [`relight_sh::isa`].
 
@@ -156,43 +157,6 @@ fn legendre_coefficients(l: usize) -> Vec<f64> {
         cur = next;
     }
     cur
-}
-
-/// Taylor coefficients of `asin x / x` in `x²`, `(2k)! / (4^k (k!)² (2k + 1))`
-/// for k = 0..8: the series [`asin_lane`] and the AVX-512 kernel share.
-const ASIN_SERIES: [f32; 9] = [
-    1.0,
-    1.0 / 6.0,
-    3.0 / 40.0,
-    5.0 / 112.0,
-    35.0 / 1152.0,
-    63.0 / 2816.0,
-    231.0 / 13312.0,
-    143.0 / 10240.0,
-    6435.0 / 557_056.0,
-];
-
-/// `asin(x)` for `x ∈ [0, 1]` (lane form; clamps outside): the Taylor series
-/// `x Σ_k c_k x^{2k}`, `c_k = (2k)!/(4^k (k!)² (2k+1))`, to `k = 8` on
-/// `[0, ½]`, and `π/2 − 2 asin(√((1 − x)/2))` above (exact reduction in f32).
-#[inline(always)]
-#[must_use]
-pub fn asin_lane<const F: bool>(x: f32) -> f32 {
-    const C: [f32; 9] = ASIN_SERIES;
-    let x = x.clamp(0.0, 1.0);
-    let hi = x > 0.5;
-    let u = if hi { ((1.0 - x) * 0.5).sqrt() } else { x };
-    let z = u * u;
-    let mut p = C[8];
-    for &c in C[..8].iter().rev() {
-        p = fma::<F>(p, z, c);
-    }
-    let a = u * p;
-    if hi {
-        fma::<F>(-2.0, a, std::f32::consts::FRAC_PI_2)
-    } else {
-        a
-    }
 }
 
 #[inline(always)]
@@ -593,7 +557,7 @@ fn accumulate_body<const F: bool, const G: bool, const N: usize>(
     for v in f.iter_mut() {
         *v = [0.0; W];
     }
-    let scale = (k.entries - 1) as f32 / std::f32::consts::FRAC_PI_2;
+    let scale = (k.entries - 1) as f32;
     let last = (k.entries - 1) as f32;
     let imax = (k.entries - 2) as i32;
     let mut any = [0.0f32; W];
@@ -618,7 +582,7 @@ fn accumulate_body<const F: bool, const G: bool, const N: usize>(
             y[j] = if pos { dy * inv } else { rec.n[1][j] };
             z[j] = if pos { dz * inv } else { rec.n[2][j] };
             let s = if dist <= b.r { 1.0 } else { b.r * inv };
-            let th = asin_lane::<F>(s);
+            let th = crate::log_table::tan_half_of_sin(s);
             // max/min, unlike clamp, turn a NaN (from a NaN position) into a bound.
             let u = (th * scale).max(0.0).min(last);
             // SAFETY: 0 ≤ u ≤ entries − 1 < 2³¹ and u is not NaN.
@@ -928,12 +892,11 @@ fn series_body<const F: bool>(k: &LaneKernel, p: u32, s: &mut LaneScratch, out: 
 /// constant (3…6): the `N²` accumulators stay in `zmm` registers across the
 /// blocker loop (eq. 5.13's sum), a blocker is broadcast from its
 /// [`LaneBlocker`] (no gathers but the log table's `2N`), and the division
-/// and both square roots (`1/d`, and `√((1 − x)/2)` in [`asin_lane`]'s range
-/// reduction) are `rsqrt14` with one Newton step (relative error ≈ 2⁻²³,
-/// f32 rounding; a test compares this path with the portable one). The
-/// table is read from [`LaneKernel::table_soa`] by a two-register permute
-/// when the chunk's entries lie within 32 (gathers otherwise), and the
-/// `asin` series runs by Estrin's scheme (shorter dependency chain).
+/// and square roots (`1/d`, `cos θ = √(1 − sin²θ)`, `1/(1 + cos θ)`) are
+/// `rsqrt14` / `rcp14` with one Newton step (relative error ≈ 2⁻²³, f32
+/// rounding; a test compares this path with the portable one). The table is
+/// read from [`LaneKernel::table_soa`] by a two-register permute when the
+/// chunk's entries lie within 32 (gathers otherwise).
 ///
 /// # Safety
 /// AVX-512F and FMA must be available; `k.order == N`, `f.len() ≥ N²`.
@@ -962,11 +925,11 @@ unsafe fn accumulate_zmm<const N: usize>(
         let half = _mm512_set1_ps(0.5);
         let three_halves = _mm512_set1_ps(1.5);
         let zero = _mm512_setzero_ps();
-        let scale = _mm512_set1_ps((k.entries - 1) as f32 / std::f32::consts::FRAC_PI_2);
+        let scale = _mm512_set1_ps((k.entries - 1) as f32);
+        let two = _mm512_set1_ps(2.0);
         let last = _mm512_set1_ps((k.entries - 1) as f32);
         let imax = _mm512_set1_epi32((k.entries - 2) as i32);
         let stride = _mm512_set1_epi32((2 * N) as i32);
-        const C: [f32; 9] = ASIN_SERIES;
         // 1/√v for v > 0: rsqrt14 and one Newton step y(3 − v y²)/2.
         let rsqrt = |v: __m512| {
             let y = _mm512_rsqrt14_ps(v);
@@ -998,36 +961,16 @@ unsafe fn accumulate_zmm<const N: usize>(
             let inside = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(d2, _mm512_mul_ps(r, r));
             let s = _mm512_mask_blend_ps(inside, _mm512_mul_ps(r, inv), one);
             let s = _mm512_min_ps(_mm512_max_ps(s, zero), one);
-            // asin_lane: the series on [0, ½], π/2 − 2 asin(√((1 − s)/2)) above.
-            let hi = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(s, half);
-            let v = _mm512_mul_ps(_mm512_sub_ps(one, s), half);
+            // tan(θ/2) = s/(1 + cos θ), cos θ = √(1 − s²) by rsqrt14 + Newton
+            // (0 at s = 1), 1/(1 + cos θ) by rcp14 + Newton (the table's
+            // coordinate, `log_table::tan_half_of_sin`).
+            let v = _mm512_fnmadd_ps(s, s, one);
             let vpos = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(v, zero);
-            let sv = _mm512_maskz_mul_ps(vpos, v, rsqrt(v));
-            let u = _mm512_mask_blend_ps(hi, s, sv);
-            let u2 = _mm512_mul_ps(u, u);
-            // The series in u² by Estrin's scheme (depth 4, not Horner's 8:
-            // this chain limits the loop).
-            let c = |i: usize| _mm512_set1_ps(C[i]);
-            let u4 = _mm512_mul_ps(u2, u2);
-            let u8 = _mm512_mul_ps(u4, u4);
-            let e01 = _mm512_fmadd_ps(c(1), u2, c(0));
-            let e23 = _mm512_fmadd_ps(c(3), u2, c(2));
-            let e45 = _mm512_fmadd_ps(c(5), u2, c(4));
-            let e67 = _mm512_fmadd_ps(c(7), u2, c(6));
-            let e03 = _mm512_fmadd_ps(e23, u4, e01);
-            let e47 = _mm512_fmadd_ps(e67, u4, e45);
-            let e07 = _mm512_fmadd_ps(e47, u8, e03);
-            let p = _mm512_fmadd_ps(_mm512_mul_ps(c(8), u8), u8, e07);
-            let a = _mm512_mul_ps(u, p);
-            let th = _mm512_mask_blend_ps(
-                hi,
-                a,
-                _mm512_fmadd_ps(
-                    _mm512_set1_ps(-2.0),
-                    a,
-                    _mm512_set1_ps(std::f32::consts::FRAC_PI_2),
-                ),
-            );
+            let cos = _mm512_maskz_mul_ps(vpos, v, rsqrt(v));
+            let den = _mm512_add_ps(one, cos);
+            let y0 = _mm512_rcp14_ps(den);
+            let rcp = _mm512_mul_ps(y0, _mm512_fnmadd_ps(den, y0, two));
+            let th = _mm512_mul_ps(s, rcp);
             // Table position; max/min turn a NaN into a bound.
             let t = _mm512_min_ps(_mm512_max_ps(_mm512_mul_ps(th, scale), zero), last);
             let i = _mm512_min_epi32(_mm512_cvttps_epi32(t), imax);

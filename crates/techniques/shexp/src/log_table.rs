@@ -8,8 +8,16 @@
 //! `ε · max D` (5.35; the thesis' ε = 0.02, [`DEFAULT_EIGEN_CLIP`]). The log of a
 //! zonal function is zonal, so each entry keeps only its `order` coefficients
 //! of `y_{l,0}`; a blocker's log is the entry rotated to the blocker's
-//! direction ([`crate::accumulate`], eqs. 5.13, 5.36). Lookups interpolate
-//! linearly in θ between [`DEFAULT_LOG_ENTRIES`] entries over [0, π/2].
+//! direction ([`crate::accumulate`], eqs. 5.13, 5.36).
+//!
+//! The entries are equally spaced in `t = tan(θ/2)` over [0, 1] (θ from 0 to
+//! π/2), and lookups interpolate linearly in `t`. From a receiver at distance
+//! `d` of a sphere of radius `r`, `sin θ = r/d` and
+//! `t = sin θ / (1 + √(1 − sin²θ))` ([`tan_half_of_sin`]): a square root and a
+//! division, where an equal-θ grid needs an `asin` per blocker and receiver
+//! (the lane kernel's hot loop). `dθ/dt = 2/(1 + t²)` stays within [1, 2], so
+//! the grid is nearly uniform in θ with no end singular (a grid in `sin θ`
+//! would crowd neither end and blur θ near π/2).
 
 use crate::ShExpError;
 use crate::cap::cap_visibility_zonal;
@@ -20,14 +28,30 @@ use std::f64::consts::FRAC_PI_2;
 /// §5.2.3: "0.02 times the largest eigenvalue").
 pub const DEFAULT_EIGEN_CLIP: f64 = 0.02;
 
-/// Entries of the log table over [0, π/2] (0.5° apart).
-pub const DEFAULT_LOG_ENTRIES: usize = 181;
+/// Entries of the log table over `tan(θ/2)` ∈ [0, 1] (θ at most 0.5° apart,
+/// at θ = 0; 0.25° near π/2).
+pub const DEFAULT_LOG_ENTRIES: usize = 231;
+
+/// `tan(θ/2)` from `sin θ` for θ ∈ [0, π/2]: `s / (1 + √(1 − s²))`, `s`
+/// clamped to [0, 1] (the table's coordinate; module docs).
+#[inline]
+#[must_use]
+pub fn tan_half_of_sin(s: f32) -> f32 {
+    let s = s.clamp(0.0, 1.0);
+    // (1 − s)(1 + s), not 1 − s²: no cancellation as s → 1.
+    s / (1.0 + ((1.0 - s) * (1.0 + s)).sqrt())
+}
+
+/// The half-angle of entry `e` of `entries`: `2 atan(e/(entries − 1))`.
+fn theta_of_entry(e: usize, entries: usize) -> f64 {
+    2.0 * (e as f64 / (entries - 1) as f64).atan()
+}
 
 /// `log g(θ)` for caps of half-angle θ ∈ [0, π/2], zonal, per order.
 #[derive(Clone, Debug)]
 pub struct LogTable {
     order: usize,
-    /// θ of entry 0 is 0, of the last π/2.
+    /// θ of entry `e` is `2 atan(e/(entries − 1))`: 0 to π/2.
     entries: usize,
     /// `entries × order` zonal coefficients, f64.
     zonal: Vec<f64>,
@@ -72,7 +96,7 @@ impl LogTable {
         let tp = TripleProduct::<f64>::new(order)?;
         let mut zonal = Vec::with_capacity(entries * order);
         for e in 0..entries {
-            let theta = FRAC_PI_2 * e as f64 / (entries - 1) as f64;
+            let theta = theta_of_entry(e, entries);
             zonal.extend(cap_log_zonal(&tp, theta, eps_rel)?);
         }
         let zonal32 = zonal.iter().map(|&v| v as f32).collect();
@@ -107,7 +131,7 @@ impl LogTable {
     /// The half-angle of entry `e`, radians.
     #[must_use]
     pub fn theta_of(&self, e: usize) -> f64 {
-        FRAC_PI_2 * e as f64 / (self.entries - 1) as f64
+        theta_of_entry(e, self.entries)
     }
 
     /// Entry `e`'s zonal coefficients (f64).
@@ -118,13 +142,14 @@ impl LogTable {
 
     #[inline]
     fn locate(&self, theta: f32) -> (usize, f32) {
-        let x = (theta.clamp(0.0, std::f32::consts::FRAC_PI_2) / std::f32::consts::FRAC_PI_2)
-            * (self.entries - 1) as f32;
+        let x =
+            (0.5 * theta.clamp(0.0, std::f32::consts::FRAC_PI_2)).tan() * (self.entries - 1) as f32;
         let i = (x as usize).min(self.entries - 2);
         (i, x - i as f32)
     }
 
-    /// Linear interpolation in θ (radians, clamped to [0, π/2]) into `out[..order]`.
+    /// The entries at half-angle θ (radians, clamped to [0, π/2]), linearly
+    /// interpolated in `tan(θ/2)`, into `out[..order]`.
     #[inline]
     pub fn lookup(&self, theta: f32, out: &mut [f32]) {
         let n = self.order;
@@ -139,7 +164,7 @@ impl LogTable {
     /// f64 lookup (verification).
     pub fn lookup_f64(&self, theta: f64, out: &mut [f64]) {
         let n = self.order;
-        let x = (theta.clamp(0.0, FRAC_PI_2) / FRAC_PI_2) * (self.entries - 1) as f64;
+        let x = (0.5 * theta.clamp(0.0, FRAC_PI_2)).tan() * (self.entries - 1) as f64;
         let i = (x as usize).min(self.entries - 2);
         let t = x - i as f64;
         for l in 0..n {

@@ -9,9 +9,7 @@ use relight_render::method::Relighter;
 use relight_render::{NoProgress, Rng};
 use relight_sh::product::TripleProduct;
 use relight_shexp::accumulate::{Scratch, add_blocker_log, zonal_rotation_factors};
-use relight_shexp::lanes::{
-    LaneBlocker, LaneKernel, LanePath, LaneReceivers, LaneScratch, W, asin_lane,
-};
+use relight_shexp::lanes::{LaneBlocker, LaneKernel, LanePath, LaneReceivers, LaneScratch, W};
 use relight_shexp::verify_scene::{floor_scene, floor_spheres, sky};
 use relight_shexp::{
     ExpKind, Exponentiator, Kernel, LogTable, OlFit, ShExpMethod, ShExpOptions, SquaringHistogram,
@@ -22,21 +20,6 @@ fn paths() -> Vec<LanePath> {
         .into_iter()
         .filter(|p| p.supported())
         .collect()
-}
-
-#[test]
-fn series_asin_is_within_3e_7_rad() {
-    let mut worst = (0.0f64, 0.0f32);
-    for i in 0..=200_000 {
-        let x = i as f32 / 200_000.0;
-        for v in [asin_lane::<false>(x), asin_lane::<true>(x)] {
-            let e = (f64::from(v) - f64::from(x).asin()).abs();
-            if e > worst.0 {
-                worst = (e, x);
-            }
-        }
-    }
-    assert!(worst.0 < 3e-7, "asin error {} at {}", worst.0, worst.1);
 }
 
 /// Receivers on a patch with tilted normals, blockers around them (some
@@ -70,6 +53,19 @@ fn setup(rng: &mut Rng) -> (LaneReceivers, Vec<LaneBlocker>, Vec<(Vec3, Vec3)>) 
         r: 0.2,
     });
     (rec, blockers, pn)
+}
+
+/// The table coordinate from `sin θ` equals `tan(θ/2)` of `θ = asin(sin θ)`
+/// (f64), over [0, 1].
+#[test]
+fn tan_half_of_sin_matches_tan_of_half_asin() {
+    let mut worst = 0.0f64;
+    for i in 0..=100_000 {
+        let x = i as f32 / 100_000.0;
+        let want = (0.5 * f64::from(x).asin()).tan();
+        worst = worst.max((f64::from(relight_shexp::log_table::tan_half_of_sin(x)) - want).abs());
+    }
+    assert!(worst < 2e-7, "tan(θ/2) error {worst}");
 }
 
 #[test]
