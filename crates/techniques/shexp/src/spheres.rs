@@ -42,8 +42,11 @@
 //! scenes of `relight bench shexp`, at a 3° LOD threshold, the proxies took
 //! the culling's error from 0.17 % to 0.03 % of the radiance (dino-like) and
 //! let the threshold rise (`ShExpOptions::lod_angle_deg`; `relight verify
-//! shexp` reports the error at the defaults). A leaf's proxy is itself. The culling tests still use the
-//! bounding sphere: it bounds the angle every leaf below could subtend.
+//! shexp` reports the error at the defaults). A leaf's proxy is itself. Where
+//! leaves overlap, a proxy can be larger than the bounding sphere (the
+//! leaves' logs double-count the overlap, and so does the proxy). The culling
+//! tests still use the bounding sphere: it bounds the angle every leaf below
+//! could subtend. `relight spheres fit` writes both into its JSON.
 
 use rayon::prelude::*;
 use relight_geom::Mesh;
