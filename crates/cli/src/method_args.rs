@@ -26,7 +26,7 @@ pub fn kind_of(m: Method) -> MethodKind {
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 24] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 25] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
@@ -55,6 +55,7 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 24] = [
     ("--fog", &[MethodKind::Fog]),
     ("--exp", &[MethodKind::ShExp]),
     ("--spheres", &[MethodKind::ShExp]),
+    ("--visibility-texture", &[MethodKind::ShExp]),
     ("--normal-filter", &[MethodKind::Ndf]),
     ("--ndf-brdf", &[MethodKind::Ndf]),
     ("--lobes", &[MethodKind::Ndf]),
@@ -84,6 +85,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.fog.is_some(),
         f.exp.is_some(),
         f.spheres.is_some(),
+        f.visibility_texture.is_some(),
         f.normal_filter.is_some(),
         f.ndf_brdf.is_some(),
         f.lobes.is_some(),
@@ -140,6 +142,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         spp => "--spp", seed => "--seed", scattering => "--scattering", order => "--order",
         error => "--error", rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
         ao => "--ao", cache => "--cache", fog => "--fog", exp => "--exp", spheres => "--spheres",
+        visibility_texture => "--visibility-texture",
         normal_filter => "--normal-filter", ndf_brdf => "--ndf-brdf", lobes => "--lobes",
         select => "--select", shading => "--shading", twists => "--twists",
         source_terms => "--source-terms", target_terms => "--target-terms", face => "--face",
@@ -207,6 +210,15 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
             if let Some(k) = f.spheres {
                 x.spheres = k;
+            }
+            if let Some(r) = f.visibility_texture {
+                if !(1..=relight_shexp::method::MAX_VISIBILITY_TEXTURE).contains(&r) {
+                    bail!(
+                        "--visibility-texture {r}: texels per side must be 1…{}",
+                        relight_shexp::method::MAX_VISIBILITY_TEXTURE
+                    );
+                }
+                x.visibility_texture = r;
             }
         }
         MethodOptions::RadianceCache(c) => {

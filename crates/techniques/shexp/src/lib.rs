@@ -19,6 +19,7 @@
 #![allow(clippy::needless_range_loop)] // index-heavy numerical kernels read better with explicit indices
 
 pub mod accumulate;
+pub mod area;
 pub mod bench;
 pub mod cap;
 pub mod exp;
@@ -27,6 +28,7 @@ pub mod log_table;
 pub mod method;
 pub mod shade;
 pub mod spheres;
+pub mod texels;
 pub mod union;
 pub mod verify;
 pub mod verify_scene;

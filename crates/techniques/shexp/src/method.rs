@@ -12,11 +12,19 @@
 //!   projected directly: `T_p = (1/K) Σ vis(s_k) y(s_k)`), and `g_dyn` the
 //!   exponentiated logs of the dynamic blockers only.
 //!
-//! A flat receiver with fewer than [`ShExpOptions::flat_receiver_vertices`]
-//! vertices (a ground quad) is refined by midpoint subdivision until it has
-//! at least that many, and the method shades and draws the refined mesh (the
-//! same surface): a per-vertex stand-in for the visibility texture of large
-//! flat receivers.
+//! **Area lights** ([`crate::area`]): the scene's textured rectangles are
+//! projected into SH per receiver point with the clamped cosine (and a
+//! static receiver's static visibility) folded in, `F(p, N)`, and the
+//! receiver adds `F · g`: a dynamic one projects `F` per frame, a static one
+//! adds it to its lit transfer when a light changes.
+//!
+//! **Flat receivers** (a ground quad has too few vertices for a shadow): with
+//! [`ShExpOptions::visibility_texture`] set, the plane is shaded at the texel
+//! centres of a visibility texture and looked up per pixel
+//! ([`crate::texels`]); otherwise one with fewer than
+//! [`ShExpOptions::flat_receiver_vertices`] vertices is refined by midpoint
+//! subdivision until it has at least that many, and the method shades and
+//! draws the refined mesh (the same surface).
 //!
 //! Blockers are the sphere sets ([`crate::spheres`]) of every object that is
 //! not flat (a flat object — smallest box extent under 1 % of its largest —
@@ -38,11 +46,13 @@
 //! its normal-incidence albedo, and [`Relighter::warnings`] says so.
 
 use crate::accumulate::{Scratch, add_blocker_log, mul_blocker_visibility, zonal_rotation_factors};
+use crate::area::AreaLightSh;
 use crate::exp::{ExpKind, Exponentiator, OlFit, SquaringHistogram};
 use crate::lanes::{Lane, LaneBlocker, LaneKernel, LaneReceivers, LaneScratch, W};
 use crate::log_table::LogTable;
 use crate::shade::{irradiance_zonal, oct_decode, oct_encode};
 use crate::spheres::{FitOptions, Sphere, SphereSet, fit_spheres};
+use crate::texels::TexelGrid;
 use glam::{Affine3A, Mat3, Vec3};
 use rayon::prelude::*;
 use relight_geom::Mesh;
@@ -65,6 +75,9 @@ pub const LH_TABLE_SIZE: usize = 33;
 /// Largest SH order the method accepts.
 pub const MAX_SHEXP_ORDER: usize = 8;
 
+/// Most texels per side of a visibility texture (4096² receiver points).
+pub const MAX_VISIBILITY_TEXTURE: usize = 4096;
+
 /// Settings of [`ShExpMethod`]; `Default` holds the defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShExpOptions {
@@ -84,8 +97,13 @@ pub struct ShExpOptions {
     /// Strata per side of the static self-shadowing bake (rays = side²). Default 12.
     pub bake_strata: usize,
     /// Flat receivers with fewer vertices are refined to at least this many
-    /// (0: never). Default 16 384.
+    /// (0: never). Default 16 384. Unused with a visibility texture.
     pub flat_receiver_vertices: usize,
+    /// Texels per side of a flat receiver's visibility texture
+    /// ([`crate::texels`]): its plane is shaded at the texel centres and
+    /// looked up per pixel instead of refined into vertices. Default 0 (off:
+    /// refine).
+    pub visibility_texture: usize,
 }
 
 impl Default for ShExpOptions {
@@ -99,6 +117,7 @@ impl Default for ShExpOptions {
             lod_angle_deg: 7.0,
             bake_strata: 12,
             flat_receiver_vertices: 16_384,
+            visibility_texture: 0,
         }
     }
 }
@@ -116,8 +135,11 @@ struct Cluster {
 #[derive(Debug)]
 struct ObjectState {
     mesh: Arc<Mesh>,
-    /// The mesh shaded and drawn (a refined flat receiver, or `mesh`).
+    /// The points shaded: a refined flat receiver, the texel centres of its
+    /// visibility texture, or `mesh`.
     receiver: Arc<Mesh>,
+    /// A flat receiver's visibility texture (then `receiver` holds its texels).
+    texels: Option<TexelGrid>,
     dynamic: bool,
     /// Sphere set at `prepare` (None: not a blocker).
     spheres: Option<SphereSet>,
@@ -127,7 +149,10 @@ struct ObjectState {
     albedo: Vec3,
     /// Static receivers: `T_p` per vertex (order² each).
     transfer: Vec<f32>,
-    /// Static receivers: `L ∗ T_p`, RGB, per vertex (3·order² each).
+    /// Static receivers under area lights: `F(p, N)` per vertex, RGB
+    /// (3·order² each; [`crate::area`]), kept until the lights change.
+    area_transfer: Vec<f32>,
+    /// Static receivers: `L ∗ T_p` (+ `F`), RGB, per vertex (3·order² each).
     lit_transfer: Vec<f32>,
 }
 
@@ -136,11 +161,21 @@ struct State {
     clusters: Vec<Cluster>,
     /// `L` (world frame), RGB, f64.
     light: [Vec<f64>; 3],
+    /// The scene's area lights, projected per receiver point ([`crate::area`]),
+    /// and the lights they were made from.
+    area: AreaLightSh,
+    area_lights: Vec<relight_render::AreaLight>,
+    /// The scene had visibility at `prepare`.
+    visibility: bool,
     /// `L_H(N)` over the octahedral grid, RGB interleaved per texel (3·order²).
     lh_table: Vec<f32>,
     colors: Vec<Vec<Vec3>>,
-    /// The meshes the last colours belong to (what `render` draws).
+    /// The meshes `render` draws: those the last colours belong to, or for a
+    /// visibility texture the object's own mesh at the frame's pose.
     drawn: Vec<Arc<Mesh>>,
+    /// Per object, prepare-pose from frame-pose (the inverse of its motion):
+    /// what a visibility-texture lookup transforms pixels by.
+    prepare_from_now: Vec<Affine3A>,
     warnings: Vec<String>,
 }
 
@@ -215,6 +250,15 @@ impl ShExpMethod {
                 "sphere, cluster and bake counts must be ≥ 1".into(),
             ));
         }
+        if options.visibility_texture > MAX_VISIBILITY_TEXTURE {
+            return Err(invalid(
+                "visibility-texture",
+                format!(
+                    "texels per side must be ≤ {MAX_VISIBILITY_TEXTURE} (got {})",
+                    options.visibility_texture
+                ),
+            ));
+        }
         if !(options.min_angle_deg >= 0.0 && options.lod_angle_deg >= options.min_angle_deg) {
             return Err(invalid(
                 "lod-angle",
@@ -282,10 +326,22 @@ impl ShExpMethod {
         self.state.as_ref().map_or(0, |s| s.clusters.len())
     }
 
-    /// The last shaded per-vertex radiance of each object.
+    /// The last shaded per-vertex radiance of each object, one value per
+    /// point of [`Self::receiver_points`].
     #[must_use]
     pub fn vertex_colors(&self) -> &[Vec<Vec3>] {
         self.state.as_ref().map_or(&[], |s| &s.colors)
+    }
+
+    /// The points object `i` is shaded at, at `prepare`'s pose: its vertices,
+    /// a flat receiver's refined vertices, or its visibility texture's texel
+    /// centres.
+    #[must_use]
+    pub fn receiver_points(&self, i: usize) -> Option<&Mesh> {
+        self.state
+            .as_ref()
+            .and_then(|s| s.objects.get(i))
+            .map(|o| o.receiver.as_ref())
     }
 }
 
@@ -376,6 +432,23 @@ fn recover_similarity(old: &Mesh, new: &Mesh, refs: [u32; 4]) -> Option<(Affine3
     let scale = m.determinant().abs().cbrt();
     let t = n0 - m * o0;
     Some((Affine3A::from_mat3_translation(m, t), scale))
+}
+
+/// The same area lights (the same texture objects): the static receivers'
+/// `F` need not be projected again.
+fn same_area_lights(a: &[relight_render::AreaLight], b: &[relight_render::AreaLight]) -> bool {
+    a.len() == b.len()
+        && a.iter().zip(b).all(|(x, y)| {
+            x.center == y.center
+                && x.size == y.size
+                && x.world_from_light == y.world_from_light
+                && x.intensity == y.intensity
+                && match (&x.texture, &y.texture) {
+                    (None, None) => true,
+                    (Some(p), Some(q)) => Arc::ptr_eq(p, q),
+                    _ => false,
+                }
+        })
 }
 
 /// Flat objects only receive.
@@ -514,8 +587,9 @@ impl ShExpMethod {
         out
     }
 
-    /// `L_H` over the octahedral grid and `L ∗ T_p` per static vertex.
-    fn light_tables(&self, state: &mut State) {
+    /// `L_H` over the octahedral grid and `L ∗ T_p` (+ the area lights' `F`)
+    /// per static vertex; the static `F` again when `area_changed`.
+    fn light_tables(&self, state: &mut State, area_changed: bool) {
         let n = self.options.order;
         let nn = n * n;
         let tp = TripleProduct::<f64>::new(n).expect("order checked in new");
@@ -544,24 +618,95 @@ impl ShExpMethod {
                 }
             });
         state.lh_table = table;
+        if area_changed {
+            self.static_area_transfer(state);
+        }
+        // Per static vertex: `L ∗ X_p`, `X_p = T_p` (baked visibility) or
+        // `H(N_p)` (none baked), plus the area lights' `F(p, N)`.
+        let h32: Vec<f32> = h.iter().map(|&v| v as f32).collect();
         for o in &mut state.objects {
-            if o.transfer.is_empty() {
+            if o.transfer.is_empty() && o.area_transfer.is_empty() {
                 o.lit_transfer.clear();
                 continue;
             }
-            let mut lt = vec![0.0f32; o.transfer.len() * 3];
-            lt.par_chunks_mut(3 * nn)
-                .zip(o.transfer.par_chunks(nn))
-                .for_each(|(out, t)| {
-                    let t: Vec<f64> = t.iter().map(|&v| f64::from(v)).collect();
+            let mesh = &o.receiver;
+            let normals = if o.transfer.is_empty() {
+                normals_of(mesh)
+            } else {
+                Vec::new()
+            };
+            let (transfer, area) = (&o.transfer, &o.area_transfer);
+            let mut lt = vec![0.0f32; mesh.positions.len() * 3 * nn];
+            lt.par_chunks_mut(3 * nn).enumerate().for_each_init(
+                || vec![0.0f32; nn],
+                |x, (v, out)| {
+                    if transfer.is_empty() {
+                        let nrm = normals[v].normalize_or(Vec3::Y);
+                        relight_sh::rotation::rotate_zonal(n, &h32, nrm.to_array(), x);
+                    } else {
+                        x.copy_from_slice(&transfer[v * nn..(v + 1) * nn]);
+                    }
+                    let xd: Vec<f64> = x.iter().map(|&v| f64::from(v)).collect();
                     for c in 0..3 {
-                        let r = m[c].apply(&t);
+                        let r = m[c].apply(&xd);
                         for k in 0..nn {
                             out[c * nn + k] = r[k] as f32;
                         }
                     }
-                });
+                    if !area.is_empty() {
+                        for (o, a) in out.iter_mut().zip(&area[v * 3 * nn..(v + 1) * 3 * nn]) {
+                            *o += a;
+                        }
+                    }
+                },
+            );
             o.lit_transfer = lt;
+        }
+    }
+
+    /// `F(p, N)` of the area lights ([`crate::area`]) at every static
+    /// receiver point, with a shadow ray per quadrature cell against the
+    /// static meshes when the scene has visibility.
+    fn static_area_transfer(&self, state: &mut State) {
+        let nn = self.options.order * self.options.order;
+        let area = &state.area;
+        let static_meshes: Vec<Arc<Mesh>> = state
+            .objects
+            .iter()
+            .filter(|o| !o.dynamic)
+            .map(|o| o.mesh.clone())
+            .collect();
+        let refs: Vec<&Mesh> = static_meshes.iter().map(|m| m.as_ref()).collect();
+        let bvh = (state.visibility && !area.is_empty()).then(|| SceneBvh::build(&refs));
+        for o in &mut state.objects {
+            o.area_transfer.clear();
+            if o.dynamic || area.is_empty() {
+                continue;
+            }
+            let mesh = &o.receiver;
+            let normals = normals_of(mesh);
+            let mut at = vec![0.0f32; mesh.positions.len() * 3 * nn];
+            at.par_chunks_mut(3 * nn).enumerate().for_each_init(
+                || vec![0.0f32; nn],
+                |y, (v, out)| {
+                    let (p, nrm) = (mesh.positions[v], normals[v].normalize_or(Vec3::Y));
+                    let origin = relight_render::bvh::offset_ray_origin(p, nrm);
+                    let weight = |w: Vec3, r: f32| {
+                        let c = w.dot(nrm);
+                        let shadowed = c > 0.0
+                            && bvh
+                                .as_ref()
+                                .is_some_and(|b| b.occluded(origin, w, r * (1.0 - 1e-4)));
+                        if c > 0.0 && !shadowed {
+                            c * std::f32::consts::FRAC_1_PI
+                        } else {
+                            0.0
+                        }
+                    };
+                    area.project_weighted(p, weight, y, out);
+                },
+            );
+            o.area_transfer = at;
         }
     }
 
@@ -705,6 +850,7 @@ impl ShExpMethod {
             .collect();
         let lanes = &self.lanes;
         let use_lanes = kernel == Kernel::Lanes && opts.exp != ExpKind::Product;
+        let area = &state.area;
         let unshadowed = |g: &mut [f32]| {
             g.fill(0.0);
             g[0] = (4.0 * std::f32::consts::PI).sqrt();
@@ -724,6 +870,7 @@ impl ShExpMethod {
                     rec: LaneReceivers::default(),
                     fl: vec![[0.0; W]; nn],
                     gl: vec![[0.0; W]; nn],
+                    area: AreaScratch::new(n),
                 },
                 |t, cl| {
                     let obj = cl.object;
@@ -751,8 +898,11 @@ impl ShExpMethod {
                             .unwrap_or(Vec3::Y)
                             .normalize_or(Vec3::Y)
                     };
-                    let shade = |v: u32, nrm: Vec3, g: &[f32]| {
-                        let rgb = if so.lit_transfer.is_empty() {
+                    // A dynamic receiver's area light, `F(p, N) · g`
+                    // ([`crate::area`]; static ones have it in `lit_transfer`).
+                    let dynamic_area = so.lit_transfer.is_empty() && !area.is_empty();
+                    let shade = |v: u32, nrm: Vec3, g: &[f32], s: &mut AreaScratch| {
+                        let mut rgb = if so.lit_transfer.is_empty() {
                             lh_dot(&state.lh_table, nn, nrm, g)
                         } else {
                             let lt =
@@ -763,6 +913,21 @@ impl ShExpMethod {
                                 dot(&lt[2 * nn..], g),
                             )
                         };
+                        let cosine = |w: Vec3, _| w.dot(nrm).max(0.0) * std::f32::consts::FRAC_1_PI;
+                        if dynamic_area
+                            && area.project_weighted(
+                                mesh.positions[v as usize],
+                                cosine,
+                                &mut s.y,
+                                &mut s.f,
+                            )
+                        {
+                            rgb += Vec3::new(
+                                dot(&s.f[..nn], g),
+                                dot(&s.f[nn..2 * nn], g),
+                                dot(&s.f[2 * nn..], g),
+                            );
+                        }
                         (v, (rgb * so.albedo).max(Vec3::ZERO))
                     };
                     let mut local = SquaringHistogram::new();
@@ -783,7 +948,7 @@ impl ShExpMethod {
                             if any == 0 {
                                 unshadowed(&mut t.g);
                                 for (j, &v) in chunk.iter().enumerate() {
-                                    out.push(shade(v, nrms[j], &t.g));
+                                    out.push(shade(v, nrms[j], &t.g, &mut t.area));
                                 }
                                 continue;
                             }
@@ -800,7 +965,7 @@ impl ShExpMethod {
                                 for (g, gl) in t.g.iter_mut().zip(&t.gl) {
                                     *g = gl[j];
                                 }
-                                out.push(shade(v, nrms[j], &t.g));
+                                out.push(shade(v, nrms[j], &t.g, &mut t.area));
                             }
                         }
                     } else {
@@ -858,7 +1023,7 @@ impl ShExpMethod {
                             } else {
                                 unshadowed(g);
                             }
-                            out.push(shade(v, nrm, g));
+                            out.push(shade(v, nrm, g, &mut t.area));
                         }
                     }
                     hist.lock().expect("histogram lock").merge(&local);
@@ -876,7 +1041,19 @@ impl ShExpMethod {
             }
         }
         state.colors = colors;
-        state.drawn = receivers;
+        state.prepare_from_now = moved.iter().map(|(m, _)| m.inverse()).collect();
+        state.drawn = receivers
+            .into_iter()
+            .zip(&state.objects)
+            .zip(&scene.objects)
+            .map(|((r, so), o)| {
+                if so.texels.is_some() {
+                    o.mesh.clone()
+                } else {
+                    r
+                }
+            })
+            .collect();
         self.histogram
             .merge(&hist.into_inner().expect("histogram lock"));
         self.last_pairs = (
@@ -898,6 +1075,24 @@ struct PerThread {
     rec: LaneReceivers,
     fl: Vec<Lane>,
     gl: Vec<Lane>,
+    area: AreaScratch,
+}
+
+/// Per-thread buffers of a dynamic receiver's area light: the SH basis and
+/// `F(p, N)` (RGB; [`crate::area`]).
+struct AreaScratch {
+    y: Vec<f32>,
+    f: Vec<f32>,
+}
+
+impl AreaScratch {
+    fn new(n: usize) -> Self {
+        let nn = n * n;
+        Self {
+            y: vec![0.0; nn],
+            f: vec![0.0; 3 * nn],
+        }
+    }
 }
 
 /// `a · b` in eight partial sums, so that it compiles to vector code (an
@@ -980,11 +1175,11 @@ impl Relighter for ShExpMethod {
 
     fn supports(&self, feature: SceneFeature) -> Support {
         match feature {
-            SceneFeature::Environment | SceneFeature::Visibility | SceneFeature::Animation => {
-                Support::Full
-            }
+            SceneFeature::Environment
+            | SceneFeature::Visibility
+            | SceneFeature::Animation
+            | SceneFeature::AreaLights => Support::Full,
             SceneFeature::PointLights
-            | SceneFeature::AreaLights
             | SceneFeature::Medium
             | SceneFeature::NormalMaps
             | SceneFeature::SpatiallyVaryingBrdf => Support::No,
@@ -1026,7 +1221,14 @@ impl Relighter for ShExpMethod {
                 )
             };
             let mut receiver = o.mesh.clone();
-            if is_flat(&o.mesh) && opts.flat_receiver_vertices > 0 {
+            let texels = if is_flat(&o.mesh) {
+                TexelGrid::new(&o.mesh, opts.visibility_texture)
+            } else {
+                None
+            };
+            if let Some(g) = &texels {
+                receiver = Arc::new(g.receiver_points());
+            } else if is_flat(&o.mesh) && opts.flat_receiver_vertices > 0 {
                 let mut m = (*o.mesh).clone();
                 while m.positions.len() < opts.flat_receiver_vertices && !m.indices.is_empty() {
                     m = m.subdivide_midpoint();
@@ -1039,11 +1241,13 @@ impl Relighter for ShExpMethod {
             objects.push(ObjectState {
                 mesh: o.mesh.clone(),
                 receiver,
+                texels,
                 dynamic: o.animation.is_some(),
                 spheres,
                 refs: reference_vertices(&o.mesh.positions),
                 albedo,
                 transfer: Vec::new(),
+                area_transfer: Vec::new(),
                 lit_transfer: Vec::new(),
             });
         }
@@ -1073,9 +1277,13 @@ impl Relighter for ShExpMethod {
             objects,
             clusters,
             light: [vec![0.0; nn], vec![0.0; nn], vec![0.0; nn]],
+            area: AreaLightSh::new(opts.order, &[]),
+            area_lights: Vec::new(),
+            visibility: scene.visibility,
             lh_table: Vec::new(),
             colors: Vec::new(),
             drawn: Vec::new(),
+            prepare_from_now: Vec::new(),
             warnings,
         });
         self.set_lighting(scene, progress)?;
@@ -1085,13 +1293,20 @@ impl Relighter for ShExpMethod {
     fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError> {
         let t = Instant::now();
         progress.check()?;
+        relight_render::reference::validate_scene(scene)
+            .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?;
         let light = self.project_light(scene);
         let mut state = self
             .state
             .take()
             .ok_or_else(|| failed("call prepare before set_lighting"))?;
         state.light = light;
-        self.light_tables(&mut state);
+        let area_changed = !same_area_lights(&state.area_lights, &scene.area_lights);
+        if area_changed {
+            state.area = AreaLightSh::new(self.options.order, &scene.area_lights);
+            state.area_lights = scene.area_lights.clone();
+        }
+        self.light_tables(&mut state, area_changed);
         self.state = Some(state);
         let ms = t.elapsed().as_secs_f64() * 1e3;
         self.pending_lighting_ms = ms;
@@ -1116,14 +1331,24 @@ impl Relighter for ShExpMethod {
             .state
             .as_ref()
             .ok_or_else(|| failed("call prepare before render"))?;
+        let textured = state.objects.iter().any(|o| o.texels.is_some());
         let draws: Vec<DrawCall> = state
             .drawn
             .iter()
+            .zip(&state.colors)
             .enumerate()
-            .map(|(i, m)| DrawCall::new(&m.positions, &m.indices).with_object_id(i as u32))
+            .map(|(i, (m, c))| {
+                let d = DrawCall::new(&m.positions, &m.indices).with_object_id(i as u32);
+                // With a visibility texture in the frame, the other objects'
+                // colours travel as vertex attributes of the per-pixel pass.
+                if textured && state.objects[i].texels.is_none() {
+                    d.with_attributes(3, bytemuck::cast_slice(c))
+                } else {
+                    d
+                }
+            })
             .collect();
         let ropts = RasterOptions::default().fit_depth(&camera, &draws);
-        let refs: Vec<&[Vec3]> = state.colors.iter().map(|c| &c[..]).collect();
         let env_from_world = scene.world_from_env.transpose();
         let bg = |d: Vec3| scene.env.eval(env_from_world * d);
         let background = if k > 1 {
@@ -1132,9 +1357,23 @@ impl Relighter for ShExpMethod {
             Background::Color(Vec3::ZERO)
         };
         let mut frame = Image::new(camera.width, camera.height);
-        self.raster
-            .render_gouraud(&camera, &draws, &refs, background, &ropts, &mut frame)
-            .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?;
+        if textured {
+            let shader = |f: &relight_render::raster::Fragment| {
+                let o = f.object as usize;
+                match &state.objects[o].texels {
+                    Some(g) => g.lookup(&state.colors[o], &state.prepare_from_now[o], f.position),
+                    None => Vec3::from_slice(f.attributes),
+                }
+            };
+            self.raster
+                .render(&camera, &draws, shader, background, &ropts, &mut frame)
+                .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?;
+        } else {
+            let refs: Vec<&[Vec3]> = state.colors.iter().map(|c| &c[..]).collect();
+            self.raster
+                .render_gouraud(&camera, &draws, &refs, background, &ropts, &mut frame)
+                .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?;
+        }
         Ok(Rendered::from_samples(
             Cow::Owned(frame),
             &self.raster,
@@ -1149,7 +1388,7 @@ impl Relighter for ShExpMethod {
             s.lh_table.len() * 4
                 + s.objects
                     .iter()
-                    .map(|o| (o.transfer.len() + o.lit_transfer.len()) * 4)
+                    .map(|o| (o.transfer.len() + o.area_transfer.len() + o.lit_transfer.len()) * 4)
                     .sum::<usize>()
         });
         (s + self.table.bytes()) as u64

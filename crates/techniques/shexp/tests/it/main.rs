@@ -5,4 +5,5 @@
 mod lanes;
 mod math;
 mod method;
+mod receivers;
 mod spheres;

@@ -8,10 +8,17 @@ use relight_shexp::{ExpKind, ShExpMethod, ShExpOptions};
 #[test]
 fn spheres_on_a_floor_and_ao_meet_their_targets() {
     let rows = verify_scene(24, None).unwrap();
+    let mut gated = 0;
     for r in &rows {
         eprintln!("{} | {} | {} | {:?}", r.check, r.measured, r.target, r.pass);
-        assert_eq!(r.pass, Some(true), "{r:?}");
+        // Report rows (curves) carry no target.
+        if r.pass.is_some() {
+            assert_eq!(r.pass, Some(true), "{r:?}");
+            gated += 1;
+        }
     }
+    // Floor, AO, visibility texture, and the three area-light rows.
+    assert_eq!(gated, 6, "{rows:?}");
 }
 
 #[test]
