@@ -582,9 +582,9 @@ fn accumulate_body<const F: bool, const G: bool, const N: usize>(
             y[j] = if pos { dy * inv } else { rec.n[1][j] };
             z[j] = if pos { dz * inv } else { rec.n[2][j] };
             let s = if dist <= b.r { 1.0 } else { b.r * inv };
-            let th = crate::log_table::tan_half_of_sin(s);
+            let tan_half = crate::log_table::tan_half_of_sin(s);
             // max/min, unlike clamp, turn a NaN (from a NaN position) into a bound.
-            let u = (th * scale).max(0.0).min(last);
+            let u = (tan_half * scale).max(0.0).min(last);
             // SAFETY: 0 ≤ u ≤ entries − 1 < 2³¹ and u is not NaN.
             let i = unsafe { u.to_int_unchecked::<i32>() }.min(imax);
             idx[j] = i * (2 * n) as i32;
@@ -970,9 +970,9 @@ unsafe fn accumulate_zmm<const N: usize>(
             let den = _mm512_add_ps(one, cos);
             let y0 = _mm512_rcp14_ps(den);
             let rcp = _mm512_mul_ps(y0, _mm512_fnmadd_ps(den, y0, two));
-            let th = _mm512_mul_ps(s, rcp);
+            let tan_half = _mm512_mul_ps(s, rcp);
             // Table position; max/min turn a NaN into a bound.
-            let t = _mm512_min_ps(_mm512_max_ps(_mm512_mul_ps(th, scale), zero), last);
+            let t = _mm512_min_ps(_mm512_max_ps(_mm512_mul_ps(tan_half, scale), zero), last);
             let i = _mm512_min_epi32(_mm512_cvttps_epi32(t), imax);
             let tt = _mm512_sub_ps(t, _mm512_cvtepi32_ps(i));
             let idx = _mm512_mullo_epi32(i, stride);
