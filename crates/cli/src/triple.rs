@@ -9,7 +9,7 @@ use anyhow::Result;
 use glam::Vec3;
 use relight_sphere::{EnvMap, Param};
 use relight_triple::bench::{BenchOptions, bench_triple, place_on_floor};
-use relight_triple::verify::{ErrorOptions, error_rows, figure7_rows, identity_rows};
+use relight_triple::verify::{ErrorOptions, bump_rows, error_rows, figure7_rows, identity_rows};
 use std::sync::Arc;
 
 /// The indoor and sun probes of `../shared/data/hdri` that exist (`indoor`
@@ -71,6 +71,11 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
     report.table(
         "relight verify triple: Fig. 7, adaptive vs top-only selection at equal n",
         &fig7,
+        &[],
+    )?;
+    report.table(
+        "relight verify triple: bump mapping (§3.3)",
+        &bump_rows(env, a.quick, cache_dir(), bar)?,
         &[],
     )?;
     Ok(())

@@ -40,9 +40,12 @@
 //! * Per pixel, the lighting is looked up from the pixel's own frame (the
 //!   paper's second form); visibility is interpolated from the vertices.
 //!
+//! * Bump mapping: the lighting and the BRDF's view in the bumped frame,
+//!   visibility unrotated (the paper's approximation; [`method`] docs).
+//!
 //! # Not implemented (issue 12)
-//! Visibility textures, bump mapping, f16/8-bit storage, media; the method
-//! refuses those scene features by name.
+//! Visibility textures, f16/8-bit storage, media; the method refuses media
+//! by name.
 
 pub mod basis;
 pub mod product;

@@ -8,8 +8,20 @@
 //! [`crate::shade`]). A spatially varying BRDF (two BRDFs blended by a
 //! texture over the uvs) shades both tables and blends the results, exact by
 //! the linearity of Eq. 7 in the BRDF (the paper blends the coefficients, the
-//! same sum). Point and area lights, media and normal maps are refused
+//! same sum). Point and area lights and media are refused
 //! ([`MethodError::Unsupported`]).
+//!
+//! # Bump mapping (§3.3)
+//! With a normal map, each pixel's frame is built from its bumped normal
+//! (`NormalMap::perturb` of the interpolated normal and tangent): the
+//! lighting is looked up and the BRDF's view taken in that frame, while the
+//! visibility stays the vertices' rows, unrotated, as the paper does. This
+//! is an approximation wherever visibility is on: the visibility is the
+//! geometric surface's, indexed as if it had turned with the bump
+//! ([`Relighter::warnings`] says so). A flat map (every texel +Z) leaves the
+//! frame, so the image, exactly as without it. As in the reference, a bumped
+//! normal that faces away from the viewer shades black. Per-vertex shading
+//! cannot show a bump and refuses normal maps.
 //!
 //! | call | work |
 //! |---|---|
@@ -130,6 +142,8 @@ struct Prepared {
     /// The spatially varying blend: the second BRDF's table and the weight.
     blend: Option<(Arc<BrdfTable>, relight_render::BrdfBlend)>,
     vis: Option<Arc<Vec<f32>>>,
+    /// The object's normal map (bump mapping; the mesh has uvs and tangents).
+    normal_map: Option<Arc<relight_render::NormalMap>>,
 }
 
 /// Triple-product relighting as a [`Relighter`] (module docs).
@@ -150,6 +164,7 @@ pub struct TripleMethod {
     loads: usize,
     bakes: usize,
     table_builds: usize,
+    warnings: Vec<String>,
 }
 
 impl std::fmt::Debug for TripleMethod {
@@ -255,6 +270,7 @@ impl TripleMethod {
             loads: 0,
             bakes: 0,
             table_builds: 0,
+            warnings: Vec::new(),
         })
     }
 
@@ -340,6 +356,18 @@ impl TripleMethod {
     }
 }
 
+/// The bumped normal at `uv` (the map's tangent-space normal in the frame of
+/// `n` and `tangent`, `NormalMap::perturb`); a flat texel (+Z) returns `n`
+/// itself, bit for bit.
+#[inline]
+fn bumped(map: &relight_render::NormalMap, n: Vec3, tangent: glam::Vec4, uv: glam::Vec2) -> Vec3 {
+    let m = map.sample(uv);
+    if m.x == 0.0 && m.y == 0.0 {
+        return n;
+    }
+    map.perturb(n, tangent, uv)
+}
+
 fn is_rotation(m: Mat3) -> bool {
     let e = (m.transpose() * m - Mat3::IDENTITY).to_cols_array();
     m.is_finite() && e.iter().all(|x| x.abs() < 1e-4) && (m.determinant() - 1.0).abs() < 1e-4
@@ -412,8 +440,11 @@ impl Relighter for TripleMethod {
             SceneFeature::PointLights
             | SceneFeature::AreaLights
             | SceneFeature::Medium
-            | SceneFeature::NormalMaps
             | SceneFeature::Animation => Support::No,
+            SceneFeature::NormalMaps => match self.options.shading {
+                Shading::Pixel => Support::Full,
+                Shading::Vertex => Support::No,
+            },
             SceneFeature::SpatiallyVaryingBrdf => Support::Full,
         }
     }
@@ -433,6 +464,23 @@ impl Relighter for TripleMethod {
                     format!("object {i} blends two BRDFs by a texture but has no uvs"),
                 ));
             }
+            if o.normal_map.is_some()
+                && (o.mesh.uvs.len() != o.mesh.positions.len()
+                    || o.mesh.tangents.len() != o.mesh.positions.len())
+            {
+                return Err(invalid(
+                    "scene",
+                    format!("object {i} has a normal map but no uvs and tangents per vertex"),
+                ));
+            }
+        }
+        self.warnings.clear();
+        if scene.visibility && scene.objects.iter().any(|o| o.normal_map.is_some()) {
+            self.warnings.push(
+                "triple: bump mapping looks the lighting up in the bumped frame while visibility \
+                 stays the vertices' (the paper's approximation, §3.3)"
+                    .into(),
+            );
         }
         let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
         let scene_key: Vec<u64> = meshes
@@ -483,6 +531,7 @@ impl Relighter for TripleMethod {
                 brdf,
                 blend,
                 vis,
+                normal_map: o.normal_map.clone(),
             });
         }
         self.objects = objects;
@@ -571,7 +620,7 @@ impl Relighter for TripleMethod {
                             let tri = p.mesh.indices[frag.triangle as usize];
                             let l = frag.barycentrics;
                             let nrm = &p.mesh.normals;
-                            let n = (nrm[tri[0] as usize] * l.x
+                            let mut n = (nrm[tri[0] as usize] * l.x
                                 + nrm[tri[1] as usize] * l.y
                                 + nrm[tri[2] as usize] * l.z)
                                 .normalize_or(frag.normal);
@@ -587,6 +636,18 @@ impl Relighter for TripleMethod {
                                     + u[tri[1] as usize] * l.y
                                     + u[tri[2] as usize] * l.z
                             };
+                            if let Some(map) = &p.normal_map {
+                                let t = &p.mesh.tangents;
+                                let tangent = t[tri[0] as usize] * l.x
+                                    + t[tri[1] as usize] * l.y
+                                    + t[tri[2] as usize] * l.z;
+                                n = bumped(map, n, tangent, uv());
+                                // The reference's convention: a bumped normal
+                                // facing away from the viewer shades black.
+                                if n.dot(frag.to_eye) <= 0.0 {
+                                    return Vec3::ZERO;
+                                }
+                            }
                             shade_blended(table, rot, p, n, frag.to_eye, vis, uv)
                         },
                         background,
@@ -642,6 +703,10 @@ impl Relighter for TripleMethod {
             view_fma: (points * FMA_PER_CELL * table.stride) as f64,
             lighting_fma: 0.0,
         })
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.warnings.clone()
     }
 
     fn data_bytes(&self) -> u64 {

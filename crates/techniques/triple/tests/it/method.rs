@@ -202,3 +202,59 @@ fn svbrdf_is_linear_in_the_blend_weight() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn bump_mapping_flat_is_exact_bumps_change_the_image_and_vertex_refuses() {
+    let env = EnvMap::from_fn(
+        Param::LatLong {
+            width: 64,
+            height: 32,
+        },
+        |d| Vec3::splat(0.3 + d.y.max(0.0)),
+    );
+    let dir = tmp("bump");
+    let rows = relight_triple::verify::bump_rows(&env, true, dir.clone(), &NoProgress).unwrap();
+    assert_eq!(rows[0].pass, Some(true), "{:?}", rows[0]);
+    // With visibility off the bumped lookup is the method's own error.
+    assert!(rows[2].value < 0.2, "{:?}", rows[2]);
+    // A bumpy map changes the image; per-vertex shading refuses it.
+    let mut s = scene(env, false);
+    let plain = {
+        let mut m = TripleMethod::new(options(&dir)).unwrap();
+        m.prepare(&s, &NoProgress).unwrap();
+        render_frame(&mut m, &s, &FrameRequest::new(s.camera), &NoProgress)
+            .unwrap()
+            .image
+    };
+    let map = Arc::new(relight_render::NormalMap::bumps(64, 4, 0.6));
+    for o in &mut s.objects {
+        let mut mesh = (*o.mesh).clone();
+        mesh.tangents = mesh.compute_tangents();
+        o.mesh = Arc::new(mesh);
+        o.normal_map = Some(map.clone());
+    }
+    let mut m = TripleMethod::new(options(&dir)).unwrap();
+    m.prepare(&s, &NoProgress).unwrap();
+    let bumped = render_frame(&mut m, &s, &FrameRequest::new(s.camera), &NoProgress)
+        .unwrap()
+        .image;
+    assert!(bumped.relative_rms_error(&plain, None) > 0.01);
+    let mut v = TripleMethod::new(TripleOptions {
+        shading: relight_triple::Shading::Vertex,
+        ..options(&dir)
+    })
+    .unwrap();
+    let e = v.prepare(&s, &NoProgress).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            MethodError::Unsupported {
+                method: "triple",
+                feature: SceneFeature::NormalMaps,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
