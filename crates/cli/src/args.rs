@@ -174,6 +174,40 @@ pub struct SceneArgs {
     /// Time in seconds for animated objects (keyframes in the scene file).
     #[arg(long)]
     pub time: Option<f32>,
+    /// Area light centre `x,y,z` (scene units). The `--light-*` area-light
+    /// flags override the scene's one `[[area_light]]`, or add one (this flag
+    /// is then needed; the others default to size 1,1, orientation 0,90,0
+    /// (emitting straight down), intensity 1, no texture).
+    #[arg(long, allow_hyphen_values = true)]
+    pub light_center: Option<String>,
+    /// Area light side lengths `w,h` along its x̂ and ŷ (scene units, > 0).
+    #[arg(long, allow_hyphen_values = true)]
+    pub light_size: Option<String>,
+    /// Area light orientation `yaw,pitch,roll` in degrees, as the scene
+    /// file's `[[area_light]] rotate` (0,0,0 emits towards +Z, 0,90,0 straight
+    /// down). Absolute, replacing the file's orientation (`--light-rotate`
+    /// turns the environment).
+    #[arg(long, allow_hyphen_values = true)]
+    pub light_orientation: Option<String>,
+    /// Area light radiance scale: `r,g,b` or one number (≥ 0).
+    #[arg(long, allow_hyphen_values = true)]
+    pub light_intensity: Option<String>,
+    /// Area light radiance texture (EXR/HDR linear, PNG/JPEG sRGB), times
+    /// the intensity.
+    #[arg(long)]
+    pub light_texture: Option<PathBuf>,
+}
+
+impl SceneArgs {
+    /// True when any `--light-*` area-light flag is given.
+    #[must_use]
+    pub fn edits_area_light(&self) -> bool {
+        self.light_center.is_some()
+            || self.light_size.is_some()
+            || self.light_orientation.is_some()
+            || self.light_intensity.is_some()
+            || self.light_texture.is_some()
+    }
 }
 
 /// Options of the methods. Each flag belongs to some methods; giving it to

@@ -8,9 +8,9 @@ use crate::args::SceneArgs;
 use crate::output::warn_all;
 use crate::parse::{parse_floats, parse_size};
 use anyhow::{Result, anyhow, ensure};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use relight_brdf::BrdfSpec;
-use relight_render::{Medium, Object, PointLight, Scene};
+use relight_render::{AreaLight, Medium, Object, PointLight, Scene};
 use relight_scene::file::RenderDesc;
 use std::path::Path;
 use std::sync::Arc;
@@ -49,6 +49,72 @@ pub fn load_normal_map(path: &Path) -> Result<relight_render::NormalMap> {
     warn_all(&report.warnings);
     relight_render::NormalMap::from_rgb(img.width, img.height, &img.pixels)
         .map_err(|e| anyhow!("{}: not a normal map: {e}", path.display()))
+}
+
+/// Applies the `--light-*` area-light flags: edits the scene's one area
+/// light, or adds one (then `--light-center` is needed). Each bad value is a
+/// one-line error naming its flag.
+fn apply_area_light_flags(a: &SceneArgs, scene: &mut Scene) -> Result<()> {
+    ensure!(
+        scene.area_lights.len() <= 1,
+        "--light-center/--light-size/--light-orientation/--light-intensity/--light-texture edit one area light; the scene has {}",
+        scene.area_lights.len()
+    );
+    let center = a
+        .light_center
+        .as_deref()
+        .map(|c| parse_floats(c, 3, "--light-center").map(|v| Vec3::new(v[0], v[1], v[2])))
+        .transpose()?;
+    let mut light = match scene.area_lights.pop() {
+        Some(l) => l,
+        None => AreaLight {
+            center: center.ok_or_else(|| {
+                anyhow!(
+                    "--light-*: the scene has no [[area_light]]; give --light-center to add one"
+                )
+            })?,
+            size: Vec2::ONE,
+            world_from_light: relight_scene::rotation_from_yaw_pitch_roll([0.0, 90.0, 0.0]),
+            intensity: Vec3::ONE,
+            texture: None,
+        },
+    };
+    if let Some(c) = center {
+        light.center = c;
+    }
+    if let Some(s) = &a.light_size {
+        let v = parse_floats(s, 2, "--light-size")?;
+        ensure!(
+            v[0] > 0.0 && v[1] > 0.0,
+            "--light-size {s}: both sides must be > 0"
+        );
+        light.size = Vec2::new(v[0], v[1]);
+    }
+    if let Some(r) = &a.light_orientation {
+        let v = parse_floats(r, 3, "--light-orientation")?;
+        light.world_from_light = relight_scene::rotation_from_yaw_pitch_roll([v[0], v[1], v[2]]);
+    }
+    if let Some(i) = &a.light_intensity {
+        let n = if i.contains(',') { 3 } else { 1 };
+        let v = parse_floats(i, n, "--light-intensity")?;
+        ensure!(
+            v.iter().all(|x| *x >= 0.0),
+            "--light-intensity {i}: must be ≥ 0"
+        );
+        light.intensity = if n == 3 {
+            Vec3::new(v[0], v[1], v[2])
+        } else {
+            Vec3::splat(v[0])
+        };
+    }
+    if let Some(p) = &a.light_texture {
+        let (tex, warnings) = relight_scene::load_texture(p)
+            .map_err(|e| anyhow!("--light-texture {}: {}", p.display(), e))?;
+        warn_all(&warnings);
+        light.texture = Some(Arc::new(tex));
+    }
+    scene.area_lights.push(light);
+    Ok(())
 }
 
 /// Builds the scene of `a`; `fallback` is the scene used when neither a file
@@ -190,6 +256,9 @@ pub fn build_scene(
     }
     if a.visibility {
         scene.visibility = true;
+    }
+    if a.edits_area_light() {
+        apply_area_light_flags(a, &mut scene)?;
     }
     let time = a.time.unwrap_or(0.0);
     ensure!(

@@ -2,6 +2,7 @@
 //! dependency graph instead of one per file); each module is one former
 //! `tests/*.rs` file.
 
+mod area_light_flags;
 mod cli;
 mod common;
 mod issue11;

@@ -1,0 +1,127 @@
+//! The `--light-*` area-light scene flags (issue 13): they add or edit the
+//! scene's one `[[area_light]]` for every method, and a bad value is a
+//! one-line error naming the flag.
+
+use crate::common::{assert_one_line_error, relight, tmp};
+
+/// A floor under a black sky: no scene file, no shared data.
+const FLOOR: [&str; 6] = ["--mesh", "ground-grid", "--env", "black", "--size", "40x24"];
+
+fn mean_of(exr: &std::path::Path) -> f32 {
+    let (img, _) = relight_assets::read_image(exr).expect("EXR readable");
+    img.pixels.iter().map(|p| p.x + p.y + p.z).sum::<f32>() / img.pixels.len() as f32
+}
+
+fn render(out: &std::path::Path, extra: &[&str]) {
+    let mut args = vec!["-q", "render"];
+    args.extend(FLOOR);
+    args.extend(extra);
+    args.extend(["--out", out.to_str().unwrap()]);
+    let o = relight(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn flags_add_a_light_that_nearfield_and_the_reference_render() {
+    let tex = tmp("light-texture.exr");
+    let texels: Vec<glam::Vec3> = (0..64)
+        .map(|i| glam::Vec3::new((i % 8) as f32 / 8.0, 1.0, 0.5))
+        .collect();
+    relight_assets::write_exr(&tex, 8, 8, &texels).unwrap();
+    let light = [
+        "--light-center",
+        "0.2,1.2,-0.1",
+        "--light-size",
+        "1.2,0.8",
+        "--light-orientation",
+        "0,90,0",
+    ];
+    let (a, b) = (tmp("flags-a.png"), tmp("flags-b.png"));
+    let mut one = light.to_vec();
+    one.extend([
+        "--method",
+        "nearfield",
+        "--order",
+        "8",
+        "--light-intensity",
+        "2",
+    ]);
+    render(&a, &one);
+    let mut two = light.to_vec();
+    two.extend([
+        "--method",
+        "nearfield",
+        "--order",
+        "8",
+        "--light-intensity",
+        "4,4,4",
+    ]);
+    render(&b, &two);
+    let (ma, mb) = (
+        mean_of(&a.with_extension("exr")),
+        mean_of(&b.with_extension("exr")),
+    );
+    assert!(ma > 0.01, "the added light lights the floor: mean {ma}");
+    assert!(
+        (mb / ma - 2.0).abs() < 1e-3,
+        "twice the intensity: {ma} → {mb}"
+    );
+    // A texture and a turned light, through the reference too.
+    let c = tmp("flags-c.png");
+    let mut three = light[..4].to_vec();
+    three.extend([
+        "--light-texture",
+        tex.to_str().unwrap(),
+        "--light-orientation",
+        "30,90,0",
+        "--method",
+        "reference",
+        "--spp",
+        "2",
+    ]);
+    render(&c, &three);
+    assert!(mean_of(&c.with_extension("exr")) > 0.0);
+}
+
+#[test]
+fn bad_light_values_name_the_flag() {
+    let out = tmp("flags-bad.png");
+    let out = out.to_str().unwrap();
+    let cases: [(&[&str], &str); 6] = [
+        (
+            &["--light-center", "0,1,0", "--light-size", "1,0"],
+            "--light-size",
+        ),
+        (&["--light-center", "0,inf,0"], "--light-center"),
+        (
+            &["--light-center", "0,1,0", "--light-intensity", "-1"],
+            "--light-intensity",
+        ),
+        (
+            &["--light-center", "0,1,0", "--light-orientation", "0,nan,0"],
+            "--light-orientation",
+        ),
+        (
+            &[
+                "--light-center",
+                "0,1,0",
+                "--light-texture",
+                "no-such-light.png",
+            ],
+            "--light-texture",
+        ),
+        (&["--light-size", "1,1"], "--light-center"),
+    ];
+    for (extra, flag) in cases {
+        let mut args = vec!["render", "--method", "nearfield"];
+        args.extend(FLOOR);
+        args.extend(extra);
+        args.extend(["--out", out]);
+        assert_one_line_error(&relight(&args), &[flag]);
+    }
+    // A method without area lights refuses the added light by its usual error.
+    let mut args = vec!["render", "--method", "sh"];
+    args.extend(FLOOR);
+    args.extend(["--light-center", "0,1,0", "--out", out]);
+    assert_one_line_error(&relight(&args), &["sh"]);
+}
