@@ -21,6 +21,7 @@
 //! | [`light`] | the light's standard-basis coefficients, source compression |
 //! | [`transport`] | per-vertex Lambert × visibility transport bake |
 //! | [`propagate`] | per-vertex ACC matrices, target mask (eq. 4.38), fused kernel |
+//! | [`rotate`] | a light turned in its plane, re-rasterised into its bounding rectangle |
 //! | [`method`] | the `nearfield` [`relight_render::method::Relighter`] |
 //! | [`verify`], [`bench`] | `relight verify/bench nearfield` rows |
 //!
@@ -32,6 +33,7 @@ pub mod face;
 pub mod light;
 pub mod method;
 pub mod propagate;
+pub mod rotate;
 pub mod scenes;
 pub mod transport;
 pub mod verify;

@@ -41,10 +41,17 @@ impl LightCoeffs {
     #[must_use]
     pub fn of_at(light: &AreaLight, n: usize, coarse: usize) -> Self {
         let coarse = coarse.min(n);
-        let cells = light_cells(light, coarse);
+        Self::of_cells(&light_cells(light, coarse), n, coarse)
+    }
+
+    /// Box-averaged cells at order `coarse` (from [`light_cells`] or
+    /// [`cells_of`]), each repeated onto the `n × n` grid, transformed at
+    /// order `n`.
+    #[must_use]
+    pub fn of_cells(cells: &[Vec<f64>; 3], n: usize, coarse: usize) -> Self {
         let r = n / coarse;
         let mut grids = [vec![0.0; n * n], vec![0.0; n * n], vec![0.0; n * n]];
-        for (g, c) in grids.iter_mut().zip(&cells) {
+        for (g, c) in grids.iter_mut().zip(cells) {
             for y in 0..n {
                 for x in 0..n {
                     g[y * n + x] = c[(y / r) * coarse + x / r];
@@ -71,7 +78,13 @@ impl LightCoeffs {
 /// (row `y` = uv.y, `q × q` texture reads per cell), per channel.
 #[must_use]
 pub fn light_cells(light: &AreaLight, n: usize) -> [Vec<f64>; 3] {
-    let q = LIGHT_SUBSAMPLES;
+    cells_of(n, LIGHT_SUBSAMPLES, &|uv| light.radiance_at(uv))
+}
+
+/// `radiance(uv)` over the uv square box-averaged on an `n × n` grid by
+/// `q × q` midpoint reads per cell, per channel (row `y` = uv.y).
+#[must_use]
+pub fn cells_of(n: usize, q: usize, radiance: &dyn Fn(Vec2) -> Vec3) -> [Vec<f64>; 3] {
     let mut grids = [vec![0.0; n * n], vec![0.0; n * n], vec![0.0; n * n]];
     let h = 1.0 / (n * q) as f32;
     for y in 0..n {
@@ -83,7 +96,7 @@ pub fn light_cells(light: &AreaLight, n: usize) -> [Vec<f64>; 3] {
                         ((x * q + i) as f32 + 0.5) * h,
                         ((y * q + j) as f32 + 0.5) * h,
                     );
-                    sum += light.radiance_at(uv);
+                    sum += radiance(uv);
                 }
             }
             let m = sum / (q * q) as f32;

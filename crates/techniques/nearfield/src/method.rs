@@ -12,18 +12,21 @@
 //! | call | work |
 //! |---|---|
 //! | [`Relighter::prepare`] | the per-vertex transport on the light's face ([`crate::transport`]), shadows ray-cast when the scene has visibility; then `set_lighting` |
-//! | [`Relighter::set_lighting`] | light moved or scaled in its plane (or to another height): per-vertex ACC matrices and target masks ([`crate::propagate`]); always: the light's coefficients, source compression, the fused propagation per vertex. A light turned (its axes changed) re-bakes the transport. |
+//! | [`Relighter::set_lighting`] | light moved, scaled or turned in its plane (or moved to another height): per-vertex ACC matrices and target masks ([`crate::propagate`]); always: the light's coefficients (a turned light re-rasterised into its bounding rectangle, [`crate::rotate`]), source compression, the fused propagation per vertex. A light whose normal changed re-bakes the transport. |
 //! | [`Relighter::render`] | rasterize and interpolate the vertex colours |
 //!
 //! Moving along the normal keeps the baked shadows, cast towards the old
-//! plane. In-plane rotation re-bakes (re-rasterising the rotated texture
-//! into its bounding square, the thesis' route, is not built).
+//! plane. A turn in the plane (thesis §4.5.6) is not affine in Haar
+//! (§4.4): the light is re-rasterised into the rectangle along the baked
+//! axes that bounds it, zero outside the turned rectangle, and shaded as
+//! that unturned light; a turn of exactly 0° is the unturned path.
 
 use crate::face::LightFrame;
 use crate::light::{LightCoeffs, SourceTerms, compress, count_of};
 use crate::propagate::{
     MaskEntry, SelectScratch, ShadeScratch, acc_pair, select_targets, shade, shade_fma, sort_mask,
 };
+use crate::rotate::InPlane;
 use crate::transport::{Transport, bake_transport};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -340,9 +343,20 @@ impl NearfieldMethod {
 
     /// The light's coefficients and source compression. Returns ms.
     pub fn update_source(&mut self, light: &AreaLight) -> f64 {
+        self.update_source_turned(light, None)
+    }
+
+    /// [`Self::update_source`] for `light` turned in the baked plane by
+    /// `turn` (its bounding rectangle re-rasterised, [`crate::rotate`]).
+    /// Returns ms.
+    pub fn update_source_turned(&mut self, light: &AreaLight, turn: Option<&InPlane>) -> f64 {
         let t = Instant::now();
         let o = &self.options;
-        let coeffs = LightCoeffs::of_at(light, o.order, o.light_order.unwrap_or(o.order));
+        let (n, coarse) = (o.order, o.light_order.unwrap_or(o.order).min(o.order));
+        let coeffs = match turn {
+            None => LightCoeffs::of_at(light, n, coarse),
+            Some(turn) => LightCoeffs::of_cells(&turn.cells(light, coarse), n, coarse),
+        };
         self.source = compress(&coeffs, self.options.source_terms);
         t.elapsed().as_secs_f64() * 1e3
     }
@@ -415,23 +429,32 @@ impl Relighter for NearfieldMethod {
     fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError> {
         let t = Instant::now();
         let light = the_light(scene)?;
-        let frame = LightFrame::of(light);
+        let own = LightFrame::of(light);
         let same_objects =
             relight_render::method::same_meshes(self.objects.iter().map(|p| &p.mesh), scene);
-        let rebake = !same_objects
-            || self
-                .baked
-                .is_none_or(|(b, vis)| b.axes != frame.axes || vis != scene.visibility);
+        // A light turned in the baked plane keeps the bake (module docs).
+        let mut turn = None;
+        let rebake = match self.baked {
+            Some((b, vis)) if same_objects && vis == scene.visibility => {
+                if b.axes != own.axes {
+                    turn = InPlane::of(&b.axes, light);
+                }
+                b.axes != own.axes && turn.is_none()
+            }
+            _ => true,
+        };
         if rebake {
             self.bake(scene, progress)?;
+            turn = None;
         }
+        let frame = turn.map_or(own, |t| t.frame);
         progress.check()?;
         let g = if self.geometry != Some((frame, self.target_count())) {
             self.update_geometry(&frame)
         } else {
             0.0
         };
-        let c = self.update_source(light);
+        let c = self.update_source_turned(light, turn.as_ref());
         let p = self.propagate();
         self.last_times = [g, c, p];
         let ms = t.elapsed().as_secs_f64() * 1e3;

@@ -1,4 +1,4 @@
-//! The nearfield method: the affine map, the target mask, exactness of the
+//! The nearfield method (topic `method`): the affine map, the target mask, exactness of the
 //! uncompressed fused kernel, per-vertex accuracy and run-time edits without
 //! a re-bake. Small scenes only (CI budget).
 
@@ -264,7 +264,8 @@ fn coarse_light_in_a_finer_basis() {
     }
 }
 
-/// Moving, scaling and retexturing the light re-bakes nothing; turning it does.
+/// Moving, scaling, retexturing and turning the light in its plane re-bake
+/// nothing; tilting it does.
 #[test]
 fn edits_without_rebake() {
     let mut s = small(true);
@@ -284,9 +285,14 @@ fn edits_without_rebake() {
         "moves, scales and texture edits keep the bake"
     );
     assert_ne!(before, m.vertex_colors()[1]);
+    // A quarter turn in the light's plane (ẑ stays −Y): no re-bake.
     s.area_lights[0].world_from_light = glam::Mat3::from_cols(Vec3::Z, -Vec3::X, -Vec3::Y);
     m.set_lighting(&s, &NoProgress).unwrap();
-    assert_eq!(m.bakes(), 2, "a turned light re-bakes");
+    assert_eq!(m.bakes(), 1, "a turn in the plane keeps the bake");
+    // A tilt (the normal changes) re-bakes.
+    s.area_lights[0].world_from_light = glam::Mat3::from_cols(Vec3::X, -Vec3::Y, -Vec3::Z);
+    m.set_lighting(&s, &NoProgress).unwrap();
+    assert_eq!(m.bakes(), 2, "a tilted light re-bakes");
 }
 
 #[test]
@@ -330,7 +336,7 @@ fn refusals_name_the_problem() {
 
 /// The bake of `bench nearfield`'s 39 K-vertex scene with shadows (issue
 /// 13: ≤ 2 min). Slow: run by hand with
-/// `cargo test --release -p relight-nearfield --test method -- --ignored --nocapture bake_39k`.
+/// `cargo test --release -p relight-nearfield --test it -- --ignored --nocapture bake_39k`.
 #[test]
 #[ignore = "slow (tens of seconds in release): a timing, not a check"]
 fn bake_39k_vertices_with_shadows() {

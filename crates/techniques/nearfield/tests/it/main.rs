@@ -1,0 +1,5 @@
+//! All of this crate's integration tests in one binary, one module per
+//! topic (`cargo test -p relight-nearfield --test it <topic>::`).
+
+mod method;
+mod rotation;
