@@ -301,6 +301,11 @@ pub struct MethodFlags {
     /// per light rotation) [default: 16].
     #[arg(long)]
     pub twists: Option<usize>,
+    /// How the tables are kept (triple): f32, compact (lighting f16, BRDF and
+    /// visibility 8-bit with a scale per function), or one table compact:
+    /// lighting-f16, brdf-u8, visibility-u8 [default: f32].
+    #[arg(long)]
+    pub storage: Option<String>,
     /// Fraction of the light's wavelet terms kept, source level (nearfield)
     /// [default: 0.01].
     #[arg(long)]

@@ -26,7 +26,7 @@ pub fn kind_of(m: Method) -> MethodKind {
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 25] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 26] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
@@ -62,6 +62,7 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 25] = [
     ("--select", &[MethodKind::Triple]),
     ("--shading", &[MethodKind::Triple]),
     ("--twists", &[MethodKind::Triple]),
+    ("--storage", &[MethodKind::Triple]),
     ("--source-terms", &[MethodKind::Nearfield]),
     ("--target-terms", &[MethodKind::Nearfield]),
     ("--face", &[MethodKind::Nearfield]),
@@ -92,6 +93,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.select.is_some(),
         f.shading.is_some(),
         f.twists.is_some(),
+        f.storage.is_some(),
         f.source_terms.is_some(),
         f.target_terms.is_some(),
         f.face.is_some(),
@@ -145,6 +147,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         visibility_texture => "--visibility-texture",
         normal_filter => "--normal-filter", ndf_brdf => "--ndf-brdf", lobes => "--lobes",
         select => "--select", shading => "--shading", twists => "--twists",
+        storage => "--storage",
         source_terms => "--source-terms", target_terms => "--target-terms", face => "--face",
     );
 }
@@ -253,6 +256,9 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
             if let Some(n) = f.twists {
                 t.twists = n;
+            }
+            if let Some(s) = &f.storage {
+                t.storage = s.parse().map_err(|e| anyhow!("--storage {s}: {e}"))?;
             }
         }
         MethodOptions::Fog(g) => {

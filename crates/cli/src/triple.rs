@@ -9,7 +9,9 @@ use anyhow::Result;
 use glam::Vec3;
 use relight_sphere::{EnvMap, Param};
 use relight_triple::bench::{BenchOptions, bench_triple, place_on_floor};
-use relight_triple::verify::{ErrorOptions, bump_rows, error_rows, figure7_rows, identity_rows};
+use relight_triple::verify::{
+    ErrorOptions, bump_rows, error_rows, figure7_rows, identity_rows, storage_rows,
+};
 use std::sync::Arc;
 
 /// The indoor and sun probes of `../shared/data/hdri` that exist (`indoor`
@@ -78,6 +80,11 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
         &bump_rows(env, a.quick, cache_dir(), bar)?,
         &[],
     )?;
+    report.table(
+        "relight verify triple: storage (what each compact table costs)",
+        &storage_rows(env, a.quick, cache_dir(), bar)?,
+        &[],
+    )?;
     Ok(())
 }
 
@@ -100,11 +107,20 @@ pub fn bench(a: &BenchArgs, report: &Report, bar: &Bar) -> Result<()> {
         };
         meshes.push(Arc::new(m));
     }
-    let (frames, timings) = bench_triple(env, &meshes, &opts, bar)?;
+    let relight_triple::bench::BenchTables {
+        frames,
+        timings,
+        storage,
+    } = bench_triple(env, &meshes, &opts, bar)?;
     report.table(
         "relight bench triple: frames (per pixel, per-vertex visibility; FMA/bytes per shaded pixel)",
         &frames,
         &[],
     )?;
-    report.table("relight bench triple: timings", &timings, &[])
+    report.table("relight bench triple: timings", &timings, &[])?;
+    report.table(
+        "relight bench triple: storage (f32, and compact: lighting f16, BRDF 8-bit)",
+        &storage,
+        &[],
+    )
 }

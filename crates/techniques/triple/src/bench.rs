@@ -13,9 +13,14 @@
 //!   material edit (one BRDF table re-baked), a new environment (the twisted
 //!   rotation table and the 642-normal isotropic one), the per-vertex
 //!   visibility bake per vertex count.
+//! * **Storage** ([`crate::storage`]): the lighting table (16 twists) and a
+//!   BRDF table (32 × 64 views) at n = 80 and 320, f32 and compact, against
+//!   the budgets (lighting ≤ 3.75 / 15 MiB, BRDF ≤ 1.9 / 7.5 MiB).
+//!   Frame rows run in both storages.
 
-use crate::method::{TripleMethod, TripleOptions};
-use crate::shade::{BYTES_PER_CELL, FMA_PER_CELL};
+use crate::method::{TripleMethod, TripleOptions, bytes_per_point};
+use crate::shade::FMA_PER_CELL;
+use crate::storage::Storage;
 use crate::verify::floor_scene;
 use glam::{Mat3, Vec3};
 use relight_brdf::BrdfSpec;
@@ -39,6 +44,7 @@ pub struct FrameRow {
     pub width: usize,
     pub height: usize,
     pub terms: usize,
+    pub storage: &'static str,
     pub visibility: &'static str,
     pub covered_pixels: usize,
     pub ms_per_frame: f64,
@@ -51,6 +57,27 @@ pub struct FrameRow {
     pub pass: Option<bool>,
 }
 
+/// One storage row: bytes of a table in a storage, against the issue's
+/// budget.
+#[derive(Clone, Debug, Serialize)]
+pub struct StorageRow {
+    pub table: &'static str,
+    pub terms: usize,
+    pub storage: &'static str,
+    pub mib: f64,
+    pub budget_mib: f64,
+    pub pass: bool,
+}
+
+/// The storage budgets (MiB) at n = 80 / 320: (lighting, BRDF).
+fn budget(terms: usize) -> (f64, f64) {
+    if terms <= 80 {
+        (3.75, 1.9)
+    } else {
+        (15.0, 7.5)
+    }
+}
+
 /// One timing row.
 #[derive(Clone, Debug, Serialize)]
 pub struct TimingRow {
@@ -58,6 +85,14 @@ pub struct TimingRow {
     pub ms: f64,
     pub target: String,
     pub pass: Option<bool>,
+}
+
+/// The three tables of `relight bench triple`.
+#[derive(Clone, Debug)]
+pub struct BenchTables {
+    pub frames: Vec<FrameRow>,
+    pub timings: Vec<TimingRow>,
+    pub storage: Vec<StorageRow>,
 }
 
 /// Bench sizes.
@@ -113,7 +148,7 @@ pub fn bench_triple(
     meshes: &[Arc<Mesh>],
     opts: &BenchOptions,
     progress: &dyn Progress,
-) -> Result<(Vec<FrameRow>, Vec<TimingRow>), MethodError> {
+) -> Result<BenchTables, MethodError> {
     let lambert = "lambert:0.8".parse::<BrdfSpec>().expect("valid").build();
     let phong = "phong:16".parse::<BrdfSpec>().expect("valid").build();
     let mut frames = Vec::new();
@@ -122,11 +157,16 @@ pub fn bench_triple(
         let (w0, h0) = opts.sizes[0];
         let mut scene = floor_scene(env.clone(), lambert.clone(), w0, h0);
         scene.objects[0] = Object::new(mesh.clone(), phong.clone());
-        for &terms in &opts.terms {
+        for (&terms, storage) in opts
+            .terms
+            .iter()
+            .flat_map(|t| [(t, Storage::F32), (t, Storage::Compact)])
+        {
             let o = TripleOptions {
                 terms,
                 vis_level: opts.vis_level.max(crate::method::level_of(terms)),
                 cache_dir: opts.cache_dir.clone(),
+                storage,
                 ..TripleOptions::default()
             };
             let mut m = TripleMethod::new(o)?;
@@ -135,8 +175,9 @@ pub fn bench_triple(
             let prep = t.elapsed().as_secs_f64() * 1e3;
             timings.push(TimingRow {
                 what: format!(
-                    "prepare ({} + floor vertices, n = {terms}; cached bakes are loaded)",
-                    mesh.positions.len()
+                    "prepare ({} + floor vertices, n = {terms}, {}; cached bakes are loaded)",
+                    mesh.positions.len(),
+                    storage.name()
                 ),
                 ms: prep,
                 target: "report".into(),
@@ -164,12 +205,13 @@ pub fn bench_triple(
                     width: w,
                     height: h,
                     terms,
+                    storage: storage.name(),
                     visibility: "vertex",
                     covered_pixels: pixels,
                     ms_per_frame: best,
                     fps,
                     fma_per_pixel: (FMA_PER_CELL * stride) as f64,
-                    bytes_per_pixel: (BYTES_PER_CELL * stride) as f64,
+                    bytes_per_pixel: bytes_per_point(stride, storage) as f64,
                     gfma_per_s: gfma,
                     fraction_of_machine: gfma / MACHINE_GFMA,
                     target_fps: target,
@@ -184,7 +226,10 @@ pub fn bench_triple(
             let rot_ms = t.elapsed().as_secs_f64() * 1e3;
             let builds = m.counts().2;
             timings.push(TimingRow {
-                what: format!("light rotation, n = {terms} (table builds after it: {builds})"),
+                what: format!(
+                    "light rotation, n = {terms}, {} (table builds after it: {builds})",
+                    storage.name()
+                ),
                 ms: rot_ms,
                 target: "no rebuild (builds = 1)".into(),
                 pass: Some(builds == 1),
@@ -217,11 +262,15 @@ pub fn bench_triple(
     });
     let _ = std::fs::remove_dir_all(&o.cache_dir);
     // A new environment.
+    let mut storage = Vec::new();
     for (twists, target) in [(16usize, 10_000.0), (1, 300.0)] {
         let pre = crate::lighting::prefilter(env, 2);
         let t = Instant::now();
         let table = crate::lighting::LightTable::build(&pre, Mat3::IDENTITY, 2, twists);
         let ms = t.elapsed().as_secs_f64() * 1e3;
+        if twists > 1 {
+            storage.extend(storage_rows(&table, env, 320));
+        }
         timings.push(TimingRow {
             what: format!(
                 "new environment: {} table, 642 normals × {twists} twists, n = 320 ({:.1} MiB)",
@@ -233,8 +282,65 @@ pub fn bench_triple(
             pass: Some(ms <= target),
         });
     }
-    let _ = Vec3::ZERO;
-    Ok((frames, timings))
+    let pre = crate::lighting::prefilter(env, 1);
+    let table80 = crate::lighting::LightTable::build(
+        &pre,
+        Mat3::IDENTITY,
+        1,
+        TripleOptions::default().twists,
+    );
+    storage.splice(0..0, storage_rows(&table80, env, 80));
+    Ok(BenchTables {
+        frames,
+        timings,
+        storage,
+    })
+}
+
+/// Storage rows of `table` (built in f32 at `terms`) and of a BRDF table of
+/// the same level, in both storages.
+fn storage_rows(
+    table: &crate::lighting::LightTable,
+    _env: &EnvMap,
+    terms: usize,
+) -> Vec<StorageRow> {
+    let (light_budget, brdf_budget) = budget(terms);
+    let o = TripleOptions::default();
+    let grid = crate::quadrature::LeafGrid::new(crate::basis::Basis::paper(), o.brdf_sub)
+        .expect("the default sub-level is valid");
+    let phong = "phong:16".parse::<BrdfSpec>().expect("valid").build();
+    let brdf = crate::brdf_table::BrdfTable::bake(
+        phong.as_ref(),
+        &grid,
+        table.m,
+        o.brdf_views,
+        o.weighting,
+    );
+    let mut rows = Vec::new();
+    for storage in [Storage::F32, Storage::Compact] {
+        let light = table.clone().with_storage(storage).bytes();
+        let b = crate::storage::Planes::scaled(
+            brdf.clone().into_values(),
+            brdf.stride,
+            storage.brdf_u8(),
+        )
+        .bytes();
+        for (name, bytes, budget) in [
+            ("lighting (642 normals × 16 twists)", light, light_budget),
+            ("BRDF (32 × 64 views)", b, brdf_budget),
+        ] {
+            let mib = bytes as f64 / 1_048_576.0;
+            rows.push(StorageRow {
+                table: name,
+                terms,
+                storage: storage.name(),
+                mib,
+                budget_mib: budget,
+                pass: mib <= budget,
+            });
+        }
+    }
+    rows
 }
 
 /// Scales and moves `m` to stand on the floor (height 2, centred).

@@ -15,6 +15,7 @@
 use crate::basis::{Basis, triangles};
 use crate::lighting::padded_cells;
 use crate::quadrature::{LeafGrid, Weighting};
+use crate::storage::Planes;
 use glam::Vec3;
 use rayon::prelude::*;
 use relight_brdf::Brdf;
@@ -29,8 +30,9 @@ pub struct BrdfTable {
     pub views: usize,
     /// Padded cells per view.
     pub stride: usize,
-    /// View `(row, col)` at `(row · 2·views + col) · 3 · stride`: R, G, B planes.
-    pub data: Vec<f32>,
+    /// View `(row, col)` at `(row · 2·views + col) · 3 · stride`: R, G, B
+    /// planes ([`crate::storage`]: f32, or 8-bit when compact).
+    pub data: Planes,
 }
 
 /// A weighted view entry.
@@ -82,14 +84,25 @@ impl BrdfTable {
             m,
             views,
             stride,
-            data,
+            data: Planes::F32(data),
+        }
+    }
+
+    /// The baked values as f32 (what the cache stores).
+    #[must_use]
+    pub fn into_values(self) -> Vec<f32> {
+        match self.data {
+            Planes::F32(v) => v,
+            other => (0..other.len())
+                .map(|i| other.get(i, self.stride))
+                .collect(),
         }
     }
 
     /// Bytes held.
     #[must_use]
     pub fn bytes(&self) -> u64 {
-        (self.data.len() * 4) as u64
+        self.data.bytes()
     }
 
     /// The four weighted views around local `wo` (normal +Z).

@@ -43,9 +43,11 @@
 //! * Bump mapping: the lighting and the BRDF's view in the bumped frame,
 //!   visibility unrotated (the paper's approximation; [`method`] docs).
 //!
+//! * Storage: every table f32, or compact (lighting f16, BRDF and visibility
+//!   8-bit with a scale per function; [`storage`]).
+//!
 //! # Not implemented (issue 12)
-//! Visibility textures, f16/8-bit storage, media; the method refuses media
-//! by name.
+//! Visibility textures, media; the method refuses media by name.
 
 pub mod basis;
 pub mod product;
@@ -63,7 +65,9 @@ pub mod cache;
 pub mod lighting;
 pub mod method;
 pub mod shade;
+pub mod storage;
 pub mod verify;
 pub mod visibility;
 
 pub use method::{Shading, TRIPLE_METHOD_NAME, TripleMethod, TripleOptions};
+pub use storage::Storage;

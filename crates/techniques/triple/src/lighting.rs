@@ -43,6 +43,7 @@
 //! multiple of 8 cells for the kernel.
 
 use crate::basis::triangles;
+use crate::storage::{Planes, Storage};
 use glam::{Mat3, Quat, Vec3};
 use rayon::prelude::*;
 use relight_sphere::icosahedral::Icosahedral;
@@ -96,8 +97,9 @@ pub struct LightTable {
     /// `space_from_env` the table was built for: identity when `twists > 1`,
     /// else the scene's `world_from_env` at build time.
     pub built_for: Mat3,
-    /// Entries `(k, τ)` at `(k · twists + τ) · 3 · stride`: R, G, B planes.
-    pub data: Vec<f32>,
+    /// Entries `(k, τ)` at `(k · twists + τ) · 3 · stride`: R, G, B planes
+    /// ([`crate::storage`]: f32, or f16 when compact).
+    pub data: Planes,
     normals: Vec<Vec3>,
     ico: Icosahedral,
 }
@@ -174,16 +176,25 @@ impl LightTable {
             twists,
             stride,
             built_for: space_from_env,
-            data,
+            data: Planes::F32(data),
             normals,
             ico,
         }
     }
 
+    /// The same table kept in `storage` ([`crate::storage`]).
+    #[must_use]
+    pub fn with_storage(mut self, storage: Storage) -> Self {
+        if let (true, Planes::F32(v)) = (storage.lighting_f16(), &self.data) {
+            self.data = Planes::lighting(v.clone(), true);
+        }
+        self
+    }
+
     /// Bytes held.
     #[must_use]
     pub fn bytes(&self) -> u64 {
-        (self.data.len() * 4) as u64
+        self.data.bytes()
     }
 
     /// The six weighted entries of frame `g` (in the table's space).

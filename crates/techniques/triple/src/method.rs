@@ -44,6 +44,7 @@ use crate::lighting::{LightTable, frame_of, prefilter};
 use crate::quadrature::{LeafGrid, Weighting};
 use crate::select::Selection;
 use crate::shade::{BYTES_PER_CELL, FMA_PER_CELL, shade_point};
+use crate::storage::{Planes, Storage};
 use crate::visibility::bake_vertex_visibility;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
@@ -109,6 +110,8 @@ pub struct TripleOptions {
     pub shading: Shading,
     /// Where bakes are cached. Default [`cache::default_cache_dir`].
     pub cache_dir: PathBuf,
+    /// How the tables are kept ([`crate::storage`]). Default f32.
+    pub storage: Storage,
 }
 
 impl Default for TripleOptions {
@@ -123,6 +126,7 @@ impl Default for TripleOptions {
             vis_level: 4,
             shading: Shading::Pixel,
             cache_dir: cache::default_cache_dir(),
+            storage: Storage::F32,
         }
     }
 }
@@ -141,7 +145,7 @@ struct Prepared {
     brdf: Arc<BrdfTable>,
     /// The spatially varying blend: the second BRDF's table and the weight.
     blend: Option<(Arc<BrdfTable>, relight_render::BrdfBlend)>,
-    vis: Option<Arc<Vec<f32>>>,
+    vis: Option<Arc<Planes>>,
     /// The object's normal map (bump mapping; the mesh has uvs and tangents).
     normal_map: Option<Arc<relight_render::NormalMap>>,
 }
@@ -323,7 +327,7 @@ impl TripleMethod {
         let grid = self.grid.as_ref().expect("just built");
         let m = self.m;
         let (data, loaded) = bake_or_load(&o.cache_dir, "brdf", BRDF_MAGIC, p, || {
-            Ok::<_, WaveletError>(BrdfTable::bake(brdf, grid, m, views, weighting).data)
+            Ok::<_, WaveletError>(BrdfTable::bake(brdf, grid, m, views, weighting).into_values())
         })
         .map_err(fail)?;
         if loaded {
@@ -335,7 +339,7 @@ impl TripleMethod {
             m,
             views,
             stride: cells,
-            data,
+            data: Planes::scaled(data, cells, o.storage.brdf_u8()),
         });
         self.brdfs.push((key, t.clone()));
         Ok(t)
@@ -382,7 +386,7 @@ fn shade_world(
     brdf: &BrdfTable,
     n: Vec3,
     to_eye: Vec3,
-    vis: Option<([&[f32]; 3], [f32; 3])>,
+    vis: Option<(&Planes, [usize; 3], [f32; 3])>,
 ) -> Vec3 {
     let f = frame_of(n);
     let mut wo = f.to_local(to_eye);
@@ -409,7 +413,7 @@ fn shade_blended(
     p: &Prepared,
     n: Vec3,
     to_eye: Vec3,
-    vis: Option<([&[f32]; 3], [f32; 3])>,
+    vis: Option<(&Planes, [usize; 3], [f32; 3])>,
     uv: impl Fn() -> glam::Vec2,
 ) -> Vec3 {
     let Some((second, blend)) = &p.blend else {
@@ -524,7 +528,11 @@ impl Relighter for TripleMethod {
                 } else {
                     self.bakes += 1;
                 }
-                Some(Arc::new(values))
+                Some(Arc::new(Planes::scaled(
+                    values,
+                    stride,
+                    self.options.storage.visibility_u8(),
+                )))
             };
             objects.push(Prepared {
                 mesh: o.mesh.clone(),
@@ -567,7 +575,9 @@ impl Relighter for TripleMethod {
             } else {
                 Mat3::IDENTITY
             };
-            self.table = Some(LightTable::build(env, space, self.m, twists));
+            self.table = Some(
+                LightTable::build(env, space, self.m, twists).with_storage(self.options.storage),
+            );
             self.table_builds += 1;
         }
         self.colors.clear();
@@ -626,7 +636,8 @@ impl Relighter for TripleMethod {
                                 .normalize_or(frag.normal);
                             let vis = p.vis.as_ref().map(|v| {
                                 (
-                                    tri.map(|i| &v[i as usize * stride..(i as usize + 1) * stride]),
+                                    v.as_ref(),
+                                    tri.map(|i| i as usize * stride),
                                     [l.x, l.y, l.z],
                                 )
                             });
@@ -666,10 +677,10 @@ impl Relighter for TripleMethod {
                             .map(|v| {
                                 let n = p.mesh.normals[v];
                                 let to_eye = (eye - p.mesh.positions[v]).normalize_or(n);
-                                let vis = p.vis.as_ref().map(|vv| {
-                                    let row = &vv[v * stride..(v + 1) * stride];
-                                    ([row, row, row], [1.0, 0.0, 0.0])
-                                });
+                                let vis = p
+                                    .vis
+                                    .as_ref()
+                                    .map(|vv| (vv.as_ref(), [v * stride; 3], [1.0, 0.0, 0.0]));
                                 shade_blended(table, rot, p, n, to_eye, vis, || p.mesh.uvs[v])
                             })
                             .collect()
@@ -716,16 +727,23 @@ impl Relighter for TripleMethod {
             .objects
             .iter()
             .filter_map(|p| p.vis.as_ref())
-            .map(|v| (v.len() * 4) as u64)
+            .map(|v| v.bytes())
             .sum();
         t + b + v
     }
 }
 
-/// Bytes read per shaded point of `terms` coefficients ([`BYTES_PER_CELL`]).
+/// Bytes read per shaded point of `terms` coefficients kept in `storage`:
+/// [`BYTES_PER_CELL`] per padded cell less what each compact table saves
+/// (six lighting taps × RGB at 2 of 4 bytes, four BRDF taps × RGB and three
+/// visibility rows at 3 of 4).
 #[must_use]
-pub fn bytes_per_point(terms: usize) -> usize {
-    BYTES_PER_CELL * terms.div_ceil(8) * 8
+pub fn bytes_per_point(terms: usize, storage: Storage) -> usize {
+    let per_cell = BYTES_PER_CELL
+        - if storage.lighting_f16() { 3 * 6 * 2 } else { 0 }
+        - if storage.brdf_u8() { 3 * 4 * 3 } else { 0 }
+        - if storage.visibility_u8() { 3 * 3 } else { 0 };
+    per_cell * terms.div_ceil(8) * 8
 }
 
 /// The top-only level `m` of `terms = 20·4^m` (0 when not a level).

@@ -774,3 +774,63 @@ pub fn bump_rows(
     }
     Ok(rows)
 }
+
+/// What each storage choice costs ([`crate::storage`], issue 12): the
+/// sphere-and-floor scene under `env` (Phong 16, shadows on) rendered with
+/// every table f32 and with each compact choice, the relative RMS of the
+/// difference over object pixels (reported), with the bytes each keeps.
+///
+/// # Errors
+/// The method's.
+pub fn storage_rows(
+    env: &EnvMap,
+    quick: bool,
+    cache_dir: PathBuf,
+    progress: &dyn Progress,
+) -> Result<Vec<VerifyRow>, MethodError> {
+    use crate::storage::Storage;
+    let (w, h, terms) = if quick { (64, 48, 80) } else { (128, 96, 320) };
+    let scene = floor_scene(env.clone(), parse_brdf("phong:16")?, w, h);
+    let options = |storage| TripleOptions {
+        terms,
+        vis_level: if quick { 2 } else { 4 },
+        cache_dir: cache_dir.clone(),
+        storage,
+        ..TripleOptions::default()
+    };
+    let mut f32_bytes = 0;
+    let mut base = None;
+    let mut rows = Vec::new();
+    for storage in Storage::ALL {
+        let mut m = TripleMethod::new(options(storage))?;
+        m.prepare(&scene, progress)?;
+        let r = render_frame(&mut m, &scene, &FrameRequest::new(scene.camera), progress)?;
+        let mask = r
+            .coverage
+            .as_ref()
+            .map(|c| c.object_mask())
+            .unwrap_or_default();
+        let bytes = m.data_bytes();
+        let Some((reference, mask0)) = &base else {
+            f32_bytes = bytes;
+            base = Some((r.image, mask));
+            continue;
+        };
+        let e = rel_rms(&r.image, reference, mask0);
+        rows.push(row(
+            &format!(
+                "storage {}: image vs every table f32 ({:.1} of {:.1} MiB held)",
+                storage.name(),
+                bytes as f64 / 1_048_576.0,
+                f32_bytes as f64 / 1_048_576.0
+            ),
+            "sphere and floor · phong:16",
+            terms,
+            e,
+            "report".into(),
+            "issue 12 (report the error each choice costs)",
+            None,
+        ));
+    }
+    Ok(rows)
+}

@@ -258,3 +258,45 @@ fn bump_mapping_flat_is_exact_bumps_change_the_image_and_vertex_refuses() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn compact_storage_costs_little_and_holds_less() {
+    let env = EnvMap::from_fn(
+        Param::LatLong {
+            width: 64,
+            height: 32,
+        },
+        |d| {
+            Vec3::splat(
+                0.2 + 3.0
+                    * d.dot(Vec3::new(0.3, 0.9, 0.3).normalize())
+                        .max(0.0)
+                        .powi(16),
+            )
+        },
+    );
+    let dir = tmp("storage");
+    let rows = relight_triple::verify::storage_rows(&env, true, dir.clone(), &NoProgress).unwrap();
+    assert_eq!(rows.len(), 4, "{rows:?}");
+    for r in &rows {
+        // 8-bit planes keep 1/255 of each plane's peak, f16 2⁻¹¹: the image
+        // moves by well under a percent.
+        assert!(r.value < 0.01, "{r:?}");
+    }
+    let held = |storage| {
+        let mut m = TripleMethod::new(TripleOptions {
+            storage,
+            ..options(&dir)
+        })
+        .unwrap();
+        let s = scene(env.clone(), true);
+        m.prepare(&s, &NoProgress).unwrap();
+        m.data_bytes()
+    };
+    let (full, compact) = (
+        held(relight_triple::Storage::F32),
+        held(relight_triple::Storage::Compact),
+    );
+    assert!(compact * 2 < full, "{compact} vs {full} bytes");
+    let _ = std::fs::remove_dir_all(&dir);
+}
