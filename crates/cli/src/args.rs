@@ -72,7 +72,7 @@ pub enum Command {
     /// Sphere sets of meshes (shadow proxies).
     #[command(subcommand)]
     Spheres(crate::shexp::SpheresCommand),
-    /// The wavelet bake cache: list its entries or delete them.
+    /// The bake caches (wavelet, nearfield): list their entries or delete them.
     #[command(subcommand)]
     Cache(CacheCommand),
     /// Normal-map filtering tools: `ndf bake` writes an engine-ready MIP chain.
@@ -88,8 +88,9 @@ pub enum CacheCommand {
         /// Only entries whose file name or configuration contains this text
         /// (e.g. `rot-n128`, `Ggx`, `terms=128`).
         pattern: Option<String>,
-        /// Cache folder [default: $RELIGHT_CACHE/wavelet, else
-        /// $XDG_CACHE_HOME/relight/wavelet, else ~/.cache/relight/wavelet].
+        /// Cache folder [default: both $RELIGHT_CACHE/wavelet and
+        /// $RELIGHT_CACHE/nearfield, else under $XDG_CACHE_HOME/relight/,
+        /// else under ~/.cache/relight/].
         #[arg(long)]
         cache: Option<PathBuf>,
     },
@@ -524,6 +525,23 @@ pub enum BakeCommand {
         /// Output file of the baked slices (binary, versioned, with a CRC).
         #[arg(long)]
         out: PathBuf,
+    },
+    /// The nearfield method's per-vertex transport (sun-thesis-2008 §4.5):
+    /// baked, or loaded, into the cache `relight render --method nearfield`
+    /// reads ($RELIGHT_CACHE/nearfield, else ~/.cache/relight/nearfield).
+    Nearfield {
+        #[command(flatten)]
+        scene: Box<SceneArgs>,
+        /// Wavelet order per axis, a power of two 4…64 [default: 32].
+        #[arg(long)]
+        order: Option<usize>,
+        /// Side of the expanded top face, 0.5…32 [default: 4].
+        #[arg(long)]
+        face: Option<f64>,
+        /// Also write the bake to this file (the cache's format: versioned,
+        /// with a CRC).
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
 }
 

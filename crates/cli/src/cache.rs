@@ -1,4 +1,4 @@
-//! `relight cache list|clear`: the wavelet bake cache.
+//! `relight cache list|clear`: the wavelet and nearfield bake caches.
 //!
 //! `relight render --method wavelet` keeps baked rotation matrices and BRDF
 //! slices in one folder (`WaveletOptions::cache_dir`, by default
@@ -10,6 +10,12 @@
 //! all of them, or those whose file name contains a pattern. Only files
 //! named like cache entries (and the `.tmp` files of interrupted bakes) are
 //! touched; anything else in the folder is left alone.
+//!
+//! The nearfield method's transport bakes live in a sibling folder
+//! ([`relight_nearfield::cache::default_cache_dir`]),
+//! `nearfield-n32-f4000-o2-s1-v1-….bin` (order, face × 1000, objects,
+//! shadows, format version, hash of the key). Without `--cache` both
+//! folders are listed (and cleared); with it, that one folder.
 
 use crate::args::CacheCommand;
 use anyhow::{Context, Result};
@@ -31,7 +37,9 @@ pub struct Entry {
 /// The configuration of a cache file name, or `None` if the name is not one.
 #[must_use]
 pub fn parse_name(name: &str) -> Option<(&'static str, String)> {
-    if name.ends_with(".tmp") && (name.starts_with("rot-") || name.starts_with("brdf-")) {
+    if name.ends_with(".tmp")
+        && (name.starts_with("rot-") || name.starts_with("brdf-") || name.starts_with("nearfield-"))
+    {
         return Some(("partial", "interrupted bake".into()));
     }
     let stem = name.strip_suffix(".bin")?;
@@ -61,6 +69,21 @@ pub fn parse_name(name: &str) -> Option<(&'static str, String)> {
                 num(m, "m")?,
                 num(views, "v")?,
                 num(k, "k")?,
+                num(v, "v")?
+            ),
+        )),
+        ["nearfield", n, f, o, s, v, hash] if hash.len() == 16 => Some((
+            "nearfield",
+            format!(
+                "n={} face={} objects={} {} format v{}",
+                num(n, "n")?,
+                num(f, "f")?.parse::<f64>().ok()? / 1000.0,
+                num(o, "o")?,
+                match num(s, "s")?.as_str() {
+                    "0" => "unshadowed",
+                    "1" => "shadows",
+                    _ => return None,
+                },
                 num(v, "v")?
             ),
         )),
@@ -146,60 +169,84 @@ fn matching<'a>(all: &'a [Entry], pattern: Option<&str>) -> Vec<&'a Entry> {
 pub fn run(c: CacheCommand) -> Result<()> {
     match c {
         CacheCommand::List { cache, pattern } => {
-            let dir = cache.unwrap_or_else(relight_wavelet::default_cache_dir);
-            let all = entries(&dir)?;
-            let shown = matching(&all, pattern.as_deref());
-            println!("relight cache: {}", dir.display());
-            if shown.is_empty() {
-                println!(
-                    "(no entries{})",
-                    pattern.map_or(String::new(), |p| format!(" matching `{p}`"))
-                );
-                return Ok(());
+            for dir in folders(cache) {
+                list(&dir, pattern.as_deref())?;
             }
-            let w = shown
-                .iter()
-                .map(|e| e.configuration.len())
-                .max()
-                .unwrap_or(0);
-            println!(
-                "{:<8}  {:<w$}  {:>10}  {:<16}  file",
-                "kind", "configuration", "size", "modified (UTC)"
-            );
-            for e in &shown {
-                println!(
-                    "{:<8}  {:<w$}  {:>10}  {:<16}  {}",
-                    e.kind,
-                    e.configuration,
-                    megabytes(e.bytes),
-                    e.modified.map_or("-".into(), utc),
-                    e.path.file_name().unwrap_or_default().to_string_lossy()
-                );
-            }
-            let total: u64 = shown.iter().map(|e| e.bytes).sum();
-            println!("{} entries, {}", shown.len(), megabytes(total));
             Ok(())
         }
         CacheCommand::Clear { cache, pattern } => {
-            let dir = cache.unwrap_or_else(relight_wavelet::default_cache_dir);
-            let all = entries(&dir)?;
-            let doomed = matching(&all, pattern.as_deref());
-            let mut freed = 0;
-            for e in &doomed {
-                std::fs::remove_file(&e.path)
-                    .with_context(|| format!("deleting {}", e.path.display()))?;
-                freed += e.bytes;
+            for dir in folders(cache) {
+                clear(&dir, pattern.as_deref())?;
             }
-            println!(
-                "relight cache: deleted {} of {} entries ({}) in {}",
-                doomed.len(),
-                all.len(),
-                megabytes(freed),
-                dir.display()
-            );
             Ok(())
         }
     }
+}
+
+/// `--cache`, or the wavelet and nearfield folders.
+fn folders(cache: Option<PathBuf>) -> Vec<PathBuf> {
+    match cache {
+        Some(d) => vec![d],
+        None => vec![
+            relight_wavelet::default_cache_dir(),
+            relight_nearfield::cache::default_cache_dir(),
+        ],
+    }
+}
+
+/// Prints the entries of `dir` matching `pattern`.
+fn list(dir: &Path, pattern: Option<&str>) -> Result<()> {
+    let all = entries(dir)?;
+    let shown = matching(&all, pattern);
+    println!("relight cache: {}", dir.display());
+    if shown.is_empty() {
+        println!(
+            "(no entries{})",
+            pattern.map_or(String::new(), |p| format!(" matching `{p}`"))
+        );
+        return Ok(());
+    }
+    let w = shown
+        .iter()
+        .map(|e| e.configuration.len())
+        .max()
+        .unwrap_or(0);
+    println!(
+        "{:<9}  {:<w$}  {:>10}  {:<16}  file",
+        "kind", "configuration", "size", "modified (UTC)"
+    );
+    for e in &shown {
+        println!(
+            "{:<9}  {:<w$}  {:>10}  {:<16}  {}",
+            e.kind,
+            e.configuration,
+            megabytes(e.bytes),
+            e.modified.map_or("-".into(), utc),
+            e.path.file_name().unwrap_or_default().to_string_lossy()
+        );
+    }
+    let total: u64 = shown.iter().map(|e| e.bytes).sum();
+    println!("{} entries, {}", shown.len(), megabytes(total));
+    Ok(())
+}
+
+/// Deletes the entries of `dir` matching `pattern`.
+fn clear(dir: &Path, pattern: Option<&str>) -> Result<()> {
+    let all = entries(dir)?;
+    let doomed = matching(&all, pattern);
+    let mut freed = 0;
+    for e in &doomed {
+        std::fs::remove_file(&e.path).with_context(|| format!("deleting {}", e.path.display()))?;
+        freed += e.bytes;
+    }
+    println!(
+        "relight cache: deleted {} of {} entries ({}) in {}",
+        doomed.len(),
+        all.len(),
+        megabytes(freed),
+        dir.display()
+    );
+    Ok(())
 }
 
 #[cfg(test)]
@@ -224,6 +271,21 @@ mod tests {
         assert_eq!(
             parse_name("rot-n64-m32-t32-q1-v1-0123.bin.tmp").map(|p| p.0),
             Some("partial")
+        );
+        assert_eq!(
+            parse_name("nearfield-n32-f4000-o2-s1-v1-0123456789abcdef.bin"),
+            Some((
+                "nearfield",
+                "n=32 face=4 objects=2 shadows format v1".into()
+            ))
+        );
+        assert_eq!(
+            parse_name("nearfield-n16-f3500-o1-s0-v1-0123456789abcdef.bin").map(|p| p.1),
+            Some("n=16 face=3.5 objects=1 unshadowed format v1".into())
+        );
+        assert_eq!(
+            parse_name("nearfield-n16-f3500-o1-s2-v1-0123456789abcdef.bin"),
+            None
         );
         assert_eq!(parse_name("notes.txt"), None);
         assert_eq!(

@@ -231,6 +231,14 @@ fn sh(c: ShCommand) -> Result<()> {
 fn bake(c: BakeCommand, bar: &Bar) -> Result<()> {
     let t = Instant::now();
     match c {
+        BakeCommand::Nearfield {
+            scene,
+            order,
+            face,
+            out,
+        } => {
+            crate::nearfield::bake(&scene, order, face, out.as_deref(), bar)?;
+        }
         BakeCommand::Rotation {
             n,
             ntess,

@@ -1,13 +1,19 @@
-//! `relight verify nearfield`, `relight bench nearfield` and the nearfield
-//! method's flags: flags → relight-nearfield → tables.
+//! `relight verify nearfield`, `relight bench nearfield`, `relight bake
+//! nearfield` and the nearfield method's flags: flags → relight-nearfield →
+//! tables.
 
-use crate::args::{BenchArgs, MethodFlags, VerifyArgs};
+use crate::args::{BenchArgs, MethodFlags, SceneArgs, VerifyArgs};
+use crate::output::{check_output, warn_all};
 use crate::progress::Bar;
+use crate::scene_args::build_scene;
 use crate::table::Report;
 use anyhow::{Result, anyhow, bail};
-use relight_nearfield::NearfieldOptions;
 use relight_nearfield::bench::{BenchOptions, bench_nearfield};
 use relight_nearfield::verify::{VerifyOptions, verify_rows};
+use relight_nearfield::{NearfieldMethod, NearfieldOptions};
+use relight_render::method::Relighter;
+use std::path::Path;
+use std::time::Instant;
 
 /// Applies `--order`, `--face`, `--source-terms`, `--target-terms` (ranges
 /// are checked by the method).
@@ -24,6 +30,69 @@ pub fn apply_flags(o: &mut NearfieldOptions, f: &MethodFlags) {
     if let Some(t) = f.target_terms {
         o.target_terms = t;
     }
+    // The CLI keeps transport bakes ($RELIGHT_CACHE/nearfield, `relight cache list`).
+    o.cache = true;
+}
+
+/// `relight bake nearfield SCENE [scene flags] [--order N] [--face S] [--out FILE]`:
+/// the transport of the scene as `render --method nearfield` would prepare
+/// it (the pose at `--time`), baked or loaded into the cache, and with
+/// `--out` also written to FILE.
+pub fn bake(
+    a: &SceneArgs,
+    order: Option<usize>,
+    face: Option<f64>,
+    out: Option<&Path>,
+    bar: &Bar,
+) -> Result<()> {
+    if let Some(o) = out {
+        check_output(o, "--out", &[])?;
+    }
+    let t = Instant::now();
+    let built = build_scene(a, None)?;
+    let scene = built.scene.at_time(built.time);
+    let mut o = NearfieldOptions {
+        cache: true,
+        ..NearfieldOptions::default()
+    };
+    if let Some(n) = order {
+        o.order = n;
+    }
+    if let Some(f) = face {
+        o.face = f;
+    }
+    let mut m = NearfieldMethod::new(o)?;
+    m.bake_scene(&scene, bar)?;
+    warn_all(&m.warnings());
+    let vertices: usize =
+        m.transports().iter().map(|t| t.values.len()).sum::<usize>() / (o.order * o.order);
+    let bytes = 4 * vertices * o.order * o.order;
+    let how = if m.loads() > 0 {
+        "loaded from the cache"
+    } else {
+        "baked"
+    };
+    let cached = m
+        .cache_path()
+        .map_or_else(|| "-".into(), |p| p.display().to_string());
+    if let Some(path) = out {
+        m.save_bake(path)?;
+    }
+    println!(
+        "relight bake nearfield: {vertices} vertices in {} objects, order {}, face {}, {}: {how} in {:.1} s, {:.1} MB, cached as {cached}{}",
+        scene.objects.len(),
+        o.order,
+        o.face,
+        if scene.visibility {
+            "shadows"
+        } else {
+            "unshadowed"
+        },
+        t.elapsed().as_secs_f64(),
+        bytes as f64 / 1e6,
+        out.map_or(String::new(), |p| format!(", wrote {}", p.display()))
+    );
+    Ok(())
 }
 
 /// `relight verify nearfield` (`per_vertex_only`: `nearfield-vertex`, the

@@ -2,7 +2,18 @@
 //! scene's one `[[area_light]]` for every method, and a bad value is a
 //! one-line error naming the flag.
 
-use crate::common::{assert_one_line_error, relight, tmp};
+use crate::common::{assert_one_line_error, tmp};
+use std::process::{Command, Output};
+
+/// Runs `relight` with the nearfield transport cache in a scratch folder.
+fn relight(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_relight"))
+        .args(args)
+        .env("RELIGHT_CACHE", tmp("flags-cache"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run relight")
+}
 
 /// A floor under a black sky: no scene file, no shared data.
 const FLOOR: [&str; 6] = ["--mesh", "ground-grid", "--env", "black", "--size", "40x24"];

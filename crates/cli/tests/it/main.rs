@@ -7,5 +7,6 @@ mod cli;
 mod common;
 mod issue11;
 mod methods;
+mod nearfield_bake;
 mod readme;
 mod triple;

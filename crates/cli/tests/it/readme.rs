@@ -156,6 +156,11 @@ fn shrink(cmd: &str, clone: &Path, plots: &Path) -> Result<Vec<Plan>, String> {
             }
             Ok(vec![Plan::Run(a)])
         }
+        ("bake", false) if words.get(1).is_some_and(|w| w == "nearfield") => {
+            let mut a = words;
+            set(&mut a, "--order", "8");
+            Ok(vec![Plan::Run(a)])
+        }
         ("convert", false) => {
             let mut a = words;
             set(&mut a, "--size", "32");

@@ -20,6 +20,7 @@
 //! | [`face`] | the face parameterisation and the vertex → texture affine map |
 //! | [`light`] | the light's standard-basis coefficients, source compression |
 //! | [`transport`] | per-vertex Lambert × visibility transport bake |
+//! | [`cache`] | the transport bake on disk: versioned, checksummed, keyed |
 //! | [`propagate`] | per-vertex ACC matrices, target mask (eq. 4.38), fused kernel |
 //! | [`rotate`] | a light turned in its plane, re-rasterised into its bounding rectangle |
 //! | [`method`] | the `nearfield` [`relight_render::method::Relighter`] |
@@ -29,6 +30,7 @@
 //! nearfield` are in `docs/nearfield.md`.
 
 pub mod bench;
+pub mod cache;
 pub mod face;
 pub mod light;
 pub mod method;

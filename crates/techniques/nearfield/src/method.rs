@@ -11,7 +11,7 @@
 //!
 //! | call | work |
 //! |---|---|
-//! | [`Relighter::prepare`] | the per-vertex transport on the light's face ([`crate::transport`]), shadows ray-cast when the scene has visibility; then `set_lighting` |
+//! | [`Relighter::prepare`] | the per-vertex transport on the light's face ([`crate::transport`]), shadows ray-cast when the scene has visibility, or loaded from the disk cache ([`crate::cache`], with [`NearfieldOptions::cache`]); then `set_lighting` |
 //! | [`Relighter::set_lighting`] | light moved, scaled or turned in its plane (or moved to another height): per-vertex ACC matrices and target masks ([`crate::propagate`]); always: the light's coefficients (a turned light re-rasterised into its bounding rectangle, [`crate::rotate`]), source compression, the fused propagation per vertex. A light whose normal changed re-bakes the transport. |
 //! | [`Relighter::render`] | rasterize and interpolate the vertex colours |
 //!
@@ -21,6 +21,7 @@
 //! axes that bounds it, zero outside the turned rectangle, and shaded as
 //! that unturned light; a turn of exactly 0° is the unturned path.
 
+use crate::cache::{BakeKey, CacheError};
 use crate::face::LightFrame;
 use crate::light::{LightCoeffs, SourceTerms, compress, count_of};
 use crate::propagate::{
@@ -37,6 +38,7 @@ use relight_render::method::{
 use relight_render::raster::{Background, Rasterizer};
 use relight_render::{AreaLight, Image, Progress, Scene, SceneBvh};
 use std::borrow::Cow;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -65,6 +67,12 @@ pub struct NearfieldOptions {
     /// Fraction of each vertex's `n²` target coefficients kept by the
     /// constant-light heuristic (eq. 4.38). Default 0.20.
     pub target_terms: f64,
+    /// Keep transport bakes on disk in [`crate::cache::default_cache_dir`]
+    /// (`$RELIGHT_CACHE/nearfield`, …) and load them on a match
+    /// ([`crate::cache`]). Default `false` (the library touches no disk
+    /// unless asked; the CLI turns it on); [`NearfieldMethod::set_cache_dir`]
+    /// picks another folder.
+    pub cache: bool,
 }
 
 impl Default for NearfieldOptions {
@@ -75,6 +83,7 @@ impl Default for NearfieldOptions {
             face: 4.0,
             source_terms: 0.01,
             target_terms: 0.20,
+            cache: false,
         }
     }
 }
@@ -108,6 +117,11 @@ pub struct NearfieldMethod {
     /// Times of the last lighting change: geometry, coefficients, propagation (ms).
     pub last_times: [f64; 3],
     bakes: usize,
+    /// Where transport bakes are cached (`None`: not cached).
+    cache_dir: Option<PathBuf>,
+    /// The key of the current bake.
+    key: Option<BakeKey>,
+    loads: usize,
 }
 
 impl std::fmt::Debug for NearfieldMethod {
@@ -186,6 +200,9 @@ impl NearfieldMethod {
             pending_lighting_ms: 0.0,
             last_times: [0.0; 3],
             bakes: 0,
+            cache_dir: options.cache.then(crate::cache::default_cache_dir),
+            key: None,
+            loads: 0,
         })
     }
 
@@ -195,10 +212,71 @@ impl NearfieldMethod {
         &self.options
     }
 
-    /// Transport bakes done so far.
+    /// Transport bakes computed so far (loads from the cache not counted).
     #[must_use]
     pub fn bakes(&self) -> usize {
         self.bakes
+    }
+
+    /// Transport bakes loaded from the disk cache so far.
+    #[must_use]
+    pub fn loads(&self) -> usize {
+        self.loads
+    }
+
+    /// Caches transport bakes in `dir` (`None`: no disk cache), whatever
+    /// [`NearfieldOptions::cache`] says.
+    pub fn set_cache_dir(&mut self, dir: Option<PathBuf>) {
+        self.cache_dir = dir;
+    }
+
+    /// The folder transport bakes are cached in, if any.
+    #[must_use]
+    pub fn cache_dir(&self) -> Option<&Path> {
+        self.cache_dir.as_deref()
+    }
+
+    /// The key of the current bake (after `prepare` or [`Self::bake_scene`]).
+    #[must_use]
+    pub fn bake_key(&self) -> Option<&BakeKey> {
+        self.key.as_ref()
+    }
+
+    /// The cache file of the current bake, when caching.
+    #[must_use]
+    pub fn cache_path(&self) -> Option<PathBuf> {
+        Some(
+            self.cache_dir
+                .as_ref()?
+                .join(self.key.as_ref()?.file_name()),
+        )
+    }
+
+    /// Bakes (or loads from the cache) `scene`'s transport only: what
+    /// `relight bake nearfield` runs.
+    ///
+    /// # Errors
+    /// As [`Relighter::prepare`].
+    pub fn bake_scene(
+        &mut self,
+        scene: &Scene,
+        progress: &dyn Progress,
+    ) -> Result<(), MethodError> {
+        check_scene(self, scene, false)?;
+        self.bake(scene, progress)
+    }
+
+    /// Writes the current bake to `path` (the cache's format, [`crate::cache`]).
+    ///
+    /// # Errors
+    /// [`CacheError`] when nothing is baked or the file cannot be written.
+    pub fn save_bake(&self, path: &Path) -> Result<(), CacheError> {
+        let key = self.key.as_ref().ok_or_else(|| CacheError::Mismatch {
+            path: path.to_path_buf(),
+            why: "nothing baked yet".into(),
+        })?;
+        let t: Vec<&Transport> = self.objects.iter().map(|p| &p.transport).collect();
+        crate::cache::save(path, key, &t)
     }
 
     /// Each object's baked transport.
@@ -250,9 +328,6 @@ impl NearfieldMethod {
         let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
         let bvh = scene.visibility.then(|| SceneBvh::build(&meshes));
         let (n, face) = (self.options.order, self.options.face);
-        let total: u64 = meshes.iter().map(|m| m.positions.len() as u64).sum();
-        progress.start("nearfield transport", total);
-        let mut objects = Vec::with_capacity(meshes.len());
         self.warnings.clear();
         for (i, o) in scene.objects.iter().enumerate() {
             let m = &o.mesh;
@@ -262,15 +337,51 @@ impl NearfieldMethod {
                     format!("object {i} has no vertex normals (one per vertex is needed)"),
                 ));
             }
-            let transport = bake_transport(
-                &frame,
-                &m.positions,
-                &m.normals,
-                n,
-                face,
-                bvh.as_ref(),
-                progress,
-            )?;
+        }
+        let key = BakeKey::of(scene, &frame, n, face);
+        let path = self.cache_dir.as_ref().map(|d| d.join(key.file_name()));
+        let mut cached = None;
+        if let Some(p) = path.as_deref().filter(|p| p.exists()) {
+            match crate::cache::load(p, &key, face) {
+                Ok(t) => cached = Some(t),
+                Err(e) => self.warnings.push(format!(
+                    "method nearfield: cached transport unusable ({e}); re-baked"
+                )),
+            }
+        }
+        let loaded = cached.is_some();
+        let transports = match cached {
+            Some(t) => t,
+            None => {
+                let total: u64 = meshes.iter().map(|m| m.positions.len() as u64).sum();
+                progress.start("nearfield transport", total);
+                let mut out = Vec::with_capacity(meshes.len());
+                for m in &meshes {
+                    out.push(bake_transport(
+                        &frame,
+                        &m.positions,
+                        &m.normals,
+                        n,
+                        face,
+                        bvh.as_ref(),
+                        progress,
+                    )?);
+                }
+                progress.finish();
+                out
+            }
+        };
+        if let (false, Some(p)) = (loaded, path.as_deref()) {
+            let refs: Vec<&Transport> = transports.iter().collect();
+            if let Err(e) = crate::cache::save(p, &key, &refs) {
+                self.warnings.push(format!(
+                    "method nearfield: could not cache the transport ({e})"
+                ));
+            }
+        }
+        let mut objects = Vec::with_capacity(meshes.len());
+        for ((i, o), transport) in scene.objects.iter().enumerate().zip(transports) {
+            let m = &o.mesh;
             let z = Vec3::Z;
             let f = o.brdf.eval(z, z);
             let g = o.brdf.eval(z, Vec3::new(0.6, 0.0, 0.8));
@@ -288,11 +399,15 @@ impl NearfieldMethod {
                 mask: Vec::new(),
             });
         }
-        progress.finish();
         self.objects = objects;
         self.baked = Some((frame, scene.visibility));
         self.geometry = None;
-        self.bakes += 1;
+        self.key = Some(key);
+        if loaded {
+            self.loads += 1;
+        } else {
+            self.bakes += 1;
+        }
         Ok(())
     }
 
