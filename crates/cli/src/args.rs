@@ -274,9 +274,10 @@ pub struct MethodFlags {
     /// Leaf spheres per blocker object (shexp) [default: 32].
     #[arg(long)]
     pub spheres: Option<usize>,
-    /// Shade flat receivers (a floor) at the texels of a RES × RES visibility
-    /// texture looked up per pixel, instead of refining them into vertices
-    /// (shexp) [default: off].
+    /// Visibility per texel of a RES × RES texture instead of per vertex:
+    /// shexp shades flat receivers (a floor) at its texels instead of
+    /// refining them; triple keeps every object's visibility over its uvs
+    /// [default: off].
     #[arg(long, value_name = "RES")]
     pub visibility_texture: Option<usize>,
     /// How MIP texels of normal maps are shaded (ndf): none, unnormalized,

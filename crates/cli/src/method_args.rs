@@ -55,7 +55,10 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 26] = [
     ("--fog", &[MethodKind::Fog]),
     ("--exp", &[MethodKind::ShExp]),
     ("--spheres", &[MethodKind::ShExp]),
-    ("--visibility-texture", &[MethodKind::ShExp]),
+    (
+        "--visibility-texture",
+        &[MethodKind::ShExp, MethodKind::Triple],
+    ),
     ("--normal-filter", &[MethodKind::Ndf]),
     ("--ndf-brdf", &[MethodKind::Ndf]),
     ("--lobes", &[MethodKind::Ndf]),
@@ -259,6 +262,15 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
             if let Some(s) = &f.storage {
                 t.storage = s.parse().map_err(|e| anyhow!("--storage {s}: {e}"))?;
+            }
+            if let Some(r) = f.visibility_texture {
+                if !(1..=relight_triple::vis_texture::MAX_RES).contains(&r) {
+                    bail!(
+                        "--visibility-texture {r}: texels per side must be 1…{} for triple",
+                        relight_triple::vis_texture::MAX_RES
+                    );
+                }
+                t.visibility_texture = r;
             }
         }
         MethodOptions::Fog(g) => {

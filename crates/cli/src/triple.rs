@@ -10,7 +10,7 @@ use glam::Vec3;
 use relight_sphere::{EnvMap, Param};
 use relight_triple::bench::{BenchOptions, bench_triple, place_on_floor};
 use relight_triple::verify::{
-    ErrorOptions, bump_rows, error_rows, figure7_rows, identity_rows, storage_rows,
+    ErrorOptions, bump_rows, error_rows, figure6_rows, figure7_rows, identity_rows, storage_rows,
 };
 use std::sync::Arc;
 
@@ -73,6 +73,11 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
     report.table(
         "relight verify triple: Fig. 7, adaptive vs top-only selection at equal n",
         &fig7,
+        &[],
+    )?;
+    report.table(
+        "relight verify triple: Fig. 6, a visibility texture on a 2-triangle floor",
+        &figure6_rows(env, a.quick, cache_dir(), bar)?,
         &[],
     )?;
     report.table(

@@ -16,7 +16,8 @@
 //! * **Storage** ([`crate::storage`]): the lighting table (16 twists) and a
 //!   BRDF table (32 × 64 views) at n = 80 and 320, f32 and compact, against
 //!   the budgets (lighting ≤ 3.75 / 15 MiB, BRDF ≤ 1.9 / 7.5 MiB).
-//!   Frame rows run in both storages.
+//!   Frame rows run in both storages, and with a visibility texture
+//!   ([`crate::vis_texture`], 128² in the full run) in f32.
 
 use crate::method::{TripleMethod, TripleOptions, bytes_per_point};
 use crate::shade::FMA_PER_CELL;
@@ -102,6 +103,8 @@ pub struct BenchOptions {
     pub terms: Vec<usize>,
     pub reps: usize,
     pub vis_level: usize,
+    /// Side of the visibility texture of the texture rows.
+    pub texture: usize,
     pub cache_dir: PathBuf,
 }
 
@@ -115,6 +118,7 @@ impl BenchOptions {
                 terms: vec![80],
                 reps: 2,
                 vis_level: 2,
+                texture: 32,
                 cache_dir,
             }
         } else {
@@ -123,6 +127,7 @@ impl BenchOptions {
                 terms: vec![80, 320],
                 reps: 5,
                 vis_level: 4,
+                texture: 128,
                 cache_dir,
             }
         }
@@ -157,25 +162,29 @@ pub fn bench_triple(
         let (w0, h0) = opts.sizes[0];
         let mut scene = floor_scene(env.clone(), lambert.clone(), w0, h0);
         scene.objects[0] = Object::new(mesh.clone(), phong.clone());
-        for (&terms, storage) in opts
-            .terms
-            .iter()
-            .flat_map(|t| [(t, Storage::F32), (t, Storage::Compact)])
-        {
+        for (&terms, storage, texture) in opts.terms.iter().flat_map(|t| {
+            [
+                (t, Storage::F32, 0),
+                (t, Storage::Compact, 0),
+                (t, Storage::F32, opts.texture),
+            ]
+        }) {
             let o = TripleOptions {
                 terms,
                 vis_level: opts.vis_level.max(crate::method::level_of(terms)),
                 cache_dir: opts.cache_dir.clone(),
                 storage,
+                visibility_texture: texture,
                 ..TripleOptions::default()
             };
+            let visibility = if texture > 0 { "texture" } else { "vertex" };
             let mut m = TripleMethod::new(o)?;
             let t = Instant::now();
             m.prepare(&scene, progress)?;
             let prep = t.elapsed().as_secs_f64() * 1e3;
             timings.push(TimingRow {
                 what: format!(
-                    "prepare ({} + floor vertices, n = {terms}, {}; cached bakes are loaded)",
+                    "prepare ({} + floor vertices, n = {terms}, {}, {visibility}; cached bakes are loaded)",
                     mesh.positions.len(),
                     storage.name()
                 ),
@@ -206,7 +215,7 @@ pub fn bench_triple(
                     height: h,
                     terms,
                     storage: storage.name(),
-                    visibility: "vertex",
+                    visibility,
                     covered_pixels: pixels,
                     ms_per_frame: best,
                     fps,
@@ -227,7 +236,7 @@ pub fn bench_triple(
             let builds = m.counts().2;
             timings.push(TimingRow {
                 what: format!(
-                    "light rotation, n = {terms}, {} (table builds after it: {builds})",
+                    "light rotation, n = {terms}, {}, {visibility} (table builds after it: {builds})",
                     storage.name()
                 ),
                 ms: rot_ms,

@@ -46,8 +46,11 @@
 //! * Storage: every table f32, or compact (lighting f16, BRDF and visibility
 //!   8-bit with a scale per function; [`storage`]).
 //!
+//! * Visibility textures over the uvs ([`vis_texture`]); meshes without uvs
+//!   keep per-vertex visibility (no chart packer), with a warning.
+//!
 //! # Not implemented (issue 12)
-//! Visibility textures, media; the method refuses media by name.
+//! A parameterisation for meshes without uvs; media (refused by name).
 
 pub mod basis;
 pub mod product;
@@ -67,6 +70,7 @@ pub mod method;
 pub mod shade;
 pub mod storage;
 pub mod verify;
+pub mod vis_texture;
 pub mod visibility;
 
 pub use method::{Shading, TRIPLE_METHOD_NAME, TripleMethod, TripleOptions};

@@ -45,7 +45,7 @@ use crate::quadrature::{LeafGrid, Weighting};
 use crate::select::Selection;
 use crate::shade::{BYTES_PER_CELL, FMA_PER_CELL, shade_point};
 use crate::storage::{Planes, Storage};
-use crate::visibility::bake_vertex_visibility;
+use crate::visibility::{bake_point_visibility, bake_vertex_visibility};
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use relight_geom::Mesh;
@@ -112,6 +112,10 @@ pub struct TripleOptions {
     pub cache_dir: PathBuf,
     /// How the tables are kept ([`crate::storage`]). Default f32.
     pub storage: Storage,
+    /// Texels per side of each object's visibility texture over its uvs
+    /// ([`crate::vis_texture`]); 0 keeps visibility per vertex. Objects
+    /// without uvs stay per vertex (with a warning). Default 0.
+    pub visibility_texture: usize,
 }
 
 impl Default for TripleOptions {
@@ -127,6 +131,7 @@ impl Default for TripleOptions {
             shading: Shading::Pixel,
             cache_dir: cache::default_cache_dir(),
             storage: Storage::F32,
+            visibility_texture: 0,
         }
     }
 }
@@ -146,6 +151,8 @@ struct Prepared {
     /// The spatially varying blend: the second BRDF's table and the weight.
     blend: Option<(Arc<BrdfTable>, relight_render::BrdfBlend)>,
     vis: Option<Arc<Planes>>,
+    /// Side of the visibility texture `vis` holds (0: one row per vertex).
+    vis_res: usize,
     /// The object's normal map (bump mapping; the mesh has uvs and tangents).
     normal_map: Option<Arc<relight_render::NormalMap>>,
 }
@@ -247,6 +254,16 @@ impl TripleMethod {
             return Err(invalid(
                 "brdf-sub",
                 format!("must be 0..=3, got {}", options.brdf_sub),
+            ));
+        }
+        if options.visibility_texture > crate::vis_texture::MAX_RES {
+            return Err(invalid(
+                "visibility-texture",
+                format!(
+                    "texels per side must be ≤ {} (got {})",
+                    crate::vis_texture::MAX_RES,
+                    options.visibility_texture
+                ),
             ));
         }
         if !(m..=5).contains(&options.vis_level) {
@@ -372,6 +389,30 @@ fn bumped(map: &relight_render::NormalMap, n: Vec3, tangent: glam::Vec4, uv: gla
     map.perturb(n, tangent, uv)
 }
 
+/// The visibility texture's rows: texels far from every chart (never read)
+/// hold `V ≡ 1` ([`crate::vis_texture`]).
+fn bake_texel_visibility(
+    bvh: &SceneBvh,
+    points: &[Option<(Vec3, Vec3)>],
+    m: usize,
+    vis_level: usize,
+    progress: &dyn Progress,
+) -> Result<Vec<f32>, WaveletError> {
+    let covered: Vec<(Vec3, Vec3)> = points.iter().flatten().copied().collect();
+    let baked = bake_point_visibility(bvh, &covered, m, vis_level, progress)?;
+    let stride = baked.stride;
+    let mut out = vec![1.0f32; points.len() * stride];
+    let mut k = 0;
+    for (i, p) in points.iter().enumerate() {
+        if p.is_some() {
+            out[i * stride..(i + 1) * stride]
+                .copy_from_slice(&baked.values[k * stride..(k + 1) * stride]);
+            k += 1;
+        }
+    }
+    Ok(out)
+}
+
 fn is_rotation(m: Mat3) -> bool {
     let e = (m.transpose() * m - Mat3::IDENTITY).to_cols_array();
     m.is_finite() && e.iter().all(|x| x.abs() < 1e-4) && (m.determinant() - 1.0).abs() < 1e-4
@@ -386,7 +427,7 @@ fn shade_world(
     brdf: &BrdfTable,
     n: Vec3,
     to_eye: Vec3,
-    vis: Option<(&Planes, [usize; 3], [f32; 3])>,
+    vis: Option<(&Planes, [usize; 4], [f32; 4])>,
 ) -> Vec3 {
     let f = frame_of(n);
     let mut wo = f.to_local(to_eye);
@@ -413,7 +454,7 @@ fn shade_blended(
     p: &Prepared,
     n: Vec3,
     to_eye: Vec3,
-    vis: Option<(&Planes, [usize; 3], [f32; 3])>,
+    vis: Option<(&Planes, [usize; 4], [f32; 4])>,
     uv: impl Fn() -> glam::Vec2,
 ) -> Vec3 {
     let Some((second, blend)) = &p.blend else {
@@ -504,25 +545,51 @@ impl Relighter for TripleMethod {
                 .objects
                 .get(i)
                 .filter(|p| Arc::ptr_eq(&p.mesh, &o.mesh) && p.vis.is_some() == scene.visibility);
+            let res = self.options.visibility_texture;
+            let texels = if res > 0 && scene.visibility {
+                let t = crate::vis_texture::texel_points(&o.mesh, res);
+                if t.is_none() {
+                    self.warnings.push(format!(
+                        "triple: object {i} has no uvs per vertex: its visibility stays per vertex"
+                    ));
+                }
+                t
+            } else {
+                None
+            };
+            let vis_res = if texels.is_some() { res } else { 0 };
             let vis = if !scene.visibility {
                 None
-            } else if let Some(p) = held.filter(|_| self.objects.len() == scene.objects.len()) {
+            } else if let Some(p) =
+                held.filter(|p| self.objects.len() == scene.objects.len() && p.vis_res == vis_res)
+            {
                 p.vis.clone()
             } else {
                 let stride = crate::lighting::padded_cells(self.m);
                 let key =
                     hash_parts(&[bytemuck::cast_slice(&scene_key), &(i as u64).to_le_bytes()]);
-                let len = o.mesh.positions.len() * stride;
-                let p = cache::params(self.m as u32, self.options.vis_level as u32, 0, 0, key, len);
                 let (m, vl) = (self.m, self.options.vis_level);
-                let (values, loaded) =
-                    bake_or_load(&self.options.cache_dir, "vis", VIS_MAGIC, p, || {
-                        let b = bvh.get_or_insert_with(|| SceneBvh::build(&meshes));
-                        bake_vertex_visibility(b, i, m, vl, progress)
-                            .map(|v| v.values)
-                            .map_err(WaveletError::from)
-                    })
-                    .map_err(fail)?;
+                let (values, loaded) = match &texels {
+                    None => {
+                        let len = o.mesh.positions.len() * stride;
+                        let p = cache::params(m as u32, vl as u32, 0, 0, key, len);
+                        bake_or_load(&self.options.cache_dir, "vis", VIS_MAGIC, p, || {
+                            let b = bvh.get_or_insert_with(|| SceneBvh::build(&meshes));
+                            bake_vertex_visibility(b, i, m, vl, progress)
+                                .map(|v| v.values)
+                                .map_err(WaveletError::from)
+                        })
+                    }
+                    Some(points) => {
+                        let len = points.len() * stride;
+                        let p = cache::params(m as u32, vl as u32, res as u32, 1, key, len);
+                        bake_or_load(&self.options.cache_dir, "vistex", VIS_MAGIC, p, || {
+                            let b = bvh.get_or_insert_with(|| SceneBvh::build(&meshes));
+                            bake_texel_visibility(b, points, m, vl, progress)
+                        })
+                    }
+                }
+                .map_err(fail)?;
                 if loaded {
                     self.loads += 1;
                 } else {
@@ -539,6 +606,7 @@ impl Relighter for TripleMethod {
                 brdf,
                 blend,
                 vis,
+                vis_res,
                 normal_map: o.normal_map.clone(),
             });
         }
@@ -634,19 +702,21 @@ impl Relighter for TripleMethod {
                                 + nrm[tri[1] as usize] * l.y
                                 + nrm[tri[2] as usize] * l.z)
                                 .normalize_or(frag.normal);
-                            let vis = p.vis.as_ref().map(|v| {
-                                (
-                                    v.as_ref(),
-                                    tri.map(|i| i as usize * stride),
-                                    [l.x, l.y, l.z],
-                                )
-                            });
                             let uv = || {
                                 let u = &p.mesh.uvs;
                                 u[tri[0] as usize] * l.x
                                     + u[tri[1] as usize] * l.y
                                     + u[tri[2] as usize] * l.z
                             };
+                            let vis = p.vis.as_ref().map(|v| {
+                                if p.vis_res > 0 {
+                                    let (t, w) = crate::vis_texture::taps(uv(), p.vis_res);
+                                    (v.as_ref(), t.map(|t| t * stride), w)
+                                } else {
+                                    let [a, b, c] = tri.map(|i| i as usize * stride);
+                                    (v.as_ref(), [a, b, c, a], [l.x, l.y, l.z, 0.0])
+                                }
+                            });
                             if let Some(map) = &p.normal_map {
                                 let t = &p.mesh.tangents;
                                 let tangent = t[tri[0] as usize] * l.x
@@ -677,10 +747,15 @@ impl Relighter for TripleMethod {
                             .map(|v| {
                                 let n = p.mesh.normals[v];
                                 let to_eye = (eye - p.mesh.positions[v]).normalize_or(n);
-                                let vis = p
-                                    .vis
-                                    .as_ref()
-                                    .map(|vv| (vv.as_ref(), [v * stride; 3], [1.0, 0.0, 0.0]));
+                                let vis = p.vis.as_ref().map(|vv| {
+                                    if p.vis_res > 0 {
+                                        let (t, w) =
+                                            crate::vis_texture::taps(p.mesh.uvs[v], p.vis_res);
+                                        (vv.as_ref(), t.map(|t| t * stride), w)
+                                    } else {
+                                        (vv.as_ref(), [v * stride; 4], [1.0, 0.0, 0.0, 0.0])
+                                    }
+                                });
                                 shade_blended(table, rot, p, n, to_eye, vis, || p.mesh.uvs[v])
                             })
                             .collect()

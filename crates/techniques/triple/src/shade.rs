@@ -24,9 +24,14 @@ pub const FMA_PER_CELL: usize = 39;
 pub const BYTES_PER_CELL: usize = 4 * (3 * (6 + 4) + 3);
 
 /// `Σ_c L̄_c V̄_c ρ̂_c` (RGB) for one point; `vis` are the visibility
-/// planes with up to three vertex rows (plane offsets) and their weights
+/// planes with up to four rows (plane offsets: a triangle's three vertices,
+/// or four texels of a visibility texture) and their weights
 /// (`None` = visible everywhere). Each tap's weight carries its plane's
 /// scale ([`crate::storage`]).
+///
+/// On x86-64 with AVX2, FMA and F16C (detected at run time) the kernel runs
+/// compiled for them, with f16 lighting converted by `vcvtph2ps`; otherwise
+/// [`shade_point_portable`]. Both compute the same sums (tested).
 #[inline]
 #[must_use]
 pub fn shade_point(
@@ -34,7 +39,27 @@ pub fn shade_point(
     ltaps: &[Tap; 6],
     brdf: &Planes,
     btaps: &[Tap; 4],
-    vis: Option<(&Planes, [usize; 3], [f32; 3])>,
+    vis: Option<(&Planes, [usize; 4], [f32; 4])>,
+    stride: usize,
+) -> Vec3 {
+    #[cfg(target_arch = "x86_64")]
+    if x86::available() {
+        // SAFETY: the CPU has AVX2, FMA and F16C (checked just above).
+        return unsafe { x86::shade_point(light, ltaps, brdf, btaps, vis, stride) };
+    }
+    shade_point_portable(light, ltaps, brdf, btaps, vis, stride)
+}
+
+/// [`shade_point`] compiled for the baseline ISA (the path other CPUs take,
+/// and the reference the fast one is tested against).
+#[inline]
+#[must_use]
+pub fn shade_point_portable(
+    light: &Planes,
+    ltaps: &[Tap; 6],
+    brdf: &Planes,
+    btaps: &[Tap; 4],
+    vis: Option<(&Planes, [usize; 4], [f32; 4])>,
     stride: usize,
 ) -> Vec3 {
     match (light, brdf) {
@@ -64,13 +89,92 @@ pub fn shade_point(
     }
 }
 
+/// The AVX2 + FMA + F16C copy of the kernel.
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::{AnyCells, Cells, F32Cells, Planes, Tap, U8Cells, Vec3, with_vis};
+    use std::arch::x86_64::{__m128i, _mm_loadu_si128, _mm256_cvtph_ps, _mm256_storeu_ps};
+
+    /// AVX2, FMA and F16C are present (cached by the standard library).
+    #[inline]
+    pub(super) fn available() -> bool {
+        std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("f16c")
+    }
+
+    /// f16 planes converted eight at a time by `vcvtph2ps`; only built
+    /// inside [`shade_point`], which runs with F16C.
+    struct F16cCells<'a>(&'a [u16]);
+
+    impl Cells for F16cCells<'_> {
+        #[inline(always)]
+        fn load8(&self, offset: usize) -> [f32; 8] {
+            let s = &self.0[offset..offset + 8];
+            let mut out = [0.0f32; 8];
+            // SAFETY: `s` holds eight u16 (16 bytes, unaligned load); this
+            // type is only used inside `shade_point` below, compiled with
+            // and called only after detecting F16C.
+            unsafe {
+                let h = _mm_loadu_si128(s.as_ptr().cast::<__m128i>());
+                _mm256_storeu_ps(out.as_mut_ptr(), _mm256_cvtph_ps(h));
+            }
+            out
+        }
+        #[inline(always)]
+        fn scale(&self, _: usize) -> f32 {
+            1.0
+        }
+    }
+
+    /// [`super::shade_point_portable`] compiled for AVX2 + FMA + F16C.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2, FMA and F16C ([`available`]).
+    #[target_feature(enable = "avx2,fma,f16c")]
+    pub(super) unsafe fn shade_point(
+        light: &Planes,
+        ltaps: &[Tap; 6],
+        brdf: &Planes,
+        btaps: &[Tap; 4],
+        vis: Option<(&Planes, [usize; 4], [f32; 4])>,
+        stride: usize,
+    ) -> Vec3 {
+        match (light, brdf) {
+            (Planes::F32(l), Planes::F32(b)) => {
+                with_vis(&F32Cells(l), ltaps, &F32Cells(b), btaps, vis, stride)
+            }
+            (Planes::F16(l), Planes::U8 { codes, scales }) => with_vis(
+                &F16cCells(l),
+                ltaps,
+                &U8Cells {
+                    codes,
+                    scales,
+                    stride,
+                },
+                btaps,
+                vis,
+                stride,
+            ),
+            (l, b) => with_vis(
+                &AnyCells::of(l, stride),
+                ltaps,
+                &AnyCells::of(b, stride),
+                btaps,
+                vis,
+                stride,
+            ),
+        }
+    }
+}
+
 #[inline(always)]
 fn with_vis<L: Cells, B: Cells>(
     light: &L,
     ltaps: &[Tap; 6],
     brdf: &B,
     btaps: &[Tap; 4],
-    vis: Option<(&Planes, [usize; 3], [f32; 3])>,
+    vis: Option<(&Planes, [usize; 4], [f32; 4])>,
     stride: usize,
 ) -> Vec3 {
     match vis {
@@ -137,14 +241,14 @@ fn kernel<L: Cells, B: Cells, V: Cells>(
     ltaps: &[Tap; 6],
     brdf: &B,
     btaps: &[Tap; 4],
-    vis: Option<(&V, [usize; 3], [f32; 3])>,
+    vis: Option<(&V, [usize; 4], [f32; 4])>,
     stride: usize,
 ) -> Vec3 {
     let (lt, nl) = scaled_taps(light, ltaps, stride);
     let (bt, nb) = scaled_taps(brdf, btaps, stride);
     let vis = vis.map(|(cells, rows, w)| {
-        let mut vw = [0.0f32; 3];
-        for a in 0..3 {
+        let mut vw = [0.0f32; 4];
+        for a in 0..4 {
             vw[a] = if w[a] != 0.0 {
                 w[a] * cells.scale(rows[a])
             } else {
@@ -159,7 +263,7 @@ fn kernel<L: Cells, B: Cells, V: Cells>(
         let mut v = [0.0f32; 8];
         match &vis {
             Some((cells, rows, w)) => {
-                for a in 0..3 {
+                for a in 0..4 {
                     if w[a] != 0.0 {
                         let s = cells.load8(rows[a] + base);
                         for i in 0..8 {
@@ -233,6 +337,85 @@ impl Cells for AnyCells<'_> {
             Self::F32(c) => c.scale(plane_offset),
             Self::F16(c) => c.scale(plane_offset),
             Self::U8(c) => c.scale(plane_offset),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::storage::Planes;
+
+    /// The run-time-selected kernel against the portable one, in every
+    /// storage, with and without visibility; under CI the fast path must
+    /// exist (a CPU without it would compare the portable path with itself).
+    #[test]
+    fn fast_kernel_matches_the_portable_one() {
+        #[cfg(target_arch = "x86_64")]
+        if !x86::available() {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI runs on a CPU without AVX2+FMA+F16C: the fast kernel is untested"
+            );
+            eprintln!("no AVX2+FMA+F16C here: the fast kernel is not tested");
+            return;
+        }
+        let stride = 80;
+        let mut x = 0x2545_f491_u32;
+        let mut rnd = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x % 10_000) as f32 / 10_000.0
+        };
+        let light: Vec<f32> = (0..12 * 3 * stride).map(|_| 5.0 * rnd()).collect();
+        let brdf: Vec<f32> = (0..8 * 3 * stride).map(|_| rnd()).collect();
+        let vis: Vec<f32> = (0..6 * stride).map(|_| rnd()).collect();
+        let tap = |o: usize, w: f32| Tap {
+            offset: (o * 3 * stride) as u32,
+            weight: w,
+        };
+        let lt = [
+            tap(0, 0.3),
+            tap(3, 0.2),
+            tap(5, 0.0),
+            tap(7, 0.25),
+            tap(9, 0.1),
+            tap(11, 0.15),
+        ];
+        let bt = [tap(1, 0.4), tap(2, 0.3), tap(6, 0.2), tap(7, 0.1)];
+        for (l, b, v) in [
+            (
+                Planes::F32(light.clone()),
+                Planes::F32(brdf.clone()),
+                Planes::F32(vis.clone()),
+            ),
+            (
+                Planes::f16(&light),
+                Planes::u8(&brdf, stride),
+                Planes::u8(&vis, stride),
+            ),
+            (
+                Planes::f16(&light),
+                Planes::F32(brdf.clone()),
+                Planes::F32(vis.clone()),
+            ),
+        ] {
+            for rows in [
+                None,
+                Some((
+                    &v,
+                    [0, stride, 4 * stride, 5 * stride],
+                    [0.4, 0.3, 0.2, 0.1],
+                )),
+            ] {
+                let fast = shade_point(&l, &lt, &b, &bt, rows, stride);
+                let slow = shade_point_portable(&l, &lt, &b, &bt, rows, stride);
+                assert!(
+                    (fast - slow).abs().max_element() <= 1e-5 * slow.abs().max_element(),
+                    "{fast} vs {slow}"
+                );
+            }
         }
     }
 }

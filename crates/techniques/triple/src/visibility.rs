@@ -1,4 +1,6 @@
-//! Per-vertex binary visibility (spherical-wavelets-triple-product-2006 §4.1):
+//! Per-vertex binary visibility (spherical-wavelets-triple-product-2006 §4.1)
+//! (the texels of a visibility texture are baked the same way,
+//! [`bake_point_visibility`]; [`crate::vis_texture`]):
 //! for every vertex, the level-`m` cell means of `V(ω)` in the vertex's local
 //! frame ([`crate::lighting::frame_of`], the same rule the lighting lookup
 //! uses), ray-cast with the scene BVH from [`offset_ray_origin`] at the
@@ -35,6 +37,27 @@ pub fn bake_vertex_visibility(
     progress: &dyn Progress,
 ) -> Result<VertexVisibility, Cancelled> {
     let mesh = bvh.meshes()[object];
+    let points: Vec<(Vec3, Vec3)> = mesh
+        .positions
+        .iter()
+        .zip(&mesh.normals)
+        .map(|(p, n)| (*p, *n))
+        .collect();
+    bake_point_visibility(bvh, &points, m, vis_level, progress)
+}
+
+/// Ray-casts the visibility of surface points `(position, unit normal)`, as
+/// [`bake_vertex_visibility`] does for vertices.
+///
+/// # Errors
+/// [`Cancelled`].
+pub fn bake_point_visibility(
+    bvh: &SceneBvh,
+    points: &[(Vec3, Vec3)],
+    m: usize,
+    vis_level: usize,
+    progress: &dyn Progress,
+) -> Result<VertexVisibility, Cancelled> {
     let s = vis_level.max(m);
     let ico = Icosahedral::new(s).expect("visibility level ≤ 7");
     let dirs: Vec<Vec3> = (0..triangles(s))
@@ -43,7 +66,7 @@ pub fn bake_vertex_visibility(
     let per = 1usize << (2 * (s - m));
     let stride = padded_cells(m);
     let cells = triangles(m);
-    let mut values = vec![0.0f32; mesh.positions.len() * stride];
+    let mut values = vec![0.0f32; points.len() * stride];
     const CHUNK: usize = 256;
     for (ci, chunk) in values.chunks_mut(CHUNK * stride).enumerate() {
         progress.check()?;
@@ -51,10 +74,9 @@ pub fn bake_vertex_visibility(
             .par_chunks_mut(stride)
             .enumerate()
             .for_each(|(i, out)| {
-                let v = ci * CHUNK + i;
-                let n = mesh.normals[v];
+                let (p, n) = points[ci * CHUNK + i];
                 let f = frame_of(n);
-                let o = offset_ray_origin(mesh.positions[v], n);
+                let o = offset_ray_origin(p, n);
                 for c in 0..cells {
                     let mut seen = 0u32;
                     for d in &dirs[c * per..(c + 1) * per] {
