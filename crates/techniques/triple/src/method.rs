@@ -20,7 +20,8 @@
 //! geometric surface's, indexed as if it had turned with the bump
 //! ([`Relighter::warnings`] says so). A flat map (every texel +Z) leaves the
 //! frame, so the image, exactly as without it. As in the reference, a bumped
-//! normal that faces away from the viewer shades black. Per-vertex shading
+//! normal that faces away from the viewer shades black (where the map is
+//! flat the pixel is not bumped and shades as without the map). Per-vertex shading
 //! cannot show a bump and refuses normal maps.
 //!
 //! | call | work |
@@ -378,15 +379,20 @@ impl TripleMethod {
 }
 
 /// The bumped normal at `uv` (the map's tangent-space normal in the frame of
-/// `n` and `tangent`, `NormalMap::perturb`); a flat texel (+Z) returns `n`
-/// itself, bit for bit.
+/// `n` and `tangent`, `NormalMap::perturb`); `None` where the map is flat
+/// (+Z): the pixel shades exactly as without the map.
 #[inline]
-fn bumped(map: &relight_render::NormalMap, n: Vec3, tangent: glam::Vec4, uv: glam::Vec2) -> Vec3 {
+fn bumped(
+    map: &relight_render::NormalMap,
+    n: Vec3,
+    tangent: glam::Vec4,
+    uv: glam::Vec2,
+) -> Option<Vec3> {
     let m = map.sample(uv);
     if m.x == 0.0 && m.y == 0.0 {
-        return n;
+        return None;
     }
-    map.perturb(n, tangent, uv)
+    Some(map.perturb(n, tangent, uv))
 }
 
 /// The visibility texture's rows: texels far from every chart (never read)
@@ -722,11 +728,14 @@ impl Relighter for TripleMethod {
                                 let tangent = t[tri[0] as usize] * l.x
                                     + t[tri[1] as usize] * l.y
                                     + t[tri[2] as usize] * l.z;
-                                n = bumped(map, n, tangent, uv());
-                                // The reference's convention: a bumped normal
-                                // facing away from the viewer shades black.
-                                if n.dot(frag.to_eye) <= 0.0 {
-                                    return Vec3::ZERO;
+                                if let Some(b) = bumped(map, n, tangent, uv()) {
+                                    // The reference's convention: a bumped
+                                    // normal facing away from the viewer
+                                    // shades black.
+                                    if b.dot(frag.to_eye) <= 0.0 {
+                                        return Vec3::ZERO;
+                                    }
+                                    n = b;
                                 }
                             }
                             shade_blended(table, rot, p, n, frag.to_eye, vis, uv)

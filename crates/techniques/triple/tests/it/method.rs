@@ -226,6 +226,26 @@ fn bump_mapping_flat_is_exact_bumps_change_the_image_and_vertex_refuses() {
             .unwrap()
             .image
     };
+    // A flat map at a size with silhouette pixels (normals facing away).
+    let flat = Arc::new(relight_render::NormalMap::from_vectors(1, 1, &[Vec3::Z]).unwrap());
+    let mut big = s.clone();
+    big.camera.width = 160;
+    big.camera.height = 120;
+    let render = |scene: &Scene| {
+        let mut m = TripleMethod::new(options(&dir)).unwrap();
+        m.prepare(scene, &NoProgress).unwrap();
+        render_frame(&mut m, scene, &FrameRequest::new(scene.camera), &NoProgress)
+            .unwrap()
+            .image
+    };
+    let plain_big = render(&big);
+    for o in &mut big.objects {
+        let mut mesh = (*o.mesh).clone();
+        mesh.tangents = mesh.compute_tangents();
+        o.mesh = Arc::new(mesh);
+        o.normal_map = Some(flat.clone());
+    }
+    assert_eq!(render(&big).pixels, plain_big.pixels, "flat map at 160×120");
     let map = Arc::new(relight_render::NormalMap::bumps(64, 4, 0.6));
     for o in &mut s.objects {
         let mut mesh = (*o.mesh).clone();
