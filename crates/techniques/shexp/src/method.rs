@@ -7,10 +7,17 @@
 //!   `L_H(N) · g`, `L_H(N) = L ∗ H(N)` read bilinearly from a table over
 //!   normals (a corner-sampled octahedral grid of [`LH_TABLE_SIZE`]²), and
 //!   `g = exp(Σ_b log g_b)` over the blocker spheres of every *other* object;
+//!   a vertex its own object occludes ([`ShExpOptions::self_shadow`]) shades
+//!   `L · (T_p ∗ g)` instead, `T_p` baked against its own mesh in its frame
+//!   at `prepare` (as a static receiver's) and turned with it per frame (the
+//!   thesis bakes only static receivers; a rigid object's own occlusion
+//!   moves with it, so it bakes the same way);
 //! * **static receivers**: `(L ∗ T_p) · g_dyn` with `T_p = H(N_p)·g_static`
-//!   baked by ray tracing the static meshes (cosine-weighted stratified rays,
-//!   projected directly: `T_p = (1/K) Σ vis(s_k) y(s_k)`), and `g_dyn` the
-//!   exponentiated logs of the dynamic blockers only.
+//!   baked by ray tracing the static meshes (cosine-weighted stratified rays
+//!   with the exact `H(N_p)` as control variate:
+//!   `T_p = H(N_p) − (1/K) Σ_k [blocked_k] y(s_k)`, exact where nothing is
+//!   blocked), and `g_dyn` the exponentiated logs of the dynamic blockers
+//!   only.
 //!
 //! **Area lights** ([`crate::area`]): the scene's textured rectangles are
 //! projected into SH per receiver point with the clamped cosine (and a
@@ -99,6 +106,10 @@ pub struct ShExpOptions {
     /// Flat receivers with fewer vertices are refined to at least this many
     /// (0: never). Default 16 384. Unused with a visibility texture.
     pub flat_receiver_vertices: usize,
+    /// Dynamic receivers shadow themselves: their own occlusion is baked in
+    /// their frame like a static receiver's (`T_p`) and rotated with them
+    /// per frame. Default on.
+    pub self_shadow: bool,
     /// Texels per side of a flat receiver's visibility texture
     /// ([`crate::texels`]): its plane is shaded at the texel centres and
     /// looked up per pixel instead of refined into vertices. Default 0 (off:
@@ -117,6 +128,7 @@ impl Default for ShExpOptions {
             lod_angle_deg: 7.0,
             bake_strata: 12,
             flat_receiver_vertices: 16_384,
+            self_shadow: true,
             visibility_texture: 0,
         }
     }
@@ -149,6 +161,13 @@ struct ObjectState {
     albedo: Vec3,
     /// Static receivers: `T_p` per vertex (order² each).
     transfer: Vec<f32>,
+    /// Dynamic receivers that occlude themselves: `T_p` against their own
+    /// mesh in their frame at `prepare` (order² per vertex; empty when no
+    /// vertex is occluded), rotated with the object per frame.
+    self_transfer: Vec<f32>,
+    /// Per vertex: some of its own rays were blocked (it shades through
+    /// `self_transfer`; the others take the exact `L_H(N)` table).
+    self_occluded: Vec<bool>,
     /// Static receivers under area lights: `F(p, N)` per vertex, RGB
     /// (3·order² each; [`crate::area`]), kept until the lights change.
     area_transfer: Vec<f32>,
@@ -710,52 +729,67 @@ impl ShExpMethod {
         }
     }
 
-    /// Bakes `T_p = H(N_p)·g_static` for every static vertex of object `i`
-    /// against the static meshes.
-    fn bake_static(
+    /// Bakes `T_p = H(N_p)·g` for every vertex of `mesh` against the meshes
+    /// of `bvh`, by cosine-weighted stratified rays with the exact `H(N_p)`
+    /// as control variate: `T_p = H(N_p) − (1/K) Σ_k [occluded_k] y(s_k)`
+    /// (unbiased; exact where no ray is blocked). Also returns, per vertex,
+    /// whether any ray was.
+    fn bake_transfer(
         &self,
         bvh: &SceneBvh<'_>,
         mesh: &Mesh,
         seed: u64,
         progress: &dyn Progress,
-    ) -> Result<Vec<f32>, MethodError> {
+    ) -> Result<(Vec<f32>, Vec<bool>), MethodError> {
         let n = self.options.order;
         let nn = n * n;
         let k = self.options.bake_strata;
         let normals = normals_of(mesh);
+        let h32: Vec<f32> = irradiance_zonal(n).iter().map(|&v| v as f32).collect();
         let mut out = vec![0.0f32; mesh.positions.len() * nn];
+        let mut occluded = vec![false; mesh.positions.len()];
         let chunk = 1024;
-        for (ci, block) in out.chunks_mut(chunk * nn).enumerate() {
+        for (ci, (block, occ)) in out
+            .chunks_mut(chunk * nn)
+            .zip(occluded.chunks_mut(chunk))
+            .enumerate()
+        {
             progress.check()?;
-            block.par_chunks_mut(nn).enumerate().for_each(|(vi, t)| {
-                let v = ci * chunk + vi;
-                let nrm = normals[v].normalize_or(Vec3::Y);
-                let frame = relight_sphere::Frame::from_z(nrm);
-                let o = relight_render::bvh::offset_ray_origin(mesh.positions[v], nrm);
-                let mut rng = Rng::new(seed, v as u64);
-                let mut y = vec![0.0f32; nn];
-                let w = 1.0 / (k * k) as f32;
-                for a in 0..k {
-                    for b in 0..k {
-                        let u = (a as f32 + rng.next_f32()) / k as f32;
-                        let s = (b as f32 + rng.next_f32()) / k as f32;
-                        let r = u.sqrt();
-                        let phi = 2.0 * std::f32::consts::PI * s;
-                        let local =
-                            Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u).max(0.0).sqrt());
-                        let d = frame.from_local(local).normalize();
-                        if bvh.occluded(o, d, f32::INFINITY) {
-                            continue;
-                        }
-                        relight_sh::eval_sh_into(n, d.to_array(), &mut y);
-                        for (t, y) in t.iter_mut().zip(&y) {
-                            *t += w * y;
+            block
+                .par_chunks_mut(nn)
+                .zip(occ.par_iter_mut())
+                .enumerate()
+                .for_each(|(vi, (t, blocked))| {
+                    let v = ci * chunk + vi;
+                    let nrm = normals[v].normalize_or(Vec3::Y);
+                    relight_sh::rotation::rotate_zonal(n, &h32, nrm.to_array(), t);
+                    let frame = relight_sphere::Frame::from_z(nrm);
+                    let o = relight_render::bvh::offset_ray_origin(mesh.positions[v], nrm);
+                    let mut rng = Rng::new(seed, v as u64);
+                    let mut y = vec![0.0f32; nn];
+                    let w = 1.0 / (k * k) as f32;
+                    for a in 0..k {
+                        for b in 0..k {
+                            let u = (a as f32 + rng.next_f32()) / k as f32;
+                            let s = (b as f32 + rng.next_f32()) / k as f32;
+                            let r = u.sqrt();
+                            let phi = 2.0 * std::f32::consts::PI * s;
+                            let local =
+                                Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u).max(0.0).sqrt());
+                            let d = frame.from_local(local).normalize();
+                            if !bvh.occluded(o, d, f32::INFINITY) {
+                                continue;
+                            }
+                            *blocked = true;
+                            relight_sh::eval_sh_into(n, d.to_array(), &mut y);
+                            for (t, y) in t.iter_mut().zip(&y) {
+                                *t -= w * y;
+                            }
                         }
                     }
-                }
-            });
+                });
         }
-        Ok(out)
+        Ok((out, occluded))
     }
 
     /// Shades every vertex of `scene` (as prepared, objects possibly moved by
@@ -851,6 +885,27 @@ impl ShExpMethod {
         let lanes = &self.lanes;
         let use_lanes = kernel == Kernel::Lanes && opts.exp != ExpKind::Product;
         let area = &state.area;
+        // Self-shadowed dynamic receivers: their transfer turned with them
+        // (the similarity's rotation), and L in f32 for `L · (T ∗ g)`.
+        let self_rotations: Vec<Option<relight_sh::rotation::ShRotation<f32>>> = state
+            .objects
+            .iter()
+            .zip(&moved)
+            .map(|(o, (m, scale))| {
+                if o.self_transfer.is_empty() {
+                    return None;
+                }
+                let r = Mat3::from(m.matrix3) / scale.max(1e-30);
+                relight_sh::rotation::Rot3::try_from_mat3(r)
+                    .ok()
+                    .and_then(|r| relight_sh::rotation::ShRotation::from_rotation(n, &r).ok())
+            })
+            .collect();
+        let light32: [Vec<f32>; 3] = state
+            .light
+            .clone()
+            .map(|c| c.iter().map(|&v| v as f32).collect());
+        let tp32 = self.expo.tensor();
         let unshadowed = |g: &mut [f32]| {
             g.fill(0.0);
             g[0] = (4.0 * std::f32::consts::PI).sqrt();
@@ -901,7 +956,31 @@ impl ShExpMethod {
                     // A dynamic receiver's area light, `F(p, N) · g`
                     // ([`crate::area`]; static ones have it in `lit_transfer`).
                     let dynamic_area = so.lit_transfer.is_empty() && !area.is_empty();
+                    let self_rotation = self_rotations[obj].as_ref();
                     let shade = |v: u32, nrm: Vec3, g: &[f32], s: &mut AreaScratch| {
+                        let vi = v as usize;
+                        if let Some(rot) = self_rotation
+                            && so.self_occluded[vi]
+                        {
+                            // `(L + A(p)) · (T_p ∗ g)`, T_p turned to world.
+                            rot.apply(&so.self_transfer[vi * nn..(vi + 1) * nn], &mut s.t);
+                            tp32.product(&s.t, g, &mut s.q);
+                            let mut rgb = Vec3::new(
+                                dot(&light32[0], &s.q),
+                                dot(&light32[1], &s.q),
+                                dot(&light32[2], &s.q),
+                            );
+                            if !area.is_empty()
+                                && area.project(mesh.positions[vi], &mut s.y, &mut s.f)
+                            {
+                                rgb += Vec3::new(
+                                    dot(&s.f[..nn], &s.q),
+                                    dot(&s.f[nn..2 * nn], &s.q),
+                                    dot(&s.f[2 * nn..], &s.q),
+                                );
+                            }
+                            return (v, (rgb * so.albedo).max(Vec3::ZERO));
+                        }
                         let mut rgb = if so.lit_transfer.is_empty() {
                             lh_dot(&state.lh_table, nn, nrm, g)
                         } else {
@@ -1078,11 +1157,14 @@ struct PerThread {
     area: AreaScratch,
 }
 
-/// Per-thread buffers of a dynamic receiver's area light: the SH basis and
-/// `F(p, N)` (RGB; [`crate::area`]).
+/// Per-thread buffers of a dynamic receiver's area light and
+/// self-shadowing: the SH basis, `F(p, N)` or `A(p)` (RGB; [`crate::area`]),
+/// the turned transfer `T_p` and `T_p ∗ g`.
 struct AreaScratch {
     y: Vec<f32>,
     f: Vec<f32>,
+    t: Vec<f32>,
+    q: Vec<f32>,
 }
 
 impl AreaScratch {
@@ -1091,6 +1173,8 @@ impl AreaScratch {
         Self {
             y: vec![0.0; nn],
             f: vec![0.0; 3 * nn],
+            t: vec![0.0; nn],
+            q: vec![0.0; nn],
         }
     }
 }
@@ -1247,6 +1331,8 @@ impl Relighter for ShExpMethod {
                 refs: reference_vertices(&o.mesh.positions),
                 albedo,
                 transfer: Vec::new(),
+                self_transfer: Vec::new(),
+                self_occluded: Vec::new(),
                 area_transfer: Vec::new(),
                 lit_transfer: Vec::new(),
             });
@@ -1263,7 +1349,21 @@ impl Relighter for ShExpMethod {
             for (i, o) in objects.iter_mut().enumerate() {
                 if !o.dynamic {
                     let r = o.receiver.clone();
-                    o.transfer = self.bake_static(&bvh, &r, 0x5e0 + i as u64, progress)?;
+                    o.transfer = self.bake_transfer(&bvh, &r, 0x5e0 + i as u64, progress)?.0;
+                }
+            }
+            // Dynamic receivers: their own occlusion, in their own frame.
+            if opts.self_shadow {
+                for (i, o) in objects.iter_mut().enumerate() {
+                    if o.dynamic && o.spheres.is_some() {
+                        let own = SceneBvh::build(&[o.mesh.as_ref()]);
+                        let r = o.receiver.clone();
+                        let (t, occ) = self.bake_transfer(&own, &r, 0x5e1 + i as u64, progress)?;
+                        if occ.iter().any(|&b| b) {
+                            o.self_transfer = t;
+                            o.self_occluded = occ;
+                        }
+                    }
                 }
             }
         }
@@ -1388,7 +1488,13 @@ impl Relighter for ShExpMethod {
             s.lh_table.len() * 4
                 + s.objects
                     .iter()
-                    .map(|o| (o.transfer.len() + o.area_transfer.len() + o.lit_transfer.len()) * 4)
+                    .map(|o| {
+                        (o.transfer.len()
+                            + o.self_transfer.len()
+                            + o.area_transfer.len()
+                            + o.lit_transfer.len())
+                            * 4
+                    })
                     .sum::<usize>()
         });
         (s + self.table.bytes()) as u64

@@ -12,6 +12,10 @@
 //!   (`relight_render::SceneBvh::vertex_ambient_occlusion`). Target ≤ 3 %.
 //! * **A mesh blocker with 32 / 64 / 128 spheres** (the bunny when given)
 //!   against its own mesh shadow: reported as a curve, no target.
+//! * **Dynamic self-shadowing**: a torus on edge, alone and dynamic under the
+//!   sky, at its vertices against ray-traced visibility of itself, with
+//!   [`ShExpOptions::self_shadow`] and without (reported beside it). Target
+//!   ≤ 5 % (issue 15's floor target).
 //! * **Visibility texture**: the spheres-on-a-floor scene with the floor
 //!   shaded at the texels of a visibility texture
 //!   ([`ShExpOptions::visibility_texture`]), against the same reference at
@@ -351,9 +355,56 @@ pub fn verify_scene(
             pass: None,
         });
     }
+    rows.extend(self_shadow_rows(floor_n, opts)?);
     rows.push(visibility_texture_row(floor_n, opts)?);
     rows.extend(area_light_rows(floor_n, opts)?);
     Ok(rows)
+}
+
+/// The self-shadowing rows (module docs): a torus standing on edge, alone
+/// and dynamic under the sky, against the reference at its vertices, with
+/// its own occlusion baked and turned with it, and without.
+fn self_shadow_rows(
+    floor_n: usize,
+    opts: ShExpOptions,
+) -> Result<Vec<VerifyRow>, relight_render::method::MethodError> {
+    let sides = floor_n.max(8);
+    let torus = relight_geom::shapes::torus(0.8, 0.3, 2 * sides, sides).transformed(
+        glam::Affine3A::from_rotation_translation(
+            Quat::from_rotation_x(1.2),
+            Vec3::new(0.0, 1.2, 0.0),
+        ),
+    );
+    let lambert = Arc::new(relight_brdf::Lambert::new(Vec3::splat(ALBEDO)).expect("valid albedo"));
+    let mut o = Object::new(Arc::new(torus), lambert);
+    o.animation = Some(hold());
+    let mut scene = Scene::new(vec![o], sky(), floor_scene(Vec::new(), sky(), 1).camera);
+    scene.visibility = true;
+    let want = reference_env(&scene, &scene.objects[0].mesh.clone(), REFERENCE_STRATA);
+    let mut errs = Vec::new();
+    for self_shadow in [true, false] {
+        let got = method_points(
+            &scene,
+            ShExpOptions {
+                self_shadow,
+                ..opts
+            },
+        )?;
+        errs.push(rel_rms(&got[0].0, &want));
+    }
+    Ok(vec![VerifyRow {
+        check: "dynamic receiver shadowing itself: a torus on edge under the sky".into(),
+        measured: format!(
+            "relative RMS {:.2} % (without self-shadowing {:.2} %)",
+            100.0 * errs[0],
+            100.0 * errs[1]
+        ),
+        target: "≤ 5 %".into(),
+        source: "issue 15's floor target, applied to dynamic self-shadowing (reference: \
+                 ray-traced visibility of the torus itself)"
+            .into(),
+        pass: Some(errs[0] <= 0.05),
+    }])
 }
 
 /// The visibility-texture row (module docs): `2·floor_n` texels per side.

@@ -17,8 +17,8 @@ fn spheres_on_a_floor_and_ao_meet_their_targets() {
             gated += 1;
         }
     }
-    // Floor, AO, visibility texture, and the three area-light rows.
-    assert_eq!(gated, 6, "{rows:?}");
+    // Floor, AO, self-shadowing, visibility texture, three area-light rows.
+    assert_eq!(gated, 7, "{rows:?}");
 }
 
 #[test]
