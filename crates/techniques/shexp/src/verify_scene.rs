@@ -434,6 +434,17 @@ fn visibility_texture_row(
     })
 }
 
+/// Relative RMS of the method's radiance at every point of `shaded` (per
+/// object, as [`method_points`]) against [`reference_area`], pooled.
+fn pooled_area_error(scene: &Scene, shaded: &[(Vec<Vec3>, Mesh)]) -> f64 {
+    let (mut got, mut want) = (Vec::new(), Vec::new());
+    for (c, points) in shaded {
+        got.extend_from_slice(c);
+        want.extend(reference_area(scene, points, REFERENCE_STRATA));
+    }
+    rel_rms(&got, &want)
+}
+
 /// The area-light rows (module docs).
 fn area_light_rows(
     floor_n: usize,
@@ -484,12 +495,7 @@ fn area_light_rows(
             .into(),
         pass: Some(e <= 1.25 * e_product + 0.005),
     });
-    let (mut got, mut want) = (Vec::new(), Vec::new());
-    for (c, points) in &shaded[1..] {
-        got.extend_from_slice(c);
-        want.extend(reference_area(&scene, points, REFERENCE_STRATA));
-    }
-    let e = rel_rms(&got, &want);
+    let e = pooled_area_error(&scene, &shaded[1..]);
     rows.push(VerifyRow {
         check: format!(
             "SH area light: the spheres (dynamic receivers), n = {}",
@@ -528,13 +534,7 @@ fn area_light_rows(
     });
     // Unshadowed: the light's projection and shading alone.
     scene.visibility = false;
-    let shaded = method_points(&scene, refine0)?;
-    let (mut got, mut want) = (Vec::new(), Vec::new());
-    for (c, points) in &shaded {
-        got.extend_from_slice(c);
-        want.extend(reference_area(&scene, points, REFERENCE_STRATA));
-    }
-    let e = rel_rms(&got, &want);
+    let e = pooled_area_error(&scene, &method_points(&scene, refine0)?);
     rows.push(VerifyRow {
         check: format!(
             "SH area light unshadowed, n = {}: every receiver",

@@ -62,32 +62,43 @@ pub fn shade_point_portable(
     vis: Option<(&Planes, [usize; 4], [f32; 4])>,
     stride: usize,
 ) -> Vec3 {
-    match (light, brdf) {
-        (Planes::F32(l), Planes::F32(b)) => {
-            with_vis(&F32Cells(l), ltaps, &F32Cells(b), btaps, vis, stride)
-        }
-        (Planes::F16(l), Planes::U8 { codes, scales }) => with_vis(
-            &F16Cells(l),
-            ltaps,
-            &U8Cells {
-                codes,
-                scales,
-                stride,
-            },
-            btaps,
-            vis,
-            stride,
-        ),
-        (l, b) => with_vis(
-            &AnyCells::of(l, stride),
-            ltaps,
-            &AnyCells::of(b, stride),
-            btaps,
-            vis,
-            stride,
-        ),
-    }
+    dispatch!(F16Cells, light, ltaps, brdf, btaps, vis, stride)
 }
+
+/// The one dispatch of both copies: a monomorphised kernel for all-f32 and
+/// for all-compact tables (f16 lighting read by `$f16`), [`AnyCells`] for
+/// the mixed forms.
+macro_rules! dispatch {
+    ($f16:ident, $light:expr, $ltaps:expr, $brdf:expr, $btaps:expr, $vis:expr, $stride:expr) => {{
+        let stride = $stride;
+        match ($light, $brdf) {
+            (Planes::F32(l), Planes::F32(b)) => {
+                with_vis(&F32Cells(l), $ltaps, &F32Cells(b), $btaps, $vis, stride)
+            }
+            (Planes::F16(l), Planes::U8 { codes, scales }) => with_vis(
+                &$f16(l),
+                $ltaps,
+                &U8Cells {
+                    codes,
+                    scales,
+                    stride,
+                },
+                $btaps,
+                $vis,
+                stride,
+            ),
+            (l, b) => with_vis(
+                &AnyCells::of(l, stride),
+                $ltaps,
+                &AnyCells::of(b, stride),
+                $btaps,
+                $vis,
+                stride,
+            ),
+        }
+    }};
+}
+use dispatch;
 
 /// The AVX2 + FMA + F16C copy of the kernel.
 #[cfg(target_arch = "x86_64")]
@@ -140,31 +151,7 @@ mod x86 {
         vis: Option<(&Planes, [usize; 4], [f32; 4])>,
         stride: usize,
     ) -> Vec3 {
-        match (light, brdf) {
-            (Planes::F32(l), Planes::F32(b)) => {
-                with_vis(&F32Cells(l), ltaps, &F32Cells(b), btaps, vis, stride)
-            }
-            (Planes::F16(l), Planes::U8 { codes, scales }) => with_vis(
-                &F16cCells(l),
-                ltaps,
-                &U8Cells {
-                    codes,
-                    scales,
-                    stride,
-                },
-                btaps,
-                vis,
-                stride,
-            ),
-            (l, b) => with_vis(
-                &AnyCells::of(l, stride),
-                ltaps,
-                &AnyCells::of(b, stride),
-                btaps,
-                vis,
-                stride,
-            ),
-        }
+        super::dispatch!(F16cCells, light, ltaps, brdf, btaps, vis, stride)
     }
 }
 

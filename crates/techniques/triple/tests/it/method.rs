@@ -279,9 +279,9 @@ fn bump_mapping_flat_is_exact_bumps_change_the_image_and_vertex_refuses() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-#[test]
-fn compact_storage_costs_little_and_holds_less() {
-    let env = EnvMap::from_fn(
+/// A sky with a soft sun: shadows the low orders can show.
+fn peaked_sky() -> EnvMap {
+    EnvMap::from_fn(
         Param::LatLong {
             width: 64,
             height: 32,
@@ -294,7 +294,12 @@ fn compact_storage_costs_little_and_holds_less() {
                         .powi(16),
             )
         },
-    );
+    )
+}
+
+#[test]
+fn compact_storage_costs_little_and_holds_less() {
+    let env = peaked_sky();
     let dir = tmp("storage");
     let rows = relight_triple::verify::storage_rows(&env, true, dir.clone(), &NoProgress).unwrap();
     assert_eq!(rows.len(), 4, "{rows:?}");
@@ -323,20 +328,7 @@ fn compact_storage_costs_little_and_holds_less() {
 
 #[test]
 fn a_visibility_texture_shadows_a_two_triangle_floor() {
-    let env = EnvMap::from_fn(
-        Param::LatLong {
-            width: 64,
-            height: 32,
-        },
-        |d| {
-            Vec3::splat(
-                0.2 + 3.0
-                    * d.dot(Vec3::new(0.3, 0.9, 0.3).normalize())
-                        .max(0.0)
-                        .powi(16),
-            )
-        },
-    );
+    let env = peaked_sky();
     let dir = tmp("vistex");
     let rows = relight_triple::verify::figure6_rows(&env, true, dir.clone(), &NoProgress).unwrap();
     eprintln!("{rows:?}");
