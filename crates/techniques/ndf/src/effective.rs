@@ -504,6 +504,10 @@ pub struct LambertTail {
 /// as band 4 (tested; it falls as the cell size squared: 0.1 % at 256).
 pub const TAIL_GRID: usize = 128;
 
+/// Cells of [`LambertTail::attenuation_468`]'s table over `[31/32, 1]`
+/// (its table below 31/32 has four times as many).
+pub const ATTENUATION_NODES: usize = 1024;
+
 /// Coefficients of bands 4, 6 and 8: 9 + 13 + 17.
 const TAIL_PACKED: usize = 39;
 
@@ -576,14 +580,51 @@ impl LambertTail {
     }
 
     /// `A_l(κ)` of bands 4, 6, 8 for a mean normal of length `r`
-    /// (1 at the clamp's resultant or beyond: a delta).
-    #[inline]
-    fn attenuation_468(r: f32) -> [f32; 3] {
+    /// (1 at the clamp's resultant or beyond: a delta), computed: κ by
+    /// [`crate::vmf::kappa_estimate`], [`crate::vmf::sh_attenuation_forward`]
+    /// in f64. What [`Self::attenuation_468`] tabulates.
+    #[must_use]
+    pub fn attenuation_468_exact(r: f32) -> [f32; 3] {
         let mut a = [1.0f64; LAMBERT_TAIL_ORDER];
         if r < 1.0 - 1.5 / crate::vmf::KAPPA_MAX as f32 {
             crate::vmf::sh_attenuation_forward(f64::from(crate::vmf::kappa_estimate(r)), &mut a);
         }
         [a[4] as f32, a[6] as f32, a[8] as f32]
+    }
+
+    /// [`Self::attenuation_468_exact`] by linear interpolation in `r` in two
+    /// tables, `4 ×` [`ATTENUATION_NODES`] cells over `[0, 31/32]` (the
+    /// steepest part, κ ≈ 20–40, is just below 31/32) and
+    /// [`ATTENUATION_NODES`] over `[31/32, 1]` (built once, 61 KB; near 1, `A_l ≈ 1 − l(l+1)/2 ε + O(ε²)`
+    /// in `ε = 1/κ ≈ 1 − r` curves fast for `l = 8`), the delta branch (`r`
+    /// at the clamp's resultant) kept exact. In `r` the `A_l` are smooth at
+    /// both ends (`κ ≈ 3r` near 0), so the error is second order: ≤ 5e-6
+    /// (tested), where the computed form cost an f64 `exp` and eight
+    /// recurrence steps per pixel.
+    #[inline]
+    #[must_use]
+    pub fn attenuation_468(r: f32) -> [f32; 3] {
+        if r >= 1.0 - 1.5 / crate::vmf::KAPPA_MAX as f32 {
+            return [1.0; 3];
+        }
+        const SPLIT: f32 = 31.0 / 32.0;
+        const N: usize = 4 * ATTENUATION_NODES;
+        const M: usize = ATTENUATION_NODES;
+        static TABLE: std::sync::OnceLock<Vec<[f32; 3]>> = std::sync::OnceLock::new();
+        let t = TABLE.get_or_init(|| {
+            let lo = (0..=N).map(|i| SPLIT * i as f32 / N as f32);
+            let hi = (0..=M).map(|i| SPLIT + (1.0 - SPLIT) * i as f32 / M as f32);
+            lo.chain(hi).map(Self::attenuation_468_exact).collect()
+        });
+        let (x, base, cells) = if r < SPLIT {
+            (r.max(0.0) * (N as f32 / SPLIT), 0, N)
+        } else {
+            ((r - SPLIT) * (M as f32 / (1.0 - SPLIT)), N + 1, M)
+        };
+        let i = (x as usize).min(cells - 1);
+        let f = x - i as f32;
+        let (a, b) = (t[base + i], t[base + i + 1]);
+        [0, 1, 2].map(|c| a[c] + f * (b[c] - a[c]))
     }
 
     /// The tail at mean normal `m` (`|m| ≤ 1`, in the lighting's frame),

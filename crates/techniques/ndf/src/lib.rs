@@ -152,12 +152,124 @@ impl Footprint {
     }
 }
 
+/// Most texel taps of one level of a [`Footprint`]: 4 per probe.
+pub const MAX_LEVEL_TAPS: usize = MAX_PROBES * 4;
+
+/// The texel taps of a [`Footprint`] on one pyramid, level by level, in
+/// the order [`Footprint::for_each_tap`] visits them: `levels[j]` is read
+/// at `index[j][..len[j]]` with `weight[j][..len[j]]`, for `j < count`.
+/// Fixed-size (no allocation), so a sampler can run its own loop over them
+/// with its accumulators in registers instead of behind a closure.
+#[derive(Clone, Copy, Debug)]
+pub struct FootprintTaps {
+    /// The levels read (at most two).
+    pub levels: [usize; 2],
+    /// Levels in use (1 or 2).
+    pub count: usize,
+    /// Texel index within the level, per tap.
+    pub index: [[u32; MAX_LEVEL_TAPS]; 2],
+    /// Weight per tap: the probe mean's `1/count` × trilinear.
+    pub weight: [[f32; MAX_LEVEL_TAPS]; 2],
+    /// Taps per level.
+    pub len: [usize; 2],
+}
+
+impl FootprintTaps {
+    /// The taps of level slot `j` (`j < count`) as `(texel, weight)`.
+    #[inline]
+    pub fn level(&self, j: usize) -> impl Iterator<Item = (usize, f32)> + '_ {
+        self.index[j][..self.len[j]]
+            .iter()
+            .zip(&self.weight[j][..self.len[j]])
+            .map(|(i, w)| (*i as usize, *w))
+    }
+}
+
+/// [`relight_render::texture::bilinear_taps`], inlined: its fast path's
+/// arithmetic for coordinates below 2^23 (the same taps and weights, bit for
+/// bit, tested), the shared function otherwise.
+#[inline(always)]
+#[must_use]
+pub fn bilinear_taps_inline(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4] {
+    let fx = uv.x * width as f32 - 0.5;
+    let fy = uv.y * height as f32 - 0.5;
+    const EXACT: f32 = 8_388_608.0;
+    if !(fx.abs() < EXACT && fy.abs() < EXACT) || width > u32::MAX as usize {
+        return taps(width, height, uv);
+    }
+    #[inline(always)]
+    fn floor(v: f32) -> i64 {
+        let i = v as i64;
+        if (i as f32) > v { i - 1 } else { i }
+    }
+    #[inline(always)]
+    fn wrap_pair(i: i64, n: usize) -> (usize, usize) {
+        let n_i = n as i64;
+        let a = if (0..n_i).contains(&i) {
+            i as usize
+        } else if n.is_power_of_two() {
+            (i & (n_i - 1)) as usize
+        } else {
+            i.rem_euclid(n_i) as usize
+        };
+        (a, if a + 1 == n { 0 } else { a + 1 })
+    }
+    let (ix, iy) = (floor(fx), floor(fy));
+    let (tx, ty) = (fx - ix as f32, fy - iy as f32);
+    let (xa, xb) = wrap_pair(ix, width);
+    let (ya, yb) = wrap_pair(iy, height);
+    [
+        (ya * width + xa, (1.0 - tx) * (1.0 - ty)),
+        (ya * width + xb, tx * (1.0 - ty)),
+        (yb * width + xa, (1.0 - tx) * ty),
+        (yb * width + xb, tx * ty),
+    ]
+}
+
 impl Footprint {
+    /// Every texel tap of the footprint ([`FootprintTaps`]): the bilinear
+    /// taps of each probe at the two levels about `lod` (clamped to
+    /// `0..levels`; `dims(k)` is level k's size), the weights the probe
+    /// mean's `1/count` times the trilinear ones — the taps that the
+    /// per-probe [`sample_pyramid`] averaged, without a buffer per probe.
+    #[inline]
+    #[must_use]
+    pub fn taps(&self, levels: usize, dims: impl Fn(usize) -> (usize, usize)) -> FootprintTaps {
+        let top = (levels - 1) as f32;
+        let lod = self.lod.clamp(0.0, top);
+        let k0 = lod.floor() as usize;
+        let t = lod - k0 as f32;
+        let w = 1.0 / self.count as f32;
+        let mut out = FootprintTaps {
+            levels: [k0, k0],
+            count: 1,
+            index: [[0; MAX_LEVEL_TAPS]; 2],
+            weight: [[0.0; MAX_LEVEL_TAPS]; 2],
+            len: [0; 2],
+        };
+        let mut level = |j: usize, k: usize, wk: f32| {
+            let (lw, lh) = dims(k);
+            let mut n = 0;
+            for p in self.probes() {
+                for (i, wt) in bilinear_taps_inline(lw, lh, *p) {
+                    out.index[j][n] = i as u32;
+                    out.weight[j][n] = wt * wk;
+                    n += 1;
+                }
+            }
+            out.len[j] = n;
+            out.levels[j] = k;
+        };
+        level(0, k0, (1.0 - t) * w);
+        if t > 0.0 && k0 + 1 < levels {
+            level(1, k0 + 1, t * w);
+            out.count = 2;
+        }
+        out
+    }
+
     /// Visits every texel tap of the footprint: `add(level, texel, weight)`
-    /// for the bilinear taps of each probe at the two levels about `lod`
-    /// (clamped to `0..levels`; `dims(k)` is level k's size), the weights
-    /// the probe mean's `1/count` times the trilinear ones — the taps that
-    /// the per-probe [`sample_pyramid`] averaged, without a buffer per probe.
+    /// for the taps of [`Self::taps`], in order.
     #[inline]
     pub fn for_each_tap(
         &self,
@@ -165,22 +277,11 @@ impl Footprint {
         dims: impl Fn(usize) -> (usize, usize),
         mut add: impl FnMut(usize, usize, f32),
     ) {
-        let top = (levels - 1) as f32;
-        let lod = self.lod.clamp(0.0, top);
-        let k0 = lod.floor() as usize;
-        let t = lod - k0 as f32;
-        let w = 1.0 / self.count as f32;
-        let mut level = |k: usize, wk: f32| {
-            let (lw, lh) = dims(k);
-            for p in self.probes() {
-                for (i, wt) in taps(lw, lh, *p) {
-                    add(k, i, wt * wk);
-                }
+        let t = self.taps(levels, dims);
+        for j in 0..t.count {
+            for (i, w) in t.level(j) {
+                add(t.levels[j], i, w);
             }
-        };
-        level(k0, (1.0 - t) * w);
-        if t > 0.0 && k0 + 1 < levels {
-            level(k0 + 1, t * w);
         }
     }
 }
@@ -188,12 +289,14 @@ impl Footprint {
 /// The mean over `fp`'s probes of a linear pyramid ([`sample_pyramid`]).
 #[must_use]
 pub fn sample_footprint<T: Linear>(levels: &[(usize, usize, Vec<T>)], fp: &Footprint) -> T {
+    let t = fp.taps(levels.len(), |k| (levels[k].0, levels[k].1));
     let mut acc = T::ZERO;
-    fp.for_each_tap(
-        levels.len(),
-        |k| (levels[k].0, levels[k].1),
-        |k, i, w| acc = acc.add_scaled(w, levels[k].2[i]),
-    );
+    for j in 0..t.count {
+        let texels = &levels[t.levels[j]].2;
+        for (i, w) in t.level(j) {
+            acc = acc.add_scaled(w, texels[i]);
+        }
+    }
     acc
 }
 

@@ -66,6 +66,22 @@ pub struct VmfLevel {
     pub lobes: Vec<Vec4>,
 }
 
+/// [`VmfPyramid::sample_footprint`] for `J` lobes: `out[j] = Σ w · lobe_j`
+/// over the taps, in their order.
+#[inline]
+fn sample_taps<const J: usize>(levels: &[VmfLevel], taps: &crate::FootprintTaps, out: &mut [Vec4]) {
+    let mut acc = [Vec4::ZERO; J];
+    for j in 0..taps.count {
+        let (texels, _) = levels[taps.levels[j]].lobes.as_chunks::<J>();
+        for (i, w) in taps.level(j) {
+            for (a, v) in acc.iter_mut().zip(&texels[i]) {
+                *a += *v * w;
+            }
+        }
+    }
+    out[..J].copy_from_slice(&acc);
+}
+
 /// The pyramid.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VmfPyramid {
@@ -341,15 +357,20 @@ impl VmfPyramid {
         let j = self.lobes;
         let out = &mut out[..j];
         out.fill(Vec4::ZERO);
-        let dims = |k: usize| (self.levels[k].width, self.levels[k].height);
-        fp.for_each_tap(self.levels.len(), dims, |k, i, w| {
-            for (o, v) in out
-                .iter_mut()
-                .zip(&self.levels[k].lobes[i * j..(i + 1) * j])
-            {
-                *o += *v * w;
-            }
+        let taps = fp.taps(self.levels.len(), |k| {
+            (self.levels[k].width, self.levels[k].height)
         });
+        // The lobe count as a constant: the accumulators stay in registers.
+        match j {
+            1 => sample_taps::<1>(&self.levels, &taps, out),
+            2 => sample_taps::<2>(&self.levels, &taps, out),
+            3 => sample_taps::<3>(&self.levels, &taps, out),
+            4 => sample_taps::<4>(&self.levels, &taps, out),
+            5 => sample_taps::<5>(&self.levels, &taps, out),
+            6 => sample_taps::<6>(&self.levels, &taps, out),
+            7 => sample_taps::<7>(&self.levels, &taps, out),
+            _ => sample_taps::<8>(&self.levels, &taps, out),
+        }
     }
 
     /// Packed lobes of texel `(x, y)` of level `k`.

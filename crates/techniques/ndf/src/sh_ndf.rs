@@ -133,27 +133,36 @@ impl ShNdfPyramid {
         let nn = self.order * self.order;
         let out = &mut out[..nn];
         out.fill(0.0);
-        let dims = |k: usize| (self.levels[k].width, self.levels[k].height);
+        let taps = fp.taps(self.levels.len(), |k| {
+            (self.levels[k].width, self.levels[k].height)
+        });
         if nn == 9 {
-            // Lambert's order, with fixed-size loops the compiler unrolls.
-            let mut o9 = [0.0f32; 9];
-            fp.for_each_tap(self.levels.len(), dims, |k, i, w| {
-                let c: &[f32; 9] = self.levels[k].coeffs[i * 9..i * 9 + 9]
-                    .try_into()
-                    .expect("9 per texel");
-                for j in 0..9 {
-                    o9[j] += w * c[j];
+            // Lambert's order: the accumulators in registers (two 4-wide
+            // and one scalar), each tap `acc += c·w` as the generic loop.
+            let (mut a, mut b, mut c8) = (glam::Vec4::ZERO, glam::Vec4::ZERO, 0.0f32);
+            for j in 0..taps.count {
+                let (texels, _) = self.levels[taps.levels[j]].coeffs.as_chunks::<9>();
+                for (i, w) in taps.level(j) {
+                    let c = &texels[i];
+                    a += glam::Vec4::new(c[0], c[1], c[2], c[3]) * w;
+                    b += glam::Vec4::new(c[4], c[5], c[6], c[7]) * w;
+                    c8 += w * c[8];
                 }
-            });
-            out.copy_from_slice(&o9);
+            }
+            out[..4].copy_from_slice(&a.to_array());
+            out[4..8].copy_from_slice(&b.to_array());
+            out[8] = c8;
             return;
         }
-        fp.for_each_tap(self.levels.len(), dims, |k, i, w| {
-            let c = &self.levels[k].coeffs[i * nn..(i + 1) * nn];
-            for (o, v) in out.iter_mut().zip(c) {
-                *o += w * v;
+        for j in 0..taps.count {
+            let coeffs = &self.levels[taps.levels[j]].coeffs;
+            for (i, w) in taps.level(j) {
+                let c = &coeffs[i * nn..(i + 1) * nn];
+                for (o, v) in out.iter_mut().zip(c) {
+                    *o += w * v;
+                }
             }
-        });
+        }
     }
 
     /// [`Self::sample`] for order 3 (9 coefficients per texel).

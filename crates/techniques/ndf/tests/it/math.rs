@@ -724,3 +724,138 @@ fn forward_attenuation_matches_the_backward_recurrence() {
     }
     assert!(worst < 1e-6, "max |forward − backward| = {worst}");
 }
+
+#[test]
+fn inline_bilinear_taps_equal_the_shared_ones_bit_for_bit() {
+    use relight_ndf::bilinear_taps_inline;
+    let mut rng = relight_ndf::vmf::Xorshift(0x9e37_79b9_7f4a_7c15);
+    for (w, h) in [(512, 512), (1, 1), (3, 5), (64, 1), (7, 256)] {
+        for k in 0..4000 {
+            let scale = [1.0, 16.0, 1e3, 3e6][k % 4];
+            let uv = glam::Vec2::new(
+                ((rng.next_f64() - 0.5) * scale) as f32,
+                ((rng.next_f64() - 0.5) * scale) as f32,
+            );
+            let want = relight_render::texture::bilinear_taps(w, h, uv);
+            let got = bilinear_taps_inline(w, h, uv);
+            for (a, b) in got.iter().zip(&want) {
+                assert_eq!(a.0, b.0, "{w}×{h} at {uv}");
+                assert_eq!(a.1.to_bits(), b.1.to_bits(), "{w}×{h} at {uv}");
+            }
+        }
+    }
+}
+
+#[test]
+fn footprint_taps_equal_the_per_probe_trilinear_taps() {
+    // The straightforward form the tap list replaced: per probe, per level,
+    // the shared bilinear taps times (1 − t)/count and t/count.
+    let dims = |k: usize| (512usize >> k, 512usize >> k);
+    let levels = 10;
+    let mut rng = relight_ndf::vmf::Xorshift(7);
+    for _ in 0..2000 {
+        let uv = glam::Vec2::new(rng.next_f64() as f32 * 16.0, rng.next_f64() as f32 * 16.0);
+        let dx = glam::Vec2::new(rng.next_f64() as f32 - 0.5, rng.next_f64() as f32 - 0.5) * 0.2;
+        let dy = glam::Vec2::new(rng.next_f64() as f32 - 0.5, rng.next_f64() as f32 - 0.5) * 0.02;
+        let fp = relight_ndf::Footprint::of(uv, dx, dy, 512, 512);
+        let mut want = Vec::new();
+        let lod = fp.lod.clamp(0.0, (levels - 1) as f32);
+        let k0 = lod.floor() as usize;
+        let t = lod - k0 as f32;
+        let w = 1.0 / fp.count as f32;
+        let mut level = |k: usize, wk: f32| {
+            let (lw, lh) = dims(k);
+            for p in fp.probes() {
+                for (i, wt) in relight_render::texture::bilinear_taps(lw, lh, *p) {
+                    want.push((k, i, wt * wk));
+                }
+            }
+        };
+        level(k0, (1.0 - t) * w);
+        if t > 0.0 && k0 + 1 < levels {
+            level(k0 + 1, t * w);
+        }
+        let mut got = Vec::new();
+        fp.for_each_tap(levels, dims, |k, i, w| got.push((k, i, w)));
+        assert_eq!(got, want);
+    }
+}
+
+#[test]
+fn footprint_samplers_equal_the_plain_tap_loop_bit_for_bit() {
+    // The samplers' register accumulators against the plain loop they
+    // replaced (`out[c] += w · texel[c]` per tap, in tap order).
+    let map = relight_render::NormalMap::bumps(64, 4, 0.8);
+    let sh = ShNdfPyramid::build(64, 64, &map.texels, 3);
+    let sh4 = ShNdfPyramid::build(64, 64, &map.texels, 4);
+    let vmf = VmfPyramid::build(64, 64, &map.texels, &VmfBakeOptions::default());
+    let mut rng = relight_ndf::vmf::Xorshift(11);
+    for _ in 0..500 {
+        let uv = glam::Vec2::new(rng.next_f64() as f32 * 4.0, rng.next_f64() as f32 * 4.0);
+        let dx = glam::Vec2::new(rng.next_f64() as f32 - 0.5, rng.next_f64() as f32 - 0.5) * 0.3;
+        let dy = glam::Vec2::new(rng.next_f64() as f32 - 0.5, rng.next_f64() as f32 - 0.5) * 0.05;
+        let fp = relight_ndf::Footprint::of(uv, dx, dy, 64, 64);
+        for p in [&sh, &sh4] {
+            let nn = p.order * p.order;
+            let mut want = vec![0.0f32; nn];
+            fp.for_each_tap(
+                p.levels.len(),
+                |k| (p.levels[k].width, p.levels[k].height),
+                |k, i, w| {
+                    for (o, c) in want
+                        .iter_mut()
+                        .zip(&p.levels[k].coeffs[i * nn..(i + 1) * nn])
+                    {
+                        *o += w * c;
+                    }
+                },
+            );
+            let mut got = vec![0.0f32; nn];
+            p.sample_footprint(&fp, &mut got);
+            assert_eq!(
+                got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                want.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            );
+        }
+        let j = vmf.lobes;
+        let mut want = vec![glam::Vec4::ZERO; j];
+        fp.for_each_tap(
+            vmf.levels.len(),
+            |k| (vmf.levels[k].width, vmf.levels[k].height),
+            |k, i, w| {
+                for (o, v) in want
+                    .iter_mut()
+                    .zip(&vmf.levels[k].lobes[i * j..(i + 1) * j])
+                {
+                    *o += *v * w;
+                }
+            },
+        );
+        let mut got = vec![glam::Vec4::ZERO; j];
+        vmf.sample_footprint(&fp, &mut got);
+        assert_eq!(got, want);
+    }
+}
+
+#[test]
+fn tabulated_tail_attenuation_matches_the_recurrence() {
+    use relight_ndf::effective::LambertTail;
+    let mut worst = 0.0f32;
+    let mut rng = relight_ndf::vmf::Xorshift(3);
+    let mut rs: Vec<f32> = (0..20000).map(|_| rng.next_f64() as f32).collect();
+    // Near 1 (κ up to the clamp) and near 0, and the nodes themselves.
+    rs.extend((0..2000).map(|i| 1.0 - 1e-6 * i as f32));
+    rs.extend((0..2000).map(|i| 1e-5 * i as f32));
+    rs.extend((0..=4096).map(|i| i as f32 / 4096.0));
+    for r in rs {
+        let (a, b) = (
+            LambertTail::attenuation_468(r),
+            LambertTail::attenuation_468_exact(r),
+        );
+        for c in 0..3 {
+            worst = worst.max((a[c] - b[c]).abs());
+        }
+    }
+    // The tail these multiply is ≲ 0.1 of a pixel's radiance: ≤ 5e-7 of it.
+    assert!(worst <= 5e-6, "worst |ΔA_l| {worst}");
+}
