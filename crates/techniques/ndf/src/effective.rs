@@ -663,14 +663,15 @@ impl LambertTail {
             (1.0 - fx) * fy,
             fx * fy,
         );
+        // The nine blends first (a fixed-size loop the compiler vectorizes),
+        // then per channel `Σ_b A_b T_b` in the same order as before.
+        let mut v = [0.0f32; 9];
+        for k in 0..9 {
+            v[k] = w00 * t00[k] + w10 * t10[k] + w01 * t01[k] + w11 * t11[k];
+        }
         let mut out = Vec3::ZERO;
         for c in 0..3 {
-            let mut s = 0.0f32;
-            for (b, ab) in a.iter().enumerate() {
-                let k = c * 3 + b;
-                s += ab * (w00 * t00[k] + w10 * t10[k] + w01 * t01[k] + w11 * t11[k]);
-            }
-            out[c] = s;
+            out[c] = 0.0 + a[0] * v[c * 3] + a[1] * v[c * 3 + 1] + a[2] * v[c * 3 + 2];
         }
         out
     }

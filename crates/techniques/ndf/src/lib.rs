@@ -247,10 +247,18 @@ impl Footprint {
             weight: [[0.0; MAX_LEVEL_TAPS]; 2],
             len: [0; 2],
         };
-        let mut level = |j: usize, k: usize, wk: f32| {
-            let (lw, lh) = dims(k);
+        // A nested function, not a closure: it is inlined into the samplers.
+        #[inline(always)]
+        fn level(
+            out: &mut FootprintTaps,
+            j: usize,
+            probes: &[Vec2],
+            dims: (usize, usize),
+            wk: f32,
+        ) {
+            let (lw, lh) = dims;
             let mut n = 0;
-            for p in self.probes() {
+            for p in probes {
                 for (i, wt) in bilinear_taps_inline(lw, lh, *p) {
                     out.index[j][n] = i as u32;
                     out.weight[j][n] = wt * wk;
@@ -258,11 +266,11 @@ impl Footprint {
                 }
             }
             out.len[j] = n;
-            out.levels[j] = k;
-        };
-        level(0, k0, (1.0 - t) * w);
+        }
+        level(&mut out, 0, self.probes(), dims(k0), (1.0 - t) * w);
         if t > 0.0 && k0 + 1 < levels {
-            level(1, k0 + 1, t * w);
+            level(&mut out, 1, self.probes(), dims(k0 + 1), t * w);
+            out.levels[1] = k0 + 1;
             out.count = 2;
         }
         out

@@ -205,6 +205,10 @@ pub struct NdfMethod {
     objects: Vec<ObjectData>,
     raster: Rasterizer,
     pending_lighting_ms: f64,
+    /// Whether a flat triangle's frame and lighting are taken once per
+    /// triangle ([`TriangleConsts::flat`]); off only in the test that
+    /// compares the two.
+    flat_triangles: bool,
     /// The environment's SH to [`LAMBERT_TAIL_ORDER`] bands per channel, in
     /// the environment's frame, prepared: the Lambert tail's lighting.
     env_tail: LambertTail,
@@ -291,6 +295,7 @@ impl NdfMethod {
             objects: Vec::new(),
             raster: Rasterizer::new(),
             pending_lighting_ms: 0.0,
+            flat_triangles: true,
             env_tail: LambertTail::default(),
             env_from_world: Mat3::IDENTITY,
         })
@@ -569,6 +574,63 @@ impl TriangleLod {
     }
 }
 
+/// What the render loop keeps of the triangle under the last pixel.
+struct TriangleConsts {
+    draw: usize,
+    tri: usize,
+    /// The uv derivatives' constants, for a normal-mapped object.
+    lod: Option<TriangleLod>,
+    /// A flat triangle's shading frame and handedness: its three vertices
+    /// carry one normal and one tangent (bit for bit), so the per-pixel
+    /// interpolation would give them back (to an ulp of `Σλ = 1`).
+    flat: Option<(Frame, f32)>,
+}
+
+impl TriangleConsts {
+    fn new(
+        basis: &RayBasis,
+        eye: Vec3,
+        o: &ObjectData,
+        draw: usize,
+        tri: usize,
+        allow_flat: bool,
+    ) -> Self {
+        let [i0, i1, i2] = o.triangles[tri].map(|i| i as usize);
+        let lod = o.map.as_ref().map(|_| {
+            TriangleLod::new(
+                basis,
+                eye,
+                [o.positions[i0], o.positions[i1], o.positions[i2]],
+                [o.uvs[i0], o.uvs[i1], o.uvs[i2]],
+            )
+        });
+        let same3 = |a: Vec4, b: Vec4, c: Vec4| {
+            a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)
+                && a.to_array().map(f32::to_bits) == c.to_array().map(f32::to_bits)
+        };
+        let (n, t) = (o.normals[i0], o.tangents[i0]);
+        let flat = (allow_flat
+            && same3(
+                n.extend(0.0),
+                o.normals[i1].extend(0.0),
+                o.normals[i2].extend(0.0),
+            )
+            && same3(t, o.tangents[i1], o.tangents[i2]))
+        .then(|| {
+            (
+                Frame::from_normal_tangent(n.normalize_or(Vec3::Z), t.truncate()),
+                if t.w < 0.0 { -1.0 } else { 1.0 },
+            )
+        });
+        Self {
+            draw,
+            tri,
+            lod,
+            flat,
+        }
+    }
+}
+
 impl Relighter for NdfMethod {
     fn name(&self) -> &'static str {
         NDF_METHOD_NAME
@@ -738,52 +800,63 @@ impl Relighter for NdfMethod {
                 .enumerate()
                 .for_each(|(y, row)| {
                     // The last triangle's constants (a row crosses few).
-                    let mut cached: Option<(usize, usize, TriangleLod)> = None;
+                    let mut cached: Option<TriangleConsts> = None;
                     for (x, px) in row.iter_mut().enumerate() {
                         let Some((d, tri, lam)) = raster_ref.barycentrics_at(&draws, x, y) else {
                             continue;
                         };
                         let o = &this.objects[d];
                         let [i0, i1, i2] = o.triangles[tri].map(|i| i as usize);
+                        let tc = match &cached {
+                            Some(tc) if tc.draw == d && tc.tri == tri => tc,
+                            _ => cached.insert(TriangleConsts::new(
+                                &basis,
+                                eye,
+                                o,
+                                d,
+                                tri,
+                                this.flat_triangles,
+                            )),
+                        };
                         let mix3 = |a: Vec3, b: Vec3, c: Vec3| a * lam.x + b * lam.y + c * lam.z;
                         let position = mix3(o.positions[i0], o.positions[i1], o.positions[i2]);
-                        let n =
-                            mix3(o.normals[i0], o.normals[i1], o.normals[i2]).normalize_or(Vec3::Z);
-                        let tg = o.tangents[i0] * lam.x
-                            + o.tangents[i1] * lam.y
-                            + o.tangents[i2] * lam.z;
                         let uv = o.uvs[i0] * lam.x + o.uvs[i1] * lam.y + o.uvs[i2] * lam.z;
-                        let frame = Frame::from_normal_tangent(n, tg.truncate());
-                        let hand = if tg.w < 0.0 { -1.0 } else { 1.0 };
-                        let fp = match &o.map {
-                            Some((_, b)) => {
-                                let tl = match &cached {
-                                    Some((cd, ct, tl)) if *cd == d && *ct == tri => tl,
-                                    _ => {
-                                        let tl = TriangleLod::new(
-                                            &basis,
-                                            eye,
-                                            [o.positions[i0], o.positions[i1], o.positions[i2]],
-                                            [o.uvs[i0], o.uvs[i1], o.uvs[i2]],
-                                        );
-                                        &cached.insert((d, tri, tl)).2
-                                    }
-                                };
-                                tl.duv(&basis, x as f32 + 0.5, y as f32 + 0.5)
-                                    .map_or(Footprint::point(uv, 0.0), |[dx, dy]| {
-                                        Footprint::of(uv, dx, dy, b.width, b.height)
-                                    })
+                        let (frame, hand) = match tc.flat {
+                            Some(fh) => fh,
+                            None => {
+                                let n = mix3(o.normals[i0], o.normals[i1], o.normals[i2])
+                                    .normalize_or(Vec3::Z);
+                                let tg = o.tangents[i0] * lam.x
+                                    + o.tangents[i1] * lam.y
+                                    + o.tangents[i2] * lam.z;
+                                (
+                                    Frame::from_normal_tangent(n, tg.truncate()),
+                                    if tg.w < 0.0 { -1.0 } else { 1.0 },
+                                )
                             }
-                            None => Footprint::point(uv, 0.0),
+                        };
+                        let fp = match (&o.map, &tc.lod) {
+                            (Some((_, b)), Some(tl)) => tl
+                                .duv(&basis, x as f32 + 0.5, y as f32 + 0.5)
+                                .map_or(Footprint::point(uv, 0.0), |[dx, dy]| {
+                                    Footprint::of(uv, dx, dy, b.width, b.height)
+                                }),
+                            _ => Footprint::point(uv, 0.0),
                         };
                         let mut light = [0.0f32; 27];
-                        let (l0, l1, l2) = (
-                            &o.light[i0 * 27..i0 * 27 + 27],
-                            &o.light[i1 * 27..i1 * 27 + 27],
-                            &o.light[i2 * 27..i2 * 27 + 27],
-                        );
-                        for j in 0..27 {
-                            light[j] = l0[j] * lam.x + l1[j] * lam.y + l2[j] * lam.z;
+                        if tc.flat.is_some() {
+                            // One normal and tangent: the three vertices'
+                            // lighting is the same (λ sums to 1 within an ulp).
+                            light.copy_from_slice(&o.light[i0 * 27..i0 * 27 + 27]);
+                        } else {
+                            let (l0, l1, l2) = (
+                                &o.light[i0 * 27..i0 * 27 + 27],
+                                &o.light[i1 * 27..i1 * 27 + 27],
+                                &o.light[i2 * 27..i2 * 27 + 27],
+                            );
+                            for j in 0..27 {
+                                light[j] = l0[j] * lam.x + l1[j] * lam.y + l2[j] * lam.z;
+                            }
                         }
                         *px = this.shade(
                             o, position, eye, &frame, hand, uv, &fp, &light, scene, has_env,
@@ -811,6 +884,65 @@ impl Relighter for NdfMethod {
 mod tests {
     use super::*;
     use relight_render::Camera;
+    use relight_render::NoProgress;
+
+    #[test]
+    fn flat_triangles_shade_as_the_per_pixel_interpolation() {
+        // The bench's horizon plane (one normal and tangent everywhere), under
+        // the environment (Lambert, SH) and one light (vMF Blinn): per pixel
+        // the per-triangle frame and lighting against the interpolated ones.
+        let map = NormalMap::bumps(64, 4, 0.8);
+        for (filter, brdf) in [
+            (NdfFilter::Sh, NdfBrdf::Lambert),
+            (NdfFilter::Vmf, NdfBrdf::Blinn { s: 64.0 }),
+        ] {
+            let mut scene = crate::verify::horizon_plane_scene(&map, brdf, 96, 16.0);
+            if brdf == NdfBrdf::Lambert {
+                scene.env = relight_sphere::EnvMap::from_fn(
+                    relight_sphere::Param::LatLong {
+                        width: 32,
+                        height: 16,
+                    },
+                    |d| Vec3::new(0.5 + 0.5 * d.y.max(0.0), 0.4, 0.3 + 0.2 * d.x.abs()),
+                );
+            }
+            let mut m = NdfMethod::new(NdfOptions {
+                filter,
+                brdf,
+                vmf: VmfBakeOptions {
+                    lobes: 3,
+                    ..VmfBakeOptions::default()
+                },
+                ..NdfOptions::default()
+            })
+            .expect("options");
+            m.prepare(&scene, &NoProgress).expect("prepare");
+            let o = &m.objects[0];
+            let flat = (0..o.triangles.len())
+                .filter(|&t| {
+                    let rays = scene.camera.ray_frame();
+                    let basis = RayBasis::new(&rays, &scene.camera);
+                    TriangleConsts::new(&basis, scene.camera.eye, o, 0, t, true)
+                        .flat
+                        .is_some()
+                })
+                .count();
+            assert_eq!(flat, o.triangles.len(), "the plane's triangles are flat");
+            let req = FrameRequest::new(scene.camera);
+            let fast = m.render(&scene, &req, &NoProgress).expect("render");
+            m.flat_triangles = false;
+            let slow = m.render(&scene, &req, &NoProgress).expect("render");
+            let (a, b) = (&fast.image.pixels, &slow.image.pixels);
+            let peak = b.iter().map(|p| p.max_element()).fold(0.0f32, f32::max);
+            assert!(peak > 0.0);
+            let worst = a
+                .iter()
+                .zip(b)
+                .map(|(p, q)| (*p - *q).abs().max_element())
+                .fold(0.0f32, f32::max);
+            assert!(worst <= 1e-5 * peak, "{filter:?}: {worst} of peak {peak}");
+        }
+    }
 
     #[test]
     fn analytic_uv_derivatives_match_the_rasterizers_central_differences() {
