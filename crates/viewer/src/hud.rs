@@ -4,16 +4,16 @@
 //!
 //! | where | what |
 //! |---|---|
-//! | top left | method (`[k/n]` its key), ms of the frame's work and the fps it allows; the method's settings (order or terms, AA or spp); the measured error against the reference |
+//! | top left | method (`[k/n]` its key), ms of the frame's work and the fps it allows; the method's settings (order or terms, AA or spp); the measured error against the reference; the area light (centre, size, texture, and whether the light-editing mode is on) when the scene has one |
 //! | centre | why the method draws nothing (its refusal, [`Frame::message`]) or what it approximates; while a method prepares, its phase and a progress bar |
-//! | bottom left | the key help (`h` hides the HUD) |
+//! | bottom left | the key help (`h` hides the HUD); with an area light, its editing keys: `l` (or Shift held) makes a left drag move the light in its own plane, following the cursor, and the wheel scale it; `t` cycles its texture ([`crate::light`]) |
 //!
 //! # The error shown
 //! The relative RMS error over object pixels, √Σ‖a − r‖² / √Σ‖r‖² (the
 //! `verify` and `relight compare` measure, [`Image::relative_rms_error`]), of
 //! the frame against **the reference rendered for the same view**: the
 //! [`ErrorMeter`] keeps the last reference frame the viewer drew, keyed by
-//! camera, size and lighting rotation. Switching to the reference (its key)
+//! camera, size, lighting rotation and area-light edit. Switching to the reference (its key)
 //! and back measures any method at that view, against as many samples per
 //! pixel as the reference had accumulated (shown beside the error, since
 //! the reference's own noise is part of the figure). No estimate is made
@@ -22,6 +22,7 @@
 //! ([`rasterize_coverage`], [`COVERAGE_SUBSAMPLES`]² samples per pixel),
 //! computed once per reference view.
 
+use crate::light::LightEdit;
 use crate::state::{Frame, Viewer};
 use crate::text::{Canvas, GREEN, GREY, Line, RED, Rect, WHITE, YELLOW, line_height, wrap};
 use relight_methods::{MethodKind, MethodOptions};
@@ -64,6 +65,10 @@ pub struct HudInfo {
     pub refining: bool,
     /// The animation clock (seconds) and whether it runs, for a moving scene.
     pub clock: Option<(f32, bool)>,
+    /// The area light as drawn (centre, size, texture), when the scene has one.
+    pub light: Option<String>,
+    /// The light-editing mode is on (drag moves and the wheel scales the light).
+    pub light_mode: bool,
 }
 
 impl HudInfo {
@@ -92,6 +97,8 @@ impl HudInfo {
             clock: viewer
                 .is_animated()
                 .then(|| (viewer.time(), viewer.clock_runs())),
+            light: light_line(viewer),
+            light_mode: viewer.light_mode,
         }
     }
 
@@ -156,6 +163,13 @@ impl HudInfo {
             ErrorReading::NotDrawn => Line::new("error: nothing drawn", GREY),
         };
         lines.push(error);
+        if let Some(l) = &self.light {
+            lines.push(if self.light_mode {
+                Line::new(format!("{l}  [editing]"), YELLOW)
+            } else {
+                Line::new(l.clone(), GREY)
+            });
+        }
         lines
     }
 
@@ -168,30 +182,58 @@ impl HudInfo {
             .enumerate()
             .map(|(i, m)| format!("{} {m}", i + 1))
             .collect();
-        vec![
-            Line::new(
-                "drag: orbit   right drag: light   wheel: zoom   r: reset",
+        let mut lines = vec![Line::new(
+            if self.light_mode {
+                "drag: move area light in its plane   wheel: scale it   right drag: turn lighting   r: reset"
+            } else {
+                "drag: orbit   right drag: turn lighting   wheel: zoom   r: reset"
+            },
+            GREY,
+        )];
+        if self.light.is_some() {
+            lines.push(Line::new(
+                if self.light_mode {
+                    "l: back to orbit   t: light texture"
+                } else {
+                    "l or hold Shift: edit area light (drag moves, wheel scales)   t: light texture"
+                },
                 GREY,
+            ));
+        }
+        lines.push(Line::new(
+            format!(
+                "{}   a: AA{}{}   h: hide HUD   s: save   q: quit",
+                keys.join("  "),
+                if self.clock.is_some() {
+                    "   p: play"
+                } else {
+                    ""
+                },
+                if self.method == MethodKind::Ndf {
+                    "   n: normal filter"
+                } else {
+                    ""
+                }
             ),
-            Line::new(
-                format!(
-                    "{}   a: AA{}{}   h: hide HUD   s: save   q: quit",
-                    keys.join("  "),
-                    if self.clock.is_some() {
-                        "   p: play"
-                    } else {
-                        ""
-                    },
-                    if self.method == MethodKind::Ndf {
-                        "   n: normal filter"
-                    } else {
-                        ""
-                    }
-                ),
-                GREY,
-            ),
-        ]
+            GREY,
+        ));
+        lines
     }
+}
+
+/// The area light of the last frame (centre, size, texture), when the scene
+/// has one.
+fn light_line(viewer: &Viewer) -> Option<String> {
+    let l = viewer.lit_scene().area_lights.first()?;
+    let c = l.center;
+    let texture = match viewer.light_edit().texture {
+        crate::light::LightTexture::Scene if l.texture.is_none() => "none",
+        t => t.name(),
+    };
+    Some(format!(
+        "area light: centre ({:.2}, {:.2}, {:.2}) · {:.2} × {:.2} · texture {texture}",
+        c.x, c.y, c.z, l.size.x, l.size.y
+    ))
 }
 
 /// The settings line of a method's options and its frame.
@@ -390,17 +432,20 @@ pub fn draw_progress(canvas: &mut Canvas, status: &PrepareStatus) {
     );
 }
 
-/// Identifies a view: camera, image size and lighting rotation.
+/// Identifies a view: camera, image size, lighting rotation and area-light
+/// edit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct ViewKey {
     camera: Camera,
     light: [f32; 2],
+    edit: LightEdit,
 }
 
 fn key_of(viewer: &Viewer, width: usize, height: usize) -> ViewKey {
     ViewKey {
         camera: viewer.camera(width, height),
         light: [viewer.light_yaw_deg, viewer.light_pitch_deg],
+        edit: viewer.light_edit(),
     }
 }
 
@@ -489,7 +534,7 @@ mod tests {
         assert_eq!(e, ErrorReading::NoReference);
         let info = HudInfo::new(&v, &f, e, 20.0);
         let status = info.status_lines();
-        assert!(status[0].text.starts_with("sh [2/6]"), "{:?}", status[0]);
+        assert!(status[0].text.starts_with("sh [2/7]"), "{:?}", status[0]);
         assert!(status[0].text.contains("50 fps"), "{:?}", status[0]);
         assert!(status[1].text.contains("order 3"), "{:?}", status[1]);
         assert!(status[2].text.contains("press 5"), "{:?}", status[2]);
@@ -501,6 +546,7 @@ mod tests {
             "4 shexp",
             "5 reference",
             "6 ndf",
+            "7 nearfield",
             "q: quit",
         ] {
             assert!(help.contains(k), "{help}");

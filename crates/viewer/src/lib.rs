@@ -20,6 +20,8 @@
 //!   Only this module touches a display;
 //! * [`hud`]: the heads-up display drawn into each frame (method, ms, fps,
 //!   settings, error against the reference, refusals, progress, keys);
+//! * [`light`]: the area-light edit (move in its plane, scale, texture) that
+//!   every method is given through `set_lighting`;
 //! * [`text`]: bitmap text and panels over display words — the one text
 //!   path, shared by the HUD and the demo's labels;
 //! * [`sheet`] and [`demo`]: `relight demo`, every method's tile of the
@@ -31,12 +33,14 @@
 pub mod bench;
 pub mod demo;
 pub mod hud;
+pub mod light;
 pub mod orbit;
 pub mod sheet;
 pub mod state;
 pub mod text;
 pub mod window;
 
+pub use light::{LightEdit, LightTexture};
 pub use orbit::Orbit;
 pub use state::{Frame, Viewer, ViewerError, ViewerOptions, to_display};
 pub use window::{check_display, run};

@@ -9,6 +9,7 @@
 //! | input | call |
 //! |---|---|
 //! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target |
+//! | area-light edit (move in its plane, scale, texture; [`crate::light`]) | [`Relighter::set_lighting`] with the scene's first area light edited, then turned by the lighting rotation — never a new `prepare` |
 //! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera |
 //! | still view | progressive antialiasing: each [`Viewer::frame`] adds one pass of one sample per pixel at the next sub-pixel offset of an `aa × aa` grid ([`Camera::with_pixel_offset`]) to a running mean, until `aa²` passes ([`Viewer::refining`]); Monte Carlo methods (the reference) instead add a pass of their own samples per frame |
 //!
@@ -29,8 +30,9 @@
 //! move while it is shown, and the frame says why; choosing it after the clock
 //! moved prepares it again at the new pose.
 
+use crate::light::{LightEdit, LightTextures};
 use crate::orbit::Orbit;
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 use relight_methods::{MethodKind, MethodOptions};
 use relight_render::method::{
     FrameRequest, FrameWork, MAX_AA, MethodError, SceneFeature, check_scene, follows_animation,
@@ -80,6 +82,7 @@ impl Default for ViewerOptions {
                 MethodKind::ShExp,
                 MethodKind::Reference,
                 MethodKind::Ndf,
+                MethodKind::Nearfield,
             ]
             .into_iter()
             .map(MethodOptions::default_for)
@@ -116,8 +119,8 @@ struct Slot {
     /// Why it cannot render the scene (checked once).
     refused: Option<String>,
     warnings: Vec<String>,
-    /// The lighting rotation `set_lighting` last ran with.
-    lit: Option<Mat3>,
+    /// The lighting `set_lighting` last ran with.
+    lit: Option<Lighting>,
     /// Samples accumulated in the last frame (progressive methods).
     spp: u32,
     /// Whether the method integrates pixels itself (Monte Carlo), learned
@@ -128,12 +131,20 @@ struct Slot {
     posed_at: Option<f32>,
 }
 
+/// The lighting of a frame: the rotation (right drag) and the area-light
+/// edit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Lighting {
+    rotation: Mat3,
+    edit: LightEdit,
+}
+
 /// What a run of antialiasing passes accumulates for.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct AccumKey {
     method: usize,
     camera: Camera,
-    rotation: Mat3,
+    lighting: Lighting,
     time: f32,
 }
 
@@ -150,9 +161,18 @@ struct Accumulation {
 pub struct Viewer {
     /// The scene as loaded.
     scene: Scene,
-    /// The scene with the current lighting rotation applied.
+    /// The scene with the current lighting rotation and light edit applied.
     lit_scene: Scene,
-    lit_rotation: Mat3,
+    lit: Lighting,
+    /// The edit of the scene's first area light ([`crate::light`]).
+    light_edit: LightEdit,
+    /// Its built-in textures (empty without an area light).
+    light_textures: LightTextures,
+    /// Light-editing mode (the `l` key): a left drag moves the area light
+    /// and the wheel scales it, instead of orbiting and zooming.
+    pub light_mode: bool,
+    /// Methods prepared (created and baked or loaded) so far.
+    prepares: usize,
     /// The camera.
     pub orbit: Orbit,
     home: Orbit,
@@ -201,9 +221,21 @@ impl Viewer {
                     why: "is not among the viewer's methods",
                 })?;
         let orbit = Orbit::from_camera(&scene.camera);
+        let light_textures = scene
+            .area_lights
+            .first()
+            .map(LightTextures::for_light)
+            .unwrap_or_default();
         Ok(Self {
             lit_scene: scene.clone(),
-            lit_rotation: Mat3::IDENTITY,
+            lit: Lighting {
+                rotation: Mat3::IDENTITY,
+                edit: LightEdit::default(),
+            },
+            light_edit: LightEdit::default(),
+            light_textures,
+            light_mode: false,
+            prepares: 0,
             scene,
             orbit,
             home: orbit,
@@ -274,11 +306,114 @@ impl Viewer {
         true
     }
 
-    /// Back to the starting camera and lighting.
+    /// Back to the starting camera and lighting (the area light as loaded).
     pub fn reset(&mut self) {
         self.orbit = self.home;
         self.light_yaw_deg = 0.0;
         self.light_pitch_deg = 0.0;
+        self.light_edit = LightEdit::default();
+    }
+
+    /// True when the scene has an area light to edit ([`crate::light`]).
+    #[must_use]
+    pub fn has_area_light(&self) -> bool {
+        !self.scene.area_lights.is_empty()
+    }
+
+    /// The current edit of the scene's first area light.
+    #[must_use]
+    pub fn light_edit(&self) -> LightEdit {
+        self.light_edit
+    }
+
+    /// Moves the area light by `delta` along its own `x̂` and `ŷ` (world
+    /// units, in its plane). False, and nothing changes, without an area
+    /// light or for a non-finite `delta`.
+    pub fn move_light(&mut self, delta: Vec2) -> bool {
+        if !self.has_area_light() || !delta.is_finite() {
+            return false;
+        }
+        self.light_edit.offset += delta;
+        true
+    }
+
+    /// Moves the area light in its plane so that the point of the plane
+    /// under pixel `from` of a `width × height` frame goes under pixel `to`
+    /// (the light follows the cursor). A step is at most the orbit's
+    /// distance to its target. False, and nothing changes, without an area
+    /// light or when either pixel's ray misses the plane (parallel to it, or
+    /// the plane behind the eye).
+    pub fn drag_light(
+        &mut self,
+        from: (f32, f32),
+        to: (f32, f32),
+        width: usize,
+        height: usize,
+    ) -> bool {
+        if !self.has_area_light() || width == 0 || height == 0 {
+            return false;
+        }
+        self.update_lighting();
+        let l = &self.lit_scene.area_lights[0];
+        let (c, n) = (l.center, l.normal());
+        let (x, y) = (l.world_from_light.x_axis, l.world_from_light.y_axis);
+        let rays = self.camera(width, height).ray_frame();
+        let eye = rays.origin();
+        let hit = |(px, py): (f32, f32)| {
+            let d = rays.dir(px, py);
+            let den = d.dot(n);
+            let t = (c - eye).dot(n) / den;
+            (den.abs() > 1e-4 && t.is_finite() && t > 0.0).then(|| eye + d * t)
+        };
+        let (Some(a), Some(b)) = (hit(from), hit(to)) else {
+            return false;
+        };
+        let step = (b - a).clamp_length_max(self.orbit.distance);
+        self.move_light(Vec2::new(step.dot(x), step.dot(y)))
+    }
+
+    /// Scales the area light by [`crate::light::SCALE_PER_STEP`] per
+    /// `steps` (wheel steps; negative: smaller). False without an area light.
+    pub fn scale_light(&mut self, steps: f32) -> bool {
+        if !self.has_area_light() {
+            return false;
+        }
+        self.light_edit.scale_by_steps(steps);
+        true
+    }
+
+    /// Gives the area light the next texture ([`crate::light::LightTexture`]:
+    /// the scene's own, checker, stripes, gradient; the `t` key). False
+    /// without an area light.
+    pub fn cycle_light_texture(&mut self) -> bool {
+        if !self.has_area_light() {
+            return false;
+        }
+        self.light_edit.texture = self.light_edit.texture.next();
+        true
+    }
+
+    /// The scene as the last frame drew it: the lighting rotation and the
+    /// area-light edit applied.
+    #[must_use]
+    pub fn lit_scene(&self) -> &Scene {
+        &self.lit_scene
+    }
+
+    /// How many times a method was prepared (created, then baked or loaded)
+    /// since the viewer started. A lighting change or light edit prepares
+    /// nothing.
+    #[must_use]
+    pub fn prepares(&self) -> usize {
+        self.prepares
+    }
+
+    /// The lighting asked for (it reaches `lit_scene` at the next frame).
+    fn lighting(&self) -> Lighting {
+        Lighting {
+            rotation: self.light_rotation(),
+            edit: self.light_edit,
+        }
     }
 
     /// The starting camera's distance to its target.
@@ -313,13 +448,15 @@ impl Viewer {
         }
     }
 
-    /// Brings `lit_scene` to the current lighting rotation: the environment
-    /// turned, the point and area lights carried about the home orbit target.
+    /// Brings `lit_scene` to the current lighting: the first area light
+    /// edited ([`crate::light`]), then the environment turned and the point
+    /// and area lights carried about the home orbit target.
     fn update_lighting(&mut self) {
-        let r = self.light_rotation();
-        if r == self.lit_rotation {
+        let lighting = self.lighting();
+        if lighting == self.lit {
             return;
         }
+        let r = lighting.rotation;
         // Only the lighting changes: no copy of meshes or environment.
         let target = self.home.target;
         let (src, s) = (&self.scene, &mut self.lit_scene);
@@ -327,11 +464,20 @@ impl Viewer {
         for (l, l0) in s.point_lights.iter_mut().zip(&src.point_lights) {
             l.position = target + r * (l0.position - target);
         }
-        for (l, l0) in s.area_lights.iter_mut().zip(&src.area_lights) {
-            l.center = target + r * (l0.center - target);
-            l.world_from_light = r * l0.world_from_light;
+        for (i, (l, l0)) in s.area_lights.iter_mut().zip(&src.area_lights).enumerate() {
+            *l = if i == 0 {
+                lighting.edit.apply(l0, &self.light_textures)
+            } else {
+                l0.clone()
+            };
+            // Unturned, the light is exactly the edited one (a reset gives
+            // the scene's own, bit for bit).
+            if r != Mat3::IDENTITY {
+                l.center = target + r * (l.center - target);
+                l.world_from_light = r * l.world_from_light;
+            }
         }
-        self.lit_rotation = r;
+        self.lit = lighting;
     }
 
     /// Brings `posed` to the clock and the lighting, for a moving scene: new
@@ -382,10 +528,23 @@ impl Viewer {
             }
             Ok(w) => slot.warnings = w,
         }
-        m.prepare(scene, progress)?;
+        self.prepares += 1;
+        match m.prepare(scene, progress) {
+            // The scene lacks what the method needs (nearfield: an area
+            // light): shown on screen like a refusal, not a failure.
+            Err(
+                e @ MethodError::InvalidOption {
+                    option: "scene", ..
+                },
+            ) => {
+                slot.refused = Some(e.to_string());
+                return Ok(());
+            }
+            r => r?,
+        }
         slot.warnings.extend(m.warnings());
         slot.posed_at = posed.then_some(time);
-        slot.lit = Some(self.lit_rotation);
+        slot.lit = Some(self.lit);
         slot.method = Some(m);
         Ok(())
     }
@@ -412,11 +571,11 @@ impl Viewer {
             self.aa
         };
         let camera = self.camera(width, height);
-        let rotation = self.lit_rotation;
+        let lighting = self.lit;
         let key = AccumKey {
             method: self.current,
             camera,
-            rotation,
+            lighting,
             time: self.time,
         };
         self.refresh_pose();
@@ -436,9 +595,9 @@ impl Viewer {
                 message: slot.refused.clone(),
             });
         };
-        if slot.lit != Some(rotation) {
+        if slot.lit != Some(lighting) {
             method.set_lighting(scene, progress)?;
-            slot.lit = Some(rotation);
+            slot.lit = Some(lighting);
         }
         let mut notes = slot.warnings.clone();
         if stopped {
@@ -550,7 +709,7 @@ impl Viewer {
         let key = AccumKey {
             method: self.current,
             camera: self.camera(w, h),
-            rotation: self.light_rotation(),
+            lighting: self.lighting(),
             time: self.time,
         };
         self.accum.key != Some(key) || self.accum.passes < self.aa * self.aa

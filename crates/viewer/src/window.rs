@@ -3,10 +3,16 @@
 //! ([`crate::hud`]) drawn over them.
 //!
 //! Controls: left drag orbits the camera, right drag turns the lighting,
-//! the wheel zooms; `1`–`4` switch to wavelet / sh / fog / reference (which
-//! refines while the view is still), `a` toggles antialiasing, `h` the HUD,
-//! `r` resets, `s` saves the frame as PNG + EXR, `Esc`/`q` quits. While a
-//! button is held frames skip antialiasing (preview).
+//! the wheel zooms; `1`–`7` switch methods (the reference refines while the
+//! view is still), `a` toggles antialiasing, `h` the HUD, `r` resets, `s`
+//! saves the frame as PNG + EXR, `Esc`/`q` quits. While a button is held
+//! frames skip antialiasing (preview).
+//!
+//! With an area light in the scene ([`crate::light`]): `l` toggles the
+//! light-editing mode (or hold Shift), in which a left drag moves the first
+//! area light in its own plane, following the cursor, and the wheel scales
+//! it; `t` cycles its texture. Every edit reaches the methods through
+//! `set_lighting`, in the next frame, without preparing again.
 //!
 //! A method prepares (bakes or loads its data) on a worker thread the first
 //! time it is shown: the window keeps drawing, with the phase and a progress
@@ -28,7 +34,7 @@ use winit::application::ApplicationHandler;
 use winit::dpi::{PhysicalPosition, PhysicalSize};
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
-use winit::keyboard::{Key, NamedKey};
+use winit::keyboard::{Key, ModifiersState, NamedKey};
 use winit::window::{Window, WindowId};
 
 /// Degrees of turn per pixel of mouse drag.
@@ -84,6 +90,7 @@ struct App<'s, 'e> {
     surface: Option<softbuffer::Surface<Rc<Window>, Rc<Window>>>,
     drag: Option<MouseButton>,
     cursor: Option<PhysicalPosition<f64>>,
+    modifiers: ModifiersState,
     last: Option<Frame>,
     meter: ErrorMeter,
     show_hud: bool,
@@ -151,6 +158,7 @@ pub fn run(
             surface: None,
             drag: None,
             cursor: None,
+            modifiers: ModifiersState::empty(),
             last: None,
             meter: ErrorMeter::default(),
             show_hud: true,
@@ -346,6 +354,14 @@ impl<'s, 'e> App<'s, 'e> {
         Ok(())
     }
 
+    /// Whether the left drag and the wheel edit the area light now: light
+    /// mode or Shift held, with an area light in the scene.
+    fn editing_light(&self) -> bool {
+        self.viewer
+            .as_ref()
+            .is_some_and(|v| v.has_area_light() && (v.light_mode || self.modifiers.shift_key()))
+    }
+
     fn request_redraw(&self) {
         if let Some(w) = &self.window {
             w.request_redraw();
@@ -376,6 +392,17 @@ impl<'s, 'e> App<'s, 'e> {
                     }
                     "n" => {
                         if !viewer.cycle_normal_filter() {
+                            return Ok(());
+                        }
+                    }
+                    "l" => {
+                        if !viewer.has_area_light() {
+                            return Ok(());
+                        }
+                        viewer.light_mode = !viewer.light_mode;
+                    }
+                    "t" => {
+                        if !viewer.cycle_light_texture() {
                             return Ok(());
                         }
                     }
@@ -447,7 +474,13 @@ impl ApplicationHandler for App<'_, '_> {
                 self.request_redraw();
                 Ok(())
             }
+            WindowEvent::ModifiersChanged(m) => {
+                self.modifiers = m.state();
+                Ok(())
+            }
             WindowEvent::CursorMoved { position, .. } => {
+                let editing = self.editing_light();
+                let (w, h) = (self.size.0 as usize, self.size.1 as usize);
                 if let (Some(b), Some(last), Some(viewer)) =
                     (self.drag, self.cursor, self.viewer.as_mut())
                 {
@@ -456,6 +489,10 @@ impl ApplicationHandler for App<'_, '_> {
                         (position.y - last.y) as f32 * DEG_PER_PIXEL,
                     );
                     match b {
+                        MouseButton::Left if editing => {
+                            let px = |p: PhysicalPosition<f64>| (p.x as f32, p.y as f32);
+                            viewer.drag_light(px(last), px(position), w, h);
+                        }
                         MouseButton::Left => viewer.orbit.rotate(-dx, dy),
                         MouseButton::Right => {
                             viewer.light_yaw_deg += dx;
@@ -473,9 +510,14 @@ impl ApplicationHandler for App<'_, '_> {
                     MouseScrollDelta::LineDelta(_, y) => y,
                     MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
                 };
+                let editing = self.editing_light();
                 if let Some(viewer) = self.viewer.as_mut() {
-                    let min = 0.05 * viewer.home_distance();
-                    viewer.orbit.zoom(steps, min);
+                    if editing {
+                        viewer.scale_light(steps);
+                    } else {
+                        let min = 0.05 * viewer.home_distance();
+                        viewer.orbit.zoom(steps, min);
+                    }
                     self.request_redraw();
                 }
                 Ok(())
