@@ -57,7 +57,7 @@ fn check_size(width: usize, height: usize, given: usize) -> Result<(), TextureEr
 /// `width × height` grid: `[(index, weight); 4]` (texel centres at
 /// `(i + ½)/width`; non-finite uvs read texel 0 with weight 1). Every texture
 /// lookup of the workspace uses it, so that all agree on the convention.
-#[inline]
+#[inline(always)]
 #[must_use]
 pub fn bilinear_taps(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4] {
     let fx = uv.x * width as f32 - 0.5;
@@ -93,6 +93,13 @@ pub fn bilinear_taps(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4]
             (yb * width + xb, tx * ty),
         ];
     }
+    bilinear_taps_general(width, height, fx, fy)
+}
+
+/// [`bilinear_taps`] past its fast path (huge or non-finite coordinates):
+/// kept out of line so that the fast path inlines into per-texel loops.
+#[inline(never)]
+fn bilinear_taps_general(width: usize, height: usize, fx: f32, fy: f32) -> [(usize, f32); 4] {
     let (x0, y0) = (fx.floor(), fy.floor());
     let (tx, ty) = if fx.is_finite() && fy.is_finite() {
         (fx - x0, fy - y0)

@@ -99,7 +99,8 @@ mod tests {
         f.image.pixels.iter().map(|p| p.element_sum()).sum::<f32>() / f.image.pixels.len() as f32
     }
 
-    fn diff(a: &Frame, b: &Frame) -> f32 {
+    /// Summed absolute difference of two frames (also the light tests').
+    pub(crate) fn diff(a: &Frame, b: &Frame) -> f32 {
         a.image
             .pixels
             .iter()

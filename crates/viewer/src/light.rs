@@ -233,7 +233,7 @@ mod tests {
     /// floor and sphere under a ceiling light.
     mod in_the_viewer {
         use super::*;
-        use crate::{Frame, Viewer, ViewerOptions};
+        use crate::{Viewer, ViewerOptions};
         use relight_methods::{MethodKind, MethodOptions};
         use relight_render::{NoProgress, Progress, Scene};
         use std::sync::atomic::{AtomicUsize, Ordering};
@@ -283,14 +283,7 @@ mod tests {
             Viewer::new(scene, MethodKind::Nearfield, opts).unwrap()
         }
 
-        fn diff(a: &Frame, b: &Frame) -> f32 {
-            a.image
-                .pixels
-                .iter()
-                .zip(&b.image.pixels)
-                .map(|(p, q)| (*p - *q).abs().element_sum())
-                .sum()
-        }
+        use crate::tests::diff;
 
         #[test]
         fn moves_scales_and_textures_reach_the_method_without_preparing_again() {

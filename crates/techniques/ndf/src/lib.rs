@@ -185,47 +185,6 @@ impl FootprintTaps {
     }
 }
 
-/// [`relight_render::texture::bilinear_taps`], inlined: its fast path's
-/// arithmetic for coordinates below 2^23 (the same taps and weights, bit for
-/// bit, tested), the shared function otherwise.
-#[inline(always)]
-#[must_use]
-pub fn bilinear_taps_inline(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4] {
-    let fx = uv.x * width as f32 - 0.5;
-    let fy = uv.y * height as f32 - 0.5;
-    const EXACT: f32 = 8_388_608.0;
-    if !(fx.abs() < EXACT && fy.abs() < EXACT) || width > u32::MAX as usize {
-        return taps(width, height, uv);
-    }
-    #[inline(always)]
-    fn floor(v: f32) -> i64 {
-        let i = v as i64;
-        if (i as f32) > v { i - 1 } else { i }
-    }
-    #[inline(always)]
-    fn wrap_pair(i: i64, n: usize) -> (usize, usize) {
-        let n_i = n as i64;
-        let a = if (0..n_i).contains(&i) {
-            i as usize
-        } else if n.is_power_of_two() {
-            (i & (n_i - 1)) as usize
-        } else {
-            i.rem_euclid(n_i) as usize
-        };
-        (a, if a + 1 == n { 0 } else { a + 1 })
-    }
-    let (ix, iy) = (floor(fx), floor(fy));
-    let (tx, ty) = (fx - ix as f32, fy - iy as f32);
-    let (xa, xb) = wrap_pair(ix, width);
-    let (ya, yb) = wrap_pair(iy, height);
-    [
-        (ya * width + xa, (1.0 - tx) * (1.0 - ty)),
-        (ya * width + xb, tx * (1.0 - ty)),
-        (yb * width + xa, (1.0 - tx) * ty),
-        (yb * width + xb, tx * ty),
-    ]
-}
-
 impl Footprint {
     /// Every texel tap of the footprint ([`FootprintTaps`]): the bilinear
     /// taps of each probe at the two levels about `lod` (clamped to
@@ -259,7 +218,7 @@ impl Footprint {
             let (lw, lh) = dims;
             let mut n = 0;
             for p in probes {
-                for (i, wt) in bilinear_taps_inline(lw, lh, *p) {
+                for (i, wt) in taps(lw, lh, *p) {
                     out.index[j][n] = i as u32;
                     out.weight[j][n] = wt * wk;
                     n += 1;

@@ -726,27 +726,6 @@ fn forward_attenuation_matches_the_backward_recurrence() {
 }
 
 #[test]
-fn inline_bilinear_taps_equal_the_shared_ones_bit_for_bit() {
-    use relight_ndf::bilinear_taps_inline;
-    let mut rng = relight_ndf::vmf::Xorshift(0x9e37_79b9_7f4a_7c15);
-    for (w, h) in [(512, 512), (1, 1), (3, 5), (64, 1), (7, 256)] {
-        for k in 0..4000 {
-            let scale = [1.0, 16.0, 1e3, 3e6][k % 4];
-            let uv = glam::Vec2::new(
-                ((rng.next_f64() - 0.5) * scale) as f32,
-                ((rng.next_f64() - 0.5) * scale) as f32,
-            );
-            let want = relight_render::texture::bilinear_taps(w, h, uv);
-            let got = bilinear_taps_inline(w, h, uv);
-            for (a, b) in got.iter().zip(&want) {
-                assert_eq!(a.0, b.0, "{w}×{h} at {uv}");
-                assert_eq!(a.1.to_bits(), b.1.to_bits(), "{w}×{h} at {uv}");
-            }
-        }
-    }
-}
-
-#[test]
 fn footprint_taps_equal_the_per_probe_trilinear_taps() {
     // The straightforward form the tap list replaced: per probe, per level,
     // the shared bilinear taps times (1 − t)/count and t/count.
