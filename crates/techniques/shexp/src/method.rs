@@ -770,12 +770,7 @@ impl ShExpMethod {
                     let w = 1.0 / (k * k) as f32;
                     for a in 0..k {
                         for b in 0..k {
-                            let u = (a as f32 + rng.next_f32()) / k as f32;
-                            let s = (b as f32 + rng.next_f32()) / k as f32;
-                            let r = u.sqrt();
-                            let phi = 2.0 * std::f32::consts::PI * s;
-                            let local =
-                                Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u).max(0.0).sqrt());
+                            let local = crate::shade::cosine_stratum(a, b, k, &mut rng);
                             let d = frame.from_local(local).normalize();
                             if !bvh.occluded(o, d, f32::INFINITY) {
                                 continue;

@@ -54,3 +54,16 @@ pub fn oct_decode(uv: glam::Vec2) -> glam::Vec3 {
     }
     glam::Vec3::new(px, py, z).normalize()
 }
+
+/// The cosine-weighted direction (local frame, +Z the normal) in stratum
+/// `(a, b)` of `k × k`, jittered by `rng`: the rays of the `T_p` bakes and
+/// of verify's reference (`u` then `s` drawn in that order).
+#[inline]
+#[must_use]
+pub fn cosine_stratum(a: usize, b: usize, k: usize, rng: &mut relight_render::Rng) -> glam::Vec3 {
+    let u = (a as f32 + rng.next_f32()) / k as f32;
+    let s = (b as f32 + rng.next_f32()) / k as f32;
+    let r = u.sqrt();
+    let phi = 2.0 * std::f32::consts::PI * s;
+    glam::Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u).max(0.0).sqrt())
+}

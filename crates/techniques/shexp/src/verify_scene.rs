@@ -130,17 +130,8 @@ fn reference_env(scene: &Scene, points: &Mesh, strata: usize) -> Vec<Vec3> {
             let mut sum = Vec3::ZERO;
             for a in 0..strata {
                 for b in 0..strata {
-                    let u = (a as f32 + rng.next_f32()) / strata as f32;
-                    let s = (b as f32 + rng.next_f32()) / strata as f32;
-                    let r = u.sqrt();
-                    let phi = 2.0 * std::f32::consts::PI * s;
-                    let d = frame
-                        .from_local(Vec3::new(
-                            r * phi.cos(),
-                            r * phi.sin(),
-                            (1.0 - u).max(0.0).sqrt(),
-                        ))
-                        .normalize();
+                    let local = crate::shade::cosine_stratum(a, b, strata, &mut rng);
+                    let d = frame.from_local(local).normalize();
                     if !bvh.occluded(o, d, f32::INFINITY) {
                         sum += scene.env_radiance(d);
                     }
