@@ -342,19 +342,60 @@ pub fn reconstruct(c: &ShRgb, param: Param) -> EnvMap {
 }
 
 /// The lat-long fast projector of one grid and order (build once, project many).
+///
+/// Per row (a circle of constant polar angle about world +Y) it forms the
+/// Fourier sums `F_m = Σ_j f_j (cos mφ_j, sin mφ_j)` for `m < order` (φ_j: the
+/// column azimuth in the local frame whose pole is world +Y, radians), then
+/// accumulates `Ω_row Q̃_l^m(θ_row) F_m` in f64 and finally rotates the local
+/// coefficients to world (see the module docs).
+///
+/// # Symmetry fold (a truncated decimation-in-frequency FFT)
+/// When the columns are uniformly spaced (checked at build time, to 1e-6 rad),
+/// `φ_{j+W/2} = φ_j + π` gives `e^{im(φ_j+π)} = (−1)^m e^{imφ_j}`, so odd `m`
+/// sum `d¹_j = f_j − f_{j+W/2}` and even `m` sum `x¹_j = f_j + f_{j+W/2}` over
+/// `W/2` columns. Folding `x^{k−1}` (length `L`, spacing `Δ = π/2^{k−1}` between
+/// its halves) again gives `d^k` for `m = 2^{k−1}·odd` (`e^{imΔ} = −1`) and `x^k`
+/// for `m ≡ 0 mod 2^k` (`e^{imΔ} = 1`), as long as `L` is even and the check
+/// holds. `m` with 2-adic valuation `v` then sums `d^{v+1}` (`W/2^{v+1}`
+/// columns), the rest (and `m = 0`) the last `x^K`: about `0.67·W·n` instead of
+/// `2·W·n` multiply-adds per row and channel. With `K = 0` (odd width, or
+/// non-uniform columns) this is the direct sum over all columns.
+///
+/// # North/south pairing
+/// When row `H−1−r` mirrors row `r` (`z ↦ −z`, equal solid angle; checked to
+/// 1e-6), `Q̃_l^m(−z) = (−1)^{l+m} Q̃_l^m(z)` lets both rows share one pass of
+/// the Legendre accumulation with `F_r ± F_{H−1−r}`.
+///
+/// The sums run in f32 (RGB interleaved, 24 lanes) with FMA where the CPU has
+/// AVX2+FMA ([`crate::lanes::avx2_fma_available`]); [`Self::project_direct`] is
+/// the unfolded, unpaired reference.
 #[derive(Clone, Debug)]
 pub struct LatLongProjector {
     order: usize,
     width: usize,
     height: usize,
-    /// `cos(m φ_j)` for m < order, each repeated ×3 (interleaved RGB): `[m][3j + c]`.
-    cos3: Vec<f32>,
-    /// `sin(m φ_j)`, same layout (row m = 0 unused).
-    sin3: Vec<f32>,
-    /// Per row: `Ω_row · y_{l,m}(θ_row, φ=0)` for m ≥ 0 at index `l(l+1)+m`.
+    /// `(cos φ_j, sin φ_j)` of every column (local frame, taken on the middle row).
+    col_cs: Vec<[f64; 2]>,
+    /// Number of valid symmetry folds `K` (0: direct sums).
+    levels: usize,
+    /// Per m: offset (f32s) of its source row in the scratch buffer, and its length `3·cols`.
+    src: Vec<(usize, usize)>,
+    /// Per m: offset of its tables in `tab`: `cos(mφ_j)` ×3 then `sin(mφ_j)` ×3, `j < cols`.
+    tab_off: Vec<usize>,
+    tab: Vec<f32>,
+    /// Groups of one or two m sharing a source (one pass over the source each).
+    groups: Vec<(usize, [usize; 2])>,
+    /// Rows processed as units: `(r, Some(mirror))` or `(r, None)`.
+    units: Vec<(usize, Option<usize>)>,
+    /// Per row: `Ω_row · y_{l,m}(θ_row, φ=0)` for `m ≥ 0`, m-major (`m`, then `l = m..n`).
     row_y: Vec<f32>,
     /// Coefficients of the local (pole = world +Y) frame → world frame.
     world_from_local: ShRotation<f64>,
+}
+
+/// Number of `(m, l)` pairs with `0 ≤ m ≤ l < n`.
+const fn pairs(n: usize) -> usize {
+    n * (n + 1) / 2
 }
 
 impl LatLongProjector {
@@ -377,7 +418,7 @@ impl LatLongProjector {
 
     /// A projector for any product grid whose rows are circles about world +Y:
     /// `dir(row, col)` gives texel centres, `solid_angle(row)` the (exact)
-    /// solid angle of each texel in a row.
+    /// solid angle of each texel in a row (steradians).
     pub fn from_layout(
         order: usize,
         width: usize,
@@ -392,42 +433,98 @@ impl LatLongProjector {
                 why: "empty lat-long grid".into(),
             });
         }
+        let n = order;
         // Local frame: x' = world Z, y' = world X, z' = world Y (a cyclic, proper rotation).
         let local = |d: Vec3| DVec3::new(d.z as f64, d.x as f64, d.y as f64);
         let mid = height / 2;
-        let mut cos3 = vec![0.0f32; order * 3 * width];
-        let mut sin3 = vec![0.0f32; order * 3 * width];
-        for j in 0..width {
-            let d = local(dir(mid, j));
-            let h = d.x.hypot(d.y);
-            let (c1, s1) = if h > 0.0 {
-                (d.x / h, d.y / h)
-            } else {
-                (1.0, 0.0)
-            };
-            let (mut cm, mut sm) = (1.0f64, 0.0f64);
-            for m in 0..order {
-                for c in 0..3 {
-                    cos3[m * 3 * width + 3 * j + c] = cm as f32;
-                    sin3[m * 3 * width + 3 * j + c] = sm as f32;
+        let col_cs: Vec<[f64; 2]> = (0..width)
+            .map(|j| {
+                let d = local(dir(mid, j));
+                let h = d.x.hypot(d.y);
+                if h > 0.0 {
+                    [d.x / h, d.y / h]
+                } else {
+                    [1.0, 0.0]
                 }
-                let cn = cm * c1 - sm * s1;
-                sm = sm * c1 + cm * s1;
-                cm = cn;
+            })
+            .collect();
+        let levels = fold_levels(&col_cs);
+        // Sources: d^k at Σ_{i<k} 3W/2^i in the first 3W f32s, x^K after 3W.
+        let n3 = 3 * width;
+        let d_off = |k: usize| (1..k).map(|i| n3 >> i).sum::<usize>();
+        let x_src = (n3 + d_off(levels), n3 >> levels);
+        let mut src = Vec::with_capacity(n);
+        let mut tab_off = Vec::with_capacity(n);
+        let mut tab = Vec::new();
+        for m in 0..n {
+            let v = if m == 0 {
+                usize::MAX
+            } else {
+                m.trailing_zeros() as usize
+            };
+            let s = if v < levels {
+                (d_off(v + 1), n3 >> (v + 1))
+            } else {
+                x_src
+            };
+            src.push(s);
+            tab_off.push(tab.len());
+            let cols = s.1 / 3;
+            let (mut cos, mut sin) = (Vec::with_capacity(s.1), Vec::with_capacity(s.1));
+            for &[c1, s1] in &col_cs[..cols] {
+                let (c, s) = cos_sin_m(m, c1, s1);
+                for _ in 0..3 {
+                    cos.push(c as f32);
+                    sin.push(s as f32);
+                }
+            }
+            tab.extend_from_slice(&cos);
+            tab.extend_from_slice(&sin);
+        }
+        let mut groups: Vec<(usize, [usize; 2])> = Vec::new();
+        for m in 0..n {
+            match groups.last_mut() {
+                Some((1, g)) if src[g[0]] == src[m] => {
+                    g[1] = m;
+                    groups.last_mut().expect("just matched").0 = 2;
+                }
+                _ => groups.push((1, [m, m])),
             }
         }
-        let nn = order * order;
-        let mut row_y = vec![0.0f32; height * nn];
-        let mut y = vec![0.0f64; nn];
+        let np = pairs(n);
+        let mut row_y = vec![0.0f32; height * np];
+        let mut y = vec![0.0f64; n * n];
+        let mut zs = Vec::with_capacity(height);
+        let mut omegas = Vec::with_capacity(height);
         for r in 0..height {
             let z = (local(dir(r, 0)).z).clamp(-1.0, 1.0);
             let s = (1.0 - z * z).max(0.0).sqrt();
-            eval_sh_into(order, [s, 0.0, z], &mut y);
+            eval_sh_into(n, [s, 0.0, z], &mut y);
             let w = solid_angle(r);
-            for (o, v) in row_y[r * nn..(r + 1) * nn].iter_mut().zip(&y) {
-                *o = (w * v) as f32;
+            zs.push(z);
+            omegas.push(w);
+            let mut p = r * np;
+            for m in 0..n {
+                for l in m..n {
+                    row_y[p] = (w * y[l * (l + 1) + m]) as f32;
+                    p += 1;
+                }
             }
         }
+        let mirrored = (0..height / 2).all(|r| {
+            let q = height - 1 - r;
+            (zs[r] + zs[q]).abs() <= 1e-6
+                && (omegas[r] - omegas[q]).abs() <= 1e-6 * omegas[r].abs().max(omegas[q].abs())
+        });
+        let units = if mirrored {
+            let mut u: Vec<_> = (0..height / 2).map(|r| (r, Some(height - 1 - r))).collect();
+            if !height.is_multiple_of(2) {
+                u.push((height / 2, None));
+            }
+            u
+        } else {
+            (0..height).map(|r| (r, None)).collect()
+        };
         // c_world = M(P⁻¹) c_local with P d = (d.z, d.x, d.y).
         let p = Rot3::new_unchecked([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
         let mut world_from_local = ShRotation::identity(order)?;
@@ -436,51 +533,182 @@ impl LatLongProjector {
             order,
             width,
             height,
-            cos3,
-            sin3,
+            col_cs,
+            levels,
+            src,
+            tab_off,
+            tab,
+            groups,
+            units,
             row_y,
             world_from_local,
         })
     }
 
+    /// The number of symmetry folds in use (0: direct sums over all columns).
+    #[must_use]
+    pub fn fold_levels(&self) -> usize {
+        self.levels
+    }
+
+    /// Whether mirrored north/south rows share the Legendre pass.
+    #[must_use]
+    pub fn rows_paired(&self) -> bool {
+        self.units.iter().any(|u| u.1.is_some())
+    }
+
+    fn check_len(&self, texels: &[Vec3]) -> Result<(), ShError> {
+        if texels.len() == self.width * self.height {
+            Ok(())
+        } else {
+            Err(ShError::InvalidParameter {
+                what: "texels",
+                why: format!(
+                    "expected {} texels, got {}",
+                    self.width * self.height,
+                    texels.len()
+                ),
+            })
+        }
+    }
+
     /// Projects `width × height` texels (row-major) onto the projector's order.
     pub fn project(&self, texels: &[Vec3]) -> Result<ShRgb, ShError> {
-        let (w, n) = (self.width, self.order);
-        if texels.len() != w * self.height {
-            return Err(ShError::InvalidParameter {
-                what: "texels",
-                why: format!("expected {} texels, got {}", w * self.height, texels.len()),
-            });
+        self.check_len(texels)?;
+        let mut acc = vec![0.0f64; 6 * pairs(self.order)];
+        #[cfg(target_arch = "x86_64")]
+        if crate::lanes::avx2_fma_available() {
+            // SAFETY: the CPU has AVX2 and FMA (checked just above).
+            unsafe { self.accumulate_fma(texels, &mut acc) };
+            return self.finish(&acc);
         }
+        self.accumulate::<false>(texels, &mut acc);
+        self.finish(&acc)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn accumulate_fma(&self, texels: &[Vec3], acc: &mut [f64]) {
+        self.accumulate::<true>(texels, acc);
+    }
+
+    /// `acc[6p + k] = Σ_rows Ω Q̃_l^m (F_m)_k` for pair `p = (m, l)` (m-major),
+    /// `k = 0..3` the cos sums (RGB), `3..6` the sin sums.
+    #[inline(always)]
+    fn accumulate<const FMA: bool>(&self, texels: &[Vec3], acc: &mut [f64]) {
+        let (w, n) = (self.width, self.order);
+        let np = pairs(n);
+        let mut scratch = vec![0.0f32; 6 * w];
+        let mut f1 = vec![[0.0f32; 6]; n];
+        let mut f2 = vec![[0.0f32; 6]; n];
+        for &(r, mirror) in &self.units {
+            self.fourier_row::<FMA>(
+                vec3_as_f32(&texels[r * w..(r + 1) * w]),
+                &mut scratch,
+                &mut f1,
+            );
+            if let Some(q) = mirror {
+                self.fourier_row::<FMA>(
+                    vec3_as_f32(&texels[q * w..(q + 1) * w]),
+                    &mut scratch,
+                    &mut f2,
+                );
+            }
+            let ry = &self.row_y[r * np..(r + 1) * np];
+            let mut p = 0;
+            for m in 0..n {
+                let (a, b) = (f1[m], f2[m]);
+                let (ge, go): ([f64; 6], [f64; 6]) = if mirror.is_some() {
+                    (
+                        std::array::from_fn(|k| a[k] as f64 + b[k] as f64),
+                        std::array::from_fn(|k| a[k] as f64 - b[k] as f64),
+                    )
+                } else {
+                    let g = a.map(f64::from);
+                    (g, g)
+                };
+                for l in m..n {
+                    // Q̃_l^m(−z) = (−1)^{l+m} Q̃_l^m(z): the mirror row enters with that sign.
+                    let g = if (l - m) % 2 == 0 { &ge } else { &go };
+                    let yv = ry[p] as f64;
+                    let a6 = &mut acc[6 * p..6 * p + 6];
+                    for k in 0..6 {
+                        a6[k] = madd::<FMA, f64>(yv, g[k], a6[k]);
+                    }
+                    p += 1;
+                }
+            }
+        }
+    }
+
+    /// The Fourier sums of one row (`3W` interleaved RGB f32): `out[m] = [cos sums; sin sums]`.
+    #[inline(always)]
+    fn fourier_row<const FMA: bool>(&self, row: &[f32], scratch: &mut [f32], out: &mut [[f32; 6]]) {
+        let n3 = row.len();
+        {
+            let (d, x) = scratch.split_at_mut(n3);
+            if self.levels == 0 {
+                x[..n3].copy_from_slice(row);
+            }
+            let (mut doff, mut xoff, mut len) = (0, 0, n3);
+            for k in 0..self.levels {
+                let h = len / 2;
+                let (xprev, xnext) = x.split_at_mut(xoff);
+                let cur: &[f32] = if k == 0 { row } else { &xprev[xoff - len..] };
+                let (a, b) = cur.split_at(h);
+                let (dk, xk) = (&mut d[doff..doff + h], &mut xnext[..h]);
+                for i in 0..h {
+                    dk[i] = a[i] - b[i];
+                    xk[i] = a[i] + b[i];
+                }
+                doff += h;
+                xoff += h;
+                len = h;
+            }
+        }
+        for &(cnt, ms) in &self.groups {
+            let (off, len) = self.src[ms[0]];
+            let s = &scratch[off..off + len];
+            let t = |m: usize| {
+                let o = self.tab_off[m];
+                (&self.tab[o..o + len], &self.tab[o + len..o + 2 * len])
+            };
+            let (c0, s0) = t(ms[0]);
+            if cnt == 2 {
+                let (c1, s1) = t(ms[1]);
+                let [a, b, c, d] = dot3xk_dispatch::<FMA, 4>(s, [c0, s0, c1, s1]);
+                out[ms[0]] = [a[0], a[1], a[2], b[0], b[1], b[2]];
+                out[ms[1]] = [c[0], c[1], c[2], d[0], d[1], d[2]];
+            } else {
+                let [a, b] = dot3xk_dispatch::<FMA, 2>(s, [c0, s0]);
+                out[ms[0]] = [a[0], a[1], a[2], b[0], b[1], b[2]];
+            }
+        }
+    }
+
+    /// Local-frame accumulators → world-frame [`ShRgb`] (Ivanic–Ruedenberg rotation).
+    fn finish(&self, acc: &[f64]) -> Result<ShRgb, ShError> {
+        let n = self.order;
         let nn = n * n;
         let mut local = [vec![0.0f64; nn], vec![0.0f64; nn], vec![0.0f64; nn]];
-        let mut fc = vec![[0.0f32; 3]; n];
-        let mut fs = vec![[0.0f32; 3]; n];
-        for r in 0..self.height {
-            let row = vec3_as_f32(&texels[r * w..(r + 1) * w]);
-            for m in 0..n {
-                let c = &self.cos3[m * 3 * w..(m + 1) * 3 * w];
-                if m == 0 {
-                    fc[0] = dot3(row, c);
-                } else {
-                    let s = &self.sin3[m * 3 * w..(m + 1) * 3 * w];
-                    (fc[m], fs[m]) = dot3x2(row, c, s);
-                }
-            }
-            let ry = &self.row_y[r * nn..(r + 1) * nn];
-            for m in 0..n {
-                for l in m..n {
-                    let b = l * (l + 1);
-                    let yv = ry[b + m] as f64;
-                    for ch in 0..3 {
-                        local[ch][b + m] += yv * fc[m][ch] as f64;
-                        if m > 0 {
-                            local[ch][b - m] += yv * fs[m][ch] as f64;
-                        }
+        let mut p = 0;
+        for m in 0..n {
+            for l in m..n {
+                let b = l * (l + 1);
+                for ch in 0..3 {
+                    local[ch][b + m] = acc[6 * p + ch];
+                    if m > 0 {
+                        local[ch][b - m] = acc[6 * p + 3 + ch];
                     }
                 }
+                p += 1;
             }
         }
+        self.rotate_out(&local)
+    }
+
+    fn rotate_out(&self, local: &[Vec<f64>; 3]) -> Result<ShRgb, ShError> {
+        let nn = self.order * self.order;
         let mut channels = [vec![0.0f32; nn], vec![0.0f32; nn], vec![0.0f32; nn]];
         let mut tmp = vec![0.0f64; nn];
         for ch in 0..3 {
@@ -494,11 +722,90 @@ impl LatLongProjector {
             )?;
         }
         Ok(ShRgb {
-            order: n,
+            order: self.order,
             channels,
             window: Window::None,
         })
     }
+
+    /// The reference path: per row, direct f32 Fourier sums over all `W`
+    /// columns (no fold, no row pairing, no FMA), then the Legendre
+    /// accumulation in f64. Same result as [`Self::project`] up to f32 rounding.
+    pub fn project_direct(&self, texels: &[Vec3]) -> Result<ShRgb, ShError> {
+        self.check_len(texels)?;
+        let (w, n) = (self.width, self.order);
+        let mut cos3 = vec![0.0f32; n * 3 * w];
+        let mut sin3 = vec![0.0f32; n * 3 * w];
+        for (j, &[c1, s1]) in self.col_cs.iter().enumerate() {
+            for m in 0..n {
+                let (c, s) = cos_sin_m(m, c1, s1);
+                for ch in 0..3 {
+                    cos3[m * 3 * w + 3 * j + ch] = c as f32;
+                    sin3[m * 3 * w + 3 * j + ch] = s as f32;
+                }
+            }
+        }
+        let nn = n * n;
+        let np = pairs(n);
+        let mut local = [vec![0.0f64; nn], vec![0.0f64; nn], vec![0.0f64; nn]];
+        for r in 0..self.height {
+            let row = vec3_as_f32(&texels[r * w..(r + 1) * w]);
+            let ry = &self.row_y[r * np..(r + 1) * np];
+            let mut p = 0;
+            for m in 0..n {
+                let c = &cos3[m * 3 * w..(m + 1) * 3 * w];
+                let s = &sin3[m * 3 * w..(m + 1) * 3 * w];
+                let [fc, fs] = dot3xk::<false, 2>(row, [c, s]);
+                for l in m..n {
+                    let b = l * (l + 1);
+                    let yv = ry[p] as f64;
+                    for ch in 0..3 {
+                        local[ch][b + m] += yv * fc[ch] as f64;
+                        if m > 0 {
+                            local[ch][b - m] += yv * fs[ch] as f64;
+                        }
+                    }
+                    p += 1;
+                }
+            }
+        }
+        self.rotate_out(&local)
+    }
+}
+
+/// `(cos mφ, sin mφ)` from `(cos φ, sin φ)` by the angle-addition recurrence (f64).
+fn cos_sin_m(m: usize, c1: f64, s1: f64) -> (f64, f64) {
+    let (mut c, mut s) = (1.0f64, 0.0f64);
+    for _ in 0..m {
+        (c, s) = (c * c1 - s * s1, s * c1 + c * s1);
+    }
+    (c, s)
+}
+
+/// How many times the columns `(cos φ_j, sin φ_j)` fold by symmetry (see
+/// [`LatLongProjector`]): fold `k` (on a sequence of length `L = W/2^{k−1}`)
+/// needs `L` even and `2^{k−1}(φ_{j+L/2} − φ_j) ≡ π (mod 2π)` for every
+/// `j < L/2`, to 1e-6 rad in `φ`. Stops at the first fold that fails.
+fn fold_levels(cs: &[[f64; 2]]) -> usize {
+    let w = cs.len();
+    let phi: Vec<f64> = cs.iter().map(|&[c, s]| s.atan2(c)).collect();
+    let mut len = w;
+    let mut k = 0usize;
+    while len >= 2 && len.is_multiple_of(2) {
+        let h = len / 2;
+        let scale = (1u64 << k) as f64; // 2^{k} for fold k+1
+        let ok = (0..h).all(|j| {
+            let t = scale * (phi[j + h] - phi[j]) / std::f64::consts::PI;
+            let r = t.round();
+            (r as i64).rem_euclid(2) == 1 && (t - r).abs() * std::f64::consts::PI / scale <= 1e-6
+        });
+        if !ok {
+            break;
+        }
+        k += 1;
+        len = h;
+    }
+    k
 }
 
 #[inline]
@@ -510,53 +817,134 @@ fn vec3_as_f32(v: &[Vec3]) -> &[f32] {
 
 const LANES: usize = 24; // lcm(3, 8): lane k accumulates channel k % 3.
 
-#[inline]
-fn fold3(acc: &[f32; LANES]) -> [f32; 3] {
-    let mut o = [0.0f32; 3];
-    for (k, v) in acc.iter().enumerate() {
-        o[k % 3] += v;
+/// `a·b + c`, fused when `FMA` (only instantiate `FMA = true` inside
+/// `#[target_feature(enable = "fma")]` code, else `mul_add` is a libm call).
+#[inline(always)]
+fn madd<const FMA: bool, T: num_like::MulAdd>(a: T, b: T, c: T) -> T {
+    if FMA { a.fused(b, c) } else { a.plain(b, c) }
+}
+
+mod num_like {
+    pub trait MulAdd: Copy {
+        fn fused(self, b: Self, c: Self) -> Self;
+        fn plain(self, b: Self, c: Self) -> Self;
+    }
+    impl MulAdd for f32 {
+        #[inline(always)]
+        fn fused(self, b: Self, c: Self) -> Self {
+            self.mul_add(b, c)
+        }
+        #[inline(always)]
+        fn plain(self, b: Self, c: Self) -> Self {
+            self * b + c
+        }
+    }
+    impl MulAdd for f64 {
+        #[inline(always)]
+        fn fused(self, b: Self, c: Self) -> Self {
+            self.mul_add(b, c)
+        }
+        #[inline(always)]
+        fn plain(self, b: Self, c: Self) -> Self {
+            self * b + c
+        }
+    }
+}
+
+/// [`dot3xk`], through explicit AVX2+FMA registers when `FMA` (x86-64; the
+/// `[f32; 24]` lane arrays of the portable form vectorise only 4-wide).
+#[inline(always)]
+fn dot3xk_dispatch<const FMA: bool, const K: usize>(a: &[f32], t: [&[f32]; K]) -> [[f32; 3]; K] {
+    #[cfg(target_arch = "x86_64")]
+    if FMA {
+        // SAFETY: `FMA = true` is only instantiated under
+        // `#[target_feature(enable = "avx2,fma")]`, after the CPU check.
+        return unsafe { dot3xk_avx2::<K>(a, t) };
+    }
+    dot3xk::<FMA, K>(a, t)
+}
+
+/// [`dot3xk`] with `__m256` accumulators: three registers per table cover
+/// one 24-float chunk, so register lane `8i + k` holds channel `(8i + k) % 3`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn dot3xk_avx2<const K: usize>(a: &[f32], t: [&[f32]; K]) -> [[f32; 3]; K] {
+    use std::arch::x86_64::{
+        __m256, _mm256_fmadd_ps, _mm256_loadu_ps, _mm256_setzero_ps, _mm256_storeu_ps,
+    };
+    let n = a.len();
+    for tq in &t {
+        assert_eq!(tq.len(), n, "table length");
+    }
+    let full = n - n % LANES;
+    let mut acc: [[__m256; 3]; K] = [[_mm256_setzero_ps(); 3]; K];
+    let pa = a.as_ptr();
+    let mut s = 0;
+    while s < full {
+        // SAFETY: s + 24 ≤ full ≤ n = len of `a` and of every table.
+        unsafe {
+            let x = [
+                _mm256_loadu_ps(pa.add(s)),
+                _mm256_loadu_ps(pa.add(s + 8)),
+                _mm256_loadu_ps(pa.add(s + 16)),
+            ];
+            for q in 0..K {
+                let pt = t[q].as_ptr().add(s);
+                for i in 0..3 {
+                    acc[q][i] = _mm256_fmadd_ps(x[i], _mm256_loadu_ps(pt.add(8 * i)), acc[q][i]);
+                }
+            }
+        }
+        s += LANES;
+    }
+    let mut o = [[0.0f32; 3]; K];
+    for q in 0..K {
+        let mut lanes = [0.0f32; LANES];
+        for i in 0..3 {
+            // SAFETY: 8 floats at 8i < 24.
+            unsafe { _mm256_storeu_ps(lanes.as_mut_ptr().add(8 * i), acc[q][i]) };
+        }
+        for (k, v) in lanes.iter().enumerate() {
+            o[q][k % 3] += v;
+        }
+        for k in full..n {
+            o[q][k % 3] = a[k].mul_add(t[q][k], o[q][k % 3]);
+        }
     }
     o
 }
 
-#[inline]
-fn dot3(a: &[f32], b: &[f32]) -> [f32; 3] {
-    let mut acc = [0.0f32; LANES];
-    let (ac, ar) = (a.chunks_exact(LANES), a.len() % LANES);
-    for (x, y) in ac.zip(b.chunks_exact(LANES)) {
-        for k in 0..LANES {
-            acc[k] += x[k] * y[k];
-        }
+/// `K` per-channel dot products of one interleaved-RGB row `a` with `K`
+/// tables of the same length: `out[q][ch] = Σ_{i ≡ ch (3)} a_i t_q,i` (f32).
+#[inline(always)]
+fn dot3xk<const FMA: bool, const K: usize>(a: &[f32], t: [&[f32]; K]) -> [[f32; 3]; K] {
+    let n = a.len();
+    for tq in &t {
+        assert_eq!(tq.len(), n, "table length");
     }
-    let mut o = fold3(&acc);
-    let s = a.len() - ar;
-    for k in s..a.len() {
-        o[k % 3] += a[k] * b[k];
+    let mut acc = [[0.0f32; LANES]; K];
+    let full = n - n % LANES;
+    let mut s = 0;
+    while s < full {
+        let x: &[f32; LANES] = a[s..s + LANES].try_into().expect("chunk");
+        for q in 0..K {
+            let y: &[f32; LANES] = t[q][s..s + LANES].try_into().expect("chunk");
+            for k in 0..LANES {
+                acc[q][k] = madd::<FMA, f32>(x[k], y[k], acc[q][k]);
+            }
+        }
+        s += LANES;
+    }
+    let mut o = [[0.0f32; 3]; K];
+    for q in 0..K {
+        for (k, v) in acc[q].iter().enumerate() {
+            o[q][k % 3] += v;
+        }
+        for k in full..n {
+            o[q][k % 3] = madd::<FMA, f32>(a[k], t[q][k], o[q][k % 3]);
+        }
     }
     o
-}
-
-#[inline]
-fn dot3x2(a: &[f32], b: &[f32], c: &[f32]) -> ([f32; 3], [f32; 3]) {
-    let mut acc = [0.0f32; LANES];
-    let mut acc2 = [0.0f32; LANES];
-    for ((x, y), z) in a
-        .chunks_exact(LANES)
-        .zip(b.chunks_exact(LANES))
-        .zip(c.chunks_exact(LANES))
-    {
-        for k in 0..LANES {
-            acc[k] += x[k] * y[k];
-            acc2[k] += x[k] * z[k];
-        }
-    }
-    let (mut o, mut o2) = (fold3(&acc), fold3(&acc2));
-    let s = a.len() - a.len() % LANES;
-    for k in s..a.len() {
-        o[k % 3] += a[k] * b[k];
-        o2[k % 3] += a[k] * c[k];
-    }
-    (o, o2)
 }
 
 #[cfg(test)]
@@ -602,6 +990,102 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// Uniform random texels in [0.5, 1.5) (xorshift; no timing, no stored outputs).
+    fn random_texels(len: usize, seed: u64) -> Vec<Vec3> {
+        let mut s = seed | 1;
+        let mut r = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32 + 0.5
+        };
+        (0..len).map(|_| Vec3::new(r(), r(), r())).collect()
+    }
+
+    /// `max |a − b| / max |b|` over all channels and coefficients.
+    fn rel_diff(a: &ShRgb, b: &ShRgb) -> f32 {
+        let (mut d, mut m) = (0.0f32, 0.0f32);
+        for ch in 0..3 {
+            for (x, y) in a.channels[ch].iter().zip(&b.channels[ch]) {
+                d = d.max((x - y).abs());
+                m = m.max(y.abs());
+            }
+        }
+        d / m
+    }
+
+    #[test]
+    fn folded_projection_matches_direct_sums() {
+        // (width, height, expected folds): power of two, 2^5·3, 2^2·25, odd.
+        for (w, h, folds) in [
+            (256, 128, 8),
+            (96, 48, 5),
+            (100, 50, 2),
+            (255, 128, 0),
+            (7, 5, 0),
+        ] {
+            let param = Param::LatLong {
+                width: w,
+                height: h,
+            };
+            let texels = random_texels(w * h, 0x9e37_79b9 ^ w as u64);
+            for order in [1, 2, 3, 10, 16, 30] {
+                let pr = LatLongProjector::new(param, order).unwrap();
+                assert_eq!(pr.fold_levels(), folds, "{w}x{h}");
+                assert!(pr.rows_paired(), "{w}x{h}: lat-long rows are mirrored");
+                let fast = pr.project(&texels).unwrap();
+                let direct = pr.project_direct(&texels).unwrap();
+                let e = rel_diff(&fast, &direct);
+                assert!(e <= 1e-5, "{w}x{h} order {order}: fold vs direct {e:e}");
+                let mut acc = vec![0.0f64; 6 * pairs(order)];
+                pr.accumulate::<false>(&texels, &mut acc);
+                let portable = pr.finish(&acc).unwrap();
+                let e = rel_diff(&portable, &direct);
+                assert!(e <= 1e-5, "{w}x{h} order {order}: portable vs direct {e:e}");
+                if order <= 10 && w * h <= 256 * 128 {
+                    let generic =
+                        project_samples(order, &param.directions(), &param.solid_angles(), &texels)
+                            .unwrap();
+                    let e = rel_diff(&fast, &generic);
+                    assert!(e <= 1e-5, "{w}x{h} order {order}: fold vs per-texel {e:e}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn non_uniform_columns_and_unmirrored_rows_fall_back() {
+        // Jittered column azimuths (no fold) and rows only in the upper
+        // hemisphere (no pairing): the projector must still equal per-texel
+        // projection of the same samples.
+        let (w, h) = (64usize, 16usize);
+        let phi = |j: usize| {
+            std::f64::consts::TAU * (j as f64 + 0.5) / w as f64 + 0.01 * ((j * 7) % 5) as f64
+        };
+        let theta = |r: usize| 0.1 + 1.2 * (r as f64 + 0.5) / h as f64;
+        let dir = |r: usize, j: usize| {
+            let (st, ct) = theta(r).sin_cos();
+            let (sp, cp) = phi(j).sin_cos();
+            // Local frame (x', y', z') = (world Z, world X, world Y).
+            Vec3::new((st * sp) as f32, ct as f32, (st * cp) as f32)
+        };
+        let omega = |r: usize| 0.01 + 0.001 * r as f64;
+        let texels = random_texels(w * h, 7);
+        for order in [3, 10, 16] {
+            let pr = LatLongProjector::from_layout(order, w, h, dir, omega).unwrap();
+            assert_eq!(pr.fold_levels(), 0);
+            assert!(!pr.rows_paired());
+            let fast = pr.project(&texels).unwrap();
+            let direct = pr.project_direct(&texels).unwrap();
+            assert!(rel_diff(&fast, &direct) <= 1e-5, "order {order}");
+            let dirs: Vec<Vec3> = (0..w * h).map(|i| dir(i / w, i % w)).collect();
+            let ws: Vec<f32> = (0..w * h).map(|i| omega(i / w) as f32).collect();
+            let generic = project_samples(order, &dirs, &ws, &texels).unwrap();
+            let e = rel_diff(&fast, &generic);
+            assert!(e <= 1e-5, "order {order}: {e:e}");
         }
     }
 
