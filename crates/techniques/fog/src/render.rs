@@ -462,6 +462,12 @@ fn shade_gbuffer(
     if w == 0 || h == 0 {
         return;
     }
+    if lights.is_empty() {
+        // Every term of the model is a sum over the lights (surface
+        // radiance and airlight alike): without lights the image is black.
+        out.pixels.fill(Vec3::ZERO);
+        return;
+    }
     // First global triangle id of each object (ids of draw d follow those
     // of draws 0..d).
     let mut first = Vec::with_capacity(objects.len() + 1);
@@ -593,6 +599,47 @@ pub fn floor_grid(y: f32, half: f32, n: u32) -> Mesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Without lights the frame skips the per-pixel model: black, as the
+    /// model itself (every term is a sum over the lights) gives per pixel,
+    /// with or without a fog ball.
+    #[test]
+    fn no_lights_is_the_models_black_frame() {
+        let sphere = relight_geom::shapes::uv_sphere_at(Vec3::new(0.0, 0.5, 0.0), 0.7, 24, 12);
+        let floor = floor_grid(0.0, 3.0, 4);
+        let mat = FogMaterial::phong(Vec3::splat(0.5), Vec3::splat(0.3), 20);
+        let objects = [
+            FogObject {
+                mesh: &sphere,
+                material: mat,
+            },
+            FogObject {
+                mesh: &floor,
+                material: FogMaterial::lambert(Vec3::splat(0.4)),
+            },
+        ];
+        let tables = FogTables::build_for(16, &[mat]).unwrap();
+        let camera = Camera {
+            eye: Vec3::new(0.0, 1.0, 4.0),
+            target: Vec3::new(0.0, 0.5, 0.0),
+            up: Vec3::Y,
+            vfov_deg: 50.0,
+            width: 37,
+            height: 23,
+            image_offset: glam::Vec2::ZERO,
+        };
+        for ball in [None, Some(9.0)] {
+            let mut settings = FogSettings::new(&tables, 0.2);
+            settings.ball_radius = ball;
+            let model = FogModel::new(&tables, 0.2, &settings.phase, settings.interp).unwrap();
+            let prepared = model.prepare_lights(camera.eye, &[]).unwrap();
+            let want = model.shade_pixel(camera.eye, Vec3::NEG_Z, &prepared, None);
+            assert_eq!(want, Vec3::ZERO);
+            let img = render_fog(&objects, &camera, &[], &settings).unwrap();
+            assert_eq!((img.width, img.height), (37, 23));
+            assert!(img.pixels.iter().all(|p| *p == want), "ball {ball:?}");
+        }
+    }
 
     /// The bounding-box skip of [`enclosing_object`] gives the crossing
     /// count's answer at points inside, near and outside closed meshes.

@@ -586,6 +586,93 @@ mod tests {
         }
     }
 
+    /// A surface that reflects nothing (the fog ball's edge behind empty
+    /// pixels) takes the airlight-only AVX2 kernel: the same sums as the
+    /// full kernel bit for bit (its surface terms are finite products with
+    /// zero), and the scalar model's airlight within the kernels' tolerance.
+    #[test]
+    fn black_surface_kernel_equals_the_full_kernel() {
+        let tables = FogTables::build_with(16, 2, &[20]).unwrap();
+        let eye = Vec3::new(0.0, 1.5, 6.0);
+        let lights = [
+            PointLight::new(Vec3::new(-3.0, 2.0, -2.0), Vec3::new(20.0, 15.0, 10.0)),
+            PointLight::new(Vec3::new(2.0, 3.0, -9.0), Vec3::splat(25.0)),
+        ];
+        let mut rng = Rng::new(9, 2);
+        for (phase, interp) in [
+            (Phase::isotropic(), Interp::Bilinear),
+            (Phase::rayleigh(), Interp::Nearest),
+        ] {
+            let model = FogModel::new(&tables, 0.08, &phase, interp).unwrap();
+            let pl = model.prepare_lights(eye, &lights).unwrap();
+            let black = MaterialConst {
+                kd: Vec3::ZERO,
+                ks: Vec3::ZERO,
+                n: 1.0,
+                g: model.stand_in_table(),
+            };
+            let mut batch = PixelBatch::default();
+            let mut pts = Vec::new();
+            for i in 0..101 {
+                let r = if i % 4 == 0 { 0.4 } else { 15.0 };
+                let p = eye
+                    + Vec3::new(
+                        r * (rng.next_f32() - 0.5),
+                        r * (rng.next_f32() - 0.5),
+                        -r * rng.next_f32() - 0.05,
+                    );
+                let n = -(p - eye).normalize();
+                batch.push(eye, p, n, model.beta);
+                pts.push((p, n));
+            }
+            let len = batch.len();
+            #[cfg(target_arch = "x86_64")]
+            if simd_ok(&model) {
+                let ctx = model.simd_ctx();
+                let mut full = batch.clone();
+                // SAFETY: AVX2 and FMA are present (simd_ok), tables are small.
+                let (a, b) = unsafe {
+                    if interp == Interp::Nearest {
+                        (
+                            crate::simd::surface_run_impl::<true, false>(
+                                &ctx, &pl, &black, &mut batch, 0, len,
+                            ),
+                            crate::simd::surface_run_impl::<true, true>(
+                                &ctx, &pl, &black, &mut full, 0, len,
+                            ),
+                        )
+                    } else {
+                        (
+                            crate::simd::surface_run_impl::<false, false>(
+                                &ctx, &pl, &black, &mut batch, 0, len,
+                            ),
+                            crate::simd::surface_run_impl::<false, true>(
+                                &ctx, &pl, &black, &mut full, 0, len,
+                            ),
+                        )
+                    }
+                };
+                assert_eq!(a, b);
+                for i in 0..a {
+                    assert_eq!(batch.radiance(i), full.radiance(i), "pixel {i}");
+                }
+                // Reset the accumulators for the public path below.
+                batch.prepare(eye, model.beta, 0);
+            }
+            shade_surface_run(&model, &pl, &black, &mut batch, 0..len);
+            let mat = FogMaterial::lambert(Vec3::ZERO);
+            for (i, &(p, n)) in pts.iter().enumerate() {
+                let dir = (p - eye).normalize();
+                let want = model.shade_pixel(eye, dir, &pl, Some((p, n, &mat, None)));
+                let got = batch.radiance(i);
+                assert!(
+                    (got - want).abs().max_element() <= 1e-4 * want.max_element() + 1e-7,
+                    "pixel {i}: batch {got} vs scalar {want}"
+                );
+            }
+        }
+    }
+
     /// Edge cases through the batch kernels: β = 0, a surface point on the
     /// light, points on the line through eye and light, a light at the eye
     /// — finite, non-negative radiance everywhere.

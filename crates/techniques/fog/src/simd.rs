@@ -351,6 +351,28 @@ pub unsafe fn surface_run<const NEAREST: bool>(
     start: usize,
     end: usize,
 ) -> usize {
+    if mat.kd == glam::Vec3::ZERO && mat.ks == glam::Vec3::ZERO {
+        surface_run_impl::<NEAREST, false>(ctx, lights, mat, lanes, start, end)
+    } else {
+        surface_run_impl::<NEAREST, true>(ctx, lights, mat, lanes, start, end)
+    }
+}
+
+/// [`surface_run`]; `SURFACE = false` for a surface that reflects nothing
+/// (kd = ks = 0, the fog ball's edge behind empty pixels): only the
+/// airlight term, without the G lookups and the Phong power whose
+/// products with zero the full kernel would add (the same sums where they
+/// are finite, as they always are: d ≥ MIN_DISTANCE, μ clamped).
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+pub(crate) unsafe fn surface_run_impl<const NEAREST: bool, const SURFACE: bool>(
+    ctx: &Ctx,
+    lights: &[PreparedLight],
+    mat: &MaterialConst,
+    lanes: &mut PixelBatch,
+    start: usize,
+    end: usize,
+) -> usize {
     let m = end.saturating_sub(start) / 8 * 8;
     let stop = start + m;
     let beta = splat(ctx.beta);
@@ -435,6 +457,13 @@ pub unsafe fn surface_run<const NEAREST: bool>(
                     cancel,
                 )
             };
+            if !SURFACE {
+                for (c, l) in il.iter().enumerate() {
+                    add_to(lanes.acc_mut(c), i, _mm256_mul_ps(*l, air));
+                }
+                i += 8;
+                continue;
+            }
             // Surface radiance (eq. 3.20–3.28).
             let w_t = _mm256_div_ps(t_sp, _mm256_add_ps(one, t_sp));
             let direct = _mm256_mul_ps(e_sp, _mm256_mul_ps(inv_d, inv_d));
