@@ -376,7 +376,8 @@ pub struct LatLongProjector {
     height: usize,
     /// `(cos φ_j, sin φ_j)` of every column (local frame, taken on the middle row).
     col_cs: Vec<[f64; 2]>,
-    /// Number of valid symmetry folds `K` (0: direct sums).
+    /// Number of symmetry folds `K` in use (0: direct sums): the valid ones,
+    /// at most `⌊log2(order − 1)⌋ + 1`.
     levels: usize,
     /// Per m: offset (f32s) of its source row in the scratch buffer, and its length `3·cols`.
     src: Vec<(usize, usize)>,
@@ -448,7 +449,15 @@ impl LatLongProjector {
                 }
             })
             .collect();
-        let levels = fold_levels(&col_cs);
+        // Folds past the deepest d^k some m < n reads (m ≤ n − 1 has 2-adic
+        // valuation ≤ ⌊log2(n − 1)⌋) would only serve m = 0 through short,
+        // scalar loops: stop there.
+        let needed = if n <= 1 {
+            0
+        } else {
+            (n - 1).ilog2() as usize + 1
+        };
+        let levels = fold_levels(&col_cs).min(needed);
         // Sources: d^k at Σ_{i<k} 3W/2^i in the first 3W f32s, x^K after 3W.
         let n3 = 3 * width;
         let d_off = |k: usize| (1..k).map(|i| n3 >> i).sum::<usize>();
@@ -575,7 +584,7 @@ impl LatLongProjector {
     /// Projects `width × height` texels (row-major) onto the projector's order.
     pub fn project(&self, texels: &[Vec3]) -> Result<ShRgb, ShError> {
         self.check_len(texels)?;
-        let mut acc = vec![0.0f64; 6 * pairs(self.order)];
+        let mut acc = vec![0.0f64; ACC * pairs(self.order)];
         #[cfg(target_arch = "x86_64")]
         if crate::lanes::avx2_fma_available() {
             // SAFETY: the CPU has AVX2 and FMA (checked just above).
@@ -592,8 +601,9 @@ impl LatLongProjector {
         self.accumulate::<true>(texels, acc);
     }
 
-    /// `acc[6p + k] = Σ_rows Ω Q̃_l^m (F_m)_k` for pair `p = (m, l)` (m-major),
-    /// `k = 0..3` the cos sums (RGB), `3..6` the sin sums.
+    /// `acc[8p + k] = Σ_rows Ω Q̃_l^m (F_m)_k` for pair `p = (m, l)` (m-major),
+    /// `k = 0..3` the cos sums (RGB), `3..6` the sin sums (`6, 7`: padding, so
+    /// one update is two 4-wide f64 FMAs).
     #[inline(always)]
     fn accumulate<const FMA: bool>(&self, texels: &[Vec3], acc: &mut [f64]) {
         let (w, n) = (self.width, self.order);
@@ -618,22 +628,23 @@ impl LatLongProjector {
             let mut p = 0;
             for m in 0..n {
                 let (a, b) = (f1[m], f2[m]);
-                let (ge, go): ([f64; 6], [f64; 6]) = if mirror.is_some() {
-                    (
-                        std::array::from_fn(|k| a[k] as f64 + b[k] as f64),
-                        std::array::from_fn(|k| a[k] as f64 - b[k] as f64),
-                    )
-                } else {
-                    let g = a.map(f64::from);
-                    (g, g)
-                };
+                let (mut ge, mut go) = ([0.0f64; ACC], [0.0f64; ACC]);
+                for k in 0..6 {
+                    let (x, y) = (a[k] as f64, b[k] as f64);
+                    (ge[k], go[k]) = if mirror.is_some() {
+                        (x + y, x - y)
+                    } else {
+                        (x, x)
+                    };
+                }
                 for l in m..n {
                     // Q̃_l^m(−z) = (−1)^{l+m} Q̃_l^m(z): the mirror row enters with that sign.
                     let g = if (l - m) % 2 == 0 { &ge } else { &go };
                     let yv = ry[p] as f64;
-                    let a6 = &mut acc[6 * p..6 * p + 6];
-                    for k in 0..6 {
-                        a6[k] = madd::<FMA, f64>(yv, g[k], a6[k]);
+                    let a8: &mut [f64; ACC] =
+                        (&mut acc[ACC * p..ACC * (p + 1)]).try_into().expect("8");
+                    for k in 0..ACC {
+                        a8[k] = madd::<FMA, f64>(yv, g[k], a8[k]);
                     }
                     p += 1;
                 }
@@ -696,9 +707,9 @@ impl LatLongProjector {
             for l in m..n {
                 let b = l * (l + 1);
                 for ch in 0..3 {
-                    local[ch][b + m] = acc[6 * p + ch];
+                    local[ch][b + m] = acc[ACC * p + ch];
                     if m > 0 {
-                        local[ch][b - m] = acc[6 * p + 3 + ch];
+                        local[ch][b - m] = acc[ACC * p + 3 + ch];
                     }
                 }
                 p += 1;
@@ -816,6 +827,9 @@ fn vec3_as_f32(v: &[Vec3]) -> &[f32] {
 }
 
 const LANES: usize = 24; // lcm(3, 8): lane k accumulates channel k % 3.
+
+/// Stride of one `(m, l)` accumulator: cos RGB, sin RGB, two pad lanes.
+const ACC: usize = 8;
 
 /// `a·b + c`, fused when `FMA` (only instantiate `FMA = true` inside
 /// `#[target_feature(enable = "fma")]` code, else `mul_add` is a libm call).
@@ -1034,13 +1048,19 @@ mod tests {
             let texels = random_texels(w * h, 0x9e37_79b9 ^ w as u64);
             for order in [1, 2, 3, 10, 16, 30] {
                 let pr = LatLongProjector::new(param, order).unwrap();
-                assert_eq!(pr.fold_levels(), folds, "{w}x{h}");
+                assert_eq!(fold_levels(&pr.col_cs), folds, "{w}x{h}");
+                let needed = if order == 1 {
+                    0
+                } else {
+                    (order - 1).ilog2() + 1
+                };
+                assert_eq!(pr.fold_levels(), folds.min(needed as usize), "{w}x{h}");
                 assert!(pr.rows_paired(), "{w}x{h}: lat-long rows are mirrored");
                 let fast = pr.project(&texels).unwrap();
                 let direct = pr.project_direct(&texels).unwrap();
                 let e = rel_diff(&fast, &direct);
                 assert!(e <= 1e-5, "{w}x{h} order {order}: fold vs direct {e:e}");
-                let mut acc = vec![0.0f64; 6 * pairs(order)];
+                let mut acc = vec![0.0f64; ACC * pairs(order)];
                 pr.accumulate::<false>(&texels, &mut acc);
                 let portable = pr.finish(&acc).unwrap();
                 let e = rel_diff(&portable, &direct);
