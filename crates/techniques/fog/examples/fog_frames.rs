@@ -17,6 +17,19 @@ fn median(mut v: Vec<f64>) -> String {
     format!("{:.1} ({:.1})", v[v.len() / 2], v[0])
 }
 
+/// CPU time of every thread of this process so far, ms (Linux
+/// `/proc/self/task/*/schedstat`; 0 elsewhere): steady under other load,
+/// unlike the wall clock.
+fn cpu_ms() -> f64 {
+    let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
+        return 0.0;
+    };
+    dir.filter_map(|e| std::fs::read_to_string(e.ok()?.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .sum::<f64>()
+        * 1e-6
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let medium = args.iter().any(|a| a == "medium");
@@ -47,6 +60,7 @@ fn main() {
     };
     render_frame(&mut m, &scene, &request, &NoProgress).expect("frame");
     let mut view = Vec::new();
+    let cpu0 = cpu_ms();
     for i in 0..steps {
         let r = Mat3::from_rotation_y((4.0 * (i + 1) as f32).to_radians());
         let mut c = base;
@@ -64,8 +78,10 @@ fn main() {
         }
         std::hint::black_box(out);
     }
+    let cpu_view = (cpu_ms() - cpu0) / steps as f64;
     let mut light = Vec::new();
     let target = base.target;
+    let cpu0 = cpu_ms();
     for i in 0..steps {
         let r = Mat3::from_rotation_y((5.0 * (i + 1) as f32).to_radians());
         scene.world_from_env = r * env0;
@@ -88,8 +104,9 @@ fn main() {
         }
         std::hint::black_box(out);
     }
+    let cpu_light = (cpu_ms() - cpu0) / steps as f64;
     println!(
-        "{} view {} ms, light {} ms (median (min))",
+        "{} view {} ms, light {} ms (median (min)); CPU per frame: view {cpu_view:.1} ms, light {cpu_light:.1} ms",
         if medium {
             "medium + 4 lights"
         } else {

@@ -375,6 +375,12 @@ impl FogRelighter {
         big.width *= k;
         big.height *= k;
         let m = lighting.medium;
+        let __t = Instant::now();
+        let __tm = |what: &str| {
+            if std::env::var_os("FOG_T").is_some() {
+                eprintln!("{what} {:.1}", __t.elapsed().as_secs_f64() * 1e3);
+            }
+        };
         // 1. Point lights, on the frame's one visibility buffer.
         let mut image = Image::new(big.width, big.height);
         {
@@ -417,6 +423,7 @@ impl FogRelighter {
                     self.rasterized =
                         Some((big, scene.objects.iter().map(|o| o.mesh.clone()).collect()));
                 }
+                __tm("raster");
                 shade_fog_raster(
                     &self.rasterizer,
                     &objects,
@@ -428,6 +435,7 @@ impl FogRelighter {
                 .map_err(fog_err)?;
             }
         }
+        __tm("points");
         progress.check()?;
         let ambient = if self.opengl() {
             Vec3::ZERO
@@ -448,7 +456,9 @@ impl FogRelighter {
             let p = mesh.positions[t[0] as usize] * (1.0 - b[0] - b[1])
                 + mesh.positions[t[1] as usize] * b[0]
                 + mesh.positions[t[2] as usize] * b[1];
-            let f = (-m.beta * (p - eye).length()).exp();
+            // The crate's polynomial e^x (≈ 1e-7 relative, as the
+            // point-light kernels' e^{−T_vp}) instead of libm's call.
+            let f = crate::fast::exp(-m.beta * (p - eye).length());
             e * f + ambient * (1.0 - f)
         };
         // 2. The environment.
@@ -456,6 +466,7 @@ impl FogRelighter {
         if let (Some((shader, vframe)), Some(light)) = (self.vertex.as_mut(), &self.env_lighting) {
             progress.check()?;
             vframe.shade(scene, r, eye, shader, light);
+            __tm("vshade");
             let vframe = &*vframe;
             let rays = big.ray_frame();
             image
@@ -485,6 +496,7 @@ impl FogRelighter {
                         }
                     }
                 });
+            __tm("envpix");
         } else if self.environment_image(scene, &big, progress)? {
             let env = &self.env_image;
             let r = &self.rasterizer;
