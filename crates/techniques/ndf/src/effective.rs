@@ -368,22 +368,37 @@ fn attenuation_4(inv_kappa: f32) -> f32 {
 #[inline]
 #[must_use]
 pub fn lambert_sh_env(gamma: &[f32], light: &[f32]) -> f32 {
-    const LAMBDA: [f32; 9] = [
-        1.0,
-        2.0 / 3.0,
-        2.0 / 3.0,
-        2.0 / 3.0,
-        0.25,
-        0.25,
-        0.25,
-        0.25,
-        0.25,
-    ];
     let mut s = 0.0;
     for i in 0..9 {
         s += LAMBDA[i] * gamma[i] * light[i];
     }
     s
+}
+
+/// [`lambert_sh_env`]'s factors `Λ_l/π` per coefficient (bands 0–2).
+const LAMBDA: [f32; 9] = [
+    1.0,
+    2.0 / 3.0,
+    2.0 / 3.0,
+    2.0 / 3.0,
+    0.25,
+    0.25,
+    0.25,
+    0.25,
+    0.25,
+];
+
+/// SH lighting (9 coefficients) with [`lambert_sh_env`]'s `Λ_l/π` folded
+/// in: `Σ_i γ_i lit_i` is `lambert_sh_env(γ, light)` up to rounding (one
+/// product per term instead of two).
+#[inline]
+#[must_use]
+pub fn lambert_lit9(light: &[f32]) -> [f32; 9] {
+    let mut out = [0.0f32; 9];
+    for (o, (l, f)) in out.iter_mut().zip(light[..9].iter().zip(LAMBDA)) {
+        *o = f * l;
+    }
+    out
 }
 
 /// `Λ_l`, the clamped cosine's Funk–Hecke factor (`2π ∫_0^1 t P_l(t) dt`):
@@ -638,7 +653,8 @@ impl LambertTail {
             return Vec3::ZERO;
         }
         let a = Self::attenuation_468(r);
-        let p = relight_sphere::param::octahedral_from_dir_f32(m / r);
+        // The octahedral map divides by the L1 norm: `m` needs no normalizing.
+        let p = relight_sphere::param::octahedral_from_dir_f32(m);
         // Node i is at −1 + 2i/TAIL_GRID.
         let g = TAIL_GRID as f32;
         let x = ((p.x + 1.0) * 0.5 * g).clamp(0.0, g);
@@ -713,6 +729,13 @@ impl LambertTail {
 #[inline]
 #[must_use]
 pub fn lambert_mixture_env(lobes: &[ShadeLobe], light: &[f32]) -> f32 {
+    lambert_sh_env(&mixture_sh9(lobes), light)
+}
+
+/// The SH (bands 0–2) of a vMF mixture: `Σ_j α_j A_l(κ_j) y_lm(μ_j)`.
+#[inline]
+#[must_use]
+pub fn mixture_sh9(lobes: &[ShadeLobe]) -> [f32; 9] {
     let mut gamma = [0.0f32; 9];
     let mut y = [0.0f32; 9];
     for l in lobes {
@@ -729,7 +752,7 @@ pub fn lambert_mixture_env(lobes: &[ShadeLobe], light: &[f32]) -> f32 {
             gamma[i] += l.alpha * a[band] * y[i];
         }
     }
-    lambert_sh_env(&gamma, light)
+    gamma
 }
 
 /// [`lambert_mixture_env`] with each lobe's bands `4 ≤ l < n` of `light`

@@ -132,7 +132,7 @@ impl Footprint {
         if !(major.is_finite() && minor.is_finite()) || major <= 1.0 {
             return Self::point(uv, 0.0);
         }
-        let n = ((major / minor.max(1e-6)).ceil() as usize).clamp(1, MAX_PROBES);
+        let n = ceil_positive(major / minor.max(1e-6)).clamp(1, MAX_PROBES);
         let lod = level((major / n as f32).max(minor));
         let mut probes = [uv; MAX_PROBES];
         for (i, p) in probes.iter_mut().enumerate().take(n) {
@@ -149,6 +149,134 @@ impl Footprint {
     #[must_use]
     pub fn probes(&self) -> &[Vec2] {
         &self.probes[..self.count]
+    }
+}
+
+/// `⌈q⌉` of a finite `q ≥ 0` as `usize`, without the `ceilf` call that
+/// `f32::ceil` compiles to on baseline x86-64 (no `roundss`): truncation is
+/// exact below 2^24, every larger f32 is an integer, and past `usize` both
+/// saturate (tested against
+/// `ceil`).
+#[inline]
+fn ceil_positive(q: f32) -> usize {
+    let t = q as usize;
+    if (t as f32) < q {
+        t.saturating_add(1)
+    } else {
+        t
+    }
+}
+
+/// [`taps`] (bilinear, wrap-around) on a grid whose sides are both powers
+/// of two: the wrap is a mask (for in-range coordinates too), so there is
+/// no range test per probe; the same taps and weights as [`taps`] (tested).
+/// Falls back to [`taps`] past its exact range (|coordinate| ≥ 2^23).
+#[inline(always)]
+fn taps_pow2(width: usize, height: usize, uv: Vec2) -> [(usize, f32); 4] {
+    let fx = uv.x * width as f32 - 0.5;
+    let fy = uv.y * height as f32 - 0.5;
+    const EXACT: f32 = 8_388_608.0;
+    if !(fx.abs() < EXACT && fy.abs() < EXACT) {
+        return taps(width, height, uv);
+    }
+    let floor = |v: f32| {
+        let i = v as i64;
+        if (i as f32) > v { i - 1 } else { i }
+    };
+    let (ix, iy) = (floor(fx), floor(fy));
+    let (tx, ty) = (fx - ix as f32, fy - iy as f32);
+    let (mx, my) = (width as i64 - 1, height as i64 - 1);
+    let (xa, ya) = ((ix & mx) as usize, (iy & my) as usize);
+    let (xb, yb) = (((ix + 1) & mx) as usize, ((iy + 1) & my) as usize);
+    [
+        (ya * width + xa, (1.0 - tx) * (1.0 - ty)),
+        (ya * width + xb, tx * (1.0 - ty)),
+        (yb * width + xa, (1.0 - tx) * ty),
+        (yb * width + xb, tx * ty),
+    ]
+}
+
+/// [`taps_pow2`] for the four probe slots of a [`Footprint`] at once, one
+/// SSE2 lane per probe (SSE2 is part of x86-64).
+#[cfg(target_arch = "x86_64")]
+mod sse2 {
+    use super::{MAX_PROBES, Vec2};
+    use std::arch::x86_64::*;
+
+    /// `[tap][probe]` texel indices and weights.
+    pub(super) type ProbeTaps = ([[i32; 4]; 4], [[f32; 4]; 4]);
+
+    /// `[tap][probe]` texel indices and weights (× `wk`) of the bilinear
+    /// taps of `probes` on a `width × height` grid whose sides are powers of
+    /// two: the taps of [`super::taps_pow2`] bit for bit (the same f32
+    /// operations lane by lane; the floor in i32, exact below 2^23 as the
+    /// i64 one). `None` where a coordinate leaves that range or the grid
+    /// has 2^31 texels or more: the caller takes the scalar path.
+    #[inline(always)]
+    pub(super) fn probe_taps_pow2(
+        probes: &[Vec2; MAX_PROBES],
+        width: usize,
+        height: usize,
+        wk: f32,
+    ) -> Option<ProbeTaps> {
+        const _: () = assert!(MAX_PROBES == 4, "one SSE lane per probe");
+        if width.checked_mul(height)? > i32::MAX as usize {
+            return None;
+        }
+        // SAFETY: SSE2 is in the x86-64 baseline; the stores write arrays
+        // of four 32-bit lanes.
+        unsafe {
+            let xs = _mm_setr_ps(probes[0].x, probes[1].x, probes[2].x, probes[3].x);
+            let ys = _mm_setr_ps(probes[0].y, probes[1].y, probes[2].y, probes[3].y);
+            let half = _mm_set1_ps(0.5);
+            let fx = _mm_sub_ps(_mm_mul_ps(xs, _mm_set1_ps(width as f32)), half);
+            let fy = _mm_sub_ps(_mm_mul_ps(ys, _mm_set1_ps(height as f32)), half);
+            // |f| < 2^23 in every lane (false for NaN).
+            let abs = _mm_castsi128_ps(_mm_set1_epi32(0x7fff_ffff));
+            let exact = _mm_set1_ps(8_388_608.0);
+            let ok = _mm_and_ps(
+                _mm_cmplt_ps(_mm_and_ps(fx, abs), exact),
+                _mm_cmplt_ps(_mm_and_ps(fy, abs), exact),
+            );
+            if _mm_movemask_ps(ok) != 0xf {
+                return None;
+            }
+            // Truncate, then one less where that rounded up (negatives).
+            let floor = |f: __m128| {
+                let i = _mm_cvttps_epi32(f);
+                let up = _mm_cmpgt_ps(_mm_cvtepi32_ps(i), f);
+                _mm_add_epi32(i, _mm_castps_si128(up))
+            };
+            let (ix, iy) = (floor(fx), floor(fy));
+            let tx = _mm_sub_ps(fx, _mm_cvtepi32_ps(ix));
+            let ty = _mm_sub_ps(fy, _mm_cvtepi32_ps(iy));
+            let one = _mm_set1_epi32(1);
+            let (mx, my) = (
+                _mm_set1_epi32(width as i32 - 1),
+                _mm_set1_epi32(height as i32 - 1),
+            );
+            let xa = _mm_and_si128(ix, mx);
+            let xb = _mm_and_si128(_mm_add_epi32(ix, one), mx);
+            let shift = _mm_cvtsi32_si128(width.trailing_zeros() as i32);
+            let ra = _mm_sll_epi32(_mm_and_si128(iy, my), shift);
+            let rb = _mm_sll_epi32(_mm_and_si128(_mm_add_epi32(iy, one), my), shift);
+            let onef = _mm_set1_ps(1.0);
+            let (ux, uy) = (_mm_sub_ps(onef, tx), _mm_sub_ps(onef, ty));
+            let wk = _mm_set1_ps(wk);
+            let mut index = [[0i32; 4]; 4];
+            let mut weight = [[0.0f32; 4]; 4];
+            let taps = [
+                (_mm_add_epi32(ra, xa), _mm_mul_ps(ux, uy)),
+                (_mm_add_epi32(ra, xb), _mm_mul_ps(tx, uy)),
+                (_mm_add_epi32(rb, xa), _mm_mul_ps(ux, ty)),
+                (_mm_add_epi32(rb, xb), _mm_mul_ps(tx, ty)),
+            ];
+            for (t, (i, w)) in taps.into_iter().enumerate() {
+                _mm_storeu_si128(index[t].as_mut_ptr().cast(), i);
+                _mm_storeu_ps(weight[t].as_mut_ptr(), _mm_mul_ps(w, wk));
+            }
+            Some((index, weight))
+        }
     }
 }
 
@@ -194,45 +322,77 @@ impl Footprint {
     #[inline]
     #[must_use]
     pub fn taps(&self, levels: usize, dims: impl Fn(usize) -> (usize, usize)) -> FootprintTaps {
-        let top = (levels - 1) as f32;
-        let lod = self.lod.clamp(0.0, top);
-        let k0 = lod.floor() as usize;
-        let t = lod - k0 as f32;
-        let w = 1.0 / self.count as f32;
+        let (lv, count) = self.level_weights(levels);
         let mut out = FootprintTaps {
-            levels: [k0, k0],
-            count: 1,
+            levels: [lv[0].0, lv[1].0],
+            count,
             index: [[0; MAX_LEVEL_TAPS]; 2],
             weight: [[0.0; MAX_LEVEL_TAPS]; 2],
             len: [0; 2],
         };
-        // A nested function, not a closure: it is inlined into the samplers.
-        #[inline(always)]
-        fn level(
-            out: &mut FootprintTaps,
-            j: usize,
-            probes: &[Vec2],
-            dims: (usize, usize),
-            wk: f32,
-        ) {
-            let (lw, lh) = dims;
+        for (j, &(k, wk)) in lv.iter().enumerate().take(count) {
             let mut n = 0;
-            for p in probes {
-                for (i, wt) in taps(lw, lh, *p) {
-                    out.index[j][n] = i as u32;
-                    out.weight[j][n] = wt * wk;
-                    n += 1;
-                }
-            }
+            self.visit_level(dims(k), wk, |i, w| {
+                out.index[j][n] = i as u32;
+                out.weight[j][n] = w;
+                n += 1;
+            });
             out.len[j] = n;
         }
-        level(&mut out, 0, self.probes(), dims(k0), (1.0 - t) * w);
-        if t > 0.0 && k0 + 1 < levels {
-            level(&mut out, 1, self.probes(), dims(k0 + 1), t * w);
-            out.levels[1] = k0 + 1;
-            out.count = 2;
-        }
         out
+    }
+
+    /// The levels of [`Self::taps`] as `(level, weight)` (the probe mean's
+    /// `1/count` times the trilinear weight), and how many are read: the
+    /// level below `lod` (clamped to `0..levels`) and, when `lod` is not an
+    /// integer below the top, the one above.
+    #[inline]
+    #[must_use]
+    pub fn level_weights(&self, levels: usize) -> ([(usize, f32); 2], usize) {
+        let top = (levels - 1) as f32;
+        let lod = self.lod.clamp(0.0, top);
+        // `lod ≥ 0` (or NaN, which casts to 0 either way): truncation is
+        // the floor, without a `floorf` call.
+        let k0 = lod as usize;
+        let t = lod - k0 as f32;
+        let w = 1.0 / self.count as f32;
+        let first = (k0, (1.0 - t) * w);
+        if t > 0.0 && k0 + 1 < levels {
+            ([first, (k0 + 1, t * w)], 2)
+        } else {
+            ([first, first], 1)
+        }
+    }
+
+    /// Visits the bilinear taps of every probe on one level of size `dims`,
+    /// in [`Self::taps`]' order: `add(texel, weight × wk)`. Inlined into a
+    /// sampler's own loop, its accumulators stay in registers and no tap
+    /// list is written.
+    #[inline(always)]
+    pub fn visit_level(&self, dims: (usize, usize), wk: f32, mut add: impl FnMut(usize, f32)) {
+        let (lw, lh) = dims;
+        if lw.is_power_of_two() && lh.is_power_of_two() {
+            #[cfg(target_arch = "x86_64")]
+            if let Some((index, weight)) = sse2::probe_taps_pow2(&self.probes, lw, lh, wk) {
+                for p in 0..self.count {
+                    for t in 0..4 {
+                        add(index[t][p] as usize, weight[t][p]);
+                    }
+                }
+                return;
+            }
+            for p in self.probes() {
+                for (i, wt) in taps_pow2(lw, lh, *p) {
+                    add(i, wt * wk);
+                }
+            }
+        } else {
+            for p in self.probes() {
+                for (i, wt) in taps(lw, lh, *p) {
+                    add(i, wt * wk);
+                }
+            }
+        }
     }
 
     /// Visits every texel tap of the footprint: `add(level, texel, weight)`
@@ -393,5 +553,91 @@ pub enum NdfError {
 impl From<relight_render::Cancelled> for NdfError {
     fn from(_: relight_render::Cancelled) -> Self {
         Self::Cancelled
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ceil_positive_is_ceil() {
+        let mut q = 0.0f32;
+        for v in [
+            0.0,
+            1e-7,
+            0.5,
+            1.0,
+            1.0 + f32::EPSILON,
+            2.5,
+            3.0,
+            3.999_999,
+            4.0,
+        ] {
+            assert_eq!(ceil_positive(v), v.ceil() as usize, "{v}");
+        }
+        for v in [8_388_607.5f32, 16_777_216.0, 1e12, 1e30] {
+            assert_eq!(ceil_positive(v), v.ceil() as usize, "{v}");
+        }
+        while q < 70.0 {
+            assert_eq!(ceil_positive(q), q.ceil() as usize, "{q}");
+            q += 0.013;
+        }
+    }
+
+    #[test]
+    fn visited_taps_are_the_per_probe_taps() {
+        // `visit_level` (the SSE2 lanes on x86-64) against `taps` per probe
+        // times the level weight, bit for bit, on footprints of 1–4 probes
+        // that wrap, and past the 2^23 bound (the scalar path).
+        let mut rng = crate::vmf::Xorshift(0x0dd_ba11_cafe_f00d);
+        for (w, h) in [(1, 1), (4, 2), (64, 64), (512, 512), (48, 64), (3, 5)] {
+            for k in 0..3000 {
+                let scale = [1.0, 20.0, 3e3, 1e5][k % 4];
+                let mut r = || ((rng.next_f64() * 2.0 - 1.0) * scale) as f32;
+                let uv = Vec2::new(r(), r());
+                let (dx, dy) = (Vec2::new(r(), r()) * 0.01, Vec2::new(r(), r()) * 0.002);
+                let fp = Footprint::of(uv, dx, dy, w, h);
+                let wk = 0.37;
+                let mut got = Vec::new();
+                fp.visit_level((w, h), wk, |i, x| got.push((i, x.to_bits())));
+                let want: Vec<(usize, u32)> = fp
+                    .probes()
+                    .iter()
+                    .flat_map(|p| taps(w, h, *p))
+                    .map(|(i, x)| (i, (x * wk).to_bits()))
+                    .collect();
+                assert_eq!(got, want, "{w}×{h} {fp:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn power_of_two_taps_are_the_general_taps() {
+        // Every wrap case: inside, one texel beyond either edge, many tiles
+        // out (both signs), near the exactness bound and past it.
+        let mut rng = crate::vmf::Xorshift(0x1234_5678_9abc_def1);
+        for (w, h) in [(1, 1), (1, 4), (2, 2), (8, 4), (64, 64), (512, 512)] {
+            for _ in 0..4000 {
+                let scale = [1.0, 3.0, 40.0, 2e4][(rng.next_f64() * 4.0) as usize];
+                let u = ((rng.next_f64() * 2.0 - 1.0) * scale) as f32;
+                let v = ((rng.next_f64() * 2.0 - 1.0) * scale) as f32;
+                let uv = Vec2::new(u, v);
+                assert_eq!(taps_pow2(w, h, uv), taps(w, h, uv), "{w}×{h} at {uv}");
+            }
+            for uv in [
+                Vec2::ZERO,
+                Vec2::ONE,
+                Vec2::new(-0.5 / w as f32, 1.0 - 0.5 / h as f32),
+                Vec2::new(1e9, -1e9),
+                Vec2::new(f32::NAN, 0.3),
+            ] {
+                let (a, b) = (taps_pow2(w, h, uv), taps(w, h, uv));
+                for (p, q) in a.iter().zip(&b) {
+                    assert_eq!(p.0, q.0, "{w}×{h} at {uv}");
+                    assert_eq!(p.1.to_bits(), q.1.to_bits(), "{w}×{h} at {uv}");
+                }
+            }
+        }
     }
 }

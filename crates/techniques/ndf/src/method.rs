@@ -24,8 +24,8 @@
 //! memory across `prepare`s; `relight ndf bake` writes them for engines.
 
 use crate::effective::{
-    Baseline, LAMBERT_TAIL_ORDER, LambertTail, NdfBrdf, lambert_mixture_env, lambert_sh_dir_seen,
-    lambert_sh_env, mean_normal_of_sh, shade_baseline, shade_lobe, shade_mixture,
+    Baseline, LAMBERT_TAIL_ORDER, LambertTail, NdfBrdf, lambert_lit9, lambert_sh_dir_seen,
+    mean_normal_of_sh, mixture_sh9, shade_baseline, shade_lobe, shade_mixture,
 };
 use crate::lean::{LeanPyramid, LeanTexel, shade_lean};
 use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
@@ -328,7 +328,7 @@ impl NdfMethod {
         hand: f32,
         uv: Vec2,
         fp: &Footprint,
-        light: &[f32; 27],
+        env: &PixelEnv,
         scene: &Scene,
         has_env: bool,
     ) -> Vec3 {
@@ -400,45 +400,39 @@ impl NdfMethod {
         };
         let mut out = Vec3::ZERO;
         if has_env && brdf == NdfBrdf::Lambert {
+            // Bands 0–2: `Σ_i c_i lit_i` per channel, `c` the representation's
+            // SH (γ, or the SH of its normal), `lit` the lighting with `Λ_l/π`
+            // folded in ([`PixelEnv`]).
             let mut y = [0.0f32; 9];
-            for c in 0..3 {
-                let l = &light[c * 9..c * 9 + 9];
-                let mut lt = [0.0f32; 9];
-                lt.copy_from_slice(l);
-                if hand < 0.0 {
-                    // Tangent-space y = −frame y: the m < 0 functions flip.
-                    for i in [1, 4, 5] {
-                        lt[i] = -lt[i];
-                    }
+            let c9: &[f32] = match &rep {
+                Rep::Normal(n) => {
+                    relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+                    &y
                 }
-                let v = match &rep {
-                    Rep::Normal(n) => {
-                        relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                        lambert_sh_env(&y, &lt)
-                    }
-                    Rep::Mean(m) => {
-                        let n = match baseline {
-                            Baseline::Unnormalized => *m,
-                            _ => m.normalize_or(Vec3::Z),
-                        };
-                        relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                        lambert_sh_env(&y, &lt)
-                    }
-                    Rep::Sh => lambert_sh_env(&gamma, &lt),
-                    Rep::Vmf => lambert_mixture_env(&lobes[..nl], &lt),
-                    Rep::Lean(t) => {
-                        relight_sh::eval_sh_into(3, t.normal().to_array(), &mut y);
-                        lambert_sh_env(&y, &lt)
-                    }
-                };
-                out[c] += v;
+                Rep::Mean(m) => {
+                    let n = match baseline {
+                        Baseline::Unnormalized => *m,
+                        _ => m.normalize_or(Vec3::Z),
+                    };
+                    relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+                    &y
+                }
+                Rep::Sh => &gamma[..9],
+                Rep::Vmf => {
+                    y = mixture_sh9(&lobes[..nl]);
+                    &y
+                }
+                Rep::Lean(t) => {
+                    relight_sh::eval_sh_into(3, t.normal().to_array(), &mut y);
+                    &y
+                }
+            };
+            for c in 0..3 {
+                out[c] += dot9(c9, &env.lit[c * 9..c * 9 + 9]);
             }
             // Bands 4–8 (effective::lambert_tail_env) in the environment's
             // frame, from each representation's (mean) normal.
-            let to_env = |t: Vec3| {
-                self.env_from_world * (frame.x * t.x + frame.y * (hand * t.y) + frame.z * t.z)
-            };
-            let tail = |t: Vec3| self.env_tail.eval(to_env(t));
+            let tail = |t: Vec3| self.env_tail.eval(env.env_from_tangent * t);
             out += match &rep {
                 Rep::Normal(n) => tail(*n),
                 Rep::Mean(m) => {
@@ -580,10 +574,64 @@ struct TriangleConsts {
     tri: usize,
     /// The uv derivatives' constants, for a normal-mapped object.
     lod: Option<TriangleLod>,
-    /// A flat triangle's shading frame and handedness: its three vertices
-    /// carry one normal and one tangent (bit for bit), so the per-pixel
-    /// interpolation would give them back (to an ulp of `Σλ = 1`).
-    flat: Option<(Frame, f32)>,
+    /// A flat triangle's shading frame, handedness and prepared lighting:
+    /// its three vertices carry one normal and one tangent (bit for bit), so
+    /// the per-pixel interpolation would give them back (to an ulp of
+    /// `Σλ = 1`).
+    flat: Option<FlatTriangle>,
+}
+
+/// [`TriangleConsts::flat`].
+struct FlatTriangle {
+    frame: Frame,
+    hand: f32,
+    env: PixelEnv,
+}
+
+/// The environment lighting of one shading frame as the Lambert path reads
+/// it: the 27 SH coefficients (bands 0–2 per channel, in the tangent frame:
+/// `m < 0` functions flipped for a mirrored tangent frame) with the
+/// clamped cosine's `Λ_l/π` folded in, so a pixel's bands 0–2 are one
+/// 9-term dot product per channel (`effective::lambert_sh_env` up to
+/// rounding), and the rotation from the tangent frame to the environment's
+/// frame, where the Lambert tail is looked up.
+struct PixelEnv {
+    lit: [f32; 27],
+    env_from_tangent: Mat3,
+}
+
+impl PixelEnv {
+    /// From the frame's lighting (`NdfMethod::set_lighting`'s 27 floats).
+    #[inline]
+    fn new(light: &[f32], frame: &Frame, hand: f32, env_from_world: &Mat3) -> Self {
+        let mut lit = [0.0f32; 27];
+        for c in 0..3 {
+            let mut lt = [0.0f32; 9];
+            lt.copy_from_slice(&light[c * 9..c * 9 + 9]);
+            if hand < 0.0 {
+                // Tangent-space y = −frame y: the m < 0 functions flip.
+                for i in [1, 4, 5] {
+                    lt[i] = -lt[i];
+                }
+            }
+            lit[c * 9..c * 9 + 9].copy_from_slice(&lambert_lit9(&lt));
+        }
+        Self {
+            lit,
+            env_from_tangent: *env_from_world * Mat3::from_cols(frame.x, frame.y * hand, frame.z),
+        }
+    }
+}
+
+/// `Σ_i a_i b_i` over 9 coefficients.
+#[inline]
+fn dot9(a: &[f32], b: &[f32]) -> f32 {
+    let (a, b) = (&a[..9], &b[..9]);
+    let mut s = 0.0;
+    for i in 0..9 {
+        s += a[i] * b[i];
+    }
+    s
 }
 
 impl TriangleConsts {
@@ -594,6 +642,7 @@ impl TriangleConsts {
         draw: usize,
         tri: usize,
         allow_flat: bool,
+        env_from_world: &Mat3,
     ) -> Self {
         let [i0, i1, i2] = o.triangles[tri].map(|i| i as usize);
         let lod = o.map.as_ref().map(|_| {
@@ -617,10 +666,18 @@ impl TriangleConsts {
             )
             && same3(t, o.tangents[i1], o.tangents[i2]))
         .then(|| {
-            (
-                Frame::from_normal_tangent(n.normalize_or(Vec3::Z), t.truncate()),
-                if t.w < 0.0 { -1.0 } else { 1.0 },
-            )
+            let frame = Frame::from_normal_tangent(n.normalize_or(Vec3::Z), t.truncate());
+            let hand = if t.w < 0.0 { -1.0 } else { 1.0 };
+            FlatTriangle {
+                frame,
+                hand,
+                env: PixelEnv::new(
+                    &o.light[i0 * 27..i0 * 27 + 27],
+                    &frame,
+                    hand,
+                    env_from_world,
+                ),
+            }
         });
         Self {
             draw,
@@ -816,13 +873,14 @@ impl Relighter for NdfMethod {
                                 d,
                                 tri,
                                 this.flat_triangles,
+                                &this.env_from_world,
                             )),
                         };
                         let mix3 = |a: Vec3, b: Vec3, c: Vec3| a * lam.x + b * lam.y + c * lam.z;
                         let position = mix3(o.positions[i0], o.positions[i1], o.positions[i2]);
                         let uv = o.uvs[i0] * lam.x + o.uvs[i1] * lam.y + o.uvs[i2] * lam.z;
-                        let (frame, hand) = match tc.flat {
-                            Some(fh) => fh,
+                        let (frame, hand) = match &tc.flat {
+                            Some(f) => (f.frame, f.hand),
                             None => {
                                 let n = mix3(o.normals[i0], o.normals[i1], o.normals[i2])
                                     .normalize_or(Vec3::Z);
@@ -843,24 +901,29 @@ impl Relighter for NdfMethod {
                                 }),
                             _ => Footprint::point(uv, 0.0),
                         };
-                        let mut light = [0.0f32; 27];
-                        if tc.flat.is_some() {
+                        let pixel_env;
+                        let env = match &tc.flat {
                             // One normal and tangent: the three vertices'
-                            // lighting is the same (λ sums to 1 within an ulp).
-                            light.copy_from_slice(&o.light[i0 * 27..i0 * 27 + 27]);
-                        } else {
-                            let (l0, l1, l2) = (
-                                &o.light[i0 * 27..i0 * 27 + 27],
-                                &o.light[i1 * 27..i1 * 27 + 27],
-                                &o.light[i2 * 27..i2 * 27 + 27],
-                            );
-                            for j in 0..27 {
-                                light[j] = l0[j] * lam.x + l1[j] * lam.y + l2[j] * lam.z;
+                            // lighting is the same (λ sums to 1 within an ulp),
+                            // prepared once per triangle.
+                            Some(f) => &f.env,
+                            None => {
+                                let mut light = [0.0f32; 27];
+                                let (l0, l1, l2) = (
+                                    &o.light[i0 * 27..i0 * 27 + 27],
+                                    &o.light[i1 * 27..i1 * 27 + 27],
+                                    &o.light[i2 * 27..i2 * 27 + 27],
+                                );
+                                for j in 0..27 {
+                                    light[j] = l0[j] * lam.x + l1[j] * lam.y + l2[j] * lam.z;
+                                }
+                                pixel_env =
+                                    PixelEnv::new(&light, &frame, hand, &this.env_from_world);
+                                &pixel_env
                             }
-                        }
-                        *px = this.shade(
-                            o, position, eye, &frame, hand, uv, &fp, &light, scene, has_env,
-                        );
+                        };
+                        *px = this
+                            .shade(o, position, eye, &frame, hand, uv, &fp, env, scene, has_env);
                     }
                 });
         }
@@ -922,7 +985,7 @@ mod tests {
                 .filter(|&t| {
                     let rays = scene.camera.ray_frame();
                     let basis = RayBasis::new(&rays, &scene.camera);
-                    TriangleConsts::new(&basis, scene.camera.eye, o, 0, t, true)
+                    TriangleConsts::new(&basis, scene.camera.eye, o, 0, t, true, &Mat3::IDENTITY)
                         .flat
                         .is_some()
                 })

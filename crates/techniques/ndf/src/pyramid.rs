@@ -67,17 +67,19 @@ pub struct VmfLevel {
 }
 
 /// [`VmfPyramid::sample_footprint`] for `J` lobes: `out[j] = Σ w · lobe_j`
-/// over the taps, in their order.
+/// over the footprint's taps, in [`crate::Footprint::taps`]' order.
 #[inline]
-fn sample_taps<const J: usize>(levels: &[VmfLevel], taps: &crate::FootprintTaps, out: &mut [Vec4]) {
+fn sample_taps<const J: usize>(levels: &[VmfLevel], fp: &crate::Footprint, out: &mut [Vec4]) {
     let mut acc = [Vec4::ZERO; J];
-    for j in 0..taps.count {
-        let (texels, _) = levels[taps.levels[j]].lobes.as_chunks::<J>();
-        for (i, w) in taps.level(j) {
+    let (lv, count) = fp.level_weights(levels.len());
+    for &(k, wk) in &lv[..count] {
+        let l = &levels[k];
+        let (texels, _) = l.lobes.as_chunks::<J>();
+        fp.visit_level((l.width, l.height), wk, |i, w| {
             for (a, v) in acc.iter_mut().zip(&texels[i]) {
                 *a += *v * w;
             }
-        }
+        });
     }
     out[..J].copy_from_slice(&acc);
 }
@@ -357,19 +359,16 @@ impl VmfPyramid {
         let j = self.lobes;
         let out = &mut out[..j];
         out.fill(Vec4::ZERO);
-        let taps = fp.taps(self.levels.len(), |k| {
-            (self.levels[k].width, self.levels[k].height)
-        });
         // The lobe count as a constant: the accumulators stay in registers.
         match j {
-            1 => sample_taps::<1>(&self.levels, &taps, out),
-            2 => sample_taps::<2>(&self.levels, &taps, out),
-            3 => sample_taps::<3>(&self.levels, &taps, out),
-            4 => sample_taps::<4>(&self.levels, &taps, out),
-            5 => sample_taps::<5>(&self.levels, &taps, out),
-            6 => sample_taps::<6>(&self.levels, &taps, out),
-            7 => sample_taps::<7>(&self.levels, &taps, out),
-            _ => sample_taps::<8>(&self.levels, &taps, out),
+            1 => sample_taps::<1>(&self.levels, fp, out),
+            2 => sample_taps::<2>(&self.levels, fp, out),
+            3 => sample_taps::<3>(&self.levels, fp, out),
+            4 => sample_taps::<4>(&self.levels, fp, out),
+            5 => sample_taps::<5>(&self.levels, fp, out),
+            6 => sample_taps::<6>(&self.levels, fp, out),
+            7 => sample_taps::<7>(&self.levels, fp, out),
+            _ => sample_taps::<8>(&self.levels, fp, out),
         }
     }
 

@@ -133,27 +133,30 @@ impl ShNdfPyramid {
         let nn = self.order * self.order;
         let out = &mut out[..nn];
         out.fill(0.0);
-        let taps = fp.taps(self.levels.len(), |k| {
-            (self.levels[k].width, self.levels[k].height)
-        });
         if nn == 9 {
             // Lambert's order: the accumulators in registers (two 4-wide
-            // and one scalar), each tap `acc += c·w` as the generic loop.
+            // and one scalar), each tap `acc += c·w` as the generic loop,
+            // the taps visited as they are computed.
             let (mut a, mut b, mut c8) = (glam::Vec4::ZERO, glam::Vec4::ZERO, 0.0f32);
-            for j in 0..taps.count {
-                let (texels, _) = self.levels[taps.levels[j]].coeffs.as_chunks::<9>();
-                for (i, w) in taps.level(j) {
+            let (lv, count) = fp.level_weights(self.levels.len());
+            for &(k, wk) in &lv[..count] {
+                let l = &self.levels[k];
+                let (texels, _) = l.coeffs.as_chunks::<9>();
+                fp.visit_level((l.width, l.height), wk, |i, w| {
                     let c = &texels[i];
                     a += glam::Vec4::new(c[0], c[1], c[2], c[3]) * w;
                     b += glam::Vec4::new(c[4], c[5], c[6], c[7]) * w;
                     c8 += w * c[8];
-                }
+                });
             }
             out[..4].copy_from_slice(&a.to_array());
             out[4..8].copy_from_slice(&b.to_array());
             out[8] = c8;
             return;
         }
+        let taps = fp.taps(self.levels.len(), |k| {
+            (self.levels[k].width, self.levels[k].height)
+        });
         for j in 0..taps.count {
             let coeffs = &self.levels[taps.levels[j]].coeffs;
             for (i, w) in taps.level(j) {
