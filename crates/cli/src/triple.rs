@@ -10,7 +10,8 @@ use glam::Vec3;
 use relight_sphere::{EnvMap, Param};
 use relight_triple::bench::{BenchOptions, bench_triple, place_on_floor};
 use relight_triple::verify::{
-    ErrorOptions, bump_rows, error_rows, figure6_rows, figure7_rows, identity_rows, storage_rows,
+    ErrorOptions, bump_rows, error_rows, figure6_rows, figure7_rows, identity_rows, medium_rows,
+    storage_rows,
 };
 use std::sync::Arc;
 
@@ -88,6 +89,11 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
     report.table(
         "relight verify triple: storage (what each compact table costs)",
         &storage_rows(env, a.quick, cache_dir(), bar)?,
+        &[],
+    )?;
+    report.table(
+        "relight verify triple: media (sun-thesis §3.6.5, the PSF-convolved lighting)",
+        &medium_rows(env, a.quick, cache_dir(), bar)?,
         &[],
     )?;
     Ok(())

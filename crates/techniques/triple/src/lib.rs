@@ -49,8 +49,12 @@
 //! * Visibility textures over the uvs ([`vis_texture`]); meshes without uvs
 //!   keep per-vertex visibility (no chart packer), with a warning.
 //!
+//! * Media (sun-thesis-2008 §3.6.5): the product fed with the environment
+//!   convolved by the fog chapter's PSF, band-limited and windowed for the
+//!   scattered part only, then the view segment per pixel ([`medium`]).
+//!
 //! # Not implemented (issue 12)
-//! A parameterisation for meshes without uvs; media (refused by name).
+//! A parameterisation for meshes without uvs.
 
 pub mod basis;
 pub mod product;
@@ -66,6 +70,7 @@ pub mod bench;
 pub mod brdf_table;
 pub mod cache;
 pub mod lighting;
+pub mod medium;
 pub mod method;
 pub mod shade;
 pub mod storage;

@@ -8,8 +8,11 @@
 //! [`crate::shade`]). A spatially varying BRDF (two BRDFs blended by a
 //! texture over the uvs) shades both tables and blends the results, exact by
 //! the linearity of Eq. 7 in the BRDF (the paper blends the coefficients, the
-//! same sum). Point and area lights and media are refused
-//! ([`MethodError::Unsupported`]).
+//! same sum). Point and area lights are refused
+//! ([`MethodError::Unsupported`]). A homogeneous medium is rendered as
+//! sun-thesis-2008 §3.6.5 proposes: the same product fed with the
+//! PSF-convolved environment, then the view segment's attenuation and
+//! airlight per pixel ([`crate::medium`]).
 //!
 //! # Bump mapping (§3.3)
 //! With a normal map, each pixel's frame is built from its bumped normal
@@ -42,6 +45,7 @@ use crate::basis::{Basis, triangles};
 use crate::brdf_table::BrdfTable;
 use crate::cache::{self, BRDF_MAGIC, VIS_MAGIC, bake_or_load, hash_parts};
 use crate::lighting::{LightTable, frame_of, prefilter};
+use crate::medium::FoggyLighting;
 use crate::quadrature::{LeafGrid, Weighting};
 use crate::select::Selection;
 use crate::shade::{BYTES_PER_CELL, FMA_PER_CELL, shade_point};
@@ -165,8 +169,11 @@ pub struct TripleMethod {
     grid: Option<LeafGrid>,
     brdfs: Vec<(String, Arc<BrdfTable>)>,
     objects: Vec<Prepared>,
-    /// The prefiltered environment and the hash of the source it came from.
+    /// The prefiltered environment (foggy in a medium) and the hash of the
+    /// source and medium it came from.
     env: Option<(u64, EnvMap)>,
+    /// The scene's medium as lighting ([`crate::medium`]), when it has one.
+    fog: Option<FoggyLighting>,
     table: Option<LightTable>,
     world_from_env: Mat3,
     raster: Rasterizer,
@@ -283,6 +290,7 @@ impl TripleMethod {
             brdfs: Vec::new(),
             objects: Vec::new(),
             env: None,
+            fog: None,
             table: None,
             world_from_env: Mat3::IDENTITY,
             raster: Rasterizer::new(),
@@ -419,6 +427,22 @@ fn bake_texel_visibility(
     Ok(out)
 }
 
+/// The model's condition (module docs of [`crate::medium`]): the eye inside
+/// the fog ball, as the fog method requires.
+fn check_medium(m: &relight_render::Medium, eye: Vec3) -> Result<(), MethodError> {
+    if eye.length() >= m.radius {
+        return Err(invalid(
+            "camera.eye",
+            format!(
+                "the eye at {eye} lies outside the fog ball of radius {}; the medium model needs \
+                 the eye inside it",
+                m.radius
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn is_rotation(m: Mat3) -> bool {
     let e = (m.transpose() * m - Mat3::IDENTITY).to_cols_array();
     m.is_finite() && e.iter().all(|x| x.abs() < 1e-4) && (m.determinant() - 1.0).abs() < 1e-4
@@ -487,11 +511,14 @@ impl Relighter for TripleMethod {
 
     fn supports(&self, feature: SceneFeature) -> Support {
         match feature {
-            SceneFeature::Environment | SceneFeature::Visibility => Support::Full,
-            SceneFeature::PointLights
-            | SceneFeature::AreaLights
-            | SceneFeature::Medium
-            | SceneFeature::Animation => Support::No,
+            // The medium by the thesis' model (§3.6.5 on §3.6.4's), whose
+            // approximations are this method's error, as for `fog`.
+            SceneFeature::Environment | SceneFeature::Visibility | SceneFeature::Medium => {
+                Support::Full
+            }
+            SceneFeature::PointLights | SceneFeature::AreaLights | SceneFeature::Animation => {
+                Support::No
+            }
             SceneFeature::NormalMaps => match self.options.shading {
                 Shading::Pixel => Support::Full,
                 Shading::Vertex => Support::No,
@@ -631,9 +658,28 @@ impl Relighter for TripleMethod {
             ));
         }
         progress.check()?;
-        let h = env_hash(&scene.env);
+        let medium = scene.medium.filter(|m| m.beta > 0.0);
+        if let Some(m) = medium {
+            check_medium(&m, scene.camera.eye)?;
+        }
+        let h = env_hash(&scene.env)
+            ^ medium.map_or(0, |m| {
+                hash_parts(&[bytemuck::cast_slice(&[m.beta, m.albedo, m.radius])])
+            });
         if self.env.as_ref().is_none_or(|(k, _)| *k != h) {
-            self.env = Some((h, prefilter(&scene.env, self.m)));
+            let pre = prefilter(&scene.env, self.m);
+            self.fog = match medium {
+                Some(m) => Some(
+                    FoggyLighting::new(&scene.env, &m)
+                        .map_err(|e| MethodError::failed(TRIPLE_METHOD_NAME, e))?,
+                ),
+                None => None,
+            };
+            let pre = match &self.fog {
+                Some(f) => f.fog_map(&pre),
+                None => pre,
+            };
+            self.env = Some((h, pre));
             self.table = None;
         }
         let twists = self.options.twists;
@@ -685,11 +731,22 @@ impl Relighter for TripleMethod {
                 .map_err(|e| invalid("raster", e))?;
         let env = &scene.env;
         let env_from_world = scene.world_from_env.transpose();
-        let bg = |d: Vec3| env.eval(env_from_world * d);
-        let background = if k > 1 {
+        let fog = self.fog.as_ref();
+        let eye = camera.eye;
+        let bg = |d: Vec3| match fog {
+            Some(f) => f.background(env, eye, d, env_from_world * d),
+            None => env.eval(env_from_world * d),
+        };
+        // In a medium the foggy sky is the method's own (`render_frame`
+        // fills no background then).
+        let background = if k > 1 || fog.is_some() {
             Background::Environment(&bg)
         } else {
             Background::Color(Vec3::ZERO)
+        };
+        let segment = |c: Vec3, p: Vec3| match fog {
+            Some(f) => f.segment(c, (p - eye).length()),
+            None => c,
         };
         let rot = self.lookup_rotation();
         let objects = &self.objects;
@@ -733,12 +790,15 @@ impl Relighter for TripleMethod {
                                     // normal facing away from the viewer
                                     // shades black.
                                     if b.dot(frag.to_eye) <= 0.0 {
-                                        return Vec3::ZERO;
+                                        return segment(Vec3::ZERO, frag.position);
                                     }
                                     n = b;
                                 }
                             }
-                            shade_blended(table, rot, p, n, frag.to_eye, vis, uv)
+                            segment(
+                                shade_blended(table, rot, p, n, frag.to_eye, vis, uv),
+                                frag.position,
+                            )
                         },
                         background,
                         &mut self.frame,
@@ -746,7 +806,6 @@ impl Relighter for TripleMethod {
                     .map_err(|e| invalid("raster", e))?;
             }
             Shading::Vertex => {
-                let eye = camera.eye;
                 self.colors = objects
                     .iter()
                     .map(|p| {
@@ -765,7 +824,10 @@ impl Relighter for TripleMethod {
                                         (vv.as_ref(), [v * stride; 4], [1.0, 0.0, 0.0, 0.0])
                                     }
                                 });
-                                shade_blended(table, rot, p, n, to_eye, vis, || p.mesh.uvs[v])
+                                segment(
+                                    shade_blended(table, rot, p, n, to_eye, vis, || p.mesh.uvs[v]),
+                                    p.mesh.positions[v],
+                                )
                             })
                             .collect()
                     })

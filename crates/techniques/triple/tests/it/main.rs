@@ -4,4 +4,5 @@
 
 mod chain;
 mod math;
+mod medium;
 mod method;

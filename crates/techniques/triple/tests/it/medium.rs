@@ -1,0 +1,183 @@
+//! Media (sun-thesis-2008 §3.6.5): the foggy lighting against closed forms
+//! computed a second way (quadrature of the PSF), and the method's frame in
+//! a medium.
+
+use glam::Vec3;
+use relight_brdf::BrdfSpec;
+use relight_render::method::{FrameRequest, Relighter, render_frame};
+use relight_render::{Camera, Medium, NoProgress, Object, Scene};
+use relight_sphere::{EnvMap, Param};
+use relight_triple::medium::FoggyLighting;
+use relight_triple::{TripleMethod, TripleOptions};
+use std::sync::Arc;
+
+/// ∫ PSF_T dω by midpoint quadrature in γ (the forward peak ~1/γ is
+/// integrable: sin γ cancels it).
+fn psf_solid_angle_integral(t: f64) -> f64 {
+    let n = 200_000;
+    let h = std::f64::consts::PI / n as f64;
+    (0..n)
+        .map(|i| {
+            let g = (i as f64 + 0.5) * h;
+            relight_fog::psf::psf(t, g) * g.sin()
+        })
+        .sum::<f64>()
+        * h
+        * 2.0
+        * std::f64::consts::PI
+}
+
+fn sky(f: impl Fn(Vec3) -> Vec3 + Sync) -> EnvMap {
+    EnvMap::from_fn(
+        Param::LatLong {
+            width: 256,
+            height: 128,
+        },
+        f,
+    )
+}
+
+const MEDIUM: Medium = Medium {
+    beta: 0.1,
+    albedo: 0.8,
+    radius: 10.0,
+};
+
+#[test]
+fn a_constant_sky_in_fog_is_attenuated_plus_the_psf_integral() {
+    let fog = FoggyLighting::new(&sky(|_| Vec3::ONE), &MEDIUM).unwrap();
+    let t = f64::from(MEDIUM.env_thickness());
+    let want = (-t).exp() + f64::from(MEDIUM.albedo) * psf_solid_angle_integral(t);
+    // From the centre every ray crosses T.
+    for d in [Vec3::Y, Vec3::X, Vec3::new(0.3, -0.8, 0.5).normalize()] {
+        let got = fog.background(&sky(|_| Vec3::ONE), Vec3::ZERO, d, d);
+        for c in got.to_array() {
+            assert!(
+                (f64::from(c) - want).abs() < 1e-3 * want,
+                "L′ = {c}, closed form {want}"
+            );
+        }
+    }
+    assert!(fog.clamped == 0.0);
+    // A view segment of length 0 shows the surface; a very long one the airlight.
+    let s = Vec3::new(0.5, 1.0, 2.0);
+    assert_eq!(fog.segment(s, 0.0), s);
+    let far = fog.segment(s, 1e4);
+    let air = (-t).exp() as f32 * MEDIUM.albedo;
+    assert!((far - Vec3::splat(air)).abs().max_element() < 1e-6);
+}
+
+#[test]
+fn the_scattered_glow_keeps_its_energy_and_centres_on_the_sun() {
+    let sun = Vec3::new(0.3, 0.9, 0.3).normalize();
+    let env = sky(|d| Vec3::splat(0.05 + 40.0 * d.dot(sun).max(0.0).powi(200)));
+    let fog = FoggyLighting::new(&env, &MEDIUM).unwrap();
+    let t = f64::from(MEDIUM.env_thickness());
+    let want = f64::from(MEDIUM.albedo) * psf_solid_angle_integral(t) * f64::from(env.integral().x);
+    let got = f64::from(fog.scattered.integral().x);
+    assert!(
+        (got - want).abs() < 0.01 * want,
+        "scattered energy {got}, PSF integral × ∫L {want}"
+    );
+    let at = |d: Vec3| fog.scattered.eval(d).x;
+    assert!(at(sun) > 2.0 * at(Vec3::new(0.0, 0.2, -1.0).normalize()));
+    assert!(at(sun) > at(-sun));
+    assert!(fog.clamped < 0.01, "clamped {}", fog.clamped);
+}
+
+fn scene(env: EnvMap, medium: Option<Medium>) -> Scene {
+    let brdf = "lambert".parse::<BrdfSpec>().unwrap().build();
+    let sphere = relight_geom::shapes::uv_sphere_at(Vec3::new(0.0, 1.0, 0.0), 1.0, 24, 12);
+    let floor = relight_geom::shapes::plane(6.0, 8);
+    let mut s = Scene::new(
+        vec![
+            Object::new(Arc::new(sphere), brdf.clone()),
+            Object::new(Arc::new(floor), brdf),
+        ],
+        env,
+        Camera {
+            eye: Vec3::new(0.0, 2.5, 5.0),
+            target: Vec3::new(0.0, 0.7, 0.0),
+            up: Vec3::Y,
+            vfov_deg: 45.0,
+            width: 48,
+            height: 36,
+            image_offset: glam::Vec2::ZERO,
+        },
+    );
+    // Unshadowed: a white Lambert under a constant sky is then a furnace.
+    s.visibility = false;
+    s.medium = medium;
+    s
+}
+
+fn render(sc: &Scene, name: &str) -> relight_render::method::Rendered {
+    let dir = std::env::temp_dir().join(format!("relight-triple-{name}-{}", std::process::id()));
+    let mut m = TripleMethod::new(TripleOptions {
+        terms: 80,
+        vis_level: 2,
+        brdf_views: 8,
+        twists: 4,
+        cache_dir: dir,
+        ..TripleOptions::default()
+    })
+    .unwrap();
+    m.prepare(sc, &NoProgress).unwrap();
+    render_frame(&mut m, sc, &FrameRequest::new(sc.camera), &NoProgress).unwrap()
+}
+
+#[test]
+fn the_method_in_fog_attenuates_objects_and_draws_the_foggy_sky() {
+    let env = sky(|_| Vec3::ONE);
+    let clear = render(&scene(env.clone(), None), "clear");
+    let zero = render(
+        &scene(
+            env.clone(),
+            Some(Medium {
+                beta: 0.0,
+                ..MEDIUM
+            }),
+        ),
+        "zero",
+    );
+    assert_eq!(clear.image.pixels, zero.image.pixels, "β = 0 is no medium");
+    let foggy = render(&scene(env.clone(), Some(MEDIUM)), "foggy");
+    let fog = FoggyLighting::new(&env, &MEDIUM).unwrap();
+    let sky_value = fog.background(&env, Vec3::ZERO, Vec3::Y, Vec3::Y).x;
+    let camera = scene(env.clone(), None).camera;
+    let rays = camera.ray_frame();
+    let cov = foggy.coverage.as_ref().unwrap();
+    let (mut objects, mut changed) = (0, 0);
+    for (i, ((p, c), q)) in foggy
+        .image
+        .pixels
+        .iter()
+        .zip(&cov.coverage)
+        .zip(&clear.image.pixels)
+        .enumerate()
+    {
+        if *c <= 0.0 {
+            // The sky through the medium ahead of the eye, per ray: thicker
+            // than T (the eye is off centre, looking past it), so dimmer than
+            // from the centre, brighter than the airlight alone.
+            let (x, y) = (i % camera.width, i / camera.width);
+            let d = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
+            let want = fog.background(&env, camera.eye, d, d).x;
+            assert!((p.x - want).abs() < 1e-4, "sky pixel {p} vs {want}");
+            assert!(p.x > fog.airlight.x && p.x < sky_value, "sky pixel {p}");
+        } else if *c >= 1.0 {
+            objects += 1;
+            // e^{−βD} L′ + (1 − e^{−βD}) airlight: between the two (the
+            // unshadowed white Lambert shades L′ to the furnace's 2e-3).
+            assert!(
+                p.x >= fog.airlight.x - 2e-3 && p.x <= sky_value + 2e-3,
+                "{p}"
+            );
+            changed += usize::from((p.x - q.x).abs() > 1e-3);
+        }
+    }
+    assert!(
+        objects > 200 && changed * 2 > objects,
+        "{changed} of {objects}"
+    );
+}
