@@ -267,7 +267,8 @@ impl VertexShader {
     }
 
     /// `L_o = ⟨L′, B(n, ω_o)⟩` of object `obj` for unit shading normal `n`
-    /// and unit direction to the eye `wo` (module docs, steps 1–3).
+    /// and unit direction to the eye `wo` (module docs, steps 1–3):
+    /// [`VertexShader::transfer`] then [`VertexShader::apply`].
     #[must_use]
     pub fn shade(
         &self,
@@ -277,6 +278,78 @@ impl VertexShader {
         wo: Vec3,
         s: &mut Scratch,
     ) -> Vec3 {
+        let Scratch { b, bw, tmp } = s;
+        let ch = self.transfer_into(obj, n, wo, b, tmp, bw);
+        self.apply(obj, light, &bw[..ch * self.order * self.order])
+    }
+
+    /// Values per vertex side a world-frame transfer of this shader takes
+    /// at most (`order²` per channel, three channels where a table is not
+    /// rank-1).
+    #[must_use]
+    pub fn transfer_len(&self) -> usize {
+        let ch = if self
+            .transfers
+            .iter()
+            .all(|t| t.table.mono_colour().is_some())
+        {
+            1
+        } else {
+            3
+        };
+        ch * self.order * self.order
+    }
+
+    /// Steps 1–3 up to the dot product: the windowed transfer `B(n, ω_o)`
+    /// of object `obj` turned to the world frame, into `out` (`order²`
+    /// values per channel: one channel where the object's table is rank-1,
+    /// else three); returns the channel count. It does not depend on the
+    /// lighting, so a lighting change under a still camera only needs
+    /// [`VertexShader::apply`].
+    pub fn transfer(
+        &self,
+        obj: usize,
+        n: Vec3,
+        wo: Vec3,
+        s: &mut Scratch,
+        out: &mut [f32],
+    ) -> usize {
+        let Scratch { b, tmp, .. } = s;
+        self.transfer_into(obj, n, wo, b, tmp, out)
+    }
+
+    /// `L_o = ⟨L′, B⟩` from a world-frame transfer of
+    /// [`VertexShader::transfer`] (`t`: its channels × `order²` values).
+    #[must_use]
+    pub fn apply(&self, obj: usize, light: &EnvLighting, t: &[f32]) -> Vec3 {
+        let k = self.order * self.order;
+        let dot = |a: &[f32], b: &[f32]| dot(&a[..k], &b[..k]);
+        match self.transfers[obj].table.mono_colour() {
+            Some(rho) => {
+                let w = &t[..k];
+                Vec3::new(
+                    dot(&light.lit[0], w),
+                    dot(&light.lit[1], w),
+                    dot(&light.lit[2], w),
+                ) * Vec3::from_array(rho)
+            }
+            None => Vec3::new(
+                dot(&light.lit[0], &t[..k]),
+                dot(&light.lit[1], &t[k..2 * k]),
+                dot(&light.lit[2], &t[2 * k..3 * k]),
+            ),
+        }
+    }
+
+    fn transfer_into(
+        &self,
+        obj: usize,
+        n: Vec3,
+        wo: Vec3,
+        b: &mut [f32],
+        tmp: &mut [f32],
+        bw: &mut [f32],
+    ) -> usize {
         let tr = &self.transfers[obj];
         let order = self.order;
         let k = order * order;
@@ -288,7 +361,7 @@ impl VertexShader {
         let c = c.clamp(MIN_COS_VIEW, 1.0);
         let mono = tr.table.mono_colour();
         let channels = if mono.is_some() { 1 } else { 3 };
-        let b = &mut s.b[..channels * k];
+        let b = &mut b[..channels * k];
         if mono.is_some() {
             tr.table.lookup_mono(c, order, b);
         } else {
@@ -301,26 +374,11 @@ impl VertexShader {
         }
         // Local (x, y, n) → world.
         let e: EulerZyz<f32> = Rot3::from_mat3_unchecked(Mat3::from_cols(x, y, n)).euler_zyz();
-        let bw = &mut s.bw[..channels * k];
+        let bw = &mut bw[..channels * k];
         for (src, dst) in b.chunks_exact(k).zip(bw.chunks_exact_mut(k)) {
-            self.zyz.apply_euler(&e, src, dst, &mut s.tmp[..k]);
+            self.zyz.apply_euler(&e, src, dst, &mut tmp[..k]);
         }
-        let dot = |a: &[f32], b: &[f32]| dot(&a[..k], b);
-        match mono {
-            Some(rho) => {
-                let w = &bw[..k];
-                Vec3::new(
-                    dot(&light.lit[0], w),
-                    dot(&light.lit[1], w),
-                    dot(&light.lit[2], w),
-                ) * Vec3::from_array(rho)
-            }
-            None => Vec3::new(
-                dot(&light.lit[0], &bw[..k]),
-                dot(&light.lit[1], &bw[k..2 * k]),
-                dot(&light.lit[2], &bw[2 * k..3 * k]),
-            ),
-        }
+        channels
     }
 }
 
@@ -336,6 +394,15 @@ pub struct VertexFrame {
     /// Per object, per vertex: the radiance of the front and back side.
     front: Vec<Vec<Vec3>>,
     back: Vec<Vec<Vec3>>,
+    /// The vertex sides the last [`VertexFrame::shade`] shaded (object,
+    /// vertex, back side) and their world-frame transfers, `stride` values
+    /// each, for [`VertexFrame::relight`].
+    sides: Vec<(u32, u32, bool)>,
+    transfers: Vec<f32>,
+    stride: usize,
+    colours: Vec<Vec3>,
+    /// Whether `sides` and `transfers` hold a [`VertexFrame::shade`].
+    shaded: bool,
 }
 
 impl std::fmt::Debug for VertexFrame {
@@ -375,6 +442,11 @@ impl VertexFrame {
                 .collect(),
             front: sizes.iter().map(|&n| vec![Vec3::ZERO; n]).collect(),
             back: sizes.iter().map(|&n| vec![Vec3::ZERO; n]).collect(),
+            sides: Vec::new(),
+            transfers: Vec::new(),
+            stride: 0,
+            colours: Vec::new(),
+            shaded: false,
         }
     }
 
@@ -428,31 +500,91 @@ impl VertexFrame {
                 }
             }
         });
-        for (d, o) in scene.objects.iter().enumerate() {
-            let mesh = &o.mesh;
-            self.marks[d]
+        // The marked sides in vertex order (marks reset for the next frame).
+        self.sides.clear();
+        for (d, m) in self.marks.iter().enumerate() {
+            let found: Vec<(u32, u32, bool)> = m
                 .par_iter()
-                .zip(self.front[d].par_iter_mut())
-                .zip(self.back[d].par_iter_mut())
                 .enumerate()
-                .with_min_len(512)
-                .for_each_init(Scratch::new, |s, (v, ((m, f), b))| {
+                .with_min_len(4096)
+                .flat_map_iter(|(v, m)| {
                     let bits = m.load(Ordering::Relaxed);
-                    if bits == 0 {
-                        return;
+                    if bits != 0 {
+                        m.store(0, Ordering::Relaxed);
                     }
-                    m.store(0, Ordering::Relaxed);
-                    let p = mesh.positions[v];
-                    let n = mesh.normals.get(v).copied().unwrap_or(Vec3::Z);
-                    let n = n.normalize_or(Vec3::Z);
-                    let wo = (eye - p).normalize_or(n);
-                    if bits & FRONT != 0 {
-                        *f = shader.shade(d, light, n, wo, s);
-                    }
-                    if bits & BACK != 0 {
-                        *b = shader.shade(d, light, -n, wo, s);
-                    }
-                });
+                    [(FRONT, false), (BACK, true)]
+                        .into_iter()
+                        .filter(move |(bit, _)| bits & bit != 0)
+                        .map(move |(_, back)| (d as u32, v as u32, back))
+                })
+                .collect();
+            self.sides.extend(found);
+        }
+        // Each side's world-frame transfer, kept, and its colour.
+        self.stride = shader.transfer_len();
+        let stride = self.stride.max(1);
+        self.transfers.resize(self.sides.len() * stride, 0.0);
+        let objects = &scene.objects;
+        self.sides
+            .par_iter()
+            .zip(self.transfers.par_chunks_mut(stride))
+            .with_min_len(256)
+            .map_init(Scratch::new, |s, (&(d, v, back), t)| {
+                let (d, v) = (d as usize, v as usize);
+                let mesh = &objects[d].mesh;
+                let p = mesh.positions[v];
+                let n = mesh.normals.get(v).copied().unwrap_or(Vec3::Z);
+                let n = n.normalize_or(Vec3::Z);
+                let wo = (eye - p).normalize_or(n);
+                let n = if back { -n } else { n };
+                let ch = shader.transfer(d, n, wo, s, t);
+                shader.apply(d, light, &t[..ch * shader.order * shader.order])
+            })
+            .collect_into_vec(&mut self.colours);
+        self.scatter();
+        self.shaded = true;
+    }
+
+    /// Whether a [`VertexFrame::shade`] ran, so [`VertexFrame::relight`]
+    /// may follow (for the same raster, eye and shader: the caller's check).
+    #[must_use]
+    pub fn is_shaded(&self) -> bool {
+        self.shaded
+    }
+
+    /// The colours of the vertex sides the last [`VertexFrame::shade`]
+    /// shaded, under new lighting `light`, from their kept transfers: what
+    /// `shade` of the same frame (raster, eye, shader) would give, bit for
+    /// bit, at the cost of the dot products alone.
+    pub fn relight(&mut self, shader: &VertexShader, light: &EnvLighting) {
+        let stride = self.stride.max(1);
+        let k = shader.order * shader.order;
+        self.sides
+            .par_iter()
+            .zip(self.transfers.par_chunks(stride))
+            .with_min_len(256)
+            .map(|(&(d, _, _), t)| {
+                let d = d as usize;
+                let ch = if shader.transfers[d].table.mono_colour().is_some() {
+                    1
+                } else {
+                    3
+                };
+                shader.apply(d, light, &t[..ch * k])
+            })
+            .collect_into_vec(&mut self.colours);
+        self.scatter();
+    }
+
+    /// Writes `colours` to the front and back arrays of `sides`.
+    fn scatter(&mut self) {
+        for (&(d, v, back), &c) in self.sides.iter().zip(&self.colours) {
+            let (d, v) = (d as usize, v as usize);
+            if back {
+                self.back[d][v] = c;
+            } else {
+                self.front[d][v] = c;
+            }
         }
     }
 

@@ -383,6 +383,9 @@ impl FogRelighter {
         };
         // 1. Point lights, on the frame's one visibility buffer.
         let mut image = Image::new(big.width, big.height);
+        // Whether the visibility buffer is the last frame's (same camera
+        // and meshes): then the visible vertices' transfers are too.
+        let mut reused = false;
         {
             let objects = self.objects(scene);
             let tables = self.tables.as_ref().expect("built by prepare");
@@ -417,6 +420,7 @@ impl FogRelighter {
                             .zip(&scene.objects)
                             .all(|(m, o)| Arc::ptr_eq(m, &o.mesh))
                 });
+                reused = same;
                 if !same {
                     self.rasterized = None;
                     rasterize_objects(&mut self.rasterizer, &objects, &big).map_err(fog_err)?;
@@ -465,7 +469,14 @@ impl FogRelighter {
         let opengl = self.opengl();
         if let (Some((shader, vframe)), Some(light)) = (self.vertex.as_mut(), &self.env_lighting) {
             progress.check()?;
-            vframe.shade(scene, r, eye, shader, light);
+            if reused && vframe.is_shaded() {
+                // A lighting change under a still camera: the same vertex
+                // sides and transfers, only the dot products with the new
+                // lighting (bit for bit what `shade` gives).
+                vframe.relight(shader, light);
+            } else {
+                vframe.shade(scene, r, eye, shader, light);
+            }
             __tm("vshade");
             let vframe = &*vframe;
             let rays = big.ray_frame();
