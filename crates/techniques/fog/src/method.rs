@@ -375,12 +375,6 @@ impl FogRelighter {
         big.width *= k;
         big.height *= k;
         let m = lighting.medium;
-        let __t = Instant::now();
-        let __tm = |what: &str| {
-            if std::env::var_os("FOG_T").is_some() {
-                eprintln!("{what} {:.1}", __t.elapsed().as_secs_f64() * 1e3);
-            }
-        };
         // 1. Point lights, on the frame's one visibility buffer.
         let mut image = Image::new(big.width, big.height);
         // Whether the visibility buffer is the last frame's (same camera
@@ -427,7 +421,6 @@ impl FogRelighter {
                     self.rasterized =
                         Some((big, scene.objects.iter().map(|o| o.mesh.clone()).collect()));
                 }
-                __tm("raster");
                 shade_fog_raster(
                     &self.rasterizer,
                     &objects,
@@ -439,7 +432,6 @@ impl FogRelighter {
                 .map_err(fog_err)?;
             }
         }
-        __tm("points");
         progress.check()?;
         let ambient = if self.opengl() {
             Vec3::ZERO
@@ -477,7 +469,6 @@ impl FogRelighter {
             } else {
                 vframe.shade(scene, r, eye, shader, light);
             }
-            __tm("vshade");
             let vframe = &*vframe;
             let rays = big.ray_frame();
             image
@@ -507,7 +498,6 @@ impl FogRelighter {
                         }
                     }
                 });
-            __tm("envpix");
         } else if self.environment_image(scene, &big, progress)? {
             let env = &self.env_image;
             let r = &self.rasterizer;
