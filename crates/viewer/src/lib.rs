@@ -60,6 +60,7 @@ mod tests {
             MethodKind::Sh,
             MethodKind::Fog,
             MethodKind::Reference,
+            MethodKind::Triple,
         ]
         .into_iter()
         .map(|k| match MethodOptions::default_for(k) {
@@ -77,6 +78,13 @@ mod tests {
             MethodOptions::Reference(mut r) => {
                 r.pass_spp = 4;
                 MethodOptions::Reference(r)
+            }
+            MethodOptions::Triple(mut t) => {
+                t.terms = 80;
+                t.brdf_views = 8;
+                t.twists = 4;
+                t.cache_dir = cache.clone();
+                MethodOptions::Triple(t)
             }
             other => other,
         })
@@ -125,6 +133,7 @@ mod tests {
             (MethodKind::Wavelet, relight_scene::default_scene(64, 36)),
             (MethodKind::Sh, relight_scene::default_scene(64, 36)),
             (MethodKind::Fog, foggy),
+            (MethodKind::Triple, relight_scene::default_scene(64, 36)),
         ] {
             let mut v = small_viewer(method, scene);
             // A still view after dragging: its first antialiasing pass.
@@ -147,9 +156,12 @@ mod tests {
             assert!(m0.is_finite() && m0 > 0.01, "{method}: mean {m0}");
             let preview = v.frame(48, 27, true, &NoProgress).unwrap();
             assert_eq!(preview.aa, 1);
-            // Turning the lighting or the camera changes the picture.
+            // Turning the lighting or the camera changes the picture; the
+            // lighting turn re-bakes nothing (triple: a table lookup).
+            let prepared = v.prepares();
             v.light_yaw_deg = 120.0;
             let lit = v.frame(48, 27, false, &NoProgress).unwrap();
+            assert_eq!(v.prepares(), prepared, "{method}: a light turn prepared");
             v.orbit.rotate(90.0, 20.0);
             let turned = v.frame(48, 27, false, &NoProgress).unwrap();
             assert!(diff(&still, &lit) > 0.0, "{method}: lighting had no effect");

@@ -83,6 +83,7 @@ impl Default for ViewerOptions {
                 MethodKind::Reference,
                 MethodKind::Ndf,
                 MethodKind::Nearfield,
+                MethodKind::Triple,
             ]
             .into_iter()
             .map(MethodOptions::default_for)
