@@ -11,7 +11,7 @@ use relight_sphere::{EnvMap, Param};
 use relight_triple::bench::{BenchOptions, bench_triple, place_on_floor};
 use relight_triple::verify::{
     ErrorOptions, bump_rows, error_rows, figure6_rows, figure7_rows, identity_rows, medium_rows,
-    storage_rows,
+    storage_rows, wavelet_comparison_rows,
 };
 use std::sync::Arc;
 
@@ -63,6 +63,11 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
     report.table(
         "relight verify triple: relative RMS error vs the reference with visibility (object pixels)",
         &rows,
+        &[],
+    )?;
+    report.table(
+        "relight verify triple: against the wavelet-rotation method (unshadowed, equal n)",
+        &wavelet_comparison_rows(&probes, a.quick, cache_dir(), bar)?,
         &[],
     )?;
     let (name, env, _) = &probes[0];

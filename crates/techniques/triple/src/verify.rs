@@ -1028,3 +1028,95 @@ fn region_noise(image: &Image, std_error: &[f32], mask: &[bool]) -> f64 {
     }
     if den > 0.0 { (num / den).sqrt() } else { 0.0 }
 }
+
+/// The comparison with the wavelet-rotation method (issue 12, "a comparison
+/// row against the wavelet-rotation method on the same scenes"): the verify
+/// scene under each probe **unshadowed** (the wavelet method has no
+/// visibility), both methods at the same coefficient count `n` (triple:
+/// top-only cells; wavelet: the `n` largest lighting terms), each against
+/// the reference without visibility over object pixels, noise removed.
+/// Quick: hall, Phong 16, n = 80, the wavelet cube at 16² per face; full:
+/// every probe, Lambert and Phong 16, n = 80 and 320, 32² per face.
+/// Reported.
+///
+/// # Errors
+/// The methods' or the reference's.
+pub fn wavelet_comparison_rows(
+    probes: &[(String, EnvMap, bool)],
+    quick: bool,
+    cache_dir: PathBuf,
+    progress: &dyn Progress,
+) -> Result<Vec<VerifyRow>, MethodError> {
+    let (w, h, spp) = if quick { (48, 36, 256) } else { (128, 96, 1024) };
+    let terms: &[usize] = if quick { &[80] } else { &[80, 320] };
+    let brdfs: &[&str] = if quick {
+        &["phong:16"]
+    } else {
+        &["lambert:0.8", "phong:16"]
+    };
+    let mut rows = Vec::new();
+    for (name, env, _) in probes.iter().take(if quick { 1 } else { probes.len() }) {
+        for brdf in brdfs {
+            let mut scene = floor_scene(env.clone(), parse_brdf(brdf)?, w, h);
+            scene.visibility = false;
+            let reference = render_reference(
+                &scene,
+                &ReferenceOptions {
+                    spp,
+                    ..ReferenceOptions::default()
+                },
+                progress,
+            )
+            .map_err(|e| MethodError::failed("triple", e))?;
+            let sigma = reference.rms_relative_std_error;
+            for &n in terms {
+                let triple = TripleMethod::new(TripleOptions {
+                    terms: n,
+                    vis_level: crate::method::level_of(n),
+                    cache_dir: cache_dir.clone(),
+                    ..TripleOptions::default()
+                })?;
+                let wavelet =
+                    relight_wavelet::WaveletMethod::new(relight_wavelet::WaveletOptions {
+                        n: if quick { 16 } else { 32 },
+                        ntess: if quick { 8 } else { 16 },
+                        terms: n,
+                        ..relight_wavelet::WaveletOptions::default()
+                    })?;
+                let methods: [(&str, Box<dyn Relighter>); 2] =
+                    [("triple", Box::new(triple)), ("wavelet", Box::new(wavelet))];
+                for (method, mut m) in methods {
+                    m.prepare(&scene, progress)?;
+                    let r = render_frame(
+                        m.as_mut(),
+                        &scene,
+                        &FrameRequest::new(scene.camera),
+                        progress,
+                    )?;
+                    let mask = r
+                        .coverage
+                        .as_ref()
+                        .map(|c| c.object_mask())
+                        .unwrap_or_default();
+                    let raw = rel_rms(&r.image, &reference.image, &mask);
+                    let e = (raw * raw - sigma * sigma).max(0.0).sqrt();
+                    let mut v = row(
+                        &format!(
+                            "wavelet-rotation comparison, unshadowed, n = {n}: {method} vs the reference"
+                        ),
+                        &format!("{name} · {brdf}"),
+                        n,
+                        e,
+                        "report".into(),
+                        "issue 12 (a comparison row against the wavelet-rotation method)",
+                        None,
+                    );
+                    v.raw = Some(raw);
+                    v.sigma_mc = Some(sigma);
+                    rows.push(v);
+                }
+            }
+        }
+    }
+    Ok(rows)
+}
