@@ -58,7 +58,15 @@ fn main() {
         aa: 1,
         progressive: true,
     };
-    render_frame(&mut m, &scene, &request, &NoProgress).expect("frame");
+    let first = render_frame(&mut m, &scene, &request, &NoProgress).expect("frame");
+    if let Some(c) = &first.coverage {
+        let covered = c.object_id.iter().filter(|&&o| o != 0).count();
+        println!(
+            "{covered} of {} pixels covered ({:.0} %)",
+            c.object_id.len(),
+            100.0 * covered as f64 / c.object_id.len().max(1) as f64
+        );
+    }
     let mut view = Vec::new();
     let cpu0 = cpu_ms();
     for i in 0..steps {

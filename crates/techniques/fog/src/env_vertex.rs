@@ -594,7 +594,16 @@ impl VertexFrame {
     #[inline]
     #[must_use]
     pub fn at(&self, d: usize, t: [u32; 3], lam: Vec3, front: bool) -> Vec3 {
+        let c = self.corners(d, t, front);
+        c[0] * lam.x + c[1] * lam.y + c[2] * lam.z
+    }
+
+    /// The colours of triangle `t`'s three vertices on its `front` or back
+    /// side (what [`VertexFrame::at`] interpolates).
+    #[inline]
+    #[must_use]
+    pub fn corners(&self, d: usize, t: [u32; 3], front: bool) -> [Vec3; 3] {
         let c = if front { &self.front[d] } else { &self.back[d] };
-        c[t[0] as usize] * lam.x + c[t[1] as usize] * lam.y + c[t[2] as usize] * lam.z
+        t.map(|v| c[v as usize])
     }
 }

@@ -443,19 +443,21 @@ impl FogRelighter {
         let eye = big.eye;
         let w = big.width;
         // The view segment: e^{−βD} L_s + (1 − e^{−βD}) a e^{−T} L̄.
-        let segment = |d: usize, tri: usize, b: [f32; 2], e: Vec3| {
+        // `corners`: the triangle's vertex positions.
+        let segment_at = |corners: &[Vec3; 3], b: [f32; 2], e: Vec3| {
             if m.beta <= 0.0 {
                 return e;
             }
-            let mesh = &scene.objects[d].mesh;
-            let t = mesh.indices[tri];
-            let p = mesh.positions[t[0] as usize] * (1.0 - b[0] - b[1])
-                + mesh.positions[t[1] as usize] * b[0]
-                + mesh.positions[t[2] as usize] * b[1];
+            let p = corners[0] * (1.0 - b[0] - b[1]) + corners[1] * b[0] + corners[2] * b[1];
             // The crate's polynomial e^x (≈ 1e-7 relative, as the
             // point-light kernels' e^{−T_vp}) instead of libm's call.
             let f = crate::fast::exp(-m.beta * (p - eye).length());
             e * f + ambient * (1.0 - f)
+        };
+        let segment = |d: usize, tri: usize, b: [f32; 2], e: Vec3| {
+            let mesh = &scene.objects[d].mesh;
+            let t = mesh.indices[tri];
+            segment_at(&t.map(|v| mesh.positions[v as usize]), b, e)
         };
         // 2. The environment.
         let opengl = self.opengl();
@@ -476,17 +478,34 @@ impl FogRelighter {
                 .par_chunks_mut(w)
                 .enumerate()
                 .for_each(|(y, row)| {
+                    // Neighbouring pixels of one triangle share its lookup,
+                    // corners, side and vertex colours (the same values as
+                    // fetched per pixel).
+                    let mut last = NO_TRIANGLE;
+                    let mut tri_of: Option<([Vec3; 3], [Vec3; 3])> = None;
                     for (x, px) in row.iter_mut().enumerate() {
                         let i = y * w + x;
                         let id = g.triangle[i];
-                        match (id != NO_TRIANGLE).then(|| r.locate(id)).flatten() {
-                            Some((d, tri)) => {
-                                let mesh = &scene.objects[d].mesh;
-                                let t = mesh.indices[tri];
+                        if id != last {
+                            last = id;
+                            tri_of = (id != NO_TRIANGLE).then(|| r.locate(id)).flatten().map(
+                                |(d, tri)| {
+                                    let mesh = &scene.objects[d].mesh;
+                                    let t = mesh.indices[tri];
+                                    let front = faces_eye(&mesh.positions, t, eye);
+                                    (
+                                        t.map(|v| mesh.positions[v as usize]),
+                                        vframe.corners(d, t, front),
+                                    )
+                                },
+                            );
+                        }
+                        match &tri_of {
+                            Some((p, c)) => {
                                 let b = g.barycentrics[i];
                                 let lam = Vec3::new(1.0 - b[0] - b[1], b[0], b[1]);
-                                let front = faces_eye(&mesh.positions, t, eye);
-                                *px += segment(d, tri, b, vframe.at(d, t, lam, front));
+                                let e = c[0] * lam.x + c[1] * lam.y + c[2] * lam.z;
+                                *px += segment_at(p, b, e);
                             }
                             None if !opengl => {
                                 *px += light.background(

@@ -502,6 +502,11 @@ fn shade_gbuffer(
                 v.clear();
             }
             let (mut lo, mut hi, mut obj) = (1u32, 0u32, 0usize);
+            // The last triangle's corners and vertex normals (`None`: the
+            // mesh has none): neighbouring pixels of one triangle share them.
+            let mut last = NO_TRIANGLE;
+            let mut corners = [Vec3::ZERO; 3];
+            let mut normals: Option<[Vec3; 3]> = None;
             for (x, (&id, b)) in ids.iter().zip(bary).enumerate() {
                 if id == NO_TRIANGLE || id >= total {
                     let d = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
@@ -514,23 +519,27 @@ fn shade_gbuffer(
                     }
                     continue;
                 }
-                if !(id >= lo && id < hi) {
-                    obj = first.partition_point(|&f| f <= id) - 1;
-                    lo = first[obj];
-                    hi = first[obj + 1];
+                if id != last {
+                    last = id;
+                    if !(id >= lo && id < hi) {
+                        obj = first.partition_point(|&f| f <= id) - 1;
+                        lo = first[obj];
+                        hi = first[obj + 1];
+                    }
+                    let mesh = objects[obj].mesh;
+                    let tri = mesh.indices[(id - lo) as usize];
+                    corners = tri.map(|v| mesh.positions[v as usize]);
+                    normals = (mesh.normals.len() == mesh.positions.len())
+                        .then(|| tri.map(|v| mesh.normals[v as usize]));
                 }
-                let mesh = objects[obj].mesh;
-                let tri = mesh.indices[(id - lo) as usize];
-                let (i0, i1, i2) = (tri[0] as usize, tri[1] as usize, tri[2] as usize);
                 let l = Vec3::new(1.0 - b[0] - b[1], b[0], b[1]);
-                let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+                let [p0, p1, p2] = corners;
                 let p = p0 * l.x + p1 * l.y + p2 * l.z;
                 // Interpolated smooth normal; the geometric one only where the
                 // mesh has none or they cancel.
-                let ns = if mesh.normals.len() == mesh.positions.len() {
-                    mesh.normals[i0] * l.x + mesh.normals[i1] * l.y + mesh.normals[i2] * l.z
-                } else {
-                    Vec3::ZERO
+                let ns = match normals {
+                    Some([n0, n1, n2]) => n0 * l.x + n1 * l.y + n2 * l.z,
+                    None => Vec3::ZERO,
                 };
                 let len2 = ns.length_squared();
                 let n = if len2 > 1e-30 && len2.is_finite() {
