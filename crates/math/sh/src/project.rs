@@ -667,11 +667,7 @@ impl LatLongProjector {
                 let (xprev, xnext) = x.split_at_mut(xoff);
                 let cur: &[f32] = if k == 0 { row } else { &xprev[xoff - len..] };
                 let (a, b) = cur.split_at(h);
-                let (dk, xk) = (&mut d[doff..doff + h], &mut xnext[..h]);
-                for i in 0..h {
-                    dk[i] = a[i] - b[i];
-                    xk[i] = a[i] + b[i];
-                }
+                fold_step_dispatch::<FMA>(a, b, &mut d[doff..doff + h], &mut xnext[..h]);
                 doff += h;
                 xoff += h;
                 len = h;
@@ -865,6 +861,54 @@ mod num_like {
     }
 }
 
+/// One fold: `d = a − b`, `x = a + b` (all of equal length). Out of line so
+/// that the four slices are `noalias` arguments: inlined, LLVM guarded the
+/// vector loop with overlap checks and ran a scalar copy hot.
+#[inline(never)]
+fn fold_step(a: &[f32], b: &[f32], d: &mut [f32], x: &mut [f32]) {
+    let h = a.len();
+    let (b, d, x) = (&b[..h], &mut d[..h], &mut x[..h]);
+    for i in 0..h {
+        d[i] = a[i] - b[i];
+        x[i] = a[i] + b[i];
+    }
+}
+
+/// [`fold_step`] compiled for AVX2 (eight lanes).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn fold_step_avx2(a: &[f32], b: &[f32], d: &mut [f32], x: &mut [f32]) {
+    let h = a.len();
+    let (b, d, x) = (&b[..h], &mut d[..h], &mut x[..h]);
+    for i in 0..h {
+        d[i] = a[i] - b[i];
+        x[i] = a[i] + b[i];
+    }
+}
+
+#[inline(always)]
+fn fold_step_dispatch<const FMA: bool>(a: &[f32], b: &[f32], d: &mut [f32], x: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if FMA {
+        // SAFETY: `FMA = true` is only instantiated under
+        // `#[target_feature(enable = "avx2,fma")]`, after the CPU check.
+        unsafe { fold_step_avx2(a, b, d, x) };
+        return;
+    }
+    fold_step(a, b, d, x);
+}
+
+/// Channel sums of 24 interleaved lanes (lane `k` is channel `k % 3`), as
+/// three independent depth-3 trees.
+#[inline(always)]
+fn reduce24(l: &[f32; LANES]) -> [f32; 3] {
+    std::array::from_fn(|c| {
+        ((l[c] + l[c + 3]) + (l[c + 6] + l[c + 9]))
+            + ((l[c + 12] + l[c + 15]) + (l[c + 18] + l[c + 21]))
+    })
+}
+
 /// [`dot3xk`], through explicit AVX2+FMA registers when `FMA` (x86-64; the
 /// `[f32; 24]` lane arrays of the portable form vectorise only 4-wide).
 #[inline(always)]
@@ -918,9 +962,7 @@ unsafe fn dot3xk_avx2<const K: usize>(a: &[f32], t: [&[f32]; K]) -> [[f32; 3]; K
             // SAFETY: 8 floats at 8i < 24.
             unsafe { _mm256_storeu_ps(lanes.as_mut_ptr().add(8 * i), acc[q][i]) };
         }
-        for (k, v) in lanes.iter().enumerate() {
-            o[q][k % 3] += v;
-        }
+        o[q] = reduce24(&lanes);
         for k in full..n {
             o[q][k % 3] = a[k].mul_add(t[q][k], o[q][k % 3]);
         }
