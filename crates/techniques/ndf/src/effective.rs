@@ -118,6 +118,13 @@ pub fn visible_fraction(t: f32, inv_kappa: f32) -> f32 {
     }
     let a = crate::vmf::attenuation_012(inv_kappa)[1];
     let var = a * inv_kappa + (1.0 - 3.0 * a * inv_kappa) * t * t - a * a * t * t;
+    // Beyond 6σ (`(a t)² > 36 var`) `normal_cdf` is the step: decided
+    // without the square root and the division (to its rounding at 6σ,
+    // where Φ is within 1e-9 of the step; tested).
+    let at = a * t;
+    if at * at > 36.0 * var {
+        return if t > 0.0 { 1.0 } else { 0.0 };
+    }
     let sd = var.max(0.0).sqrt();
     if sd <= 0.0 {
         return if t > 0.0 { 1.0 } else { 0.0 };
@@ -261,6 +268,47 @@ pub(crate) fn microfacet(
     fr * d(h) * g(o, i) / (4.0 * o.z)
 }
 
+/// [`shade_mixture`] for Blinn–Phong `s` with its normalization `norm`
+/// ([`blinn_phong_normalization`]`(s)`, an f64 `exp2`) computed by the
+/// caller once, each lobe by [`blinn_lobe_fast`]: the renderer's per-pixel
+/// form, within 1e-5 (relative to the mixture's scale) of
+/// [`shade_mixture`] (tested).
+#[inline]
+#[must_use]
+pub fn shade_mixture_blinn(s: f32, norm: f32, lobes: &[ShadeLobe], wo: Vec3, wi: Vec3) -> f32 {
+    let Some(h) = (wo + wi).try_normalize() else {
+        return 0.0;
+    };
+    lobes
+        .iter()
+        .map(|l| l.alpha * norm * blinn_lobe_fast(s, l.mu, l.inv_kappa, h, wo, wi))
+        .sum()
+}
+
+/// [`blinn_lobe`] with two divisions where it takes seven: `1/|p|` once
+/// for `n*` and the product lobe's `1/κ`, and `s'/s = 1/(1 + s/κ)` once.
+/// The same formulas up to f32 rounding.
+#[inline]
+fn blinn_lobe_fast(s: f32, mu: Vec3, inv_kappa: f32, h: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+    if inv_kappa <= 0.0 {
+        return blinn_lobe(s, mu, inv_kappa, h, wo, wi);
+    }
+    let p = mu + (s * inv_kappa) * h;
+    let len = p.length();
+    if len <= 1e-6 {
+        return blinn_lobe(s, mu, inv_kappa, h, wo, wi);
+    }
+    let inv_len = 1.0 / len;
+    let n = p * inv_len;
+    let ci = n.dot(wi);
+    if ci <= 0.0 {
+        return 0.0;
+    }
+    let vis = visible_fraction(n.dot(wo), inv_kappa * inv_len);
+    let ratio = 1.0 / (1.0 + s * inv_kappa);
+    ratio * mu.dot(h).max(0.0).powf(s * ratio) * ci * vis
+}
+
 /// `f·cos θ_i` of a vMF mixture: `Σ_j α_j` [`shade_lobe`]`(μ_j, 1/κ_j)`.
 #[inline]
 #[must_use]
@@ -268,14 +316,7 @@ pub fn shade_mixture(brdf: NdfBrdf, lobes: &[ShadeLobe], wo: Vec3, wi: Vec3) -> 
     if let NdfBrdf::Blinn { s } = brdf {
         // `shade_lobe` per lobe, with the half vector and the normalization
         // (an f64 `exp2`) hoisted out of the lobe loop.
-        let Some(h) = (wo + wi).try_normalize() else {
-            return 0.0;
-        };
-        let c = blinn_phong_normalization(s);
-        return lobes
-            .iter()
-            .map(|l| l.alpha * c * blinn_lobe(s, l.mu, l.inv_kappa, h, wo, wi))
-            .sum();
+        return shade_mixture_blinn(s, blinn_phong_normalization(s), lobes, wo, wi);
     }
     lobes
         .iter()
@@ -336,19 +377,36 @@ pub fn lambert_sh_dir_seen(gamma: &[f32], wo: Vec3, wi: Vec3) -> f32 {
 #[inline]
 #[must_use]
 pub fn mean_normal_of_sh(gamma: &[f32]) -> Vec3 {
-    // Band 1 at the three axes, evaluated once (the same products as three
-    // evaluations per call).
+    let axes = band1_axes();
+    let axis =
+        |y: &[f32; 3]| (gamma[1] * y[0] + gamma[2] * y[1] + gamma[3] * y[2]) * (4.0 * PI / 3.0);
+    Vec3::new(axis(&axes[0]), axis(&axes[1]), axis(&axes[2]))
+}
+
+/// Band 1 at the three axes, evaluated once (the same products as three
+/// evaluations per call).
+fn band1_axes() -> &'static [[f32; 3]; 3] {
     static AXES: std::sync::OnceLock<[[f32; 3]; 3]> = std::sync::OnceLock::new();
-    let axes = AXES.get_or_init(|| {
+    AXES.get_or_init(|| {
         [Vec3::X, Vec3::Y, Vec3::Z].map(|a| {
             let mut y = [0.0f32; 4];
             relight_sh::eval_sh_into(2, a.to_array(), &mut y);
             [y[1], y[2], y[3]]
         })
-    });
-    let axis =
-        |y: &[f32; 3]| (gamma[1] * y[0] + gamma[2] * y[1] + gamma[3] * y[2]) * (4.0 * PI / 3.0);
-    Vec3::new(axis(&axes[0]), axis(&axes[1]), axis(&axes[2]))
+    })
+}
+
+/// [`mean_normal_of_sh`] as a matrix on `(γ_1, γ_2, γ_3)` (to f32
+/// rounding), for a caller that composes it with a rotation.
+#[must_use]
+pub fn mean_normal_matrix() -> glam::Mat3 {
+    let a = band1_axes();
+    let k = 4.0 * PI / 3.0;
+    glam::Mat3::from_cols(
+        Vec3::new(a[0][0], a[1][0], a[2][0]) * k,
+        Vec3::new(a[0][1], a[1][1], a[2][1]) * k,
+        Vec3::new(a[0][2], a[1][2], a[2][2]) * k,
+    )
 }
 
 /// `A_4(κ)` by forward steps from `A_1, A_2` (clamped at 0; 1 for a delta).
@@ -653,8 +711,20 @@ impl LambertTail {
             return Vec3::ZERO;
         }
         let a = Self::attenuation_468(r);
-        // The octahedral map divides by the L1 norm: `m` needs no normalizing.
-        let p = relight_sphere::param::octahedral_from_dir_f32(m);
+        // `relight_sphere::param::octahedral_from_dir_f32(m̂)` with one
+        // division: the map divides by the L1 norm, so `m` needs no
+        // normalizing, and `x/l1, y/l1` are products with `1/l1` (to rounding).
+        let p = {
+            let inv = 1.0 / (m.x.abs() + m.y.abs() + m.z.abs());
+            let (x, y) = (m.x * inv, m.y * inv);
+            if m.z < 0.0 {
+                let sx = if x >= 0.0 { 1.0 } else { -1.0 };
+                let sy = if y >= 0.0 { 1.0 } else { -1.0 };
+                glam::Vec2::new((1.0 - y.abs()) * sx, (1.0 - x.abs()) * sy)
+            } else {
+                glam::Vec2::new(x, y)
+            }
+        };
         // Node i is at −1 + 2i/TAIL_GRID.
         let g = TAIL_GRID as f32;
         let x = ((p.x + 1.0) * 0.5 * g).clamp(0.0, g);

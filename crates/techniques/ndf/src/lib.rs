@@ -113,8 +113,51 @@ impl Footprint {
     /// The footprint of a pixel at `uv` with screen derivatives `duv_dx`,
     /// `duv_dy` on a `width × height` map (type docs); isotropic or
     /// magnified footprints get one probe.
+    ///
+    /// In squared lengths, without a square root: `n = ⌈major/minor⌉` is
+    /// `1 + #{k ∈ 1..4 : major² > k² minor²}` and the level reads
+    /// `ρ² = max(major²/n², minor²)` ([`Self::of_lengths`], the form with
+    /// lengths, up to f32 rounding: tested). Squares past f32's range take
+    /// that form.
+    #[inline]
     #[must_use]
     pub fn of(uv: Vec2, duv_dx: Vec2, duv_dy: Vec2, width: usize, height: usize) -> Self {
+        let s = Vec2::new(width as f32, height as f32);
+        let (qx, qy) = ((duv_dx * s).length_squared(), (duv_dy * s).length_squared());
+        let (major2, minor2, axis) = if qx >= qy {
+            (qx, qy, duv_dx)
+        } else {
+            (qy, qx, duv_dy)
+        };
+        if !(major2.is_finite() && minor2.is_finite()) {
+            return Self::of_lengths(uv, duv_dx, duv_dy, width, height);
+        }
+        if major2 <= 1.0 {
+            return Self::point(uv, 0.0);
+        }
+        let q2 = major2 / minor2.max(1e-12);
+        let n = 1 + usize::from(q2 > 1.0) + usize::from(q2 > 4.0) + usize::from(q2 > 9.0);
+        const _: () = assert!(MAX_PROBES == 4, "the count above stops at 4");
+        let rho2 = (major2 / (n * n) as f32).max(minor2);
+        let lod = if rho2 > 1.0 {
+            0.5 * ((rho2 + 2.0) / 3.0).log2()
+        } else {
+            0.0
+        };
+        let mut probes = [uv; MAX_PROBES];
+        for (p, o) in probes.iter_mut().zip(&PROBE_OFFSETS[n]).take(n) {
+            *p = uv + axis * *o;
+        }
+        Self {
+            probes,
+            count: n,
+            lod,
+        }
+    }
+
+    /// [`Self::of`] in lengths (the type docs' form as written).
+    #[must_use]
+    pub fn of_lengths(uv: Vec2, duv_dx: Vec2, duv_dy: Vec2, width: usize, height: usize) -> Self {
         let s = Vec2::new(width as f32, height as f32);
         let (lx, ly) = ((duv_dx * s).length(), (duv_dy * s).length());
         let (major, minor, axis) = if lx >= ly {
@@ -135,8 +178,8 @@ impl Footprint {
         let n = ceil_positive(major / minor.max(1e-6)).clamp(1, MAX_PROBES);
         let lod = level((major / n as f32).max(minor));
         let mut probes = [uv; MAX_PROBES];
-        for (i, p) in probes.iter_mut().enumerate().take(n) {
-            *p = uv + axis * ((i as f32 + 0.5) / n as f32 - 0.5);
+        for (p, o) in probes.iter_mut().zip(&PROBE_OFFSETS[n]).take(n) {
+            *p = uv + axis * *o;
         }
         Self {
             probes,
@@ -151,6 +194,23 @@ impl Footprint {
         &self.probes[..self.count]
     }
 }
+
+/// `(i + ½)/n − ½`, probe `i`'s place along the major axis of a footprint
+/// of `n` probes: a table (the same f32 values) instead of a division per
+/// probe.
+const PROBE_OFFSETS: [[f32; MAX_PROBES]; MAX_PROBES + 1] = {
+    let mut t = [[0.0f32; MAX_PROBES]; MAX_PROBES + 1];
+    let mut n = 1;
+    while n <= MAX_PROBES {
+        let mut i = 0;
+        while i < n {
+            t[n][i] = (i as f32 + 0.5) / n as f32 - 0.5;
+            i += 1;
+        }
+        n += 1;
+    }
+    t
+};
 
 /// `⌈q⌉` of a finite `q ≥ 0` as `usize`, without the `ceilf` call that
 /// `f32::ceil` compiles to on baseline x86-64 (no `roundss`): truncation is
@@ -586,11 +646,48 @@ mod tests {
     }
 
     #[test]
+    fn footprints_in_squares_are_the_footprints_in_lengths() {
+        // Same probe count (away from a ratio at an integer, where rounding
+        // may tip it), same probes, level within 2e-6.
+        let mut rng = crate::vmf::Xorshift(0x005e_ed0f_f00f);
+        let mut worst = 0.0f32;
+        let mut tipped = 0;
+        for k in 0..200_000 {
+            let scale = [1e-4, 3e-3, 0.05, 2.0][k % 4];
+            let mut r = || ((rng.next_f64() * 2.0 - 1.0) * scale) as f32;
+            let (dx, dy) = (Vec2::new(r(), r()), Vec2::new(r(), r()));
+            let uv = Vec2::new(0.3, 0.7);
+            let (a, b) = (
+                Footprint::of(uv, dx, dy, 512, 256),
+                Footprint::of_lengths(uv, dx, dy, 512, 256),
+            );
+            if a.count != b.count {
+                let s = Vec2::new(512.0, 256.0);
+                let (lx, ly) = ((dx * s).length(), (dy * s).length());
+                let ratio = lx.max(ly) / lx.min(ly).max(1e-6);
+                assert!((ratio - ratio.round()).abs() < 1e-5, "{ratio}: {a:?} {b:?}");
+                tipped += 1;
+                continue;
+            }
+            assert_eq!(a.probes, b.probes);
+            worst = worst.max((a.lod - b.lod).abs());
+        }
+        assert!(worst <= 2e-6, "level differs by {worst}");
+        assert!(tipped < 10, "{tipped} counts tipped");
+        // Past f32's squares: the lengths' form.
+        let big = Vec2::new(1e30, 0.0);
+        assert_eq!(
+            Footprint::of(Vec2::ZERO, big, Vec2::Y, 64, 64),
+            Footprint::of_lengths(Vec2::ZERO, big, Vec2::Y, 64, 64)
+        );
+    }
+
+    #[test]
     fn visited_taps_are_the_per_probe_taps() {
         // `visit_level` (the SSE2 lanes on x86-64) against `taps` per probe
         // times the level weight, bit for bit, on footprints of 1–4 probes
         // that wrap, and past the 2^23 bound (the scalar path).
-        let mut rng = crate::vmf::Xorshift(0x0dd_ba11_cafe_f00d);
+        let mut rng = crate::vmf::Xorshift(0x0ddb_a11c_afef_00d1);
         for (w, h) in [(1, 1), (4, 2), (64, 64), (512, 512), (48, 64), (3, 5)] {
             for k in 0..3000 {
                 let scale = [1.0, 20.0, 3e3, 1e5][k % 4];

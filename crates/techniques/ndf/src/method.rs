@@ -25,10 +25,11 @@
 
 use crate::effective::{
     Baseline, LAMBERT_TAIL_ORDER, LambertTail, NdfBrdf, lambert_lit9, lambert_sh_dir_seen,
-    mean_normal_of_sh, mixture_sh9, shade_baseline, shade_lobe, shade_mixture,
+    mean_normal_matrix, mixture_sh9, shade_baseline, shade_lobe, shade_mixture,
+    shade_mixture_blinn,
 };
 use crate::lean::{LeanPyramid, LeanTexel, shade_lean};
-use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
+use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack_fast};
 use crate::{Footprint, MeanPyramid, NdfError, ShNdfPyramid};
 use glam::{Mat3, Vec2, Vec3, Vec4};
 use relight_render::method::{
@@ -214,6 +215,9 @@ pub struct NdfMethod {
     env_tail: LambertTail,
     /// `world_from_env` inverted (a rotation).
     env_from_world: Mat3,
+    /// Blinn–Phong's normalization for [`NdfOptions::brdf`] (0 for other
+    /// models), once instead of per pixel.
+    blinn_norm: f32,
 }
 
 fn invalid(option: &'static str, message: String) -> MethodError {
@@ -298,6 +302,10 @@ impl NdfMethod {
             flat_triangles: true,
             env_tail: LambertTail::default(),
             env_from_world: Mat3::IDENTITY,
+            blinn_norm: match options.brdf {
+                NdfBrdf::Blinn { s } => relight_brdf::phong::blinn_phong_normalization(s),
+                _ => 0.0,
+            },
         })
     }
 
@@ -344,7 +352,8 @@ impl NdfMethod {
             inv_kappa: 0.0,
         }; MAX_LOBES];
         let mut nl = 0;
-        let mut gamma = [0.0f32; 64];
+        // Lambert reads bands 0–2 of the SH NDF, whatever its order.
+        let mut gamma = [0.0f32; 9];
         // The representation at this pixel.
         enum Rep {
             Normal(Vec3),
@@ -359,7 +368,13 @@ impl NdfMethod {
             (Some((_, b)), NdfFilter::Sh) => {
                 if let Some(sh) = &b.sh {
                     // Linear: the probes' mean is the footprint's NDF.
-                    sh.sample_footprint(fp, &mut gamma);
+                    if sh.order == 3 {
+                        sh.sample_footprint(fp, &mut gamma);
+                    } else {
+                        let mut all = [0.0f32; 64];
+                        sh.sample_footprint(fp, &mut all);
+                        gamma.copy_from_slice(&all[..9]);
+                    }
                 }
                 Rep::Sh
             }
@@ -369,7 +384,7 @@ impl NdfMethod {
                     // Packed moments filter linearly (moment-matching merge).
                     v.sample_footprint(fp, &mut packed);
                     for p in &packed[..v.lobes] {
-                        if let Some(l) = unpack(*p) {
+                        if let Some(l) = unpack_fast(*p) {
                             lobes[nl] = l;
                             nl += 1;
                         }
@@ -394,7 +409,12 @@ impl NdfMethod {
                 Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
                 Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
                 Rep::Sh => lambert_sh_dir_seen(&gamma, wo, wi),
-                Rep::Vmf => shade_mixture(brdf, &lobes[..nl], wo, wi),
+                Rep::Vmf => match brdf {
+                    NdfBrdf::Blinn { s } => {
+                        shade_mixture_blinn(s, self.blinn_norm, &lobes[..nl], wo, wi)
+                    }
+                    _ => shade_mixture(brdf, &lobes[..nl], wo, wi),
+                },
                 Rep::Lean(t) => shade_lean(brdf, t, wo, wi),
             }
         };
@@ -417,7 +437,7 @@ impl NdfMethod {
                     relight_sh::eval_sh_into(3, n.to_array(), &mut y);
                     &y
                 }
-                Rep::Sh => &gamma[..9],
+                Rep::Sh => &gamma,
                 Rep::Vmf => {
                     y = mixture_sh9(&lobes[..nl]);
                     &y
@@ -442,7 +462,10 @@ impl NdfMethod {
                         _ => tail(n),
                     }
                 }
-                Rep::Sh => tail(mean_normal_of_sh(&gamma)),
+                // `mean_normal_of_sh` and the rotation as one matrix.
+                Rep::Sh => self
+                    .env_tail
+                    .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3])),
                 Rep::Vmf => lobes[..nl]
                     .iter()
                     .map(|l| {
@@ -598,6 +621,9 @@ struct FlatTriangle {
 struct PixelEnv {
     lit: [f32; 27],
     env_from_tangent: Mat3,
+    /// `env_from_tangent` times [`mean_normal_matrix`]: an SH NDF's band 1
+    /// to its mean normal in the environment's frame.
+    env_from_sh1: Mat3,
 }
 
 impl PixelEnv {
@@ -616,9 +642,11 @@ impl PixelEnv {
             }
             lit[c * 9..c * 9 + 9].copy_from_slice(&lambert_lit9(&lt));
         }
+        let env_from_tangent = *env_from_world * Mat3::from_cols(frame.x, frame.y * hand, frame.z);
         Self {
             lit,
-            env_from_tangent: *env_from_world * Mat3::from_cols(frame.x, frame.y * hand, frame.z),
+            env_from_tangent,
+            env_from_sh1: env_from_tangent * mean_normal_matrix(),
         }
     }
 }

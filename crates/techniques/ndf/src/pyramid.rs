@@ -136,6 +136,40 @@ pub fn unpack(p: Vec4) -> Option<ShadeLobe> {
     })
 }
 
+/// [`unpack`] with three divisions where it takes eight (`1/α`, `1/r`, and
+/// `1/κ` as `(1 − r²)/(r (3 − r²))` clamped as [`crate::vmf::kappa_estimate`]
+/// clamps κ): the renderer's per-pixel form, the same lobe up to f32
+/// rounding (tested).
+#[inline]
+#[must_use]
+pub fn unpack_fast(p: Vec4) -> Option<ShadeLobe> {
+    if p.x <= 1e-6 {
+        return None;
+    }
+    let m = Vec3::new(p.y, p.z, p.w) * (1.0 / p.x);
+    let r = m.length();
+    if r.is_nan() {
+        return unpack(p);
+    }
+    if r <= 0.0 {
+        return None;
+    }
+    let r_clamp = 1.0 - 1.5 / KAPPA_MAX as f32;
+    let inv_kappa = if r >= r_clamp {
+        0.0
+    } else {
+        // `r < r_clamp` is below `kappa_estimate`'s cap on r.
+        let r2 = r * r;
+        ((1.0 - r2) / (r * (3.0 - r2)))
+            .clamp(1.0 / KAPPA_MAX as f32, 1.0 / crate::vmf::KAPPA_MIN as f32)
+    };
+    Some(ShadeLobe {
+        alpha: p.x,
+        mu: m * (1.0 / r),
+        inv_kappa,
+    })
+}
+
 /// A footprint with at most `J` distinct normals is represented exactly: one
 /// delta (κ at the clamp) per distinct normal, with weight its share, each in
 /// the free slot whose parent lobe explains it best (greedy, heaviest

@@ -838,3 +838,94 @@ fn tabulated_tail_attenuation_matches_the_recurrence() {
     // The tail these multiply is ≲ 0.1 of a pixel's radiance: ≤ 5e-7 of it.
     assert!(worst <= 5e-6, "worst |ΔA_l| {worst}");
 }
+
+#[test]
+fn fast_unpack_matches_unpack() {
+    // Packed lobes over the whole range of resultants (uniform to the
+    // clamp), weights from tiny to 1: the same lobe up to f32 rounding.
+    use glam::Vec4;
+    use relight_ndf::pyramid::unpack_fast;
+    let mut rng = relight_ndf::vmf::Xorshift(0xface_b00c_1234_5678);
+    let mut n = 0;
+    for k in 0..100_000 {
+        let alpha = [1.0, 0.3, 1e-3, 2e-6][k % 4] as f32;
+        let r = match k % 5 {
+            0 => rng.next_f64(),
+            1 => 1.0 - rng.next_f64() * 1e-3,
+            2 => 1.0 - rng.next_f64() * 1e-5,
+            3 => rng.next_f64() * 1e-3,
+            _ => 0.9 + 0.1 * rng.next_f64(),
+        } as f32;
+        let d = Vec3::new(
+            rng.next_f64() as f32 - 0.5,
+            rng.next_f64() as f32 - 0.5,
+            rng.next_f64() as f32 - 0.5,
+        )
+        .normalize_or(Vec3::Z);
+        let m = d * (alpha * r);
+        let p = Vec4::new(alpha, m.x, m.y, m.z);
+        match (unpack(p), unpack_fast(p)) {
+            (None, None) => {}
+            (Some(a), Some(b)) => {
+                n += 1;
+                assert_eq!(a.alpha, b.alpha);
+                assert!((a.mu - b.mu).length() <= 1e-6, "{a:?} {b:?}");
+                if a.inv_kappa == 0.0 || b.inv_kappa == 0.0 {
+                    // The delta branch: decided on the same `r` up to an ulp.
+                    assert!(a.inv_kappa.max(b.inv_kappa) < 2e-5, "{a:?} {b:?}");
+                } else {
+                    // `1 − r²` cancels near r = 1: an ulp of r (the two
+                    // forms round `m` differently) moves 1/κ ≈ 1 − r by
+                    // ~6e-8, as it moves `unpack`'s own.
+                    let d = (a.inv_kappa - b.inv_kappa).abs();
+                    assert!(d <= 1e-5 * a.inv_kappa + 3e-7, "{a:?} {b:?}: {d}");
+                }
+            }
+            (a, b) => panic!("{p}: {a:?} vs {b:?}"),
+        }
+    }
+    assert!(n > 50_000);
+}
+
+#[test]
+fn per_frame_blinn_mixture_matches_shade_mixture() {
+    // The renderer's Blinn mixture (normalization passed in, fewer
+    // divisions) against `shade_mixture`, over lobes from wide to deltas and
+    // directions over the hemisphere: within 1e-5 of the mixture's scale.
+    use relight_brdf::phong::blinn_phong_normalization;
+    use relight_ndf::effective::{shade_mixture, shade_mixture_blinn};
+    use relight_ndf::pyramid::ShadeLobe;
+    let mut rng = relight_ndf::vmf::Xorshift(0x0b1e_55ed_cafe_0001);
+    let mut dir = |up: bool| {
+        let v = Vec3::new(
+            rng.next_f64() as f32 * 2.0 - 1.0,
+            rng.next_f64() as f32 * 2.0 - 1.0,
+            rng.next_f64() as f32 * 2.0 - 1.0,
+        )
+        .normalize_or(Vec3::Z);
+        if up {
+            Vec3::new(v.x, v.y, v.z.abs())
+        } else {
+            v
+        }
+    };
+    let mut worst = 0.0f32;
+    for s in [1.0f32, 8.0, 64.0, 1000.0] {
+        let c = blinn_phong_normalization(s);
+        for k in 0..20_000 {
+            let lobes: Vec<ShadeLobe> = (0..6)
+                .map(|j| ShadeLobe {
+                    alpha: 1.0 / 6.0,
+                    mu: Vec3::Z.lerp(dir(false), 0.4).normalize(),
+                    inv_kappa: [0.0, 1e-4, 0.01, 0.2, 1.0, 500.0][(j + k) % 6],
+                })
+                .collect();
+            let (wo, wi) = (dir(true), dir(true));
+            let want = shade_mixture(NdfBrdf::Blinn { s }, &lobes, wo, wi);
+            let got = shade_mixture_blinn(s, c, &lobes, wo, wi);
+            // Scale: the mixture's peak, the normalization times Σ α.
+            worst = worst.max((want - got).abs() / c);
+        }
+    }
+    assert!(worst <= 1e-5, "worst difference {worst} of the scale");
+}
