@@ -47,14 +47,13 @@
 //!   8-bit with a scale per function; [`storage`]).
 //!
 //! * Visibility textures over the uvs ([`vis_texture`]); meshes without uvs
-//!   keep per-vertex visibility (no chart packer), with a warning.
+//!   get one packed chart per triangle (a documented simple packer; no
+//!   parameterisation crate builds here), with a warning.
 //!
 //! * Media (sun-thesis-2008 §3.6.5): the product fed with the environment
 //!   convolved by the fog chapter's PSF, band-limited and windowed for the
 //!   scattered part only, then the view segment per pixel ([`medium`]).
 //!
-//! # Not implemented (issue 12)
-//! A parameterisation for meshes without uvs.
 
 pub mod basis;
 pub mod product;

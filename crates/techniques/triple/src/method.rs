@@ -158,6 +158,9 @@ struct Prepared {
     vis: Option<Arc<Planes>>,
     /// Side of the visibility texture `vis` holds (0: one row per vertex).
     vis_res: usize,
+    /// The texture's uvs per triangle corner and per vertex (its own uvs,
+    /// or packed charts: [`crate::vis_texture::Charts`]), with a texture.
+    vis_uvs: Option<Arc<(crate::vis_texture::Charts, Vec<glam::Vec2>)>>,
     /// The object's normal map (bump mapping; the mesh has uvs and tangents).
     normal_map: Option<Arc<relight_render::NormalMap>>,
 }
@@ -579,17 +582,30 @@ impl Relighter for TripleMethod {
                 .get(i)
                 .filter(|p| Arc::ptr_eq(&p.mesh, &o.mesh) && p.vis.is_some() == scene.visibility);
             let res = self.options.visibility_texture;
-            let texels = if res > 0 && scene.visibility {
-                let t = crate::vis_texture::texel_points(&o.mesh, res);
-                if t.is_none() {
+            let charts = if res > 0 && scene.visibility {
+                let c = crate::vis_texture::Charts::of(&o.mesh, res);
+                if c.is_none() {
                     self.warnings.push(format!(
-                        "triple: object {i} has no uvs per vertex: its visibility stays per vertex"
+                        "triple: object {i} has no uvs and its {} triangles need a visibility \
+                         texture of at least {} texels a side for one chart each: its \
+                         visibility stays per vertex",
+                        o.mesh.indices.len(),
+                        crate::vis_texture::MIN_CELL
+                            * (o.mesh.indices.len() as f64).sqrt().ceil() as usize
+                    ));
+                } else if o.mesh.uvs.len() != o.mesh.positions.len() {
+                    self.warnings.push(format!(
+                        "triple: object {i} has no uvs: its visibility texture uses one packed \
+                         chart per triangle"
                     ));
                 }
-                t
+                c
             } else {
                 None
             };
+            let texels = charts
+                .as_ref()
+                .map(|c| crate::vis_texture::texel_points(&o.mesh, c, res));
             let vis_res = if texels.is_some() { res } else { 0 };
             let vis = if !scene.visibility {
                 None
@@ -615,6 +631,8 @@ impl Relighter for TripleMethod {
                     }
                     Some(points) => {
                         let len = points.len() * stride;
+                        let uvs = charts.as_ref().map(|c| c.key_bytes()).unwrap_or_default();
+                        let key = hash_parts(&[&key.to_le_bytes(), &uvs]);
                         let p = cache::params(m as u32, vl as u32, res as u32, 1, key, len);
                         bake_or_load(&self.options.cache_dir, "vistex", VIS_MAGIC, p, || {
                             let b = bvh.get_or_insert_with(|| SceneBvh::build(&meshes));
@@ -640,6 +658,10 @@ impl Relighter for TripleMethod {
                 blend,
                 vis,
                 vis_res,
+                vis_uvs: charts.map(|c| {
+                    let v = c.vertex_uvs(&o.mesh);
+                    Arc::new((c, v))
+                }),
                 normal_map: o.normal_map.clone(),
             });
         }
@@ -772,8 +794,9 @@ impl Relighter for TripleMethod {
                                     + u[tri[2] as usize] * l.z
                             };
                             let vis = p.vis.as_ref().map(|v| {
-                                if p.vis_res > 0 {
-                                    let (t, w) = crate::vis_texture::taps(uv(), p.vis_res);
+                                if let (true, Some(c)) = (p.vis_res > 0, &p.vis_uvs) {
+                                    let at = c.0.uv(frag.triangle as usize, l);
+                                    let (t, w) = crate::vis_texture::taps(at, p.vis_res);
                                     (v.as_ref(), t.map(|t| t * stride), w)
                                 } else {
                                     let [a, b, c] = tri.map(|i| i as usize * stride);
@@ -816,9 +839,8 @@ impl Relighter for TripleMethod {
                                 let n = p.mesh.normals[v];
                                 let to_eye = (eye - p.mesh.positions[v]).normalize_or(n);
                                 let vis = p.vis.as_ref().map(|vv| {
-                                    if p.vis_res > 0 {
-                                        let (t, w) =
-                                            crate::vis_texture::taps(p.mesh.uvs[v], p.vis_res);
+                                    if let (true, Some(c)) = (p.vis_res > 0, &p.vis_uvs) {
+                                        let (t, w) = crate::vis_texture::taps(c.1[v], p.vis_res);
                                         (vv.as_ref(), t.map(|t| t * stride), w)
                                     } else {
                                         (vv.as_ref(), [v * stride; 4], [1.0, 0.0, 0.0, 0.0])

@@ -1047,7 +1047,11 @@ pub fn wavelet_comparison_rows(
     cache_dir: PathBuf,
     progress: &dyn Progress,
 ) -> Result<Vec<VerifyRow>, MethodError> {
-    let (w, h, spp) = if quick { (48, 36, 256) } else { (128, 96, 1024) };
+    let (w, h, spp) = if quick {
+        (48, 36, 256)
+    } else {
+        (128, 96, 1024)
+    };
     let terms: &[usize] = if quick { &[80] } else { &[80, 320] };
     let brdfs: &[&str] = if quick {
         &["phong:16"]

@@ -342,23 +342,55 @@ fn a_visibility_texture_shadows_a_two_triangle_floor() {
         .collect();
     assert!(e[0] <= 1.25 * e[1], "{e:?}");
     assert!(e[0] < e[2], "{e:?}");
-    // A mesh without uvs keeps per-vertex visibility, with a warning.
+    // A mesh without uvs gets packed charts when the texture is large
+    // enough (one cell of ≥ 4 texels per triangle), else keeps per-vertex
+    // visibility; both with a warning.
     let mut s = scene(env, true);
     let mut sphere = (*s.objects[0].mesh).clone();
     sphere.uvs.clear();
+    let triangles = sphere.indices.len();
     s.objects[0].mesh = Arc::new(sphere);
-    let mut m = TripleMethod::new(TripleOptions {
-        visibility_texture: 16,
-        ..options(&dir)
-    })
-    .unwrap();
-    m.prepare(&s, &NoProgress).unwrap();
+    let render = |res: usize| {
+        let mut m = TripleMethod::new(TripleOptions {
+            visibility_texture: res,
+            ..options(&dir)
+        })
+        .unwrap();
+        m.prepare(&s, &NoProgress).unwrap();
+        let r = render_frame(&mut m, &s, &FrameRequest::new(s.camera), &NoProgress).unwrap();
+        (r, m.warnings())
+    };
+    let (small, w) = render(16);
     assert!(
-        m.warnings()
-            .iter()
-            .any(|w| w.contains("object 0 has no uvs")),
-        "{:?}",
-        m.warnings()
+        w.iter()
+            .any(|w| w.contains("object 0 has no uvs") && w.contains("stays per vertex")),
+        "{w:?}"
     );
+    let (packed, w) = render(512);
+    assert!(
+        w.iter()
+            .any(|w| w.contains("one packed chart per triangle")),
+        "{w:?} ({triangles} triangles)"
+    );
+    // The sphere's visibility (the floor below it) read from its charts is
+    // the per-vertex image's, up to where each samples it.
+    let ids = packed.coverage.as_ref().unwrap();
+    let (mut num, mut den, mut n) = (0.0f64, 0.0f64, 0);
+    for (i, (p, q)) in packed
+        .image
+        .pixels
+        .iter()
+        .zip(&small.image.pixels)
+        .enumerate()
+    {
+        if ids.coverage[i] >= 1.0 && ids.object_id[i] == 1 {
+            num += f64::from((*p - *q).length_squared());
+            den += f64::from(q.length_squared());
+            n += 1;
+        }
+    }
+    let e = (num / den).sqrt();
+    eprintln!("packed charts vs per vertex on the sphere: {e} over {n} pixels");
+    assert!(n > 100 && e < 0.03, "{e} over {n} pixels");
     let _ = std::fs::remove_dir_all(&dir);
 }
