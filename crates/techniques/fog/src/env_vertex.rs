@@ -59,7 +59,7 @@ const MAXN: usize = 64;
 /// (the compiler keeps them in vector registers): a plain `sum()` over the
 /// products is one chain of dependent adds, 36 of them per channel at
 /// order 6. Only the summation order differs (rounding, ≈ 1e-7 relative).
-#[inline]
+#[inline(always)]
 fn dot(a: &[f32], b: &[f32]) -> f32 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
