@@ -390,6 +390,8 @@ pub struct LatLongProjector {
     units: Vec<(usize, Option<usize>)>,
     /// Per row: `Ω_row · y_{l,m}(θ_row, φ=0)` for `m ≥ 0`, m-major (`m`, then `l = m..n`).
     row_y: Vec<f32>,
+    /// The same values per pair `p` then unit `u` (the unit's first row), as f64: `[p·U + u]`.
+    unit_y: Vec<f64>,
     /// Coefficients of the local (pole = world +Y) frame → world frame.
     world_from_local: ShRotation<f64>,
 }
@@ -534,6 +536,13 @@ impl LatLongProjector {
         } else {
             (0..height).map(|r| (r, None)).collect()
         };
+        let nu = units.len();
+        let mut unit_y = vec![0.0f64; np * nu];
+        for (u, &(r, _)) in units.iter().enumerate() {
+            for p in 0..np {
+                unit_y[p * nu + u] = row_y[r * np + p] as f64;
+            }
+        }
         // c_world = M(P⁻¹) c_local with P d = (d.z, d.x, d.y).
         let p = Rot3::new_unchecked([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
         let mut world_from_local = ShRotation::identity(order)?;
@@ -550,6 +559,7 @@ impl LatLongProjector {
             groups,
             units,
             row_y,
+            unit_y,
             world_from_local,
         })
     }
@@ -601,17 +611,19 @@ impl LatLongProjector {
         self.accumulate::<true>(texels, acc);
     }
 
-    /// `acc[8p + k] = Σ_rows Ω Q̃_l^m (F_m)_k` for pair `p = (m, l)` (m-major),
+    /// `acc[8p + k] = Σ_rows Ω Q̃_l^m (F_m)_k` for pair `p = (m, l)` (m-major; overwritten),
     /// `k = 0..3` the cos sums (RGB), `3..6` the sin sums (`6, 7`: padding, so
     /// one update is two 4-wide f64 FMAs).
     #[inline(always)]
     fn accumulate<const FMA: bool>(&self, texels: &[Vec3], acc: &mut [f64]) {
         let (w, n) = (self.width, self.order);
-        let np = pairs(n);
+        let nu = self.units.len();
         let mut scratch = vec![0.0f32; 6 * w];
         let mut f1 = vec![[0.0f32; 6]; n];
         let mut f2 = vec![[0.0f32; 6]; n];
-        for &(r, mirror) in &self.units {
+        // Per m and parity, per unit: F_r ± F_mirror (f64, padded to ACC).
+        let mut gbuf = vec![[0.0f64; ACC]; 2 * n * nu];
+        for (u, &(r, mirror)) in self.units.iter().enumerate() {
             self.fourier_row::<FMA>(
                 vec3_as_f32(&texels[r * w..(r + 1) * w]),
                 &mut scratch,
@@ -624,8 +636,6 @@ impl LatLongProjector {
                     &mut f2,
                 );
             }
-            let ry = &self.row_y[r * np..(r + 1) * np];
-            let mut p = 0;
             for m in 0..n {
                 let (a, b) = (f1[m], f2[m]);
                 let (mut ge, mut go) = ([0.0f64; ACC], [0.0f64; ACC]);
@@ -637,16 +647,34 @@ impl LatLongProjector {
                         (x, x)
                     };
                 }
-                for l in m..n {
-                    // Q̃_l^m(−z) = (−1)^{l+m} Q̃_l^m(z): the mirror row enters with that sign.
-                    let g = if (l - m) % 2 == 0 { &ge } else { &go };
-                    let yv = ry[p] as f64;
-                    let a8: &mut [f64; ACC] =
-                        (&mut acc[ACC * p..ACC * (p + 1)]).try_into().expect("8");
-                    for k in 0..ACC {
-                        a8[k] = madd::<FMA, f64>(yv, g[k], a8[k]);
+                gbuf[2 * m * nu + u] = ge;
+                gbuf[(2 * m + 1) * nu + u] = go;
+            }
+        }
+        // Legendre pass, m-major: Q̃_l^m(−z) = (−1)^{l+m} Q̃_l^m(z), so l of the
+        // parity of m take F_r + F_mirror and the others F_r − F_mirror. Four l
+        // at a time keep their accumulators in registers over all units.
+        for m in 0..n {
+            let p0 = m * n - m * m.saturating_sub(1) / 2;
+            for par in 0..2 {
+                let g = &gbuf[(2 * m + par) * nu..(2 * m + par + 1) * nu];
+                let ls: Vec<usize> = (m + par..n).step_by(2).collect();
+                let mut chunks = ls.chunks_exact(4);
+                for c in &mut chunks {
+                    let ys: [&[f64]; 4] = std::array::from_fn(|i| {
+                        let p = p0 + c[i] - m;
+                        &self.unit_y[p * nu..(p + 1) * nu]
+                    });
+                    let out = legendre_group::<FMA, 4>(g, ys);
+                    for i in 0..4 {
+                        let p = p0 + c[i] - m;
+                        acc[ACC * p..ACC * (p + 1)].copy_from_slice(&out[i]);
                     }
-                    p += 1;
+                }
+                for &l in chunks.remainder() {
+                    let p = p0 + l - m;
+                    let [out] = legendre_group::<FMA, 1>(g, [&self.unit_y[p * nu..(p + 1) * nu]]);
+                    acc[ACC * p..ACC * (p + 1)].copy_from_slice(&out);
                 }
             }
         }
@@ -859,6 +887,27 @@ mod num_like {
             self * b + c
         }
     }
+}
+
+/// `G` Legendre sums over all units: `out[i][k] = Σ_u ys[i][u] · g[u][k]` (f64).
+#[inline(always)]
+fn legendre_group<const FMA: bool, const G: usize>(
+    g: &[[f64; ACC]],
+    ys: [&[f64]; G],
+) -> [[f64; ACC]; G] {
+    let nu = g.len();
+    let ys: [&[f64]; G] = ys.map(|y| &y[..nu]);
+    let mut acc = [[0.0f64; ACC]; G];
+    for u in 0..nu {
+        let gv = &g[u];
+        for i in 0..G {
+            let y = ys[i][u];
+            for k in 0..ACC {
+                acc[i][k] = madd::<FMA, f64>(y, gv[k], acc[i][k]);
+            }
+        }
+    }
+    acc
 }
 
 /// One fold: `d = a − b`, `x = a + b` (all of equal length). Out of line so
