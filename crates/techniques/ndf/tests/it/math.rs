@@ -889,9 +889,9 @@ fn fast_unpack_matches_unpack() {
 
 #[test]
 fn per_frame_blinn_mixture_matches_shade_mixture() {
-    // The renderer's Blinn mixture (normalization passed in, fewer
-    // divisions) against `shade_mixture`, over lobes from wide to deltas and
-    // directions over the hemisphere: within 1e-5 of the mixture's scale.
+    // The renderer's Blinn mixture (normalization passed in) against
+    // `shade_mixture`, over lobes from wide to deltas and directions over the
+    // hemisphere: within 1e-5 of the mixture's scale.
     use relight_brdf::phong::blinn_phong_normalization;
     use relight_ndf::effective::{shade_mixture, shade_mixture_blinn};
     use relight_ndf::pyramid::ShadeLobe;
