@@ -291,8 +291,9 @@ pub struct MethodFlags {
     /// vMF lobes per texel J (ndf) [default: 6].
     #[arg(long)]
     pub lobes: Option<usize>,
-    /// Coefficient selection (triple): `top` (complete levels) [default: top];
-    /// `adaptive` is compared in `relight verify triple`.
+    /// Coefficient selection (triple): `top` (complete levels, per pixel)
+    /// [default: top]; `adaptive` (each function's largest terms, per vertex:
+    /// with `--shading vertex --twists 1`).
     #[arg(long)]
     pub select: Option<String>,
     /// Where the triple product is evaluated (triple): `pixel` or `vertex`

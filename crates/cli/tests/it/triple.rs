@@ -66,4 +66,20 @@ fn bad_terms_and_features_are_one_line_errors() {
         png.to_str().unwrap(),
     ]);
     assert_one_line_error(&out, &["--twists", "triple"]);
+    // Adaptive selection shades per vertex from the isotropic table.
+    let out = relight(&[
+        "-q",
+        "render",
+        "--mesh",
+        "sphere",
+        "--size",
+        "16x12",
+        "--method",
+        "triple",
+        "--select",
+        "adaptive",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert_one_line_error(&out, &["triple", "--shading vertex"]);
 }

@@ -35,8 +35,10 @@
 //! * Table normals at icosahedral vertices with the shortest-arc frame from
 //!   +Y, singular only at −Y, and twist bins measured per neighbour
 //!   ([`lighting`]), instead of Euler angles with a pole on +Y.
-//! * The renderer keeps complete levels (top-only, the paper's GPU form);
-//!   adaptive selection is compared point by point in verify (Fig. 7).
+//! * The renderer keeps complete levels per pixel (top-only, the paper's GPU
+//!   form) or, per vertex, the `n` largest terms of each function
+//!   ([`adaptive`], from the 5120-cell tables); Fig. 7 compares the two
+//!   point by point in verify.
 //! * Per pixel, the lighting is looked up from the pixel's own frame (the
 //!   paper's second form); visibility is interpolated from the vertices.
 //!
@@ -55,6 +57,7 @@
 //!   scattered part only, then the view segment per pixel ([`medium`]).
 //!
 
+pub mod adaptive;
 pub mod basis;
 pub mod product;
 pub mod quadrature;

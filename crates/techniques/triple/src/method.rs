@@ -34,13 +34,15 @@
 //! | [`Relighter::render`] | rasterize at `aa × aa`, then per pixel ([`Shading::Pixel`]: the lighting looked up in the pixel's own frame from the interpolated normal, the vertices' visibility interpolated, the BRDF at the pixel's view) or per vertex ([`Shading::Vertex`], Gouraud, the paper's Fig. 5 comparison) |
 //!
 //! # Selection
-//! The renderer keeps the first `terms = 20·4^m` coefficients (top-only,
-//! the paper's GPU choice): every function is stored as its `20·4^m` cell
-//! averages. Adaptive selection needs each point's full 5120-coefficient
-//! functions; it is compared with top-only point by point in `verify triple`
-//! (Fig. 7 rows, [`crate::select`], [`crate::product::sparse`]) and refused
-//! here with a message saying so.
+//! By default the renderer keeps the first `terms = 20·4^m` coefficients
+//! (top-only, the paper's GPU choice): every function is stored as its
+//! `20·4^m` cell averages and shaded per pixel. [`Selection::Adaptive`]
+//! keeps each function's `terms` largest area-weighted terms instead
+//! ([`crate::adaptive`]): it reads the 5120-cell tables, so it shades per
+//! vertex ([`Shading::Vertex`]) with the isotropic lighting table
+//! (`twists = 1`), and says so as an error otherwise.
 
+use crate::adaptive::{ADAPTIVE_LEVEL, select_visibility, shade_adaptive};
 use crate::basis::{Basis, triangles};
 use crate::brdf_table::BrdfTable;
 use crate::cache::{self, BRDF_MAGIC, VIS_MAGIC, bake_or_load, hash_parts};
@@ -161,6 +163,8 @@ struct Prepared {
     /// The texture's uvs per triangle corner and per vertex (its own uvs,
     /// or packed charts: [`crate::vis_texture::Charts`]), with a texture.
     vis_uvs: Option<Arc<(crate::vis_texture::Charts, Vec<glam::Vec2>)>>,
+    /// Adaptive selection: each vertex's visibility cut to `terms` terms.
+    vis_sparse: Option<Arc<Vec<crate::select::SparseVec>>>,
     /// The object's normal map (bump mapping; the mesh has uvs and tangents).
     normal_map: Option<Arc<relight_render::NormalMap>>,
 }
@@ -234,21 +238,21 @@ impl TripleMethod {
     /// # Errors
     /// [`MethodError::InvalidOption`] naming the option.
     pub fn new(options: TripleOptions) -> Result<Self, MethodError> {
-        let m = options.level().ok_or_else(|| {
-            invalid(
-                "terms",
-                format!(
-                    "must be 20·4^m: 20, 80, 320, 1280 or 5120 (complete levels, top-only), got {}",
-                    options.terms
-                ),
-            )
-        })?;
-        if options.selection == Selection::Adaptive {
-            return Err(invalid(
-                "select",
-                "the renderer keeps complete levels (top-only); adaptive selection is compared point by point in `relight verify triple`",
-            ));
-        }
+        let m = if options.selection == Selection::Adaptive {
+            Self::check_adaptive(&options)?;
+            ADAPTIVE_LEVEL
+        } else {
+            options.level().ok_or_else(|| {
+                invalid(
+                    "terms",
+                    format!(
+                        "must be 20·4^m: 20, 80, 320, 1280 or 5120 (complete levels, top-only), \
+                         got {}",
+                        options.terms
+                    ),
+                )
+            })?
+        };
         if !(1..=64).contains(&options.twists) {
             return Err(invalid(
                 "twists",
@@ -305,6 +309,46 @@ impl TripleMethod {
             table_builds: 0,
             warnings: Vec::new(),
         })
+    }
+
+    /// What adaptive selection needs ([`crate::adaptive`]): per-vertex
+    /// shading, the isotropic lighting table, visibility per vertex.
+    fn check_adaptive(o: &TripleOptions) -> Result<(), MethodError> {
+        let leaves = triangles(ADAPTIVE_LEVEL);
+        if !(1..=leaves).contains(&o.terms) {
+            return Err(invalid(
+                "terms",
+                format!(
+                    "adaptive selection keeps 1..={leaves} terms, got {}",
+                    o.terms
+                ),
+            ));
+        }
+        if o.shading != Shading::Vertex {
+            return Err(invalid(
+                "select",
+                "adaptive selection shades per vertex (each vertex cuts its own 5120-term \
+                 functions): add --shading vertex",
+            ));
+        }
+        if o.twists != 1 {
+            return Err(invalid(
+                "twists",
+                format!(
+                    "adaptive selection reads the 5120-cell lighting table, which with {} twists \
+                     would hold {} MB: use --twists 1 (a rotation rebuilds it)",
+                    o.twists,
+                    642 * o.twists * 3 * leaves * 4 / 1_000_000
+                ),
+            ));
+        }
+        if o.visibility_texture > 0 {
+            return Err(invalid(
+                "visibility-texture",
+                "adaptive selection keeps visibility per vertex",
+            ));
+        }
+        Ok(())
     }
 
     /// The options.
@@ -451,8 +495,18 @@ fn is_rotation(m: Mat3) -> bool {
     m.is_finite() && e.iter().all(|x| x.abs() < 1e-4) && (m.determinant() - 1.0).abs() < 1e-4
 }
 
-/// Shades one point: world normal `n`, to-eye `to_eye`, with `vis`.
-#[allow(clippy::too_many_arguments)]
+/// Which product a point is shaded with, and its visibility.
+#[derive(Clone, Copy)]
+enum Product<'a> {
+    /// The top-only kernel ([`shade_point`]) with the visibility rows and
+    /// weights (`None`: V ≡ 1).
+    TopOnly(Option<(&'a Planes, [usize; 4], [f32; 4])>),
+    /// Adaptive selection of `n` terms ([`crate::adaptive`]) with the
+    /// vertex's selected visibility.
+    Adaptive(Option<&'a crate::select::SparseVec>, usize),
+}
+
+/// Shades one point: world normal `n`, to-eye `to_eye`, by `product`.
 #[inline]
 fn shade_world(
     table: &LightTable,
@@ -460,7 +514,7 @@ fn shade_world(
     brdf: &BrdfTable,
     n: Vec3,
     to_eye: Vec3,
-    vis: Option<(&Planes, [usize; 4], [f32; 4])>,
+    product: Product,
 ) -> Vec3 {
     let f = frame_of(n);
     let mut wo = f.to_local(to_eye);
@@ -475,7 +529,10 @@ fn shade_world(
     };
     let lt = table.lookup(&g);
     let bt = brdf.lookup(wo);
-    shade_point(&table.data, &lt, &brdf.data, &bt, vis, table.stride)
+    match product {
+        Product::TopOnly(vis) => shade_point(&table.data, &lt, &brdf.data, &bt, vis, table.stride),
+        Product::Adaptive(vis, terms) => shade_adaptive(table, &lt, brdf, &bt, vis, terms),
+    }
 }
 
 /// [`shade_world`] with the object's BRDF blend: by linearity of Eq. 7 in
@@ -487,7 +544,7 @@ fn shade_blended(
     p: &Prepared,
     n: Vec3,
     to_eye: Vec3,
-    vis: Option<(&Planes, [usize; 4], [f32; 4])>,
+    vis: Product,
     uv: impl Fn() -> glam::Vec2,
 ) -> Vec3 {
     let Some((second, blend)) = &p.blend else {
@@ -656,6 +713,15 @@ impl Relighter for TripleMethod {
                 mesh: o.mesh.clone(),
                 brdf,
                 blend,
+                vis_sparse: match (&vis, self.options.selection) {
+                    (Some(v), Selection::Adaptive) => Some(Arc::new(select_visibility(
+                        v,
+                        o.mesh.positions.len(),
+                        crate::lighting::padded_cells(self.m),
+                        self.options.terms,
+                    ))),
+                    _ => None,
+                },
                 vis,
                 vis_res,
                 vis_uvs: charts.map(|c| {
@@ -819,7 +885,15 @@ impl Relighter for TripleMethod {
                                 }
                             }
                             segment(
-                                shade_blended(table, rot, p, n, frag.to_eye, vis, uv),
+                                shade_blended(
+                                    table,
+                                    rot,
+                                    p,
+                                    n,
+                                    frag.to_eye,
+                                    Product::TopOnly(vis),
+                                    uv,
+                                ),
                                 frag.position,
                             )
                         },
@@ -829,6 +903,8 @@ impl Relighter for TripleMethod {
                     .map_err(|e| invalid("raster", e))?;
             }
             Shading::Vertex => {
+                let adaptive =
+                    (self.options.selection == Selection::Adaptive).then_some(self.options.terms);
                 self.colors = objects
                     .iter()
                     .map(|p| {
@@ -846,6 +922,13 @@ impl Relighter for TripleMethod {
                                         (vv.as_ref(), [v * stride; 4], [1.0, 0.0, 0.0, 0.0])
                                     }
                                 });
+                                let vis = match adaptive {
+                                    Some(terms) => Product::Adaptive(
+                                        p.vis_sparse.as_ref().map(|s| &s[v]),
+                                        terms,
+                                    ),
+                                    None => Product::TopOnly(vis),
+                                };
                                 segment(
                                     shade_blended(table, rot, p, n, to_eye, vis, || p.mesh.uvs[v]),
                                     p.mesh.positions[v],
