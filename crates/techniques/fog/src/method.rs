@@ -68,6 +68,7 @@ use relight_render::method::{
 use relight_render::raster::{NO_TRIANGLE, Rasterizer};
 use relight_render::{Camera, Image, Progress, Scene};
 use relight_shlight::{Background, LightingFilter, LitScene, ShRenderer, ShRotationMethod};
+use relight_sphere::EnvMap;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -213,6 +214,11 @@ pub struct FogRelighter {
     /// drawn, so a lighting change under a still camera draws no triangles.
     rasterized: Option<(Camera, Vec<Arc<Mesh>>)>,
     phase: Phase,
+    /// The environment of the last lighting change and its mean radiance
+    /// (1/4π)∫L dω: a sum over every texel with its exact solid angle,
+    /// rotation invariant, so a lighting change that only turns the
+    /// environment reuses it.
+    env_mean: Option<(EnvMap, Vec3)>,
 }
 
 impl std::fmt::Debug for FogRelighter {
@@ -265,6 +271,7 @@ impl FogRelighter {
             rasterizer: Rasterizer::new(),
             rasterized: None,
             phase: Phase::isotropic(),
+            env_mean: None,
         })
     }
 
@@ -650,7 +657,14 @@ impl Relighter for FogRelighter {
         };
         let has_env = scene.has_environment();
         let env_mean = if has_env {
-            scene.env.integral() / (4.0 * std::f32::consts::PI)
+            match &self.env_mean {
+                Some((env, mean)) if *env == scene.env => *mean,
+                _ => {
+                    let mean = scene.env.integral() / (4.0 * std::f32::consts::PI);
+                    self.env_mean = Some((scene.env.clone(), mean));
+                    mean
+                }
+            }
         } else {
             Vec3::ZERO
         };

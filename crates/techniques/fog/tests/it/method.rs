@@ -193,6 +193,34 @@ fn kept_lighting_follows_every_lighting_change() {
     }
 }
 
+/// The environment's mean radiance (the view segment's in-scattered
+/// light) is kept between lighting changes only while the environment is
+/// the same map: after a turn (kept) and then a brighter sky (a lighting
+/// change too) the kept method's frame is a fresh method's, not the old
+/// sky's.
+#[test]
+fn kept_environment_mean_follows_a_new_environment() {
+    let mut s = scene(sky(1.0), fog(0.08, 0.7, 12.0));
+    let mut kept = FogRelighter::new(FogOptions::default()).unwrap();
+    let first = render(&mut kept, &s, 1);
+    s.world_from_env = glam::Mat3::from_rotation_y(0.7);
+    kept.set_lighting(&s, &NoProgress).unwrap();
+    s.env = sky(2.0);
+    kept.set_lighting(&s, &NoProgress).unwrap();
+    let got = kept
+        .render(&s, &FrameRequest::new(s.camera), &NoProgress)
+        .unwrap()
+        .image;
+    let want = render(
+        &mut FogRelighter::new(FogOptions::default()).unwrap(),
+        &s,
+        1,
+    );
+    let e = max_rel_diff(&got, &want);
+    assert!(e < 1e-6, "kept vs fresh method differ by {e}");
+    assert!(max_rel_diff(&got, &first) > 1e-3);
+}
+
 /// A uniform sky L in fog, a Lambert sphere of albedo ρ alone: the sky seen
 /// through the fog is L (e^{−T} + a w₀) (w₀ the PSF's band-0 weight), and a
 /// sphere pixel at view distance D is e^{−βD} ρ L (e^{−T} + a w₀) +
