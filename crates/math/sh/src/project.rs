@@ -739,28 +739,26 @@ impl LatLongProjector {
                 p += 1;
             }
         }
-        self.rotate_out(&local)
+        // Frame change, all three channels per pass over the band blocks.
+        let mut world = [vec![0.0f64; nn], vec![0.0f64; nn], vec![0.0f64; nn]];
+        #[cfg(target_arch = "x86_64")]
+        if crate::lanes::avx2_fma_available() {
+            // SAFETY: the CPU has AVX2 and FMA (checked just above).
+            unsafe { rotate_rgb_fma(&self.world_from_local, &local, &mut world) };
+            return to_shrgb(n, world);
+        }
+        rotate_rgb::<false>(&self.world_from_local, &local, &mut world);
+        to_shrgb(n, world)
     }
 
+    /// The reference frame change: [`ShRotation::apply`] per channel.
     fn rotate_out(&self, local: &[Vec<f64>; 3]) -> Result<ShRgb, ShError> {
         let nn = self.order * self.order;
-        let mut channels = [vec![0.0f32; nn], vec![0.0f32; nn], vec![0.0f32; nn]];
-        let mut tmp = vec![0.0f64; nn];
+        let mut world = [vec![0.0f64; nn], vec![0.0f64; nn], vec![0.0f64; nn]];
         for ch in 0..3 {
-            self.world_from_local.apply(&local[ch], &mut tmp);
-            for (o, v) in channels[ch].iter_mut().zip(&tmp) {
-                *o = *v as f32;
-            }
-            crate::check_finite(
-                "projected coefficients (input map has NaN/inf texels?)",
-                &channels[ch],
-            )?;
+            self.world_from_local.apply(&local[ch], &mut world[ch]);
         }
-        Ok(ShRgb {
-            order: self.order,
-            channels,
-            window: Window::None,
-        })
+        to_shrgb(self.order, world)
     }
 
     /// The reference path: per row, direct f32 Fourier sums over all `W`
@@ -887,6 +885,62 @@ mod num_like {
             self * b + c
         }
     }
+}
+
+/// World-frame f64 coefficients → f32 [`ShRgb`], rejecting non-finite values.
+fn to_shrgb(order: usize, world: [Vec<f64>; 3]) -> Result<ShRgb, ShError> {
+    let channels = world.map(|c| c.iter().map(|&v| v as f32).collect::<Vec<f32>>());
+    for c in &channels {
+        crate::check_finite("projected coefficients (input map has NaN/inf texels?)", c)?;
+    }
+    Ok(ShRgb {
+        order,
+        channels,
+        window: Window::None,
+    })
+}
+
+/// `dst_c = M src_c` for the three channels in one pass over each band block
+/// of `M` (row-major `(2l+1)²`, [`ShRotation::block`]); four partial sums per
+/// channel and row.
+#[inline(always)]
+fn rotate_rgb<const FMA: bool>(
+    rot: &ShRotation<f64>,
+    src: &[Vec<f64>; 3],
+    dst: &mut [Vec<f64>; 3],
+) {
+    let n = rot.order();
+    for c in 0..3 {
+        dst[c][0] = src[c][0];
+    }
+    for l in 1..n {
+        let (w, base) = (2 * l + 1, l * l);
+        let s: [&[f64]; 3] = std::array::from_fn(|c| &src[c][base..base + w]);
+        for (i, row) in rot.block(l).chunks_exact(w).enumerate() {
+            let mut acc = [[0.0f64; 4]; 3];
+            let full = w - w % 4;
+            for k in (0..full).step_by(4) {
+                for c in 0..3 {
+                    for j in 0..4 {
+                        acc[c][j] = madd::<FMA, f64>(row[k + j], s[c][k + j], acc[c][j]);
+                    }
+                }
+            }
+            for c in 0..3 {
+                let mut v = (acc[c][0] + acc[c][1]) + (acc[c][2] + acc[c][3]);
+                for k in full..w {
+                    v = madd::<FMA, f64>(row[k], s[c][k], v);
+                }
+                dst[c][base + i] = v;
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn rotate_rgb_fma(rot: &ShRotation<f64>, src: &[Vec<f64>; 3], dst: &mut [Vec<f64>; 3]) {
+    rotate_rgb::<true>(rot, src, dst);
 }
 
 /// `G` Legendre sums over all units: `out[i][k] = Σ_u ys[i][u] · g[u][k]` (f64).
