@@ -462,9 +462,21 @@ pub fn render_with(
     options: TripleOptions,
     progress: &dyn Progress,
 ) -> Result<(Image, Vec<bool>), MethodError> {
-    let mut m = TripleMethod::new(options)?;
-    m.prepare(scene, progress)?;
-    let r = render_frame(&mut m, scene, &FrameRequest::new(scene.camera), progress)?;
+    render_method(&mut TripleMethod::new(options)?, scene, progress)
+}
+
+/// Prepares `method` on `scene` and renders one frame through the
+/// interface; image and object mask.
+///
+/// # Errors
+/// The method's.
+pub fn render_method(
+    method: &mut dyn Relighter,
+    scene: &Scene,
+    progress: &dyn Progress,
+) -> Result<(Image, Vec<bool>), MethodError> {
+    method.prepare(scene, progress)?;
+    let r = render_frame(method, scene, &FrameRequest::new(scene.camera), progress)?;
     let mask = r
         .coverage
         .as_ref()
@@ -1013,21 +1025,10 @@ pub fn medium_rows(
             ));
         }
         for (name, mut m) in methods {
-            m.prepare(&scene, progress)?;
-            let r = render_frame(
-                m.as_mut(),
-                &scene,
-                &FrameRequest::new(scene.camera),
-                progress,
-            )?;
-            let objects = r
-                .coverage
-                .as_ref()
-                .map(|c| c.object_mask())
-                .unwrap_or_default();
+            let (image, objects) = render_method(m.as_mut(), &scene, progress)?;
             let all = vec![true; objects.len()];
             for (region, mask) in [("all pixels", &all), ("object pixels", &objects)] {
-                let raw = rel_rms(&r.image, &reference.image, mask);
+                let raw = rel_rms(&image, &reference.image, mask);
                 let sigma = region_noise(&reference.image, &reference.std_error, mask);
                 let e = (raw * raw - sigma * sigma).max(0.0).sqrt();
                 let mut v = row(
@@ -1128,19 +1129,8 @@ pub fn wavelet_comparison_rows(
                 let methods: [(&str, Box<dyn Relighter>); 2] =
                     [("triple", Box::new(triple)), ("wavelet", Box::new(wavelet))];
                 for (method, mut m) in methods {
-                    m.prepare(&scene, progress)?;
-                    let r = render_frame(
-                        m.as_mut(),
-                        &scene,
-                        &FrameRequest::new(scene.camera),
-                        progress,
-                    )?;
-                    let mask = r
-                        .coverage
-                        .as_ref()
-                        .map(|c| c.object_mask())
-                        .unwrap_or_default();
-                    let raw = rel_rms(&r.image, &reference.image, &mask);
+                    let (image, mask) = render_method(m.as_mut(), &scene, progress)?;
+                    let raw = rel_rms(&image, &reference.image, &mask);
                     let e = (raw * raw - sigma * sigma).max(0.0).sqrt();
                     let mut v = row(
                         &format!(

@@ -3,13 +3,11 @@
 //! a medium.
 
 use glam::Vec3;
-use relight_brdf::BrdfSpec;
 use relight_render::method::{FrameRequest, Relighter, render_frame};
-use relight_render::{Camera, Medium, NoProgress, Object, Scene};
+use relight_render::{Medium, NoProgress, Scene};
 use relight_sphere::{EnvMap, Param};
 use relight_triple::medium::FoggyLighting;
 use relight_triple::{TripleMethod, TripleOptions};
-use std::sync::Arc;
 
 /// ∫ PSF_T dω by midpoint quadrature in γ (the forward peak ~1/γ is
 /// integrable: sin γ cancels it).
@@ -86,27 +84,8 @@ fn the_scattered_glow_keeps_its_energy_and_centres_on_the_sun() {
 }
 
 fn scene(env: EnvMap, medium: Option<Medium>) -> Scene {
-    let brdf = "lambert".parse::<BrdfSpec>().unwrap().build();
-    let sphere = relight_geom::shapes::uv_sphere_at(Vec3::new(0.0, 1.0, 0.0), 1.0, 24, 12);
-    let floor = relight_geom::shapes::plane(6.0, 8);
-    let mut s = Scene::new(
-        vec![
-            Object::new(Arc::new(sphere), brdf.clone()),
-            Object::new(Arc::new(floor), brdf),
-        ],
-        env,
-        Camera {
-            eye: Vec3::new(0.0, 2.5, 5.0),
-            target: Vec3::new(0.0, 0.7, 0.0),
-            up: Vec3::Y,
-            vfov_deg: 45.0,
-            width: 48,
-            height: 36,
-            image_offset: glam::Vec2::ZERO,
-        },
-    );
     // Unshadowed: a white Lambert under a constant sky is then a furnace.
-    s.visibility = false;
+    let mut s = crate::method::scene(env, false);
     s.medium = medium;
     s
 }

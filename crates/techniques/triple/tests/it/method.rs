@@ -9,7 +9,8 @@ use relight_sphere::{EnvMap, Param};
 use relight_triple::{TripleMethod, TripleOptions};
 use std::sync::Arc;
 
-fn scene(env: EnvMap, visibility: bool) -> Scene {
+/// A sphere on an 8² floor, 48 × 36 (also the medium tests').
+pub(crate) fn scene(env: EnvMap, visibility: bool) -> Scene {
     let brdf = "lambert".parse::<BrdfSpec>().unwrap().build();
     let sphere = relight_geom::shapes::uv_sphere_at(Vec3::new(0.0, 1.0, 0.0), 1.0, 24, 12);
     let floor = relight_geom::shapes::plane(6.0, 8);
