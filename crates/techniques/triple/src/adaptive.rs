@@ -24,7 +24,7 @@
 
 use crate::basis::Basis;
 use crate::brdf_table::BrdfTable;
-use crate::lighting::{LightTable, Tap};
+use crate::lighting::{LightTable, Tap, upper_cells};
 use crate::product::sparse;
 use crate::select::{Selection, SparseVec, select};
 use crate::storage::Planes;
@@ -33,17 +33,20 @@ use glam::Vec3;
 /// Top-only level of the tables adaptive selection reads (the leaves).
 pub const ADAPTIVE_LEVEL: usize = 4;
 
-/// The visibility rows (one per vertex, `stride` cells at the leaf level)
-/// cut to `n` adaptive terms each.
+/// The visibility rows (one per vertex, `stride` slots of the leaf level's
+/// [`upper_cells`]) cut to `n` adaptive terms each. Leaves below the
+/// horizon hold 0: their BRDF term is 0, so the product does not see them,
+/// and zeros cost no terms.
 #[must_use]
 pub fn select_visibility(vis: &Planes, rows: usize, stride: usize, n: usize) -> Vec<SparseVec> {
     let b = Basis::paper();
+    let upper = upper_cells(ADAPTIVE_LEVEL);
     let mut leaves = vec![0.0f32; b.len()];
     let mut coeffs = vec![0.0f32; b.len()];
     (0..rows)
         .map(|v| {
-            for (c, x) in leaves.iter_mut().enumerate() {
-                *x = vis.get(v * stride + c, stride);
+            for (slot, &c) in upper.iter().enumerate() {
+                leaves[c as usize] = vis.get(v * stride + slot, stride);
             }
             b.forward(&leaves, &mut coeffs);
             select(b, &coeffs, n, Selection::Adaptive)
@@ -51,14 +54,16 @@ pub fn select_visibility(vis: &Planes, rows: usize, stride: usize, n: usize) -> 
         .collect()
 }
 
-/// Sums `Σ w · table[offset + plane · stride + c]` over `taps` into `out`
-/// (one colour plane of the leaf cells).
+/// Sums `Σ w · table[offset + plane · stride + slot]` over `taps` into the
+/// leaves `out` (one colour plane; slot `i` is leaf `upper_cells[i]`, the
+/// other leaves 0).
 fn accumulate(data: &Planes, taps: &[Tap], plane: usize, stride: usize, out: &mut [f32]) {
+    let upper = upper_cells(ADAPTIVE_LEVEL);
     out.iter_mut().for_each(|x| *x = 0.0);
     for t in taps.iter().filter(|t| t.weight != 0.0) {
         let base = t.offset as usize + plane * stride;
-        for (c, x) in out.iter_mut().enumerate() {
-            *x += t.weight * data.get(base + c, stride);
+        for (slot, &c) in upper.iter().enumerate() {
+            out[c as usize] += t.weight * data.get(base + slot, stride);
         }
     }
 }

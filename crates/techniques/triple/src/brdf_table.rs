@@ -13,7 +13,7 @@
 //! the normal.
 
 use crate::basis::{Basis, triangles};
-use crate::lighting::padded_cells;
+use crate::lighting::{padded_cells, upper_cells};
 use crate::quadrature::{LeafGrid, Weighting};
 use crate::storage::Planes;
 use glam::Vec3;
@@ -71,11 +71,12 @@ impl BrdfTable {
                     weighting,
                     leaf,
                 );
-                for cell in 0..cells {
+                for (slot, &cell) in upper_cells(m).iter().enumerate() {
+                    let cell = cell as usize;
                     let s: Vec3 = leaf[cell * per..(cell + 1) * per].iter().sum();
                     // Mean leaf term × A_m = cell integral (sr).
                     for c in 0..3 {
-                        out[c * stride + cell] = s[c] / per as f32 * area_m;
+                        out[c * stride + slot] = s[c] / per as f32 * area_m;
                     }
                 }
             },

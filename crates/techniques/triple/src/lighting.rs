@@ -67,10 +67,62 @@ pub fn frame_of(n: Vec3) -> Frame {
     }
 }
 
-/// Cells of the top-only level `m`, padded to a multiple of 8.
+/// The icosahedral axis laid along the local normal (+Z): a generic
+/// direction (no vertex of levels 0–4 on the horizon), where a level-1 /
+/// 2 / 3 / 4 hierarchy has 51 / 181 / 681 / 2641 cells reaching above the
+/// horizon; along the hierarchy's own +Z (edge midpoints and vertices on
+/// the horizon) it is 58 / 198 / 718 / 2718 (counted by brute force over
+/// 30 000 random axes, none below 51 at level 1).
+const NORMAL_AXIS_IN_ICO: glam::DVec3 = glam::DVec3::new(-0.8764, -0.0106, 0.4814);
+
+/// A cell direction of level `level`, index `j`, in the local frame: the
+/// hierarchy's centroid turned so that [`NORMAL_AXIS_IN_ICO`] is +Z. Every
+/// table (lighting, visibility, BRDF quadrature) reads its cells through
+/// this one rotation.
+#[must_use]
+pub fn cell_dir(ico: &Icosahedral, level: usize, j: usize) -> glam::DVec3 {
+    local_from_ico() * ico.centroid(level, j)
+}
+
+/// The rotation of [`cell_dir`].
+#[must_use]
+pub fn local_from_ico() -> glam::DQuat {
+    glam::DQuat::from_rotation_arc(NORMAL_AXIS_IN_ICO.normalize(), glam::DVec3::Z)
+}
+
+/// The level-`m` cells a point's product can use: those with a vertex above
+/// the local horizon (z > 0 in the canonical frame, with 1e-6 slack), in
+/// increasing triangle order.
+///
+/// The BRDF term of every table carries `cos⁺θ_i`, and a geodesic triangle
+/// whose three vertices lie in `z ≤ 0` lies wholly in that closed hemisphere
+/// (a hemisphere is geodesically convex; the quadrature's sample points are
+/// normalised convex combinations of the vertices), so its `ρ̂_c` is exactly
+/// 0 and so is its term of Eq. 7, whatever the lighting and visibility. Every
+/// table therefore stores only these cells, in this order (slot `i` holds
+/// cell `upper_cells(m)[i]`): about half the memory and the kernel's work,
+/// with no change to any product.
+#[must_use]
+pub fn upper_cells(m: usize) -> &'static [u32] {
+    static CELLS: [std::sync::OnceLock<Vec<u32>>; 5] = [const { std::sync::OnceLock::new() }; 5];
+    CELLS[m].get_or_init(|| {
+        let ico = Icosahedral::new(m).expect("level ≤ 4 is built");
+        let q = local_from_ico();
+        let v = ico.vertices();
+        ico.triangles(m)
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| t.iter().any(|&i| (q * v[i as usize]).z > -1e-6))
+            .map(|(c, _)| c as u32)
+            .collect()
+    })
+}
+
+/// Cells stored per function at level `m` ([`upper_cells`]), padded to a
+/// multiple of 8 (the padding holds zeros).
 #[must_use]
 pub fn padded_cells(m: usize) -> usize {
-    triangles(m).div_ceil(8) * 8
+    upper_cells(m).len().div_ceil(8) * 8
 }
 
 /// Sample directions of the level-`m` cells in the canonical frame: the
@@ -80,7 +132,7 @@ pub fn padded_cells(m: usize) -> usize {
 pub fn cell_samples(ico: &Icosahedral, m: usize) -> (Vec<Vec3>, usize) {
     let s = (m + 2).min(ico.max_level()).max(m);
     let dirs = (0..triangles(s))
-        .map(|j| ico.centroid(s, j).as_vec3())
+        .map(|j| cell_dir(ico, s, j).as_vec3())
         .collect();
     (dirs, 1 << (2 * (s - m)))
 }
@@ -141,7 +193,6 @@ impl LightTable {
             .map(|d| d.as_vec3())
             .collect();
         let (dirs, per) = cell_samples(&ico, m);
-        let cells = triangles(m);
         let stride = padded_cells(m);
         let twists = twists.max(1);
         let env_from_space = space_from_env.transpose();
@@ -160,15 +211,16 @@ impl LightTable {
                     y: f.z.cross(x),
                     z: f.z,
                 };
-                for cell in 0..cells {
+                for (slot, &cell) in upper_cells(m).iter().enumerate() {
+                    let cell = cell as usize;
                     let mut sum = Vec3::ZERO;
                     for d in &dirs[cell * per..(cell + 1) * per] {
                         sum += env.eval(env_from_space * fr.from_local(*d));
                     }
                     let v = sum * inv;
-                    out[cell] = v.x;
-                    out[stride + cell] = v.y;
-                    out[2 * stride + cell] = v.z;
+                    out[slot] = v.x;
+                    out[stride + slot] = v.y;
+                    out[2 * stride + slot] = v.z;
                 }
             });
         Self {
@@ -233,5 +285,40 @@ impl LightTable {
             };
         }
         taps
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Dropping the cells below the horizon is exact: every quadrature
+    /// sample of a dropped cell (two levels finer) lies in z ≤ 0, where the
+    /// BRDF term's cos⁺ is 0; and the counts are the generic axis's.
+    #[test]
+    fn dropped_cells_lie_below_the_horizon() {
+        let ico = Icosahedral::new(6).unwrap();
+        for (m, want) in [
+            (0, None),
+            (1, Some(51)),
+            (2, Some(181)),
+            (3, Some(681)),
+            (4, Some(2641)),
+        ] {
+            let kept = upper_cells(m);
+            if let Some(w) = want {
+                assert_eq!(kept.len(), w, "level {m}");
+            }
+            let per = 1usize << (2 * 2);
+            for c in 0..triangles(m) {
+                if kept.binary_search(&(c as u32)).is_ok() {
+                    continue;
+                }
+                for j in c * per..(c + 1) * per {
+                    let z = cell_dir(&ico, m + 2, j).z;
+                    assert!(z <= 1e-9, "level {m} cell {c}: sample z {z}");
+                }
+            }
+        }
     }
 }

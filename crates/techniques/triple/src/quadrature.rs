@@ -21,6 +21,7 @@
 //! 1.30× (max/min), which the paper form ignores.
 
 use crate::basis::Basis;
+use crate::lighting::cell_dir;
 use glam::Vec3;
 use relight_sphere::icosahedral::Icosahedral;
 use serde::Serialize;
@@ -73,12 +74,14 @@ impl LeafGrid {
         let ico = Icosahedral::new(l + sub).map_err(|e| format!("quadrature sub = {sub}: {e}"))?;
         let to_f32 = |d: glam::DVec3| d.as_vec3();
         let centroids = (0..basis.len())
-            .map(|j| to_f32(ico.centroid(l, j)))
+            .map(|j| to_f32(cell_dir(&ico, l, j)))
             .collect();
         let areas = ico.areas(l).iter().map(|&a| a as f32).collect();
         let fine = l + sub;
         let nfine = Icosahedral::triangle_count(fine);
-        let samples = (0..nfine).map(|j| to_f32(ico.centroid(fine, j))).collect();
+        let samples = (0..nfine)
+            .map(|j| to_f32(cell_dir(&ico, fine, j)))
+            .collect();
         let sample_areas = ico.areas(fine).iter().map(|&a| a as f32).collect();
         Ok(Self {
             basis,

@@ -10,7 +10,7 @@
 //! `V ≡ 1` exactly.
 
 use crate::basis::triangles;
-use crate::lighting::{frame_of, padded_cells};
+use crate::lighting::{cell_dir, frame_of, padded_cells, upper_cells};
 use glam::Vec3;
 use rayon::prelude::*;
 use relight_render::bvh::offset_ray_origin;
@@ -61,11 +61,10 @@ pub fn bake_point_visibility(
     let s = vis_level.max(m);
     let ico = Icosahedral::new(s).expect("visibility level ≤ 7");
     let dirs: Vec<Vec3> = (0..triangles(s))
-        .map(|j| ico.centroid(s, j).as_vec3())
+        .map(|j| cell_dir(&ico, s, j).as_vec3())
         .collect();
     let per = 1usize << (2 * (s - m));
     let stride = padded_cells(m);
-    let cells = triangles(m);
     let mut values = vec![0.0f32; points.len() * stride];
     const CHUNK: usize = 256;
     for (ci, chunk) in values.chunks_mut(CHUNK * stride).enumerate() {
@@ -77,14 +76,15 @@ pub fn bake_point_visibility(
                 let (p, n) = points[ci * CHUNK + i];
                 let f = frame_of(n);
                 let o = offset_ray_origin(p, n);
-                for c in 0..cells {
+                for (slot, &c) in upper_cells(m).iter().enumerate() {
+                    let c = c as usize;
                     let mut seen = 0u32;
                     for d in &dirs[c * per..(c + 1) * per] {
                         if d.z <= 0.0 || !bvh.occluded(o, f.from_local(*d), f32::MAX) {
                             seen += 1;
                         }
                     }
-                    out[c] = seen as f32 / per as f32;
+                    out[slot] = seen as f32 / per as f32;
                 }
             });
         progress.inc((chunk.len() / stride) as u64);
