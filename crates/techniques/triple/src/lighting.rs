@@ -40,7 +40,8 @@
 //! prefiltered to a lat-long map whose texels match the sample spacing
 //! ([`prefilter`]: area-correct, 2×2 supersampled), so that a window or sun
 //! narrower than a sample spacing is averaged rather than aliased. Planar RGB per entry, padded to a
-//! multiple of 8 cells for the kernel.
+//! multiple of 8 cells for the kernel; only the cells that reach above the
+//! horizon are stored ([`upper_cells`]).
 
 use crate::basis::triangles;
 use crate::storage::{Planes, Storage};
