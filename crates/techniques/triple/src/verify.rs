@@ -76,6 +76,32 @@ fn row(
     }
 }
 
+/// A relative RMS `raw` against a reference of noise `sigma`, the noise
+/// removed: `√max(0, raw² − σ²)` (module docs).
+fn without_noise(raw: f64, sigma: f64) -> f64 {
+    (raw * raw - sigma * sigma).max(0.0).sqrt()
+}
+
+impl VerifyRow {
+    /// The row with its raw error and the reference's noise shown beside.
+    fn with_noise(mut self, raw: f64, sigma: f64) -> Self {
+        self.raw = Some(raw);
+        self.sigma_mc = Some(sigma);
+        self
+    }
+}
+
+/// The issue's error target at `terms` (judged only on indoor probes in
+/// the full run), and whether `e` meets it.
+fn error_target(terms: usize, judged: bool, e: f64) -> (String, Option<bool>) {
+    match (terms, judged) {
+        (80, true) => ("≤ 0.10".to_string(), Some(e <= 0.10)),
+        (320, true) => ("≤ 0.06".to_string(), Some(e <= 0.06)),
+        (5120, true) => ("≤ 0.04".to_string(), Some(e <= 0.04)),
+        _ => ("report".to_string(), None),
+    }
+}
+
 struct Rng(u64);
 impl Rng {
     fn unit(&mut self) -> f32 {
@@ -525,30 +551,26 @@ pub fn error_rows(
                 let (img, mask) = render_with(&scene, o.clone(), progress)?;
                 let raw = rel_rms(&img, &reference.image, &mask);
                 let sigma = reference.rms_relative_std_error;
-                let e = (raw * raw - sigma * sigma).max(0.0).sqrt();
+                let e = without_noise(raw, sigma);
                 errs.push(e);
-                let (target, pass) = match (terms, *indoor && opts.judge) {
-                    (80, true) => ("≤ 0.10".to_string(), Some(e <= 0.10)),
-                    (320, true) => ("≤ 0.06".to_string(), Some(e <= 0.06)),
-                    (5120, true) => ("≤ 0.04".to_string(), Some(e <= 0.04)),
-                    _ => ("report".to_string(), None),
+                let source = if *indoor {
+                    "issue 12 error targets (indoor probes)"
+                } else {
+                    "issue 12: sun probes are reported"
                 };
-                rows.push(row(
-                    "relative RMS vs reference with visibility (per pixel, top-only)",
-                    &case,
-                    terms,
-                    e,
-                    target,
-                    if *indoor {
-                        "issue 12 error targets (indoor probes)"
-                    } else {
-                        "issue 12: sun probes are reported"
-                    },
-                    pass,
-                ));
-                let last = rows.last_mut().expect("just pushed");
-                last.raw = Some(raw);
-                last.sigma_mc = Some(sigma);
+                let (target, pass) = error_target(terms, *indoor && opts.judge, e);
+                rows.push(
+                    row(
+                        "relative RMS vs reference with visibility (per pixel, top-only)",
+                        &case,
+                        terms,
+                        e,
+                        target,
+                        source,
+                        pass,
+                    )
+                    .with_noise(raw, sigma),
+                );
                 if terms == 80 || terms == 320 {
                     // Adaptive selection (per vertex, the isotropic 5120-cell
                     // tables: crate::adaptive), judged by the same targets.
@@ -564,28 +586,20 @@ pub fn error_rows(
                         progress,
                     )?;
                     let ear = rel_rms(&aimg, &reference.image, &amask);
-                    let ea = (ear * ear - sigma * sigma).max(0.0).sqrt();
-                    let (target, pass) = match (terms, *indoor && opts.judge) {
-                        (80, true) => ("≤ 0.10".to_string(), Some(ea <= 0.10)),
-                        (320, true) => ("≤ 0.06".to_string(), Some(ea <= 0.06)),
-                        _ => ("report".to_string(), None),
-                    };
-                    let mut r = row(
-                        "relative RMS vs reference with visibility (per vertex, adaptive)",
-                        &case,
-                        terms,
-                        ea,
-                        target,
-                        if *indoor {
-                            "issue 12 error targets (indoor probes)"
-                        } else {
-                            "issue 12: sun probes are reported"
-                        },
-                        pass,
+                    let ea = without_noise(ear, sigma);
+                    let (target, pass) = error_target(terms, *indoor && opts.judge, ea);
+                    rows.push(
+                        row(
+                            "relative RMS vs reference with visibility (per vertex, adaptive)",
+                            &case,
+                            terms,
+                            ea,
+                            target,
+                            source,
+                            pass,
+                        )
+                        .with_noise(ear, sigma),
                     );
-                    r.raw = Some(ear);
-                    r.sigma_mc = Some(sigma);
-                    rows.push(r);
                 }
                 if terms == 80 {
                     let (vimg, vmask) = render_with(
@@ -597,7 +611,7 @@ pub fn error_rows(
                         progress,
                     )?;
                     let evr = rel_rms(&vimg, &reference.image, &vmask);
-                    let ev = (evr * evr - sigma * sigma).max(0.0).sqrt();
+                    let ev = without_noise(evr, sigma);
                     rows.push(row(
                         "Fig. 5: per-vertex (Gouraud) error − per-pixel error",
                         &case,
@@ -804,23 +818,23 @@ pub fn bump_rows(
         let (img, mask) = render_with(&s, o.clone(), progress)?;
         let raw = rel_rms(&img, &reference.image, &mask);
         let sigma = reference.rms_relative_std_error;
-        let e = (raw * raw - sigma * sigma).max(0.0).sqrt();
-        let mut r = row(
-            if visibility {
-                "bump-mapped, visibility on (unrotated visibility: the paper's approximation)"
-            } else {
-                "bump-mapped, visibility off (the lighting lookup in the bumped frame)"
-            },
-            "sphere and floor · lambert:0.8 · bumps 8×8",
-            80,
-            e,
-            "report".into(),
-            "issue 12 (bump mapping is stated as an approximation)",
-            None,
+        let e = without_noise(raw, sigma);
+        rows.push(
+            row(
+                if visibility {
+                    "bump-mapped, visibility on (unrotated visibility: the paper's approximation)"
+                } else {
+                    "bump-mapped, visibility off (the lighting lookup in the bumped frame)"
+                },
+                "sphere and floor · lambert:0.8 · bumps 8×8",
+                80,
+                e,
+                "report".into(),
+                "issue 12 (bump mapping is stated as an approximation)",
+                None,
+            )
+            .with_noise(raw, sigma),
         );
-        r.raw = Some(raw);
-        r.sigma_mc = Some(sigma);
-        rows.push(r);
     }
     Ok(rows)
 }
@@ -930,7 +944,7 @@ pub fn figure6_rows(
     let err = |scene: &Scene, o: TripleOptions| -> Result<f64, MethodError> {
         let (img, mask) = render_with(scene, o, progress)?;
         let raw = rel_rms(&img, &reference.image, &mask);
-        Ok((raw * raw - sigma * sigma).max(0.0).sqrt())
+        Ok(without_noise(raw, sigma))
     };
     let e_tex = err(
         &coarse,
@@ -1030,8 +1044,9 @@ pub fn medium_rows(
             for (region, mask) in [("all pixels", &all), ("object pixels", &objects)] {
                 let raw = rel_rms(&image, &reference.image, mask);
                 let sigma = region_noise(&reference.image, &reference.std_error, mask);
-                let e = (raw * raw - sigma * sigma).max(0.0).sqrt();
-                let mut v = row(
+                let e = without_noise(raw, sigma);
+                rows.push(
+                    row(
                     &format!(
                         "medium (§3.6.5), {}: {name} vs the single-scattering reference, {region}",
                         if visibility { "shadows" } else { "unshadowed" }
@@ -1045,10 +1060,9 @@ pub fn medium_rows(
                     "report".into(),
                     "issue 12 (media, verified against the reference with the medium)",
                     None,
+                    )
+                    .with_noise(raw, sigma),
                 );
-                v.raw = Some(raw);
-                v.sigma_mc = Some(sigma);
-                rows.push(v);
             }
         }
     }
@@ -1131,8 +1145,9 @@ pub fn wavelet_comparison_rows(
                 for (method, mut m) in methods {
                     let (image, mask) = render_method(m.as_mut(), &scene, progress)?;
                     let raw = rel_rms(&image, &reference.image, &mask);
-                    let e = (raw * raw - sigma * sigma).max(0.0).sqrt();
-                    let mut v = row(
+                    let e = without_noise(raw, sigma);
+                    rows.push(
+                        row(
                         &format!(
                             "wavelet-rotation comparison, unshadowed, n = {n}: {method} vs the reference"
                         ),
@@ -1142,10 +1157,9 @@ pub fn wavelet_comparison_rows(
                         "report".into(),
                         "issue 12 (a comparison row against the wavelet-rotation method)",
                         None,
+                        )
+                        .with_noise(raw, sigma),
                     );
-                    v.raw = Some(raw);
-                    v.sigma_mc = Some(sigma);
-                    rows.push(v);
                 }
             }
         }
