@@ -475,6 +475,23 @@ pub fn floor_scene(
     s
 }
 
+/// The reference of `scene` at `spp` samples per pixel (default options).
+fn reference_at(
+    scene: &Scene,
+    spp: u32,
+    progress: &dyn Progress,
+) -> Result<relight_render::reference::ReferenceImage, MethodError> {
+    render_reference(
+        scene,
+        &ReferenceOptions {
+            spp,
+            ..ReferenceOptions::default()
+        },
+        progress,
+    )
+    .map_err(|e| MethodError::failed("triple", e))
+}
+
 fn rel_rms(img: &Image, reference: &Image, mask: &[bool]) -> f64 {
     img.relative_rms_error(reference, Some(mask))
 }
@@ -525,15 +542,7 @@ pub fn error_rows(
         for brdf in &opts.brdfs {
             let model = parse_brdf(brdf)?;
             let scene = floor_scene(env.clone(), model, opts.width, opts.height);
-            let reference = render_reference(
-                &scene,
-                &ReferenceOptions {
-                    spp: opts.spp,
-                    ..ReferenceOptions::default()
-                },
-                progress,
-            )
-            .map_err(|e| MethodError::failed("triple", e))?;
+            let reference = reference_at(&scene, opts.spp, progress)?;
             let case = format!("{name} · {brdf}");
             let mut errs = Vec::new();
             for &terms in &opts.terms {
@@ -806,15 +815,7 @@ pub fn bump_rows(
     for visibility in [true, false] {
         let mut s = with_normal_map(&plain, &bumps);
         s.visibility = visibility;
-        let reference = render_reference(
-            &s,
-            &ReferenceOptions {
-                spp,
-                ..ReferenceOptions::default()
-            },
-            progress,
-        )
-        .map_err(|e| MethodError::failed("triple", e))?;
+        let reference = reference_at(&s, spp, progress)?;
         let (img, mask) = render_with(&s, o.clone(), progress)?;
         let raw = rel_rms(&img, &reference.image, &mask);
         let sigma = reference.rms_relative_std_error;
@@ -925,15 +926,7 @@ pub fn figure6_rows(
     coarse.objects[1].mesh = floor(1);
     let mut fine = coarse.clone();
     fine.objects[1].mesh = floor(cells);
-    let reference = render_reference(
-        &coarse,
-        &ReferenceOptions {
-            spp,
-            ..ReferenceOptions::default()
-        },
-        progress,
-    )
-    .map_err(|e| MethodError::failed("triple", e))?;
+    let reference = reference_at(&coarse, spp, progress)?;
     let sigma = reference.rms_relative_std_error;
     let o = TripleOptions {
         terms,
@@ -1116,15 +1109,7 @@ pub fn wavelet_comparison_rows(
         for brdf in brdfs {
             let mut scene = floor_scene(env.clone(), parse_brdf(brdf)?, w, h);
             scene.visibility = false;
-            let reference = render_reference(
-                &scene,
-                &ReferenceOptions {
-                    spp,
-                    ..ReferenceOptions::default()
-                },
-                progress,
-            )
-            .map_err(|e| MethodError::failed("triple", e))?;
+            let reference = reference_at(&scene, spp, progress)?;
             let sigma = reference.rms_relative_std_error;
             for &n in terms {
                 let triple = TripleMethod::new(TripleOptions {
