@@ -204,7 +204,7 @@ pub fn bench_triple(
                     best = best.min(t.elapsed().as_secs_f64() * 1e3);
                 }
                 let work = m.frame_work(&scene, &req).map_or(0.0, |f| f.view_fma);
-                let stride = m.table().map_or(0, |t| t.stride);
+                let stride = m.table().map_or(0, |t| t.padded);
                 let pixels = (work / (FMA_PER_CELL * stride.max(1)) as f64).round() as usize;
                 let gfma = work / (best * 1e-3) / 1e9;
                 let target = target_fps(w, terms);

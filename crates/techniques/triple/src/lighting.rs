@@ -39,9 +39,13 @@
 //! remove — 3.5 % on the `hall` probe, measured) read from the environment
 //! prefiltered to a lat-long map whose texels match the sample spacing
 //! ([`prefilter`]: area-correct, 2×2 supersampled), so that a window or sun
-//! narrower than a sample spacing is averaged rather than aliased. Planar RGB per entry, padded to a
-//! multiple of 8 cells for the kernel; only the cells that reach above the
-//! horizon are stored ([`upper_cells`]).
+//! narrower than a sample spacing is averaged rather than aliased. Planar RGB per entry; only the
+//! cells that reach above the horizon are stored ([`upper_cells`]), unpadded: the kernel walks
+//! the cells eight at a time up to [`padded_cells`], so its last load of a lighting plane reads
+//! the first cells of the next plane, which meet the BRDF table's zero padding (finite × 0 = 0:
+//! f16 lighting saturates, f32 lighting is finite), and the table ends with that many zeros so
+//! the last plane's load stays in bounds. At n = 80 this keeps 58 of 64 slots (the 3.75
+//! MiB budget for the compact 642 × 16 table: 3.41 MiB, against 3.76 padded).
 
 use crate::basis::triangles;
 use crate::storage::{Planes, Storage};
@@ -136,8 +140,11 @@ pub struct LightTable {
     pub m: usize,
     /// Twist bins per normal (1 = isotropic, rebuilt per rotation).
     pub twists: usize,
-    /// Padded cells per entry ([`padded_cells`]).
+    /// Cells per plane ([`upper_cells`], unpadded: module docs).
     pub stride: usize,
+    /// Cells the kernel walks ([`padded_cells`]): the BRDF and visibility
+    /// stride.
+    pub padded: usize,
     /// `space_from_env` the table was built for: identity when `twists > 1`,
     /// else the scene's `world_from_env` at build time.
     pub built_for: Mat3,
@@ -185,12 +192,15 @@ impl LightTable {
             .map(|d| d.as_vec3())
             .collect();
         let (dirs, per) = cell_samples(&ico, m);
-        let stride = padded_cells(m);
+        let stride = upper_cells(m).len();
+        let padded = padded_cells(m);
         let twists = twists.max(1);
         let env_from_space = space_from_env.transpose();
         let inv = 1.0 / per as f32;
-        let mut data = vec![0.0f32; normals.len() * twists * 3 * stride];
-        data.par_chunks_mut(3 * stride)
+        let planes = normals.len() * twists * 3 * stride;
+        let mut data = vec![0.0f32; planes + padded - stride];
+        data[..planes]
+            .par_chunks_mut(3 * stride)
             .enumerate()
             .for_each(|(e, out)| {
                 let (k, t) = (e / twists, e % twists);
@@ -219,6 +229,7 @@ impl LightTable {
             m,
             twists,
             stride,
+            padded,
             built_for: space_from_env,
             data: Planes::F32(data),
             normals,

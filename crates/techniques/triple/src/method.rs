@@ -530,7 +530,15 @@ fn shade_world(
     let lt = table.lookup(&g);
     let bt = brdf.lookup(wo);
     match product {
-        Product::TopOnly(vis) => shade_point(&table.data, &lt, &brdf.data, &bt, vis, table.stride),
+        Product::TopOnly(vis) => shade_point(
+            &table.data,
+            &lt,
+            &brdf.data,
+            &bt,
+            vis,
+            table.stride,
+            table.padded,
+        ),
         Product::Adaptive(vis, terms) => shade_adaptive(table, &lt, brdf, &bt, vis, terms),
     }
 }
@@ -838,7 +846,7 @@ impl Relighter for TripleMethod {
         };
         let rot = self.lookup_rotation();
         let objects = &self.objects;
-        let stride = table.stride;
+        let stride = table.padded;
         match self.options.shading {
             Shading::Pixel => {
                 self.raster
@@ -962,7 +970,7 @@ impl Relighter for TripleMethod {
         };
         let _ = request;
         Some(FrameWork {
-            view_fma: (points * FMA_PER_CELL * table.stride) as f64,
+            view_fma: (points * FMA_PER_CELL * table.padded) as f64,
             lighting_fma: 0.0,
         })
     }

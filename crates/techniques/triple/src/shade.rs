@@ -40,14 +40,15 @@ pub fn shade_point(
     brdf: &Planes,
     btaps: &[Tap; 4],
     vis: Option<(&Planes, [usize; 4], [f32; 4])>,
+    light_stride: usize,
     stride: usize,
 ) -> Vec3 {
     #[cfg(target_arch = "x86_64")]
     if x86::available() {
         // SAFETY: the CPU has AVX2, FMA and F16C (checked just above).
-        return unsafe { x86::shade_point(light, ltaps, brdf, btaps, vis, stride) };
+        return unsafe { x86::shade_point(light, ltaps, brdf, btaps, vis, light_stride, stride) };
     }
-    shade_point_portable(light, ltaps, brdf, btaps, vis, stride)
+    shade_point_portable(light, ltaps, brdf, btaps, vis, light_stride, stride)
 }
 
 /// [`shade_point`] compiled for the baseline ISA (the path other CPUs take,
@@ -60,20 +61,30 @@ pub fn shade_point_portable(
     brdf: &Planes,
     btaps: &[Tap; 4],
     vis: Option<(&Planes, [usize; 4], [f32; 4])>,
+    light_stride: usize,
     stride: usize,
 ) -> Vec3 {
-    dispatch!(F16Cells, light, ltaps, brdf, btaps, vis, stride)
+    dispatch!(
+        F16Cells,
+        light,
+        ltaps,
+        brdf,
+        btaps,
+        vis,
+        light_stride,
+        stride
+    )
 }
 
 /// The one dispatch of both copies: a monomorphised kernel for all-f32 and
 /// for all-compact tables (f16 lighting read by `$f16`), [`AnyCells`] for
 /// the mixed forms.
 macro_rules! dispatch {
-    ($f16:ident, $light:expr, $ltaps:expr, $brdf:expr, $btaps:expr, $vis:expr, $stride:expr) => {{
-        let stride = $stride;
+    ($f16:ident, $light:expr, $ltaps:expr, $brdf:expr, $btaps:expr, $vis:expr, $ls:expr, $stride:expr) => {{
+        let (ls, stride) = ($ls, $stride);
         match ($light, $brdf) {
             (Planes::F32(l), Planes::F32(b)) => {
-                with_vis(&F32Cells(l), $ltaps, &F32Cells(b), $btaps, $vis, stride)
+                with_vis(&F32Cells(l), $ltaps, &F32Cells(b), $btaps, $vis, ls, stride)
             }
             (Planes::F16(l), Planes::U8 { codes, scales }) => with_vis(
                 &$f16(l),
@@ -85,14 +96,16 @@ macro_rules! dispatch {
                 },
                 $btaps,
                 $vis,
+                ls,
                 stride,
             ),
             (l, b) => with_vis(
-                &AnyCells::of(l, stride),
+                &AnyCells::of(l, ls),
                 $ltaps,
                 &AnyCells::of(b, stride),
                 $btaps,
                 $vis,
+                ls,
                 stride,
             ),
         }
@@ -149,9 +162,19 @@ mod x86 {
         brdf: &Planes,
         btaps: &[Tap; 4],
         vis: Option<(&Planes, [usize; 4], [f32; 4])>,
+        light_stride: usize,
         stride: usize,
     ) -> Vec3 {
-        super::dispatch!(F16cCells, light, ltaps, brdf, btaps, vis, stride)
+        super::dispatch!(
+            F16cCells,
+            light,
+            ltaps,
+            brdf,
+            btaps,
+            vis,
+            light_stride,
+            stride
+        )
     }
 }
 
@@ -162,16 +185,18 @@ fn with_vis<L: Cells, B: Cells>(
     brdf: &B,
     btaps: &[Tap; 4],
     vis: Option<(&Planes, [usize; 4], [f32; 4])>,
+    ls: usize,
     stride: usize,
 ) -> Vec3 {
     match vis {
-        None => kernel::<L, B, F32Cells>(light, ltaps, brdf, btaps, None, stride),
+        None => kernel::<L, B, F32Cells>(light, ltaps, brdf, btaps, None, ls, stride),
         Some((Planes::F32(v), rows, w)) => kernel(
             light,
             ltaps,
             brdf,
             btaps,
             Some((&F32Cells(v), rows, w)),
+            ls,
             stride,
         ),
         Some((Planes::U8 { codes, scales }, rows, w)) => kernel(
@@ -188,6 +213,7 @@ fn with_vis<L: Cells, B: Cells>(
                 rows,
                 w,
             )),
+            ls,
             stride,
         ),
         Some((v, rows, w)) => kernel(
@@ -196,6 +222,7 @@ fn with_vis<L: Cells, B: Cells>(
             brdf,
             btaps,
             Some((&AnyCells::of(v, stride), rows, w)),
+            ls,
             stride,
         ),
     }
@@ -229,9 +256,10 @@ fn kernel<L: Cells, B: Cells, V: Cells>(
     brdf: &B,
     btaps: &[Tap; 4],
     vis: Option<(&V, [usize; 4], [f32; 4])>,
+    light_stride: usize,
     stride: usize,
 ) -> Vec3 {
-    let (lt, nl) = scaled_taps(light, ltaps, stride);
+    let (lt, nl) = scaled_taps(light, ltaps, light_stride);
     let (bt, nb) = scaled_taps(brdf, btaps, stride);
     let vis = vis.map(|(cells, rows, w)| {
         let mut vw = [0.0f32; 4];
@@ -396,12 +424,92 @@ mod tests {
                     [0.4, 0.3, 0.2, 0.1],
                 )),
             ] {
-                let fast = shade_point(&l, &lt, &b, &bt, rows, stride);
-                let slow = shade_point_portable(&l, &lt, &b, &bt, rows, stride);
+                let fast = shade_point(&l, &lt, &b, &bt, rows, stride, stride);
+                let slow = shade_point_portable(&l, &lt, &b, &bt, rows, stride, stride);
                 assert!(
                     (fast - slow).abs().max_element() <= 1e-5 * slow.abs().max_element(),
                     "{fast} vs {slow}"
                 );
+            }
+        }
+    }
+
+    /// Lighting planes stored unpadded (`crate::lighting`'s layout) shade
+    /// exactly as padded ones: the kernel's last load of a plane reads the
+    /// next plane's first cells, which meet the BRDF's zero padding; in
+    /// every storage and both kernels.
+    #[test]
+    fn unpadded_lighting_equals_padded() {
+        let (cells, stride) = (58, 64);
+        let entries = 5;
+        let mut x = 0x9e37_79b9_u32;
+        let mut rnd = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x % 10_000) as f32 / 10_000.0
+        };
+        let mut padded = vec![0.0f32; entries * 3 * stride];
+        let mut dense = vec![0.0f32; entries * 3 * cells + stride - cells];
+        for p in 0..entries * 3 {
+            for c in 0..cells {
+                let v = 40.0 * rnd();
+                padded[p * stride + c] = v;
+                dense[p * cells + c] = v;
+            }
+        }
+        let mut brdf = vec![0.0f32; 2 * 3 * stride];
+        for p in 0..2 * 3 {
+            for c in 0..cells {
+                brdf[p * stride + c] = rnd();
+            }
+        }
+        let vis: Vec<f32> = (0..3 * stride).map(|_| rnd()).collect();
+        let taps = |entry_len: usize, w: [f32; 6]| {
+            let mut t = [Tap::default(); 6];
+            for (i, w) in w.into_iter().enumerate() {
+                t[i] = Tap {
+                    offset: ((i % entries) * entry_len) as u32,
+                    weight: w,
+                };
+            }
+            t
+        };
+        let w = [0.3, 0.1, 0.2, 0.15, 0.25, 0.0];
+        let bt = [
+            Tap {
+                offset: 0,
+                weight: 0.6,
+            },
+            Tap {
+                offset: (3 * stride) as u32,
+                weight: 0.4,
+            },
+            Tap::default(),
+            Tap::default(),
+        ];
+        for half in [false, true] {
+            let lp = Planes::lighting(padded.clone(), half);
+            let ld = Planes::lighting(dense.clone(), half);
+            for b in [Planes::F32(brdf.clone()), Planes::u8(&brdf, stride)] {
+                for v in [
+                    None,
+                    Some((
+                        &Planes::F32(vis.clone()),
+                        [0, stride, 2 * stride, 0],
+                        [0.5, 0.3, 0.2, 0.0],
+                    )),
+                ] {
+                    for kernel in [shade_point, shade_point_portable] {
+                        let want = kernel(&lp, &taps(3 * stride, w), &b, &bt, v, stride, stride);
+                        let got = kernel(&ld, &taps(3 * cells, w), &b, &bt, v, cells, stride);
+                        assert!(want.max_element() > 1.0, "{want}");
+                        assert!(
+                            (got - want).abs().max_element() <= 1e-6 * want.max_element(),
+                            "half {half}: {got} vs {want}"
+                        );
+                    }
+                }
             }
         }
     }
