@@ -16,9 +16,10 @@
 //!   `rotate_euler_one` (angles given) is plain only. Two exceptions:
 //!   evaluation at n ≤ [`INLINE_EVAL_MAX_ORDER`] is inlined into the caller
 //!   (`eval_inline`, plain multiply and add: no CPU test, no call), and
-//!   rotation from order `AVX512_ROTATE_MIN_ORDER` (6) on has a third copy
-//!   compiled for AVX-512F (`rotate_one_avx512`: the same scalar code with 32
-//!   registers instead of 16, fewer spills). [`crate::eval_sh_array`] takes
+//!   rotation has one non-inlined function per order and instruction set
+//!   (no jump table, each order its own stack frame), and from order
+//!   `AVX512_ROTATE_MIN_ORDER` (4) on a third copy compiled for AVX-512F (the
+//!   same scalar code with 32 registers instead of 16, fewer spills). [`crate::eval_sh_array`] takes
 //!   the order as an array length, so even the order dispatch goes.
 //! * Rotation takes the 3×3 matrix: bands 1 and 2 come straight from it (a
 //!   linear and a quadratic form, no Euler angles: order ≤ 3 needs no square
@@ -243,22 +244,24 @@ fn matrix_array<const F: bool>(m: &[[f32; 3]; 3]) -> [[V<1, F>; 3]; 3] {
     ]
 }
 
-/// The generated kernel on one vector, from the matrix: the ZYZ angles
-/// ([`crate::rotation::euler_zyz_direct`]) are only computed from order 4 on
-/// (bands 1 and 2 come straight from the matrix).
+/// The generated kernel of order `N` (`NN = N²`) on one vector, from the
+/// matrix: the ZYZ angles ([`crate::rotation::euler_zyz_direct`]) are only
+/// computed from order 4 on (bands 1 and 2 come straight from the matrix).
+/// The order is a constant here, so the dispatch and length checks of
+/// [`kernels::rotate`] fold away.
 #[inline(always)]
-fn rotate_mat<const F: bool>(
-    order: usize,
+fn rotate_fixed<const F: bool, const N: usize, const NN: usize>(
     m: &[[f32; 3]; 3],
-    src: &[f32],
-    dst: &mut [f32],
-) -> bool {
-    let e = if order >= 4 {
+    src: &[f32; NN],
+    dst: &mut [f32; NN],
+) {
+    const { assert!(NN == N * N) };
+    let e = if N >= 4 {
         euler_array::<F>(&crate::rotation::euler_zyz_direct(&Rot3 { m: *m }))
     } else {
         [V::splat(0.0); 6]
     };
-    kernels::rotate::<V<1, F>>(order, &matrix_array::<F>(m), &e, as_v1(src), as_v1_mut(dst))
+    kernels::rotate::<V<1, F>>(N, &matrix_array::<F>(m), &e, as_v1(src), as_v1_mut(dst));
 }
 
 #[inline(always)]
@@ -273,92 +276,181 @@ fn as_v1_mut<const F: bool>(s: &mut [f32]) -> &mut [V<1, F>] {
     unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast(), s.len()) }
 }
 
-/// Generated exact rotation of one f32 vector by the rotation matrix `m` (`m[i][j] = R_ij`); `false`
-/// above [`KERNEL_ROTATE_MAX_ORDER`]. Runs [`rotate_one_fma`] on a CPU with
-/// AVX2 and FMA, else [`rotate_one_portable`].
-///
-/// The matrix is passed by reference and read inside the kernel: the ZYZ
-/// angles are computed there, in registers (passing freshly computed angles
-/// through memory made the kernel's combined loads of them miss store
-/// forwarding).
+/// The first `K` values of `s` as an array.
 ///
 /// # Panics
-/// If a slice is shorter than `order²`.
-#[inline]
-pub(crate) fn rotate_one(order: usize, m: &[[f32; 3]; 3], src: &[f32], dst: &mut [f32]) -> bool {
-    #[cfg(target_arch = "x86_64")]
-    if order >= AVX512_ROTATE_MIN_ORDER && crate::simd::available() {
-        // SAFETY: AVX-512F was detected.
-        return unsafe { rotate_one_avx512(order, m, src, dst) };
+/// If `s` is shorter than `K`.
+#[inline(always)]
+fn head<const K: usize>(s: &[f32]) -> &[f32; K] {
+    s[..K].try_into().expect("length K")
+}
+
+/// [`head`] for a mutable slice.
+#[inline(always)]
+fn head_mut<const K: usize>(s: &mut [f32]) -> &mut [f32; K] {
+    (&mut s[..K]).try_into().expect("length K")
+}
+
+/// One rotation function per order and instruction set, each its own
+/// non-inlined, non-generic function: a call runs exactly one order's
+/// straight-line code with its own register allocation and stack frame. (One
+/// function holding all orders behind a jump table shared one frame sized for
+/// order 6, and order 4 spilled its values through it: 24–32 ns against
+/// 10–13 ns at order 3.)
+macro_rules! rotate_per_order {
+    ($($n:literal $nn:literal $portable:ident $fma:ident $avx512:ident;)*) => {$(
+        /// [`rotate_one`] at order
+        #[doc = stringify!($n)]
+        /// with plain multiply and add.
+        #[inline(never)]
+        fn $portable(m: &[[f32; 3]; 3], src: &[f32; $nn], dst: &mut [f32; $nn]) {
+            rotate_fixed::<false, $n, $nn>(m, src, dst);
+        }
+
+        /// [`rotate_one`] at order
+        #[doc = stringify!($n)]
+        /// with fused multiply–add.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 and FMA.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma")]
+        #[inline(never)]
+        unsafe fn $fma(m: &[[f32; 3]; 3], src: &[f32; $nn], dst: &mut [f32; $nn]) {
+            rotate_fixed::<true, $n, $nn>(m, src, dst);
+        }
+
+        /// [`rotate_one`] at order
+        #[doc = stringify!($n)]
+        /// compiled for AVX-512F (see [`AVX512_ROTATE_MIN_ORDER`]).
+        ///
+        /// # Safety
+        /// The CPU must support AVX-512F, AVX-512VL, AVX2 and FMA.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+        #[inline(never)]
+        unsafe fn $avx512(m: &[[f32; 3]; 3], src: &[f32; $nn], dst: &mut [f32; $nn]) {
+            rotate_fixed::<true, $n, $nn>(m, src, dst);
+        }
+    )*
+
+    /// Generated exact rotation of one f32 vector by the rotation matrix `m`
+    /// (`m[i][j] = R_ij`); `false` above [`KERNEL_ROTATE_MAX_ORDER`]. Runs
+    /// the order's AVX-512 copy from [`AVX512_ROTATE_MIN_ORDER`] on where the
+    /// CPU has AVX-512F, its AVX2+FMA copy on a CPU with AVX2 and FMA, else
+    /// its portable copy; one call, no jump table.
+    ///
+    /// The matrix is passed by reference and read inside the kernel: the ZYZ
+    /// angles are computed there, in registers (passing freshly computed
+    /// angles through memory made the kernel's combined loads of them miss
+    /// store forwarding).
+    ///
+    /// # Panics
+    /// If a slice is shorter than `order²`.
+    #[inline]
+    pub(crate) fn rotate_one(order: usize, m: &[[f32; 3]; 3], src: &[f32], dst: &mut [f32]) -> bool {
+        match order {
+            $($n => {
+                let (src, dst) = (head::<$nn>(src), head_mut::<$nn>(dst));
+                #[cfg(target_arch = "x86_64")]
+                if $n >= AVX512_ROTATE_MIN_ORDER && crate::simd::available() {
+                    // SAFETY: AVX-512F (with VL, AVX2 and FMA) was detected.
+                    unsafe { $avx512(m, src, dst) };
+                    return true;
+                }
+                #[cfg(target_arch = "x86_64")]
+                if crate::lanes::avx2_fma_available() {
+                    // SAFETY: AVX2 and FMA were detected.
+                    unsafe { $fma(m, src, dst) };
+                    return true;
+                }
+                $portable(m, src, dst);
+            })*
+            _ => return false,
+        }
+        true
     }
-    #[cfg(target_arch = "x86_64")]
-    if crate::lanes::avx2_fma_available() {
-        // SAFETY: AVX2 and FMA were detected.
-        return unsafe { rotate_one_fma(order, m, src, dst) };
+
+    /// [`rotate_one`] with plain multiply and add (the portable path).
+    ///
+    /// # Panics
+    /// If a slice is shorter than `order²`.
+    pub(crate) fn rotate_one_portable(
+        order: usize,
+        m: &[[f32; 3]; 3],
+        src: &[f32],
+        dst: &mut [f32],
+    ) -> bool {
+        match order {
+            $($n => $portable(m, head::<$nn>(src), head_mut::<$nn>(dst)),)*
+            _ => return false,
+        }
+        true
     }
-    rotate_one_portable(order, m, src, dst)
+
+    /// [`rotate_one`] with fused multiply–add.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    ///
+    /// # Panics
+    /// If a slice is shorter than `order²`.
+    #[cfg(all(test, target_arch = "x86_64"))]
+    pub(crate) unsafe fn rotate_one_fma(
+        order: usize,
+        m: &[[f32; 3]; 3],
+        src: &[f32],
+        dst: &mut [f32],
+    ) -> bool {
+        match order {
+            // SAFETY: the caller's contract.
+            $($n => unsafe { $fma(m, head::<$nn>(src), head_mut::<$nn>(dst)) },)*
+            _ => return false,
+        }
+        true
+    }
+
+    /// [`rotate_one`] compiled for AVX-512F at every order (the tests run
+    /// each copy; [`rotate_one`] takes it from [`AVX512_ROTATE_MIN_ORDER`] on).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F, AVX-512VL, AVX2 and FMA.
+    ///
+    /// # Panics
+    /// If a slice is shorter than `order²`.
+    #[cfg(all(test, target_arch = "x86_64"))]
+    pub(crate) unsafe fn rotate_one_avx512(
+        order: usize,
+        m: &[[f32; 3]; 3],
+        src: &[f32],
+        dst: &mut [f32],
+    ) -> bool {
+        match order {
+            // SAFETY: the caller's contract.
+            $($n => unsafe { $avx512(m, head::<$nn>(src), head_mut::<$nn>(dst)) },)*
+            _ => return false,
+        }
+        true
+    }
+    };
 }
 
-/// [`rotate_one`] with plain multiply and add (the portable path).
-///
-/// # Panics
-/// If a slice is shorter than `order²`.
-#[inline(never)]
-pub(crate) fn rotate_one_portable(
-    order: usize,
-    m: &[[f32; 3]; 3],
-    src: &[f32],
-    dst: &mut [f32],
-) -> bool {
-    rotate_mat::<false>(order, m, src, dst)
+rotate_per_order! {
+    1 1 rotate_n1_portable rotate_n1_fma rotate_n1_avx512;
+    2 4 rotate_n2_portable rotate_n2_fma rotate_n2_avx512;
+    3 9 rotate_n3_portable rotate_n3_fma rotate_n3_avx512;
+    4 16 rotate_n4_portable rotate_n4_fma rotate_n4_avx512;
+    5 25 rotate_n5_portable rotate_n5_fma rotate_n5_avx512;
+    6 36 rotate_n6_portable rotate_n6_fma rotate_n6_avx512;
 }
 
-/// [`rotate_one`] with fused multiply–add.
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA.
-///
-/// # Panics
-/// If a slice is shorter than `order²`.
+/// Smallest order at which [`rotate_one`] takes the AVX-512 copy (the same
+/// scalar code with 32 vector registers instead of 16: fewer spills). With
+/// one function per order, pinned, alternating `set_isa_limit`: order 4
+/// 21.0 ns against 23.2 ns for the AVX2 copy, order 5 34.5 against 37.3 ns,
+/// order 6 49.4 against 56.1 ns; order 3 equal (9.1 ns).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-pub(crate) unsafe fn rotate_one_fma(
-    order: usize,
-    m: &[[f32; 3]; 3],
-    src: &[f32],
-    dst: &mut [f32],
-) -> bool {
-    rotate_mat::<true>(order, m, src, dst)
-}
-
-/// Smallest order at which [`rotate_one`] takes [`rotate_one_avx512`]. Same
-/// process, pinned, alternating the two copies (`set_isa_limit`): order 6
-/// 65.9 ns against 72.7 ns for the AVX2 copy, order 5 49.4 against 46.9 ns,
-/// orders ≤ 4 equal.
-#[cfg(target_arch = "x86_64")]
-pub(crate) const AVX512_ROTATE_MIN_ORDER: usize = 6;
-
-/// [`rotate_one`] compiled for AVX-512F: the same scalar kernel, but EVEX
-/// encoding gives it 32 vector registers instead of 16, so the ≈ 360
-/// operations of order 6 spill less (no 512-bit arithmetic is asked for).
-///
-/// # Safety
-/// The CPU must support AVX-512F.
-///
-/// # Panics
-/// If a slice is shorter than `order²`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[inline(never)]
-pub(crate) unsafe fn rotate_one_avx512(
-    order: usize,
-    m: &[[f32; 3]; 3],
-    src: &[f32],
-    dst: &mut [f32],
-) -> bool {
-    rotate_mat::<true>(order, m, src, dst)
-}
+pub(crate) const AVX512_ROTATE_MIN_ORDER: usize = 4;
 
 /// Generated rotation of one f32 vector given its ZYZ angles (the matrix is
 /// rebuilt from them, [`Rot3::from_euler_zyz`]); `false` above
