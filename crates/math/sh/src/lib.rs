@@ -87,6 +87,7 @@ pub(crate) mod kernels;
 pub mod kernels_gen;
 mod lanes;
 pub mod product;
+mod product_high;
 pub mod project;
 pub mod quadrature;
 pub mod real;

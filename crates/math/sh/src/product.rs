@@ -53,6 +53,8 @@ pub struct TripleProduct<T> {
     /// so that `(f ∗ g)_i = Σ w S_{jk}` with `S = f gᵀ + g fᵀ`.
     pairs: Vec<(u32, T)>,
     out_start: Vec<u32>,
+    /// Orders 7…10: the f32 pseudo-spectral product ([`crate::product_high`]).
+    high: Option<Box<crate::product_high::HighProduct>>,
 }
 
 /// Whether the real Gaunt coefficient of `(i, j, k)` can be non-zero.
@@ -128,6 +130,7 @@ impl<T: Real> TripleProduct<T> {
             iii: Vec::new(),
             pairs: Vec::new(),
             out_start: Vec::new(),
+            high: crate::product_high::HighProduct::new(order).map(Box::new),
         };
         let unique = gaunt_unique(order, true);
         let nn = order * order;
@@ -226,7 +229,10 @@ impl<T: Real> TripleProduct<T> {
         self.product_with_portable(f, g, out, scratch);
     }
 
-    /// The generated straight-line f32 kernel ([`crate::fast`]), where one exists.
+    /// The f32 fast paths, where one exists: the generated straight-line
+    /// kernel ([`crate::fast`], n ≤ 6) or the pseudo-spectral product
+    /// ([`crate::product_high`], n = 7…10; equal to the Gaunt sum up to f32
+    /// rounding, `|Δ_i| ≤ 2·10⁻⁷ ‖f‖₂‖g‖₂`).
     #[inline(always)]
     fn product_fast(&self, f: &[T], g: &[T], out: &mut [T]) -> bool {
         match (
@@ -234,7 +240,13 @@ impl<T: Real> TripleProduct<T> {
             T::as_f32_slice(g),
             T::as_f32_slice_mut(out),
         ) {
-            (Some(f), Some(g), Some(out)) => crate::fast::product_one(self.order, f, g, out),
+            (Some(f), Some(g), Some(out)) => {
+                if let Some(h) = &self.high {
+                    h.product(f, g, out);
+                    return true;
+                }
+                crate::fast::product_one(self.order, f, g, out)
+            }
             _ => false,
         }
     }
