@@ -296,7 +296,9 @@ pub struct MethodFlags {
     /// with `--shading vertex --twists 1`).
     #[arg(long)]
     pub select: Option<String>,
-    /// Where the triple product is evaluated (triple): `pixel` or `vertex`
+    /// Where the triple product is evaluated (triple): `pixel` (the lighting
+    /// looked up in each pixel's frame), `interpolated` (the vertices'
+    /// functions interpolated per pixel, §3.3) or `vertex`
     /// (Gouraud) [default: pixel].
     #[arg(long)]
     pub shading: Option<String>,

@@ -7,8 +7,11 @@
 //!   512×384 (quick: 256×192), n = 80 and 320: ms per frame (best of the
 //!   repetitions), multiply-adds and bytes per shaded pixel (the kernel's own
 //!   count, [`crate::shade::FMA_PER_CELL`] and
-//!   [`crate::shade::BYTES_PER_CELL`] per padded cell) and the fraction of
-//!   [`MACHINE_GFMA`] reached.
+//!   [`crate::shade::BYTES_PER_CELL`] per padded cell; for §3.3's
+//!   interpolated form the per-pixel and per-vertex counts,
+//!   [`crate::shade::FMA_PER_CELL_INTERPOLATED`] and
+//!   [`crate::shade::FMA_PER_VERTEX_CELL`], the vertex work spread over the
+//!   covered pixels) and the fraction of [`MACHINE_GFMA`] reached.
 //! * **Timings**: a light rotation (no rebuild; frame time after it), a
 //!   material edit (one BRDF table re-baked), a new environment (the twisted
 //!   rotation table and the 642-normal isotropic one), the per-vertex
@@ -19,8 +22,7 @@
 //!   Frame rows run in both storages, and with a visibility texture
 //!   ([`crate::vis_texture`], 128² in the full run) in f32.
 
-use crate::method::{TripleMethod, TripleOptions, bytes_per_point};
-use crate::shade::FMA_PER_CELL;
+use crate::method::{Shading, TripleMethod, TripleOptions, bytes_per_point};
 use crate::storage::Storage;
 use crate::verify::floor_scene;
 use glam::{Mat3, Vec3};
@@ -47,6 +49,8 @@ pub struct FrameRow {
     pub terms: usize,
     pub storage: &'static str,
     pub visibility: &'static str,
+    /// `pixel` (lookup per pixel) or `interpolated` (§3.3's vertex functions).
+    pub shading: &'static str,
     pub covered_pixels: usize,
     pub ms_per_frame: f64,
     pub fps: f64,
@@ -162,11 +166,12 @@ pub fn bench_triple(
         let (w0, h0) = opts.sizes[0];
         let mut scene = floor_scene(env.clone(), lambert.clone(), w0, h0);
         scene.objects[0] = Object::new(mesh.clone(), phong.clone());
-        for (&terms, storage, texture) in opts.terms.iter().flat_map(|t| {
+        for (&terms, storage, texture, shading) in opts.terms.iter().flat_map(|t| {
             [
-                (t, Storage::F32, 0),
-                (t, Storage::Compact, 0),
-                (t, Storage::F32, opts.texture),
+                (t, Storage::F32, 0, Shading::Pixel),
+                (t, Storage::Compact, 0, Shading::Pixel),
+                (t, Storage::F32, opts.texture, Shading::Pixel),
+                (t, Storage::Compact, 0, Shading::Interpolated),
             ]
         }) {
             let o = TripleOptions {
@@ -175,6 +180,7 @@ pub fn bench_triple(
                 cache_dir: opts.cache_dir.clone(),
                 storage,
                 visibility_texture: texture,
+                shading,
                 ..TripleOptions::default()
             };
             let visibility = if texture > 0 { "texture" } else { "vertex" };
@@ -184,9 +190,10 @@ pub fn bench_triple(
             let prep = t.elapsed().as_secs_f64() * 1e3;
             timings.push(TimingRow {
                 what: format!(
-                    "prepare ({} + floor vertices, n = {terms}, {}, {visibility}; cached bakes are loaded)",
+                    "prepare ({} + floor vertices, n = {terms}, {}, {visibility}, {}; cached bakes are loaded)",
                     mesh.positions.len(),
-                    storage.name()
+                    storage.name(),
+                    shading.name()
                 ),
                 ms: prep,
                 target: "report".into(),
@@ -205,7 +212,7 @@ pub fn bench_triple(
                 }
                 let work = m.frame_work(&scene, &req).map_or(0.0, |f| f.view_fma);
                 let stride = m.table().map_or(0, |t| t.padded);
-                let pixels = (work / (FMA_PER_CELL * stride.max(1)) as f64).round() as usize;
+                let pixels = m.covered_pixels();
                 let gfma = work / (best * 1e-3) / 1e9;
                 let target = target_fps(w, terms);
                 let fps = 1e3 / best;
@@ -216,11 +223,12 @@ pub fn bench_triple(
                     terms,
                     storage: storage.name(),
                     visibility,
+                    shading: shading.name(),
                     covered_pixels: pixels,
                     ms_per_frame: best,
                     fps,
-                    fma_per_pixel: (FMA_PER_CELL * stride) as f64,
-                    bytes_per_pixel: bytes_per_point(stride, storage) as f64,
+                    fma_per_pixel: work / pixels.max(1) as f64,
+                    bytes_per_pixel: bytes_per_point(stride, storage, shading) as f64,
                     gfma_per_s: gfma,
                     fraction_of_machine: gfma / MACHINE_GFMA,
                     target_fps: target,
@@ -236,8 +244,9 @@ pub fn bench_triple(
             let builds = m.counts().2;
             timings.push(TimingRow {
                 what: format!(
-                    "light rotation, n = {terms}, {}, {visibility} (table builds after it: {builds})",
-                    storage.name()
+                    "light rotation, n = {terms}, {}, {visibility}, {} (table builds after it: {builds})",
+                    storage.name(),
+                    shading.name()
                 ),
                 ms: rot_ms,
                 target: "no rebuild (builds = 1)".into(),

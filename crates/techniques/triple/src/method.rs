@@ -50,7 +50,9 @@ use crate::lighting::{LightTable, frame_of, prefilter};
 use crate::medium::FoggyLighting;
 use crate::quadrature::{LeafGrid, Weighting};
 use crate::select::Selection;
-use crate::shade::{BYTES_PER_CELL, FMA_PER_CELL, shade_point};
+use crate::shade::{
+    BYTES_PER_CELL, FMA_PER_CELL, FMA_PER_CELL_INTERPOLATED, FMA_PER_VERTEX_CELL, shade_point,
+};
 use crate::storage::{Planes, Storage};
 use crate::visibility::{bake_point_visibility, bake_vertex_visibility};
 use glam::{Mat3, Vec3};
@@ -81,6 +83,26 @@ pub enum Shading {
     Pixel,
     /// Per vertex, colours interpolated (Gouraud; Fig. 5).
     Vertex,
+    /// Per pixel, Eq. 7 of the functions interpolated from the triangle's
+    /// three vertices (§3.3's pseudocode: `L_p`, `V_p`, `ρ_p` by
+    /// barycentric interpolation of the vertices' lighting looked up in the
+    /// vertex frame and BRDF at the vertex's view). Cheaper per pixel than
+    /// [`Shading::Pixel`] ([`crate::shade::FMA_PER_CELL_INTERPOLATED`]
+    /// against [`FMA_PER_CELL`]); no bump mapping (the lighting frame is
+    /// the vertices').
+    Interpolated,
+}
+
+impl Shading {
+    /// The name on the command line.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Pixel => "pixel",
+            Self::Vertex => "vertex",
+            Self::Interpolated => "interpolated",
+        }
+    }
 }
 
 impl std::str::FromStr for Shading {
@@ -89,7 +111,10 @@ impl std::str::FromStr for Shading {
         match s {
             "pixel" => Ok(Self::Pixel),
             "vertex" => Ok(Self::Vertex),
-            o => Err(format!("unknown shading {o:?}: use pixel or vertex")),
+            "interpolated" => Ok(Self::Interpolated),
+            o => Err(format!(
+                "unknown shading {o:?}: use pixel, interpolated or vertex"
+            )),
         }
     }
 }
@@ -186,6 +211,8 @@ pub struct TripleMethod {
     raster: Rasterizer,
     frame: Image,
     colors: Vec<Vec<Vec3>>,
+    /// Per object, the vertices' functions of [`Shading::Interpolated`].
+    vertex_fns: Vec<VertexFunctions>,
     pending_lighting_ms: f64,
     loads: usize,
     bakes: usize,
@@ -303,6 +330,7 @@ impl TripleMethod {
             raster: Rasterizer::new(),
             frame: Image::new(0, 0),
             colors: Vec::new(),
+            vertex_fns: Vec::new(),
             pending_lighting_ms: 0.0,
             loads: 0,
             bakes: 0,
@@ -361,6 +389,12 @@ impl TripleMethod {
     #[must_use]
     pub fn counts(&self) -> (usize, usize, usize) {
         (self.loads, self.bakes, self.table_builds)
+    }
+
+    /// Pixels the last frame covered.
+    #[must_use]
+    pub fn covered_pixels(&self) -> usize {
+        self.raster.gbuffer().covered_pixels()
     }
 
     /// The lighting table, once lit.
@@ -506,16 +540,17 @@ enum Product<'a> {
     Adaptive(Option<&'a crate::select::SparseVec>, usize),
 }
 
-/// Shades one point: world normal `n`, to-eye `to_eye`, by `product`.
+/// The lighting and BRDF table entries of a point with world normal `n`
+/// seen from `to_eye` (the frame of `n` turned by the lighting rotation
+/// `rot`; the view clamped just above the horizon).
 #[inline]
-fn shade_world(
+fn point_taps(
     table: &LightTable,
     rot: Mat3,
     brdf: &BrdfTable,
     n: Vec3,
     to_eye: Vec3,
-    product: Product,
-) -> Vec3 {
+) -> ([crate::lighting::Tap; 6], [crate::lighting::Tap; 4]) {
     let f = frame_of(n);
     let mut wo = f.to_local(to_eye);
     if wo.z < 1e-4 {
@@ -527,8 +562,113 @@ fn shade_world(
         y: rot * f.y,
         z: rot * f.z,
     };
-    let lt = table.lookup(&g);
-    let bt = brdf.lookup(wo);
+    (table.lookup(&g), brdf.lookup(wo))
+}
+
+/// A pixel's visibility rows and weights in object `p` (`None`: V ≡ 1):
+/// four texels of its visibility texture, or its triangle's three vertices,
+/// at barycentrics `l` of triangle `triangle`; rows of `stride` cells.
+#[inline]
+fn pixel_visibility(
+    p: &Prepared,
+    triangle: usize,
+    l: Vec3,
+    stride: usize,
+) -> Option<(&Planes, [usize; 4], [f32; 4])> {
+    p.vis.as_ref().map(|v| {
+        if let (true, Some(c)) = (p.vis_res > 0, &p.vis_uvs) {
+            let (t, w) = crate::vis_texture::taps(c.0.uv(triangle, l), p.vis_res);
+            (v.as_ref(), t.map(|t| t * stride), w)
+        } else {
+            let [a, b, c] = p.mesh.indices[triangle].map(|i| i as usize * stride);
+            (v.as_ref(), [a, b, c, a], [l.x, l.y, l.z, 0.0])
+        }
+    })
+}
+
+/// The f32 rows of `planes`, `len` long (made f32 if it was not).
+fn f32_rows(planes: &mut Planes, len: usize) -> &mut Vec<f32> {
+    if !matches!(planes, Planes::F32(_)) {
+        *planes = Planes::default();
+    }
+    let Planes::F32(v) = planes else {
+        unreachable!("made f32 just above")
+    };
+    v.resize(len, 0.0);
+    v
+}
+
+/// Computes object `p`'s vertex functions (the lighting looked up in each
+/// vertex's frame, each BRDF at the vertex's view from `eye`) into `fns`.
+/// Every BRDF table of the method has the same view grid, so one set of
+/// BRDF taps serves both tables of a blend.
+fn vertex_functions(
+    table: &LightTable,
+    rot: Mat3,
+    p: &Prepared,
+    eye: Vec3,
+    fns: &mut VertexFunctions,
+) {
+    let padded = table.padded;
+    let row = 3 * padded;
+    let len = p.mesh.positions.len() * row;
+    let light = f32_rows(&mut fns.light, len);
+    let brdf = f32_rows(&mut fns.brdf, len);
+    let second = match &p.blend {
+        Some(_) => Some(f32_rows(
+            fns.second.get_or_insert_with(Planes::default),
+            len,
+        )),
+        None => {
+            fns.second = None;
+            None
+        }
+    };
+    let one = |v: usize, l: &mut [f32], b: &mut [f32]| {
+        let n = p.mesh.normals[v];
+        let to_eye = (eye - p.mesh.positions[v]).normalize_or(n);
+        let (lt, bt) = point_taps(table, rot, &p.brdf, n, to_eye);
+        crate::shade::blend_function(&table.data, &lt, table.stride, padded, l);
+        crate::shade::blend_function(&p.brdf.data, &bt, p.brdf.stride, padded, b);
+        bt
+    };
+    let rows = light.par_chunks_mut(row).zip(brdf.par_chunks_mut(row));
+    match (second, &p.blend) {
+        (Some(second), Some((table2, _))) => rows
+            .zip(second.par_chunks_mut(row))
+            .enumerate()
+            .with_min_len(64)
+            .for_each(|(v, ((l, b), b2))| {
+                let bt = one(v, l, b);
+                crate::shade::blend_function(&table2.data, &bt, table2.stride, padded, b2);
+            }),
+        _ => rows.enumerate().with_min_len(64).for_each(|(v, (l, b))| {
+            one(v, l, b);
+        }),
+    }
+}
+
+/// One object's vertex functions for [`Shading::Interpolated`]: per vertex,
+/// three channel planes of `padded` cells (f32), of the lighting and of each
+/// BRDF (the second: a spatially varying blend's).
+#[derive(Default)]
+struct VertexFunctions {
+    light: Planes,
+    brdf: Planes,
+    second: Option<Planes>,
+}
+
+/// Shades one point: world normal `n`, to-eye `to_eye`, by `product`.
+#[inline]
+fn shade_world(
+    table: &LightTable,
+    rot: Mat3,
+    brdf: &BrdfTable,
+    n: Vec3,
+    to_eye: Vec3,
+    product: Product,
+) -> Vec3 {
+    let (lt, bt) = point_taps(table, rot, brdf, n, to_eye);
     match product {
         Product::TopOnly(vis) => shade_point(
             &table.data,
@@ -589,7 +729,7 @@ impl Relighter for TripleMethod {
             }
             SceneFeature::NormalMaps => match self.options.shading {
                 Shading::Pixel => Support::Full,
-                Shading::Vertex => Support::No,
+                Shading::Vertex | Shading::Interpolated => Support::No,
             },
             SceneFeature::SpatiallyVaryingBrdf => Support::Full,
         }
@@ -867,16 +1007,7 @@ impl Relighter for TripleMethod {
                                     + u[tri[1] as usize] * l.y
                                     + u[tri[2] as usize] * l.z
                             };
-                            let vis = p.vis.as_ref().map(|v| {
-                                if let (true, Some(c)) = (p.vis_res > 0, &p.vis_uvs) {
-                                    let at = c.0.uv(frag.triangle as usize, l);
-                                    let (t, w) = crate::vis_texture::taps(at, p.vis_res);
-                                    (v.as_ref(), t.map(|t| t * stride), w)
-                                } else {
-                                    let [a, b, c] = tri.map(|i| i as usize * stride);
-                                    (v.as_ref(), [a, b, c, a], [l.x, l.y, l.z, 0.0])
-                                }
-                            });
+                            let vis = pixel_visibility(p, frag.triangle as usize, l, stride);
                             if let Some(map) = &p.normal_map {
                                 let t = &p.mesh.tangents;
                                 let tangent = t[tri[0] as usize] * l.x
@@ -904,6 +1035,56 @@ impl Relighter for TripleMethod {
                                 ),
                                 frag.position,
                             )
+                        },
+                        background,
+                        &mut self.frame,
+                    )
+                    .map_err(|e| invalid("raster", e))?;
+            }
+            Shading::Interpolated => {
+                let row = 3 * stride;
+                self.vertex_fns
+                    .resize_with(objects.len(), VertexFunctions::default);
+                for (p, fns) in objects.iter().zip(&mut self.vertex_fns) {
+                    vertex_functions(table, rot, p, eye, fns);
+                }
+                let fns = &self.vertex_fns;
+                self.raster
+                    .shade(
+                        &draws,
+                        |frag| {
+                            let p = &objects[frag.draw as usize];
+                            let f = &fns[frag.draw as usize];
+                            let tri = p.mesh.indices[frag.triangle as usize];
+                            let l = frag.barycentrics;
+                            let mut lt = [crate::lighting::Tap::default(); 6];
+                            let mut bt = [crate::lighting::Tap::default(); 4];
+                            for (a, w) in [l.x, l.y, l.z].into_iter().enumerate() {
+                                let tap = crate::lighting::Tap {
+                                    offset: (tri[a] as usize * row) as u32,
+                                    weight: w,
+                                };
+                                lt[a] = tap;
+                                bt[a] = tap;
+                            }
+                            let vis = pixel_visibility(p, frag.triangle as usize, l, stride);
+                            let shade = |brdf: &Planes| {
+                                shade_point(&f.light, &lt, brdf, &bt, vis, stride, stride)
+                            };
+                            let c = match (&p.blend, &f.second) {
+                                (Some((_, blend)), Some(second)) => {
+                                    let u = &p.mesh.uvs;
+                                    let uv = u[tri[0] as usize] * l.x
+                                        + u[tri[1] as usize] * l.y
+                                        + u[tri[2] as usize] * l.z;
+                                    let w = blend.weight_at(uv);
+                                    let a = if w < 1.0 { shade(&f.brdf) } else { Vec3::ZERO };
+                                    let b = if w > 0.0 { shade(second) } else { Vec3::ZERO };
+                                    a * (1.0 - w) + b * w
+                                }
+                                _ => shade(&f.brdf),
+                            };
+                            segment(c, frag.position)
                         },
                         background,
                         &mut self.frame,
@@ -960,17 +1141,23 @@ impl Relighter for TripleMethod {
         ))
     }
 
-    /// Per shaded point (pixel sample, or vertex in per-vertex shading)
-    /// [`FMA_PER_CELL`] × padded cells.
+    /// Multiply-adds per cell ([`FMA_PER_CELL`] per pixel sample or vertex;
+    /// interpolated: [`FMA_PER_CELL_INTERPOLATED`] per pixel plus
+    /// [`FMA_PER_VERTEX_CELL`] per vertex) × padded cells.
     fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
         let table = self.table.as_ref()?;
-        let points = match self.options.shading {
-            Shading::Pixel => self.raster.gbuffer().covered_pixels(),
-            Shading::Vertex => scene.objects.iter().map(|o| o.mesh.positions.len()).sum(),
+        let pixels = self.raster.gbuffer().covered_pixels();
+        let vertices: usize = scene.objects.iter().map(|o| o.mesh.positions.len()).sum();
+        let per_cell = match self.options.shading {
+            Shading::Pixel => pixels * FMA_PER_CELL,
+            Shading::Vertex => vertices * FMA_PER_CELL,
+            Shading::Interpolated => {
+                pixels * FMA_PER_CELL_INTERPOLATED + vertices * FMA_PER_VERTEX_CELL
+            }
         };
         let _ = request;
         Some(FrameWork {
-            view_fma: (points * FMA_PER_CELL * table.padded) as f64,
+            view_fma: (per_cell * table.padded) as f64,
             lighting_fma: 0.0,
         })
     }
@@ -995,13 +1182,21 @@ impl Relighter for TripleMethod {
 /// Bytes read per shaded point of `terms` coefficients kept in `storage`:
 /// [`BYTES_PER_CELL`] per padded cell less what each compact table saves
 /// (six lighting taps × RGB at 2 of 4 bytes, four BRDF taps × RGB and three
-/// visibility rows at 3 of 4).
+/// visibility rows at 3 of 4); under [`Shading::Interpolated`], three vertices' f32
+/// lighting and BRDF functions (RGB) and the visibility rows.
 #[must_use]
-pub fn bytes_per_point(terms: usize, storage: Storage) -> usize {
-    let per_cell = BYTES_PER_CELL
-        - if storage.lighting_f16() { 3 * 6 * 2 } else { 0 }
-        - if storage.brdf_u8() { 3 * 4 * 3 } else { 0 }
-        - if storage.visibility_u8() { 3 * 3 } else { 0 };
+pub fn bytes_per_point(terms: usize, storage: Storage, shading: Shading) -> usize {
+    let vis = if storage.visibility_u8() { 3 } else { 3 * 4 };
+    let per_cell = match shading {
+        // Three vertices' f32 lighting and BRDF functions, RGB.
+        Shading::Interpolated => 3 * (3 + 3) * 4 + vis,
+        Shading::Pixel | Shading::Vertex => {
+            BYTES_PER_CELL
+                - if storage.lighting_f16() { 3 * 6 * 2 } else { 0 }
+                - if storage.brdf_u8() { 3 * 4 * 3 } else { 0 }
+                - (3 * 4 - vis)
+        }
+    };
     per_cell * terms.div_ceil(8) * 8
 }
 

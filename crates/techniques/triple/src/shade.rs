@@ -19,6 +19,16 @@ use glam::Vec3;
 /// visibility taps and four BRDF taps: `3 + 3·(6 + 4 + 2)`.
 pub const FMA_PER_CELL: usize = 39;
 
+/// Multiply-adds per cell of one pixel under
+/// [`crate::method::Shading::Interpolated`]: the three vertices' lighting
+/// and BRDF functions and visibility interpolated, `3 + 3·(3 + 3 + 2)`.
+pub const FMA_PER_CELL_INTERPOLATED: usize = 27;
+
+/// Multiply-adds per cell of one vertex's functions under
+/// [`crate::method::Shading::Interpolated`] (six lighting and four BRDF
+/// taps per channel, [`blend_function`]): `3·(6 + 4)`.
+pub const FMA_PER_VERTEX_CELL: usize = 30;
+
 /// Bytes read per cell: six lighting, four BRDF entries (RGB) and three
 /// visibility values, f32.
 pub const BYTES_PER_CELL: usize = 4 * (3 * (6 + 4) + 3);
@@ -76,6 +86,87 @@ pub fn shade_point_portable(
     )
 }
 
+/// One point's function from weighted table entries: `out[ch·padded + c] =
+/// Σ_t w_t s_t · planes[t.offset + ch·plane_stride + c]` for the three
+/// channel planes (`s_t` the entry plane's scale, [`crate::storage`]), for
+/// `c < padded`; cells from `plane_stride` on (an unpadded lighting plane's
+/// neighbour, [`crate::lighting`]) are set to 0. These are the per-vertex
+/// functions that [`crate::method::Shading::Interpolated`] interpolates per
+/// pixel (§3.3's pseudocode). Runs with F16C where [`shade_point`] does;
+/// both copies compute the same sums (tested).
+pub fn blend_function(
+    planes: &Planes,
+    taps: &[Tap],
+    plane_stride: usize,
+    padded: usize,
+    out: &mut [f32],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if x86::available() {
+        // SAFETY: the CPU has AVX2, FMA and F16C (checked just above).
+        return unsafe { x86::blend_function(planes, taps, plane_stride, padded, out) };
+    }
+    blend_function_portable(planes, taps, plane_stride, padded, out);
+}
+
+/// [`blend_function`] compiled for the baseline ISA.
+pub fn blend_function_portable(
+    planes: &Planes,
+    taps: &[Tap],
+    plane_stride: usize,
+    padded: usize,
+    out: &mut [f32],
+) {
+    blend_dispatch!(F16Cells, planes, taps, plane_stride, padded, out);
+}
+
+macro_rules! blend_dispatch {
+    ($f16:ident, $planes:expr, $taps:expr, $ps:expr, $padded:expr, $out:expr) => {
+        match $planes {
+            Planes::F32(v) => blend_with(&F32Cells(v), $taps, $ps, $padded, $out),
+            Planes::F16(v) => blend_with(&$f16(v), $taps, $ps, $padded, $out),
+            Planes::U8 { codes, scales } => blend_with(
+                &U8Cells {
+                    codes,
+                    scales,
+                    stride: $ps,
+                },
+                $taps,
+                $ps,
+                $padded,
+                $out,
+            ),
+        }
+    };
+}
+use blend_dispatch;
+
+#[inline(always)]
+fn blend_with<C: Cells>(
+    cells: &C,
+    taps: &[Tap],
+    plane_stride: usize,
+    padded: usize,
+    out: &mut [f32],
+) {
+    for (ch, o) in out.chunks_exact_mut(padded).take(3).enumerate() {
+        o.fill(0.0);
+        for t in taps.iter().filter(|t| t.weight != 0.0) {
+            let base = t.offset as usize + ch * plane_stride;
+            let w = t.weight * cells.scale(base);
+            for (b, o8) in o.chunks_exact_mut(8).enumerate() {
+                let s = cells.load8(base + 8 * b);
+                for i in 0..8 {
+                    o8[i] += w * s[i];
+                }
+            }
+        }
+        if plane_stride < padded {
+            o[plane_stride..].fill(0.0);
+        }
+    }
+}
+
 /// The one dispatch of both copies: a monomorphised kernel for all-f32 and
 /// for all-compact tables (f16 lighting read by `$f16`), [`AnyCells`] for
 /// the mixed forms.
@@ -116,7 +207,7 @@ use dispatch;
 /// The AVX2 + FMA + F16C copy of the kernel.
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{AnyCells, Cells, F32Cells, Planes, Tap, U8Cells, Vec3, with_vis};
+    use super::{AnyCells, Cells, F32Cells, Planes, Tap, U8Cells, Vec3, blend_with, with_vis};
     use std::arch::x86_64::{__m128i, _mm_loadu_si128, _mm256_cvtph_ps, _mm256_storeu_ps};
 
     /// AVX2, FMA and F16C are present (cached by the standard library).
@@ -175,6 +266,20 @@ mod x86 {
             light_stride,
             stride
         )
+    }
+    /// [`super::blend_function_portable`] compiled for AVX2 + FMA + F16C.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2, FMA and F16C ([`available`]).
+    #[target_feature(enable = "avx2,fma,f16c")]
+    pub(super) unsafe fn blend_function(
+        planes: &Planes,
+        taps: &[Tap],
+        plane_stride: usize,
+        padded: usize,
+        out: &mut [f32],
+    ) {
+        super::blend_dispatch!(F16cCells, planes, taps, plane_stride, padded, out);
     }
 }
 
@@ -509,6 +614,89 @@ mod tests {
                             "half {half}: {got} vs {want}"
                         );
                     }
+                }
+            }
+        }
+    }
+
+    /// A vertex function is the weighted sum of its entries' planes (every
+    /// storage, plane scales folded in), zero past an unpadded plane's own
+    /// cells, and both copies agree.
+    #[test]
+    fn blend_function_sums_entries() {
+        let (cells, padded) = (58, 64);
+        let mut x = 0x1234_5678_u32;
+        let mut rnd = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x % 10_000) as f32 / 10_000.0
+        };
+        let taps = [
+            Tap {
+                offset: 0,
+                weight: 0.5,
+            },
+            Tap {
+                offset: 0,
+                weight: 0.0,
+            },
+            Tap {
+                offset: 0,
+                weight: 0.2,
+            },
+        ];
+        for (stride, planes) in [
+            (
+                cells,
+                Planes::F32((0..4 * 3 * cells + padded).map(|_| rnd()).collect()),
+            ),
+            (
+                cells,
+                Planes::f16(
+                    &(0..4 * 3 * cells + padded)
+                        .map(|_| rnd())
+                        .collect::<Vec<_>>(),
+                ),
+            ),
+            (
+                padded,
+                Planes::u8(
+                    &(0..4 * 3 * padded).map(|_| rnd()).collect::<Vec<_>>(),
+                    padded,
+                ),
+            ),
+        ] {
+            let mut taps = taps;
+            taps[0].offset = (3 * stride) as u32;
+            taps[2].offset = (9 * stride) as u32;
+            let mut fast = vec![f32::NAN; 3 * padded];
+            let mut slow = vec![f32::NAN; 3 * padded];
+            blend_function(&planes, &taps, stride, padded, &mut fast);
+            blend_function_portable(&planes, &taps, stride, padded, &mut slow);
+            for ch in 0..3 {
+                for c in 0..padded {
+                    let want = if c < stride.min(cells) || stride == padded {
+                        taps.iter()
+                            .map(|t| {
+                                t.weight * planes.get(t.offset as usize + ch * stride + c, stride)
+                            })
+                            .sum::<f32>()
+                    } else {
+                        0.0
+                    };
+                    let i = ch * padded + c;
+                    assert!(
+                        (slow[i] - want).abs() <= 1e-6,
+                        "{ch} {c}: {} vs {want}",
+                        slow[i]
+                    );
+                    assert!(
+                        (fast[i] - slow[i]).abs() <= 1e-6,
+                        "{ch} {c}: {} vs {}",
+                        fast[i],
+                        slow[i]
+                    );
                 }
             }
         }

@@ -111,6 +111,13 @@ pub enum Planes {
     },
 }
 
+/// No planes (f32).
+impl Default for Planes {
+    fn default() -> Self {
+        Self::F32(Vec::new())
+    }
+}
+
 impl Planes {
     /// `values` as f16 (values beyond the half range saturate).
     #[must_use]

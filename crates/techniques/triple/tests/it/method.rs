@@ -6,7 +6,7 @@ use relight_brdf::BrdfSpec;
 use relight_render::method::{FrameRequest, MethodError, Relighter, SceneFeature, render_frame};
 use relight_render::{Camera, NoProgress, Object, PointLight, Scene};
 use relight_sphere::{EnvMap, Param};
-use relight_triple::{TripleMethod, TripleOptions};
+use relight_triple::{Shading, TripleMethod, TripleOptions};
 use std::sync::Arc;
 
 /// A sphere on an 8² floor, 48 × 36 (also the medium tests').
@@ -62,20 +62,58 @@ fn furnace_white_lambert_under_unit_sky_is_one() {
     );
     let sc = scene(env, false);
     let dir = tmp("furnace");
-    let mut m = TripleMethod::new(options(&dir)).unwrap();
-    m.prepare(&sc, &NoProgress).unwrap();
-    let r = render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress).unwrap();
-    let mask = r.coverage.as_ref().unwrap().object_mask();
-    let mut n = 0;
-    for (p, &inside) in r.image.pixels.iter().zip(&mask) {
-        if inside {
-            n += 1;
-            for c in p.to_array() {
-                assert!((c - 1.0).abs() < 2e-3, "furnace pixel {p}");
+    for shading in [Shading::Pixel, Shading::Interpolated] {
+        let mut m = TripleMethod::new(TripleOptions {
+            shading,
+            ..options(&dir)
+        })
+        .unwrap();
+        m.prepare(&sc, &NoProgress).unwrap();
+        let r = render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress).unwrap();
+        let mask = r.coverage.as_ref().unwrap().object_mask();
+        let mut n = 0;
+        for (p, &inside) in r.image.pixels.iter().zip(&mask) {
+            if inside {
+                n += 1;
+                for c in p.to_array() {
+                    assert!((c - 1.0).abs() < 2e-3, "{shading:?}: furnace pixel {p}");
+                }
             }
         }
+        assert!(n > 200, "only {n} object pixels");
     }
-    assert!(n > 200, "only {n} object pixels");
+}
+
+/// §3.3's per-pixel form (the vertices' functions interpolated) against
+/// the per-pixel lookup on a sphere and floor with shadows: close where the
+/// mesh is fine, not identical (it interpolates functions, not frames), and
+/// closer to it than per-vertex colours are.
+#[test]
+fn interpolated_functions_track_the_per_pixel_lookup() {
+    let mut sc = scene(peaked_sky(), true);
+    sc.camera.width = 96;
+    sc.camera.height = 72;
+    let dir = tmp("interpolated");
+    let render = |shading| {
+        let mut m = TripleMethod::new(TripleOptions {
+            shading,
+            ..options(&dir)
+        })
+        .unwrap();
+        m.prepare(&sc, &NoProgress).unwrap();
+        render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress)
+            .unwrap()
+            .image
+    };
+    let pixel = render(Shading::Pixel);
+    let interpolated = render(Shading::Interpolated);
+    let vertex = render(Shading::Vertex);
+    let e_int = interpolated.relative_rms_error(&pixel, None);
+    let e_vtx = vertex.relative_rms_error(&pixel, None);
+    assert!(e_int > 1e-5, "identical images: {e_int}");
+    assert!(e_int < 0.05, "interpolated vs per pixel {e_int}");
+    assert!(e_int < e_vtx, "interpolated {e_int} vs Gouraud {e_vtx}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -169,38 +207,44 @@ fn svbrdf_is_linear_in_the_blend_weight() {
     );
     let dir = tmp("svbrdf");
     let glossy = "phong:16".parse::<BrdfSpec>().unwrap().build();
-    let render = |w: Option<f32>| {
-        let mut sc = scene(env.clone(), false);
-        if let Some(w) = w {
-            sc.objects[1].blend = Some(relight_render::BrdfBlend {
-                second: glossy.clone(),
-                weight: Arc::new(relight_render::Texture::constant(Vec3::splat(w)).unwrap()),
-            });
-        } else {
-            sc.objects[1].brdf = glossy.clone();
+    for shading in [Shading::Pixel, Shading::Interpolated] {
+        let render = |w: Option<f32>| {
+            let mut sc = scene(env.clone(), false);
+            if let Some(w) = w {
+                sc.objects[1].blend = Some(relight_render::BrdfBlend {
+                    second: glossy.clone(),
+                    weight: Arc::new(relight_render::Texture::constant(Vec3::splat(w)).unwrap()),
+                });
+            } else {
+                sc.objects[1].brdf = glossy.clone();
+            }
+            let mut m = TripleMethod::new(TripleOptions {
+                shading,
+                ..options(&dir)
+            })
+            .unwrap();
+            m.prepare(&sc, &NoProgress).unwrap();
+            render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress)
+                .unwrap()
+                .image
+        };
+        let a = render(Some(0.0));
+        let b = render(None);
+        let h = render(Some(0.25));
+        let mut worst = 0.0f32;
+        for ((x, y), z) in a.pixels.iter().zip(&b.pixels).zip(&h.pixels) {
+            let want = *x * 0.75 + *y * 0.25;
+            worst = worst.max((want - *z).abs().max_element() / want.max_element().max(1e-3));
         }
-        let mut m = TripleMethod::new(options(&dir)).unwrap();
-        m.prepare(&sc, &NoProgress).unwrap();
-        render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress)
-            .unwrap()
-            .image
-    };
-    let a = render(Some(0.0));
-    let b = render(None);
-    let h = render(Some(0.25));
-    let mut worst = 0.0f32;
-    for ((x, y), z) in a.pixels.iter().zip(&b.pixels).zip(&h.pixels) {
-        let want = *x * 0.75 + *y * 0.25;
-        worst = worst.max((want - *z).abs().max_element() / want.max_element().max(1e-3));
+        assert!(worst < 1e-4, "{shading:?}: blend not linear: {worst}");
+        assert!(
+            a.pixels
+                .iter()
+                .zip(&b.pixels)
+                .any(|(x, y)| (*x - *y).abs().max_element() > 0.01),
+            "the two BRDFs render alike"
+        );
     }
-    assert!(worst < 1e-4, "blend not linear: {worst}");
-    assert!(
-        a.pixels
-            .iter()
-            .zip(&b.pixels)
-            .any(|(x, y)| (*x - *y).abs().max_element() > 0.01),
-        "the two BRDFs render alike"
-    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -260,23 +304,25 @@ fn bump_mapping_flat_is_exact_bumps_change_the_image_and_vertex_refuses() {
         .unwrap()
         .image;
     assert!(bumped.relative_rms_error(&plain, None) > 0.01);
-    let mut v = TripleMethod::new(TripleOptions {
-        shading: relight_triple::Shading::Vertex,
-        ..options(&dir)
-    })
-    .unwrap();
-    let e = v.prepare(&s, &NoProgress).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MethodError::Unsupported {
-                method: "triple",
-                feature: SceneFeature::NormalMaps,
-                ..
-            }
-        ),
-        "{e}"
-    );
+    for shading in [Shading::Vertex, Shading::Interpolated] {
+        let mut v = TripleMethod::new(TripleOptions {
+            shading,
+            ..options(&dir)
+        })
+        .unwrap();
+        let e = v.prepare(&s, &NoProgress).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                MethodError::Unsupported {
+                    method: "triple",
+                    feature: SceneFeature::NormalMaps,
+                    ..
+                }
+            ),
+            "{shading:?}: {e}"
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -411,7 +457,7 @@ fn adaptive_selection_per_vertex_keeps_all_at_5120_and_beats_top_only() {
             selection,
             twists: 1,
             vis_level: 4,
-            shading: relight_triple::Shading::Vertex,
+            shading: Shading::Vertex,
             ..options(&dir)
         })
         .unwrap();
@@ -446,7 +492,7 @@ fn adaptive_selection_per_vertex_keeps_all_at_5120_and_beats_top_only() {
         (
             TripleOptions {
                 selection: Adaptive,
-                shading: relight_triple::Shading::Vertex,
+                shading: Shading::Vertex,
                 ..options(&dir)
             },
             "--twists 1",
