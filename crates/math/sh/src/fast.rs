@@ -511,6 +511,11 @@ unsafe fn rotate_rgb_fma(order: usize, rot: &Rot3<f32>, src: [&[f32]; 3], dst: [
 #[inline]
 pub(crate) fn product_one(order: usize, f: &[f32], g: &[f32], out: &mut [f32]) -> bool {
     #[cfg(target_arch = "x86_64")]
+    if crate::simd::available() {
+        // SAFETY: AVX-512F (with VL, AVX2 and FMA) was detected.
+        return unsafe { product_one_avx512(order, f, g, out) };
+    }
+    #[cfg(target_arch = "x86_64")]
     if crate::lanes::avx2_fma_available() {
         // SAFETY: AVX2 and FMA were detected.
         return unsafe { product_one_fma(order, f, g, out) };
@@ -546,6 +551,27 @@ fn as_s1(s: &[f32]) -> &[S1] {
 #[inline(never)]
 pub(crate) unsafe fn product_one_fma(order: usize, f: &[f32], g: &[f32], out: &mut [f32]) -> bool {
     kernels::product_fma(order, as_s1(f), as_s1(g), as_s1_mut(out))
+}
+
+/// [`product_one`] compiled for AVX-512F: the FMA kernels with 32 vector
+/// registers, so the one-chunk kernels (n ≤ 4) keep their accumulators in
+/// registers.
+///
+/// # Safety
+/// The CPU must support AVX-512F, AVX-512VL, AVX2 and FMA.
+///
+/// # Panics
+/// If a slice is shorter than `order²`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+pub(crate) unsafe fn product_one_avx512(
+    order: usize,
+    f: &[f32],
+    g: &[f32],
+    out: &mut [f32],
+) -> bool {
+    kernels::product_avx512(order, as_s1(f), as_s1(g), as_s1_mut(out))
 }
 
 fn check_len(what: &'static str, order: usize, got: usize, want: usize) -> Result<(), ShError> {

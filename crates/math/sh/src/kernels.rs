@@ -4,7 +4,7 @@
 //! over the lane types `V<W, F>` / [`Lane`]; see [`crate::kernels_gen`] for what each one unrolls.
 #![allow(clippy::excessive_precision, clippy::unreadable_literal, clippy::too_many_lines, clippy::many_single_char_names, clippy::similar_names, clippy::neg_multiply, unused_variables, unused_parens)]
 
-use crate::lanes::{Lane, V};
+use crate::lanes::{Lane, V, fresh};
 
 /// All 1 basis values at a unit direction, order 1.
 #[inline(always)]
@@ -1053,6 +1053,7 @@ pub(crate) unsafe fn product_n1_0<const W: usize, const F: bool>(f: *const V<W, 
     let s = V::<W, F>::splat;
     // SAFETY: the caller's contract.
     unsafe {
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(0)) * (*g.add(0));
     *o.add(0) = t * s(0.2820948);
     }
@@ -1098,6 +1099,28 @@ unsafe fn product_n1_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+fn product_n1_0_avx512(f: &[V<1, true>; 1], g: &[V<1, true>; 1], o: &mut [V<1, true>; 1]) {
+    // SAFETY: 1 values each; `o` is exclusive.
+    unsafe { product_n1_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
+}
+
+/// `o = f ∗ g` truncated to order 1, 1 chunks (avx512).
+///
+/// # Safety
+/// As [`product_n1_0`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline]
+unsafe fn product_n1_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe {
+        product_n1_0_avx512(&*f.cast::<[V<1, true>; 1]>(), &*g.cast::<[V<1, true>; 1]>(), &mut *o.cast::<[V<1, true>; 1]>());
+    }
+}
+
 /// Pair blocks (0, 0)…(3, 3) of the order-2 product `o = f ∗ g` (chunk 0 of 1).
 ///
 /// # Safety
@@ -1107,18 +1130,22 @@ pub(crate) unsafe fn product_n2_0<const W: usize, const F: bool>(f: *const V<W, 
     let s = V::<W, F>::splat;
     // SAFETY: the caller's contract.
     unsafe {
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(0)) * (*g.add(0));
     *o.add(0) = t * s(0.2820948);
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(1)) * (*g.add(1));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)) * s(0.2820948);
     let tg = (*g.add(0)) * s(0.2820948);
     *o.add(1) = tf.mul_add((*g.add(1)), tg * (*f.add(1)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(2)) * (*g.add(2));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)) * s(0.2820948);
     let tg = (*g.add(0)) * s(0.2820948);
     *o.add(2) = tf.mul_add((*g.add(2)), tg * (*f.add(2)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(3)) * (*g.add(3));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)) * s(0.2820948);
@@ -1167,6 +1194,28 @@ unsafe fn product_n2_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+fn product_n2_0_avx512(f: &[V<1, true>; 4], g: &[V<1, true>; 4], o: &mut [V<1, true>; 4]) {
+    // SAFETY: 4 values each; `o` is exclusive.
+    unsafe { product_n2_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
+}
+
+/// `o = f ∗ g` truncated to order 2, 1 chunks (avx512).
+///
+/// # Safety
+/// As [`product_n2_0`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline]
+unsafe fn product_n2_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe {
+        product_n2_0_avx512(&*f.cast::<[V<1, true>; 4]>(), &*g.cast::<[V<1, true>; 4]>(), &mut *o.cast::<[V<1, true>; 4]>());
+    }
+}
+
 /// Pair blocks (0, 0)…(8, 8) of the order-3 product `o = f ∗ g` (chunk 0 of 1).
 ///
 /// # Safety
@@ -1176,8 +1225,10 @@ pub(crate) unsafe fn product_n3_0<const W: usize, const F: bool>(f: *const V<W, 
     let s = V::<W, F>::splat;
     // SAFETY: the caller's contract.
     unsafe {
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(0)) * (*g.add(0));
     *o.add(0) = t * s(0.2820948);
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(1)) * (*g.add(1));
     *o.add(6) = t * s(-0.12615663);
     *o.add(8) = t * s(-0.21850969);
@@ -1185,30 +1236,35 @@ pub(crate) unsafe fn product_n3_0<const W: usize, const F: bool>(f: *const V<W, 
     let tf = (*f.add(0)).mul_add(s(0.2820948), (*f.add(8)).mul_add(s(-0.21850969), (*f.add(6)) * s(-0.12615663)));
     let tg = (*g.add(0)).mul_add(s(0.2820948), (*g.add(8)).mul_add(s(-0.21850969), (*g.add(6)) * s(-0.12615663)));
     *o.add(1) = tf.mul_add((*g.add(1)), tg * (*f.add(1)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(1)).mul_add((*g.add(2)), (*f.add(2)) * (*g.add(1)));
     *o.add(5) = t * s(0.21850969);
     let tf = (*f.add(5)) * s(0.21850969);
     let tg = (*g.add(5)) * s(0.21850969);
     *o.add(1) = tf.mul_add((*g.add(2)), tg.mul_add((*f.add(2)), *o.add(1)));
     *o.add(2) = tf.mul_add((*g.add(1)), tg * (*f.add(1)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(1)).mul_add((*g.add(3)), (*f.add(3)) * (*g.add(1)));
     *o.add(4) = t * s(0.21850969);
     let tf = (*f.add(4)) * s(0.21850969);
     let tg = (*g.add(4)) * s(0.21850969);
     *o.add(1) = tf.mul_add((*g.add(3)), tg.mul_add((*f.add(3)), *o.add(1)));
     *o.add(3) = tf.mul_add((*g.add(1)), tg * (*f.add(1)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(2)) * (*g.add(2));
     *o.add(6) = t.mul_add(s(0.25231326), *o.add(6));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)).mul_add(s(0.2820948), (*f.add(6)) * s(0.25231326));
     let tg = (*g.add(0)).mul_add(s(0.2820948), (*g.add(6)) * s(0.25231326));
     *o.add(2) = tf.mul_add((*g.add(2)), tg.mul_add((*f.add(2)), *o.add(2)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(2)).mul_add((*g.add(3)), (*f.add(3)) * (*g.add(2)));
     *o.add(7) = t * s(0.21850969);
     let tf = (*f.add(7)) * s(0.21850969);
     let tg = (*g.add(7)) * s(0.21850969);
     *o.add(2) = tf.mul_add((*g.add(3)), tg.mul_add((*f.add(3)), *o.add(2)));
     *o.add(3) = tf.mul_add((*g.add(2)), tg.mul_add((*f.add(2)), *o.add(3)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(3)) * (*g.add(3));
     *o.add(6) = t.mul_add(s(-0.12615663), *o.add(6));
     *o.add(8) = t.mul_add(s(0.21850969), *o.add(8));
@@ -1216,18 +1272,21 @@ pub(crate) unsafe fn product_n3_0<const W: usize, const F: bool>(f: *const V<W, 
     let tf = (*f.add(0)).mul_add(s(0.2820948), (*f.add(8)).mul_add(s(0.21850969), (*f.add(6)) * s(-0.12615663)));
     let tg = (*g.add(0)).mul_add(s(0.2820948), (*g.add(8)).mul_add(s(0.21850969), (*g.add(6)) * s(-0.12615663)));
     *o.add(3) = tf.mul_add((*g.add(3)), tg.mul_add((*f.add(3)), *o.add(3)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(4)) * (*g.add(4));
     *o.add(6) = t.mul_add(s(-0.18022375), *o.add(6));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)).mul_add(s(0.2820948), (*f.add(6)) * s(-0.18022375));
     let tg = (*g.add(0)).mul_add(s(0.2820948), (*g.add(6)) * s(-0.18022375));
     *o.add(4) = tf.mul_add((*g.add(4)), tg.mul_add((*f.add(4)), *o.add(4)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(4)).mul_add((*g.add(5)), (*f.add(5)) * (*g.add(4)));
     *o.add(7) = t.mul_add(s(0.15607835), *o.add(7));
     let tf = (*f.add(7)) * s(0.15607835);
     let tg = (*g.add(7)) * s(0.15607835);
     *o.add(4) = tf.mul_add((*g.add(5)), tg.mul_add((*f.add(5)), *o.add(4)));
     *o.add(5) = tf.mul_add((*g.add(4)), tg.mul_add((*f.add(4)), *o.add(5)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(5)) * (*g.add(5));
     *o.add(6) = t.mul_add(s(0.090111874), *o.add(6));
     *o.add(8) = t.mul_add(s(-0.15607835), *o.add(8));
@@ -1235,12 +1294,14 @@ pub(crate) unsafe fn product_n3_0<const W: usize, const F: bool>(f: *const V<W, 
     let tf = (*f.add(0)).mul_add(s(0.2820948), (*f.add(8)).mul_add(s(-0.15607835), (*f.add(6)) * s(0.090111874)));
     let tg = (*g.add(0)).mul_add(s(0.2820948), (*g.add(8)).mul_add(s(-0.15607835), (*g.add(6)) * s(0.090111874)));
     *o.add(5) = tf.mul_add((*g.add(5)), tg.mul_add((*f.add(5)), *o.add(5)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(6)) * (*g.add(6));
     *o.add(6) = t.mul_add(s(0.18022375), *o.add(6));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)) * s(0.2820948);
     let tg = (*g.add(0)) * s(0.2820948);
     *o.add(6) = tf.mul_add((*g.add(6)), tg.mul_add((*f.add(6)), *o.add(6)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(7)) * (*g.add(7));
     *o.add(8) = t.mul_add(s(0.15607835), *o.add(8));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
@@ -1248,6 +1309,7 @@ pub(crate) unsafe fn product_n3_0<const W: usize, const F: bool>(f: *const V<W, 
     let tf = (*f.add(6)).mul_add(s(0.090111874), (*f.add(0)).mul_add(s(0.2820948), (*f.add(8)) * s(0.15607835)));
     let tg = (*g.add(6)).mul_add(s(0.090111874), (*g.add(0)).mul_add(s(0.2820948), (*g.add(8)) * s(0.15607835)));
     *o.add(7) = tf.mul_add((*g.add(7)), tg.mul_add((*f.add(7)), *o.add(7)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(8)) * (*g.add(8));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     *o.add(6) = t.mul_add(s(-0.18022375), *o.add(6));
@@ -1297,6 +1359,28 @@ unsafe fn product_n3_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+fn product_n3_0_avx512(f: &[V<1, true>; 9], g: &[V<1, true>; 9], o: &mut [V<1, true>; 9]) {
+    // SAFETY: 9 values each; `o` is exclusive.
+    unsafe { product_n3_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
+}
+
+/// `o = f ∗ g` truncated to order 3, 1 chunks (avx512).
+///
+/// # Safety
+/// As [`product_n3_0`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline]
+unsafe fn product_n3_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe {
+        product_n3_0_avx512(&*f.cast::<[V<1, true>; 9]>(), &*g.cast::<[V<1, true>; 9]>(), &mut *o.cast::<[V<1, true>; 9]>());
+    }
+}
+
 /// Pair blocks (0, 0)…(15, 15) of the order-4 product `o = f ∗ g` (chunk 0 of 1).
 ///
 /// # Safety
@@ -1306,8 +1390,10 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let s = V::<W, F>::splat;
     // SAFETY: the caller's contract.
     unsafe {
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(0)) * (*g.add(0));
     *o.add(0) = t * s(0.2820948);
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(1)) * (*g.add(1));
     *o.add(6) = t * s(-0.12615663);
     *o.add(8) = t * s(-0.21850969);
@@ -1315,6 +1401,7 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tf = (*f.add(0)).mul_add(s(0.2820948), (*f.add(8)).mul_add(s(-0.21850969), (*f.add(6)) * s(-0.12615663)));
     let tg = (*g.add(0)).mul_add(s(0.2820948), (*g.add(8)).mul_add(s(-0.21850969), (*g.add(6)) * s(-0.12615663)));
     *o.add(1) = tf.mul_add((*g.add(1)), tg * (*f.add(1)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(1)).mul_add((*g.add(4)), (*f.add(4)) * (*g.add(1)));
     *o.add(3) = t * s(0.21850969);
     *o.add(13) = t * s(-0.05839917);
@@ -1323,6 +1410,7 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(15)).mul_add(s(-0.22617902), (*g.add(13)).mul_add(s(-0.05839917), (*g.add(3)) * s(0.21850969)));
     *o.add(1) = tf.mul_add((*g.add(4)), tg.mul_add((*f.add(4)), *o.add(1)));
     *o.add(4) = tf.mul_add((*g.add(1)), tg * (*f.add(1)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(1)).mul_add((*g.add(5)), (*f.add(5)) * (*g.add(1)));
     *o.add(2) = t * s(0.21850969);
     *o.add(12) = t * s(-0.14304817);
@@ -1331,12 +1419,14 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(14)).mul_add(s(-0.1846744), (*g.add(12)).mul_add(s(-0.14304817), (*g.add(2)) * s(0.21850969)));
     *o.add(1) = tf.mul_add((*g.add(5)), tg.mul_add((*f.add(5)), *o.add(1)));
     *o.add(5) = tf.mul_add((*g.add(1)), tg * (*f.add(1)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(1)).mul_add((*g.add(6)), (*f.add(6)) * (*g.add(1)));
     *o.add(11) = t * s(0.20230065);
     let tf = (*f.add(11)) * s(0.20230065);
     let tg = (*g.add(11)) * s(0.20230065);
     *o.add(1) = tf.mul_add((*g.add(6)), tg.mul_add((*f.add(6)), *o.add(1)));
     *o.add(6) = tf.mul_add((*g.add(1)), tg.mul_add((*f.add(1)), *o.add(6)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(1)).mul_add((*g.add(8)), (*f.add(8)) * (*g.add(1)));
     *o.add(9) = t * s(0.22617902);
     *o.add(11) = t.mul_add(s(0.05839917), *o.add(11));
@@ -1344,18 +1434,21 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(11)).mul_add(s(0.05839917), (*g.add(9)) * s(0.22617902));
     *o.add(1) = tf.mul_add((*g.add(8)), tg.mul_add((*f.add(8)), *o.add(1)));
     *o.add(8) = tf.mul_add((*g.add(1)), tg.mul_add((*f.add(1)), *o.add(8)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(2)) * (*g.add(2));
     *o.add(6) = t.mul_add(s(0.25231326), *o.add(6));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)).mul_add(s(0.2820948), (*f.add(6)) * s(0.25231326));
     let tg = (*g.add(0)).mul_add(s(0.2820948), (*g.add(6)) * s(0.25231326));
     *o.add(2) = tf.mul_add((*g.add(2)), tg.mul_add((*f.add(2)), *o.add(2)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(2)).mul_add((*g.add(6)), (*f.add(6)) * (*g.add(2)));
     *o.add(12) = t.mul_add(s(0.24776669), *o.add(12));
     let tf = (*f.add(12)) * s(0.24776669);
     let tg = (*g.add(12)) * s(0.24776669);
     *o.add(2) = tf.mul_add((*g.add(6)), tg.mul_add((*f.add(6)), *o.add(2)));
     *o.add(6) = tf.mul_add((*g.add(2)), tg.mul_add((*f.add(2)), *o.add(6)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(3)) * (*g.add(3));
     *o.add(6) = t.mul_add(s(-0.12615663), *o.add(6));
     *o.add(8) = t.mul_add(s(0.21850969), *o.add(8));
@@ -1363,12 +1456,14 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tf = (*f.add(0)).mul_add(s(0.2820948), (*f.add(8)).mul_add(s(0.21850969), (*f.add(6)) * s(-0.12615663)));
     let tg = (*g.add(0)).mul_add(s(0.2820948), (*g.add(8)).mul_add(s(0.21850969), (*g.add(6)) * s(-0.12615663)));
     *o.add(3) = tf.mul_add((*g.add(3)), tg.mul_add((*f.add(3)), *o.add(3)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(3)).mul_add((*g.add(6)), (*f.add(6)) * (*g.add(3)));
     *o.add(13) = t.mul_add(s(0.20230065), *o.add(13));
     let tf = (*f.add(13)) * s(0.20230065);
     let tg = (*g.add(13)) * s(0.20230065);
     *o.add(3) = tf.mul_add((*g.add(6)), tg.mul_add((*f.add(6)), *o.add(3)));
     *o.add(6) = tf.mul_add((*g.add(3)), tg.mul_add((*f.add(3)), *o.add(6)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(3)).mul_add((*g.add(7)), (*f.add(7)) * (*g.add(3)));
     *o.add(2) = t.mul_add(s(0.21850969), *o.add(2));
     *o.add(12) = t.mul_add(s(-0.14304817), *o.add(12));
@@ -1377,6 +1472,7 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(14)).mul_add(s(0.1846744), (*g.add(12)).mul_add(s(-0.14304817), (*g.add(2)) * s(0.21850969)));
     *o.add(3) = tf.mul_add((*g.add(7)), tg.mul_add((*f.add(7)), *o.add(3)));
     *o.add(7) = tf.mul_add((*g.add(3)), tg * (*f.add(3)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(3)).mul_add((*g.add(8)), (*f.add(8)) * (*g.add(3)));
     *o.add(13) = t.mul_add(s(-0.05839917), *o.add(13));
     *o.add(15) = t.mul_add(s(0.22617902), *o.add(15));
@@ -1384,18 +1480,21 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(15)).mul_add(s(0.22617902), (*g.add(13)) * s(-0.05839917));
     *o.add(3) = tf.mul_add((*g.add(8)), tg.mul_add((*f.add(8)), *o.add(3)));
     *o.add(8) = tf.mul_add((*g.add(3)), tg.mul_add((*f.add(3)), *o.add(8)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(4)) * (*g.add(4));
     *o.add(6) = t.mul_add(s(-0.18022375), *o.add(6));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)).mul_add(s(0.2820948), (*f.add(6)) * s(-0.18022375));
     let tg = (*g.add(0)).mul_add(s(0.2820948), (*g.add(6)) * s(-0.18022375));
     *o.add(4) = tf.mul_add((*g.add(4)), tg.mul_add((*f.add(4)), *o.add(4)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(4)).mul_add((*g.add(5)), (*f.add(5)) * (*g.add(4)));
     *o.add(7) = t.mul_add(s(0.15607835), *o.add(7));
     let tf = (*f.add(7)) * s(0.15607835);
     let tg = (*g.add(7)) * s(0.15607835);
     *o.add(4) = tf.mul_add((*g.add(5)), tg.mul_add((*f.add(5)), *o.add(4)));
     *o.add(5) = tf.mul_add((*g.add(4)), tg.mul_add((*f.add(4)), *o.add(5)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(4)).mul_add((*g.add(9)), (*f.add(9)) * (*g.add(4)));
     *o.add(3) = t.mul_add(s(0.22617902), *o.add(3));
     *o.add(13) = t.mul_add(s(-0.094031595), *o.add(13));
@@ -1403,6 +1502,7 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(13)).mul_add(s(-0.094031595), (*g.add(3)) * s(0.22617902));
     *o.add(4) = tf.mul_add((*g.add(9)), tg.mul_add((*f.add(9)), *o.add(4)));
     *o.add(9) = tf.mul_add((*g.add(4)), tg.mul_add((*f.add(4)), *o.add(9)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(4)).mul_add((*g.add(10)), (*f.add(10)) * (*g.add(4)));
     *o.add(2) = t.mul_add(s(0.1846744), *o.add(2));
     *o.add(12) = t.mul_add(s(-0.18806319), *o.add(12));
@@ -1410,6 +1510,7 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(12)).mul_add(s(-0.18806319), (*g.add(2)) * s(0.1846744));
     *o.add(4) = tf.mul_add((*g.add(10)), tg.mul_add((*f.add(10)), *o.add(4)));
     *o.add(10) = tf.mul_add((*g.add(4)), tg * (*f.add(4)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(4)).mul_add((*g.add(11)), (*f.add(11)) * (*g.add(4)));
     *o.add(3) = t.mul_add(s(-0.05839917), *o.add(3));
     *o.add(13) = t.mul_add(s(0.14567313), *o.add(13));
@@ -1418,6 +1519,7 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(15)).mul_add(s(0.094031595), (*g.add(13)).mul_add(s(0.14567313), (*g.add(3)) * s(-0.05839917)));
     *o.add(4) = tf.mul_add((*g.add(11)), tg.mul_add((*f.add(11)), *o.add(4)));
     *o.add(11) = tf.mul_add((*g.add(4)), tg.mul_add((*f.add(4)), *o.add(11)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(5)) * (*g.add(5));
     *o.add(6) = t.mul_add(s(0.090111874), *o.add(6));
     *o.add(8) = t.mul_add(s(-0.15607835), *o.add(8));
@@ -1425,12 +1527,14 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tf = (*f.add(0)).mul_add(s(0.2820948), (*f.add(8)).mul_add(s(-0.15607835), (*f.add(6)) * s(0.090111874)));
     let tg = (*g.add(0)).mul_add(s(0.2820948), (*g.add(8)).mul_add(s(-0.15607835), (*g.add(6)) * s(0.090111874)));
     *o.add(5) = tf.mul_add((*g.add(5)), tg.mul_add((*f.add(5)), *o.add(5)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(5)).mul_add((*g.add(9)), (*f.add(9)) * (*g.add(5)));
     *o.add(14) = t.mul_add(s(0.148677), *o.add(14));
     let tf = (*f.add(14)) * s(0.148677);
     let tg = (*g.add(14)) * s(0.148677);
     *o.add(5) = tf.mul_add((*g.add(9)), tg.mul_add((*f.add(9)), *o.add(5)));
     *o.add(9) = tf.mul_add((*g.add(5)), tg.mul_add((*f.add(5)), *o.add(9)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(5)).mul_add((*g.add(10)), (*f.add(10)) * (*g.add(5)));
     *o.add(3) = t.mul_add(s(0.1846744), *o.add(3));
     *o.add(13) = t.mul_add(s(0.11516472), *o.add(13));
@@ -1439,6 +1543,7 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(15)).mul_add(s(-0.148677), (*g.add(13)).mul_add(s(0.11516472), (*g.add(3)) * s(0.1846744)));
     *o.add(5) = tf.mul_add((*g.add(10)), tg.mul_add((*f.add(10)), *o.add(5)));
     *o.add(10) = tf.mul_add((*g.add(5)), tg.mul_add((*f.add(5)), *o.add(10)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(5)).mul_add((*g.add(11)), (*f.add(11)) * (*g.add(5)));
     *o.add(2) = t.mul_add(s(0.23359668), *o.add(2));
     *o.add(12) = t.mul_add(s(0.059470803), *o.add(12));
@@ -1447,12 +1552,14 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(14)).mul_add(s(-0.11516472), (*g.add(12)).mul_add(s(0.059470803), (*g.add(2)) * s(0.23359668)));
     *o.add(5) = tf.mul_add((*g.add(11)), tg.mul_add((*f.add(11)), *o.add(5)));
     *o.add(11) = tf.mul_add((*g.add(5)), tg.mul_add((*f.add(5)), *o.add(11)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(6)) * (*g.add(6));
     *o.add(6) = t.mul_add(s(0.18022375), *o.add(6));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)) * s(0.2820948);
     let tg = (*g.add(0)) * s(0.2820948);
     *o.add(6) = tf.mul_add((*g.add(6)), tg.mul_add((*f.add(6)), *o.add(6)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(7)) * (*g.add(7));
     *o.add(8) = t.mul_add(s(0.15607835), *o.add(8));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
@@ -1460,6 +1567,7 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tf = (*f.add(6)).mul_add(s(0.090111874), (*f.add(0)).mul_add(s(0.2820948), (*f.add(8)) * s(0.15607835)));
     let tg = (*g.add(6)).mul_add(s(0.090111874), (*g.add(0)).mul_add(s(0.2820948), (*g.add(8)) * s(0.15607835)));
     *o.add(7) = tf.mul_add((*g.add(7)), tg.mul_add((*f.add(7)), *o.add(7)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(7)).mul_add((*g.add(10)), (*f.add(10)) * (*g.add(7)));
     *o.add(1) = t.mul_add(s(0.1846744), *o.add(1));
     *o.add(9) = t.mul_add(s(0.148677), *o.add(9));
@@ -1468,6 +1576,7 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(11)).mul_add(s(0.11516472), (*g.add(9)).mul_add(s(0.148677), (*g.add(1)) * s(0.1846744)));
     *o.add(7) = tf.mul_add((*g.add(10)), tg.mul_add((*f.add(10)), *o.add(7)));
     *o.add(10) = tf.mul_add((*g.add(7)), tg.mul_add((*f.add(7)), *o.add(10)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(7)).mul_add((*g.add(13)), (*f.add(13)) * (*g.add(7)));
     *o.add(2) = t.mul_add(s(0.23359668), *o.add(2));
     *o.add(12) = t.mul_add(s(0.059470803), *o.add(12));
@@ -1476,30 +1585,35 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(14)).mul_add(s(0.11516472), (*g.add(12)).mul_add(s(0.059470803), (*g.add(2)) * s(0.23359668)));
     *o.add(7) = tf.mul_add((*g.add(13)), tg.mul_add((*f.add(13)), *o.add(7)));
     *o.add(13) = tf.mul_add((*g.add(7)), tg.mul_add((*f.add(7)), *o.add(13)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(7)).mul_add((*g.add(14)), (*f.add(14)) * (*g.add(7)));
     *o.add(15) = t.mul_add(s(0.148677), *o.add(15));
     let tf = (*f.add(15)) * s(0.148677);
     let tg = (*g.add(15)) * s(0.148677);
     *o.add(7) = tf.mul_add((*g.add(14)), tg.mul_add((*f.add(14)), *o.add(7)));
     *o.add(14) = tf.mul_add((*g.add(7)), tg.mul_add((*f.add(7)), *o.add(14)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(8)) * (*g.add(8));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     *o.add(6) = t.mul_add(s(-0.18022375), *o.add(6));
     let tf = (*f.add(6)).mul_add(s(-0.18022375), (*f.add(0)) * s(0.2820948));
     let tg = (*g.add(6)).mul_add(s(-0.18022375), (*g.add(0)) * s(0.2820948));
     *o.add(8) = tf.mul_add((*g.add(8)), tg.mul_add((*f.add(8)), *o.add(8)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(8)).mul_add((*g.add(9)), (*f.add(9)) * (*g.add(8)));
     *o.add(11) = t.mul_add(s(-0.094031595), *o.add(11));
     let tf = (*f.add(11)) * s(-0.094031595);
     let tg = (*g.add(11)) * s(-0.094031595);
     *o.add(8) = tf.mul_add((*g.add(9)), tg.mul_add((*f.add(9)), *o.add(8)));
     *o.add(9) = tf.mul_add((*g.add(8)), tg.mul_add((*f.add(8)), *o.add(9)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(8)).mul_add((*g.add(13)), (*f.add(13)) * (*g.add(8)));
     *o.add(15) = t.mul_add(s(-0.094031595), *o.add(15));
     let tf = (*f.add(15)) * s(-0.094031595);
     let tg = (*g.add(15)) * s(-0.094031595);
     *o.add(8) = tf.mul_add((*g.add(13)), tg.mul_add((*f.add(13)), *o.add(8)));
     *o.add(13) = tf.mul_add((*g.add(8)), tg.mul_add((*f.add(8)), *o.add(13)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(8)).mul_add((*g.add(14)), (*f.add(14)) * (*g.add(8)));
     *o.add(2) = t.mul_add(s(0.1846744), *o.add(2));
     *o.add(12) = t.mul_add(s(-0.18806319), *o.add(12));
@@ -1507,17 +1621,20 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tg = (*g.add(12)).mul_add(s(-0.18806319), (*g.add(2)) * s(0.1846744));
     *o.add(8) = tf.mul_add((*g.add(14)), tg.mul_add((*f.add(14)), *o.add(8)));
     *o.add(14) = tf.mul_add((*g.add(8)), tg.mul_add((*f.add(8)), *o.add(14)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(9)) * (*g.add(9));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     *o.add(6) = t.mul_add(s(-0.21026105), *o.add(6));
     let tf = (*f.add(6)).mul_add(s(-0.21026105), (*f.add(0)) * s(0.2820948));
     let tg = (*g.add(6)).mul_add(s(-0.21026105), (*g.add(0)) * s(0.2820948));
     *o.add(9) = tf.mul_add((*g.add(9)), tg.mul_add((*f.add(9)), *o.add(9)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(10)) * (*g.add(10));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)) * s(0.2820948);
     let tg = (*g.add(0)) * s(0.2820948);
     *o.add(10) = tf.mul_add((*g.add(10)), tg.mul_add((*f.add(10)), *o.add(10)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(11)) * (*g.add(11));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     *o.add(6) = t.mul_add(s(0.12615663), *o.add(6));
@@ -1525,12 +1642,14 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tf = (*f.add(8)).mul_add(s(-0.14567313), (*f.add(6)).mul_add(s(0.12615663), (*f.add(0)) * s(0.2820948)));
     let tg = (*g.add(8)).mul_add(s(-0.14567313), (*g.add(6)).mul_add(s(0.12615663), (*g.add(0)) * s(0.2820948)));
     *o.add(11) = tf.mul_add((*g.add(11)), tg.mul_add((*f.add(11)), *o.add(11)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(12)) * (*g.add(12));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     *o.add(6) = t.mul_add(s(0.16820884), *o.add(6));
     let tf = (*f.add(6)).mul_add(s(0.16820884), (*f.add(0)) * s(0.2820948));
     let tg = (*g.add(6)).mul_add(s(0.16820884), (*g.add(0)) * s(0.2820948));
     *o.add(12) = tf.mul_add((*g.add(12)), tg.mul_add((*f.add(12)), *o.add(12)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(13)) * (*g.add(13));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     *o.add(6) = t.mul_add(s(0.12615663), *o.add(6));
@@ -1538,11 +1657,13 @@ pub(crate) unsafe fn product_n4_0<const W: usize, const F: bool>(f: *const V<W, 
     let tf = (*f.add(8)).mul_add(s(0.14567313), (*f.add(6)).mul_add(s(0.12615663), (*f.add(0)) * s(0.2820948)));
     let tg = (*g.add(8)).mul_add(s(0.14567313), (*g.add(6)).mul_add(s(0.12615663), (*g.add(0)) * s(0.2820948)));
     *o.add(13) = tf.mul_add((*g.add(13)), tg.mul_add((*f.add(13)), *o.add(13)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(14)) * (*g.add(14));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     let tf = (*f.add(0)) * s(0.2820948);
     let tg = (*g.add(0)) * s(0.2820948);
     *o.add(14) = tf.mul_add((*g.add(14)), tg.mul_add((*f.add(14)), *o.add(14)));
+    let (f, g) = (fresh(f), fresh(g));
     let t = (*f.add(15)) * (*g.add(15));
     *o.add(0) = t.mul_add(s(0.2820948), *o.add(0));
     *o.add(6) = t.mul_add(s(-0.21026105), *o.add(6));
@@ -1589,6 +1710,28 @@ unsafe fn product_n4_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1
     // SAFETY: the caller's contract.
     unsafe {
         product_n4_0_fma(&*f.cast::<[V<1, true>; 16]>(), &*g.cast::<[V<1, true>; 16]>(), &mut *o.cast::<[V<1, true>; 16]>());
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+fn product_n4_0_avx512(f: &[V<1, true>; 16], g: &[V<1, true>; 16], o: &mut [V<1, true>; 16]) {
+    // SAFETY: 16 values each; `o` is exclusive.
+    unsafe { product_n4_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
+}
+
+/// `o = f ∗ g` truncated to order 4, 1 chunks (avx512).
+///
+/// # Safety
+/// As [`product_n4_0`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline]
+unsafe fn product_n4_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe {
+        product_n4_0_avx512(&*f.cast::<[V<1, true>; 16]>(), &*g.cast::<[V<1, true>; 16]>(), &mut *o.cast::<[V<1, true>; 16]>());
     }
 }
 
@@ -2339,6 +2482,52 @@ unsafe fn product_n5_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1
         product_n5_0_fma(f, g, o);
         product_n5_1_fma(f, g, o);
         product_n5_2_fma(f, g, o);
+    }
+}
+
+/// # Safety
+/// As [`product_n5_0`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+unsafe fn product_n5_0_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe { product_n5_0(f, g, o) };
+}
+
+/// # Safety
+/// As [`product_n5_1`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+unsafe fn product_n5_1_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe { product_n5_1(f, g, o) };
+}
+
+/// # Safety
+/// As [`product_n5_2`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+unsafe fn product_n5_2_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe { product_n5_2(f, g, o) };
+}
+
+/// `o = f ∗ g` truncated to order 5, 3 chunks (avx512).
+///
+/// # Safety
+/// As [`product_n5_0`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline]
+unsafe fn product_n5_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe {
+        product_n5_0_avx512(f, g, o);
+        product_n5_1_avx512(f, g, o);
+        product_n5_2_avx512(f, g, o);
     }
 }
 
@@ -3866,6 +4055,74 @@ unsafe fn product_n6_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1
     }
 }
 
+/// # Safety
+/// As [`product_n6_0`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+unsafe fn product_n6_0_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe { product_n6_0(f, g, o) };
+}
+
+/// # Safety
+/// As [`product_n6_1`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+unsafe fn product_n6_1_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe { product_n6_1(f, g, o) };
+}
+
+/// # Safety
+/// As [`product_n6_2`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+unsafe fn product_n6_2_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe { product_n6_2(f, g, o) };
+}
+
+/// # Safety
+/// As [`product_n6_3`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+unsafe fn product_n6_3_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe { product_n6_3(f, g, o) };
+}
+
+/// # Safety
+/// As [`product_n6_4`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+unsafe fn product_n6_4_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe { product_n6_4(f, g, o) };
+}
+
+/// `o = f ∗ g` truncated to order 6, 5 chunks (avx512).
+///
+/// # Safety
+/// As [`product_n6_0`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline]
+unsafe fn product_n6_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
+    // SAFETY: the caller's contract.
+    unsafe {
+        product_n6_0_avx512(f, g, o);
+        product_n6_1_avx512(f, g, o);
+        product_n6_2_avx512(f, g, o);
+        product_n6_3_avx512(f, g, o);
+        product_n6_4_avx512(f, g, o);
+    }
+}
+
 /// Runs the order-`n` `eval` kernel on `n²`-long slices; `false` (nothing done) outside 1..=8.
 ///
 /// # Panics
@@ -3949,6 +4206,32 @@ pub(crate) fn product_fma(n: usize, f: &[V<1, true>], g: &[V<1, true>], o: &mut 
         5 => unsafe { product_n5_fma(f[..25].as_ptr(), g[..25].as_ptr(), o[..25].as_mut_ptr()) },
         // SAFETY: the slices hold 36 values each (checked), `o` is exclusive.
         6 => unsafe { product_n6_fma(f[..36].as_ptr(), g[..36].as_ptr(), o[..36].as_mut_ptr()) },
+        _ => return false,
+    }
+    true
+}
+
+/// Runs the order-`n` product kernel with fused multiply–add, compiled for AVX-512F on `n²`-long slices; `false` (nothing done) outside 1..=6.
+///
+/// # Panics
+/// If a slice is shorter than `n²`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline]
+pub(crate) fn product_avx512(n: usize, f: &[V<1, true>], g: &[V<1, true>], o: &mut [V<1, true>]) -> bool {
+    match n {
+        // SAFETY: the slices hold 1 values each (checked), `o` is exclusive.
+        1 => unsafe { product_n1_avx512(f[..1].as_ptr(), g[..1].as_ptr(), o[..1].as_mut_ptr()) },
+        // SAFETY: the slices hold 4 values each (checked), `o` is exclusive.
+        2 => unsafe { product_n2_avx512(f[..4].as_ptr(), g[..4].as_ptr(), o[..4].as_mut_ptr()) },
+        // SAFETY: the slices hold 9 values each (checked), `o` is exclusive.
+        3 => unsafe { product_n3_avx512(f[..9].as_ptr(), g[..9].as_ptr(), o[..9].as_mut_ptr()) },
+        // SAFETY: the slices hold 16 values each (checked), `o` is exclusive.
+        4 => unsafe { product_n4_avx512(f[..16].as_ptr(), g[..16].as_ptr(), o[..16].as_mut_ptr()) },
+        // SAFETY: the slices hold 25 values each (checked), `o` is exclusive.
+        5 => unsafe { product_n5_avx512(f[..25].as_ptr(), g[..25].as_ptr(), o[..25].as_mut_ptr()) },
+        // SAFETY: the slices hold 36 values each (checked), `o` is exclusive.
+        6 => unsafe { product_n6_avx512(f[..36].as_ptr(), g[..36].as_ptr(), o[..36].as_mut_ptr()) },
         _ => return false,
     }
     true

@@ -457,8 +457,11 @@ fn gv(i: usize) -> String {
     ld('g', i)
 }
 
-fn emit_block(s: &mut String, acc: &mut Acc, blk: &PairBlock) {
+fn emit_block(s: &mut String, acc: &mut Acc, blk: &PairBlock, fresh: bool) {
     let (a, b) = (blk.a, blk.b);
+    if fresh {
+        writeln!(s, "    let (f, g) = (fresh(f), fresh(g));").unwrap();
+    }
     if a == b {
         writeln!(s, "    let t = {} * {};", fv(a), gv(a)).unwrap();
     } else {
@@ -545,7 +548,7 @@ fn product_kernel(s: &mut String, n: usize) {
         writeln!(s, "    let s = V::<W, F>::splat;").unwrap();
         writeln!(s, "    // SAFETY: the caller's contract.\n    unsafe {{").unwrap();
         for blk in blks {
-            emit_block(s, &mut acc, blk);
+            emit_block(s, &mut acc, blk, chunks.len() == 1);
         }
         if last {
             for k in (0..nn).filter(|&k| !acc.touched[k]) {
@@ -560,14 +563,10 @@ fn product_kernel(s: &mut String, n: usize) {
     // and every input is loaded where used, as in DirectXMath's C code. With
     // `&mut` outputs it kept all accumulators and inputs of a chunk live and
     // spilled most of them (n = 6 was 1.8× slower).
-    for (fma, suffix) in [(false, "plain"), (true, "fma")] {
+    for (fma, suffix) in ISAS {
         let t = if fma { "V<1, true>" } else { "V<1, false>" };
         let sig = format!("(f: *const {t}, g: *const {t}, o: *mut {t})");
-        let attrs = if fma {
-            "#[cfg(target_arch = \"x86_64\")]\n#[target_feature(enable = \"avx2,fma\")]\n"
-        } else {
-            ""
-        };
+        let attrs = isa_attrs(suffix);
         let single = chunks.len() == 1;
         for c in 0..chunks.len() {
             if single {
@@ -607,17 +606,35 @@ fn product_kernel(s: &mut String, n: usize) {
     }
 }
 
-/// `product_plain` and `product_fma`: the order-`n` product on `n²`-long slices.
+/// The product kernels' copies: plain multiply and add, AVX2 + FMA, and
+/// AVX-512 (the FMA code with 32 vector registers instead of 16, so the
+/// accumulators of a one-chunk kernel stay in registers).
+const ISAS: [(bool, &str); 3] = [(false, "plain"), (true, "fma"), (true, "avx512")];
+
+/// `#[cfg]`/`#[target_feature]` lines of one copy of [`ISAS`].
+fn isa_attrs(suffix: &str) -> &'static str {
+    match suffix {
+        "fma" => "#[cfg(target_arch = \"x86_64\")]\n#[target_feature(enable = \"avx2,fma\")]\n",
+        "avx512" => {
+            "#[cfg(target_arch = \"x86_64\")]\n#[target_feature(enable = \"avx512f,avx512vl,avx2,fma\")]\n"
+        }
+        _ => "",
+    }
+}
+
+/// `product_plain`, `product_fma` and `product_avx512`: the order-`n` product on `n²`-long slices.
 fn product_dispatch(s: &mut String) {
-    for (fma, suffix) in [(false, "plain"), (true, "fma")] {
+    for (fma, suffix) in ISAS {
         let t = if fma { "V<1, true>" } else { "V<1, false>" };
-        let (doc, attrs) = if fma {
-            (
-                "with fused multiply–add (AVX2 + FMA)",
-                "#[cfg(target_arch = \"x86_64\")]\n#[target_feature(enable = \"avx2,fma\")]\n#[inline]\n",
-            )
+        let doc = match suffix {
+            "fma" => "with fused multiply–add (AVX2 + FMA)",
+            "avx512" => "with fused multiply–add, compiled for AVX-512F",
+            _ => "with plain multiply and add",
+        };
+        let attrs = if fma {
+            format!("{}#[inline]\n", isa_attrs(suffix))
         } else {
-            ("with plain multiply and add", "#[inline(always)]\n")
+            "#[inline(always)]\n".to_string()
         };
         writeln!(
             s,
@@ -675,7 +692,7 @@ pub fn generate_kernels_source() -> String {
          //! Generated straight-line f32 kernels (evaluation, ZYZ rotation, truncated product)\n\
          //! over the lane types `V<W, F>` / [`Lane`]; see [`crate::kernels_gen`] for what each one unrolls.\n\
          #![allow(clippy::excessive_precision, clippy::unreadable_literal, clippy::too_many_lines, clippy::many_single_char_names, clippy::similar_names, clippy::neg_multiply, unused_variables, unused_parens)]\n\n\
-         use crate::lanes::{Lane, V};\n\n",
+         use crate::lanes::{Lane, V, fresh};\n\n",
     );
     for n in 1..=KERNEL_EVAL_MAX_ORDER {
         eval_kernel(&mut s, n);

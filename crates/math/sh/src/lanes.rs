@@ -292,3 +292,27 @@ mod f8 {
 pub fn avx2_fma_available() -> bool {
     crate::isa::isa() >= crate::isa::Isa::Avx2
 }
+
+/// `p` itself, but LLVM may not assume so: loads through the result cannot
+/// be merged with earlier loads through `p`. The generated one-chunk product
+/// kernels take fresh input pointers per pair block, so each block reads its
+/// few inputs from memory (as operands of its multiply–adds) while the `n²`
+/// accumulators stay in registers; otherwise LLVM loads every input once,
+/// keeps all `2n²` of them and the accumulators live, and spills (order 4:
+/// 334 stack accesses in 748 instructions).
+#[inline(always)]
+#[allow(clippy::pointers_in_nomem_asm_block)] // the asm only launders the pointer
+pub(crate) fn fresh<T>(p: *const T) -> *const T {
+    #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+    {
+        let mut q = p;
+        // SAFETY: an empty asm block that only claims to change `q` (not
+        // `pure`, so two calls are not merged).
+        unsafe {
+            std::arch::asm!("/* {0} */", inout(reg) q, options(nomem, nostack, preserves_flags));
+        }
+        q
+    }
+    #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
+    std::hint::black_box(p)
+}
