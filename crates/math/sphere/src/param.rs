@@ -851,9 +851,14 @@ fn latlong_bilinear_f32(width: usize, height: usize, d: Vec3) -> Bilinear {
     let (w, h) = (width as i32, height as i32);
     let x = u * w as f32 - 0.5;
     let y = v * h as f32 - 0.5;
-    let (c0, r0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - c0, y - r0);
-    let (c0, r0) = (c0 as i32, r0 as i32);
+    // `floor` by truncation (x, y ∈ [−0.5, w]): `f32::floor` is a libm call
+    // on baseline x86-64 (no SSE4.1 `roundss`).
+    let floor = |t: f32| {
+        let i = t as i32;
+        if i as f32 > t { i - 1 } else { i }
+    };
+    let (c0, r0) = (floor(x), floor(y));
+    let (fx, fy) = (x - c0 as f32, y - r0 as f32);
     let half = if w % 2 == 0 { w / 2 } else { 0 };
     let texel = |c: i32, r: i32| {
         let (c, r) = if r < 0 {
