@@ -75,28 +75,83 @@ fn as_v_mut<const W: usize>(s: &mut [f32]) -> &mut [V<W, false>] {
     unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast(), s.len() / W) }
 }
 
-/// Generated f32 evaluation of all `order²` basis values at the unit direction
-/// `(x, y, z)`; `false` (nothing written) above [`KERNEL_EVAL_MAX_ORDER`].
-///
-/// On an x86-64 CPU with AVX2 and FMA ([`crate::lanes::avx2_fma_available`],
-/// a cached flag test per call) this runs [`eval_one_fma`], elsewhere
-/// [`eval_one_portable`]. The direction comes as three scalars, in registers:
-/// a `[f32; 3]` argument is passed through memory and the kernel's combined
-/// loads of it missed store forwarding (12 ns instead of 4 ns at n = 3).
-///
-/// # Panics
-/// If `out` is shorter than `order²`.
-#[inline(always)]
-pub(crate) fn eval_one(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
-    if order <= INLINE_EVAL_MAX_ORDER {
-        return eval_inline(order, x, y, z, out);
+/// One evaluation function per order and instruction set, each its own
+/// non-inlined, non-generic function on a fixed-size output: a call runs one
+/// order's straight-line code (no jump table, no length checks inside).
+macro_rules! eval_per_order {
+    ($($n:literal $nn:literal $kernel:ident $portable:ident $fma:ident;)*) => {$(
+        /// [`eval_one`] at order
+        #[doc = stringify!($n)]
+        /// with plain multiply and add.
+        #[inline(never)]
+        fn $portable(x: f32, y: f32, z: f32, out: &mut [f32; $nn]) {
+            // SAFETY: `S` is repr(transparent) around one f32 (see `as_v`).
+            let o = unsafe { &mut *out.as_mut_ptr().cast::<[S; $nn]>() };
+            kernels::$kernel(S::splat(x), S::splat(y), S::splat(z), o);
+        }
+
+        /// [`eval_one`] at order
+        #[doc = stringify!($n)]
+        /// with fused multiply–add.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 and FMA.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma")]
+        #[inline(never)]
+        unsafe fn $fma(x: f32, y: f32, z: f32, out: &mut [f32; $nn]) {
+            // SAFETY: `S1` is repr(transparent) around one f32 (see `as_v`).
+            let o = unsafe { &mut *out.as_mut_ptr().cast::<[S1; $nn]>() };
+            kernels::$kernel(S1::splat(x), S1::splat(y), S1::splat(z), o);
+        }
+    )*
+
+    /// Generated f32 evaluation of all `order²` basis values at the unit
+    /// direction `(x, y, z)`; `false` (nothing written) above
+    /// [`KERNEL_EVAL_MAX_ORDER`].
+    ///
+    /// Orders up to [`INLINE_EVAL_MAX_ORDER`] are inlined ([`eval_inline`]);
+    /// larger ones call the order's own AVX2+FMA function on a CPU with
+    /// AVX2 and FMA ([`crate::lanes::avx2_fma_available`], a cached flag
+    /// test per call), else its portable one. The direction comes as three
+    /// scalars, in registers: a `[f32; 3]` argument is passed through memory
+    /// and the kernel's combined loads of it missed store forwarding (12 ns
+    /// instead of 4 ns at n = 3).
+    ///
+    /// # Panics
+    /// If `out` is shorter than `order²`.
+    #[inline(always)]
+    pub(crate) fn eval_one(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
+        if order <= INLINE_EVAL_MAX_ORDER {
+            return eval_inline(order, x, y, z, out);
+        }
+        match order {
+            $($n => {
+                let out = head_mut::<$nn>(out);
+                #[cfg(target_arch = "x86_64")]
+                if crate::lanes::avx2_fma_available() {
+                    // SAFETY: AVX2 and FMA were detected.
+                    unsafe { $fma(x, y, z, out) };
+                    return true;
+                }
+                $portable(x, y, z, out);
+            })*
+            _ => return false,
+        }
+        true
     }
-    #[cfg(target_arch = "x86_64")]
-    if crate::lanes::avx2_fma_available() {
-        // SAFETY: AVX2 and FMA were detected.
-        return unsafe { eval_one_fma(order, x, y, z, out) };
-    }
-    eval_one_portable(order, x, y, z, out)
+    };
+}
+
+eval_per_order! {
+    1 1 eval_n1 eval_n1_portable eval_n1_fma;
+    2 4 eval_n2 eval_n2_portable eval_n2_fma;
+    3 9 eval_n3 eval_n3_portable eval_n3_fma;
+    4 16 eval_n4 eval_n4_portable eval_n4_fma;
+    5 25 eval_n5 eval_n5_portable eval_n5_fma;
+    6 36 eval_n6 eval_n6_portable eval_n6_fma;
+    7 49 eval_n7 eval_n7_portable eval_n7_fma;
+    8 64 eval_n8 eval_n8_portable eval_n8_fma;
 }
 
 /// Largest order whose evaluation [`eval_one`] inlines into its caller: plain
@@ -122,6 +177,9 @@ pub(crate) fn eval_inline(order: usize, x: f32, y: f32, z: f32, out: &mut [f32])
             Some(o) => o.try_into().expect("length K"),
             None => panic!("eval_sh_into: output has {len} values, the order needs {K}"),
         }
+    }
+    if order > INLINE_EVAL_MAX_ORDER {
+        return false;
     }
     match order {
         1 => eval_array(x, y, z, arr::<1>(out)),
@@ -206,7 +264,7 @@ fn as_s1_mut(s: &mut [f32]) -> &mut [S1] {
 ///
 /// # Panics
 /// If `out` is shorter than `order²`.
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(test, target_arch = "x86_64"))]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
 pub(crate) unsafe fn eval_one_fma(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
@@ -219,6 +277,8 @@ pub(crate) unsafe fn eval_one_fma(order: usize, x: f32, y: f32, z: f32, out: &mu
     )
 }
 
+// No `array::map` below: it was not inlined into the kernels' callers
+// (three out-of-line `try_map` calls per rotation, copying through the stack).
 // No `array::map` below: it was not inlined into the kernels' callers
 // (three out-of-line `try_map` calls per rotation, copying through the stack).
 #[inline(always)]
