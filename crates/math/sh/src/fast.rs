@@ -599,7 +599,8 @@ fn as_s1(s: &[f32]) -> &[S1] {
     unsafe { std::slice::from_raw_parts(s.as_ptr().cast(), s.len()) }
 }
 
-/// [`product_one`] with fused multiply–add.
+/// [`product_one`] with fused multiply–add: inlined into the caller, which
+/// then makes one call, straight into the order's (first) chunk.
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
@@ -607,15 +608,15 @@ fn as_s1(s: &[f32]) -> &[S1] {
 /// # Panics
 /// If a slice is shorter than `order²`.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
+#[inline(always)]
 pub(crate) unsafe fn product_one_fma(order: usize, f: &[f32], g: &[f32], out: &mut [f32]) -> bool {
-    kernels::product_fma(order, as_s1(f), as_s1(g), as_s1_mut(out))
+    // SAFETY: the caller's contract.
+    unsafe { kernels::product_fma(order, as_s1(f), as_s1(g), as_s1_mut(out)) }
 }
 
-/// [`product_one`] compiled for AVX-512F: the FMA kernels with 32 vector
-/// registers, so the one-chunk kernels (n ≤ 4) keep their accumulators in
-/// registers.
+/// [`product_one`] with the copies compiled for AVX-512F: the FMA kernels
+/// with 32 vector registers, so the one-chunk kernels (n ≤ 4) keep their
+/// accumulators in registers. Inlined as [`product_one_fma`].
 ///
 /// # Safety
 /// The CPU must support AVX-512F, AVX-512VL, AVX2 and FMA.
@@ -623,15 +624,15 @@ pub(crate) unsafe fn product_one_fma(order: usize, f: &[f32], g: &[f32], out: &m
 /// # Panics
 /// If a slice is shorter than `order²`.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[inline(never)]
+#[inline(always)]
 pub(crate) unsafe fn product_one_avx512(
     order: usize,
     f: &[f32],
     g: &[f32],
     out: &mut [f32],
 ) -> bool {
-    kernels::product_avx512(order, as_s1(f), as_s1(g), as_s1_mut(out))
+    // SAFETY: the caller's contract.
+    unsafe { kernels::product_avx512(order, as_s1(f), as_s1(g), as_s1_mut(out)) }
 }
 
 fn check_len(what: &'static str, order: usize, got: usize, want: usize) -> Result<(), ShError> {

@@ -670,6 +670,48 @@ pub(crate) fn rotate_n5<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 25], d: &m
     let v13 = v[13];
     let v14 = v[14];
     let v15 = v[15];
+    let p12 = v12;
+    let p13 = v13.mul_add(gc1, -(v11 * gs1));
+    let p11 = v11.mul_add(gc1, v13 * gs1);
+    let p14 = v14.mul_add(gc2, -(v10 * gs2));
+    let p10 = v10.mul_add(gc2, v14 * gs2);
+    let p15 = v15.mul_add(gc3, -(v9 * gs3));
+    let p9 = v9.mul_add(gc3, v15 * gs3);
+    let q9 = p14.mul_add(s(0.61237246), p12 * s(-0.7905694));
+    let q10 = -p10;
+    let q11 = p14.mul_add(s(-0.7905694), p12 * s(-0.61237246));
+    let q12 = p11.mul_add(s(0.61237246), p9 * s(0.7905694));
+    let q13 = p15.mul_add(s(-0.96824586), p13 * s(-0.25));
+    let q14 = p11.mul_add(s(0.7905694), p9 * s(-0.61237246));
+    let q15 = p15.mul_add(s(0.25), p13 * s(-0.96824586));
+    let r12 = q12;
+    let r13 = q13.mul_add(bc1, -(q11 * bs1));
+    let r11 = q11.mul_add(bc1, q13 * bs1);
+    let r14 = q14.mul_add(bc2, -(q10 * bs2));
+    let r10 = q10.mul_add(bc2, q14 * bs2);
+    let r15 = q15.mul_add(bc3, -(q9 * bs3));
+    let r9 = q9.mul_add(bc3, q15 * bs3);
+    let t9 = r14.mul_add(s(-0.61237246), r12 * s(0.7905694));
+    let t10 = -r10;
+    let t11 = r14.mul_add(s(0.7905694), r12 * s(0.61237246));
+    let t12 = r11.mul_add(s(-0.61237246), r9 * s(-0.7905694));
+    let t13 = r15.mul_add(s(-0.96824586), r13 * s(-0.25));
+    let t14 = r11.mul_add(s(-0.7905694), r9 * s(0.61237246));
+    let t15 = r15.mul_add(s(0.25), r13 * s(-0.96824586));
+    let u12 = t12;
+    let u13 = t13.mul_add(ac1, -(t11 * as1));
+    let u11 = t11.mul_add(ac1, t13 * as1);
+    let u14 = t14.mul_add(ac2, -(t10 * as2));
+    let u10 = t10.mul_add(ac2, t14 * as2);
+    let u15 = t15.mul_add(ac3, -(t9 * as3));
+    let u9 = t9.mul_add(ac3, t15 * as3);
+    d[9] = u9;
+    d[10] = u10;
+    d[11] = u11;
+    d[12] = u12;
+    d[13] = u13;
+    d[14] = u14;
+    d[15] = u15;
     let v16 = v[16];
     let v17 = v[17];
     let v18 = v[18];
@@ -679,13 +721,6 @@ pub(crate) fn rotate_n5<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 25], d: &m
     let v22 = v[22];
     let v23 = v[23];
     let v24 = v[24];
-    let p12 = v12;
-    let p13 = v13.mul_add(gc1, -(v11 * gs1));
-    let p11 = v11.mul_add(gc1, v13 * gs1);
-    let p14 = v14.mul_add(gc2, -(v10 * gs2));
-    let p10 = v10.mul_add(gc2, v14 * gs2);
-    let p15 = v15.mul_add(gc3, -(v9 * gs3));
-    let p9 = v9.mul_add(gc3, v15 * gs3);
     let p20 = v20;
     let p21 = v21.mul_add(gc1, -(v19 * gs1));
     let p19 = v19.mul_add(gc1, v21 * gs1);
@@ -695,13 +730,6 @@ pub(crate) fn rotate_n5<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 25], d: &m
     let p17 = v17.mul_add(gc3, v23 * gs3);
     let p24 = v24.mul_add(gc4, -(v16 * gs4));
     let p16 = v16.mul_add(gc4, v24 * gs4);
-    let q9 = p14.mul_add(s(0.61237246), p12 * s(-0.7905694));
-    let q10 = -p10;
-    let q11 = p14.mul_add(s(-0.7905694), p12 * s(-0.61237246));
-    let q12 = p11.mul_add(s(0.61237246), p9 * s(0.7905694));
-    let q13 = p15.mul_add(s(-0.96824586), p13 * s(-0.25));
-    let q14 = p11.mul_add(s(0.7905694), p9 * s(-0.61237246));
-    let q15 = p15.mul_add(s(0.25), p13 * s(-0.96824586));
     let q16 = p23.mul_add(s(0.35355338), p21 * s(-0.9354144));
     let q17 = p19.mul_add(s(0.6614378), p17 * s(-0.75));
     let q18 = p23.mul_add(s(-0.9354144), p21 * s(-0.35355338));
@@ -711,13 +739,6 @@ pub(crate) fn rotate_n5<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 25], d: &m
     let q22 = p24.mul_add(s(-0.6614378), p22.mul_add(s(0.5), p20 * s(0.559017)));
     let q23 = p18.mul_add(s(0.9354144), p16 * s(-0.35355338));
     let q24 = p24.mul_add(s(0.125), p22.mul_add(s(-0.6614378), p20 * s(0.73951)));
-    let r12 = q12;
-    let r13 = q13.mul_add(bc1, -(q11 * bs1));
-    let r11 = q11.mul_add(bc1, q13 * bs1);
-    let r14 = q14.mul_add(bc2, -(q10 * bs2));
-    let r10 = q10.mul_add(bc2, q14 * bs2);
-    let r15 = q15.mul_add(bc3, -(q9 * bs3));
-    let r9 = q9.mul_add(bc3, q15 * bs3);
     let r20 = q20;
     let r21 = q21.mul_add(bc1, -(q19 * bs1));
     let r19 = q19.mul_add(bc1, q21 * bs1);
@@ -727,13 +748,6 @@ pub(crate) fn rotate_n5<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 25], d: &m
     let r17 = q17.mul_add(bc3, q23 * bs3);
     let r24 = q24.mul_add(bc4, -(q16 * bs4));
     let r16 = q16.mul_add(bc4, q24 * bs4);
-    let t9 = r14.mul_add(s(-0.61237246), r12 * s(0.7905694));
-    let t10 = -r10;
-    let t11 = r14.mul_add(s(0.7905694), r12 * s(0.61237246));
-    let t12 = r11.mul_add(s(-0.61237246), r9 * s(-0.7905694));
-    let t13 = r15.mul_add(s(-0.96824586), r13 * s(-0.25));
-    let t14 = r11.mul_add(s(-0.7905694), r9 * s(0.61237246));
-    let t15 = r15.mul_add(s(0.25), r13 * s(-0.96824586));
     let t16 = r23.mul_add(s(-0.35355338), r21 * s(0.9354144));
     let t17 = r19.mul_add(s(0.6614378), r17 * s(-0.75));
     let t18 = r23.mul_add(s(0.9354144), r21 * s(0.35355338));
@@ -743,13 +757,6 @@ pub(crate) fn rotate_n5<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 25], d: &m
     let t22 = r24.mul_add(s(-0.6614378), r22.mul_add(s(0.5), r20 * s(0.559017)));
     let t23 = r18.mul_add(s(-0.9354144), r16 * s(0.35355338));
     let t24 = r24.mul_add(s(0.125), r22.mul_add(s(-0.6614378), r20 * s(0.73951)));
-    let u12 = t12;
-    let u13 = t13.mul_add(ac1, -(t11 * as1));
-    let u11 = t11.mul_add(ac1, t13 * as1);
-    let u14 = t14.mul_add(ac2, -(t10 * as2));
-    let u10 = t10.mul_add(ac2, t14 * as2);
-    let u15 = t15.mul_add(ac3, -(t9 * as3));
-    let u9 = t9.mul_add(ac3, t15 * as3);
     let u20 = t20;
     let u21 = t21.mul_add(ac1, -(t19 * as1));
     let u19 = t19.mul_add(ac1, t21 * as1);
@@ -759,13 +766,6 @@ pub(crate) fn rotate_n5<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 25], d: &m
     let u17 = t17.mul_add(ac3, t23 * as3);
     let u24 = t24.mul_add(ac4, -(t16 * as4));
     let u16 = t16.mul_add(ac4, t24 * as4);
-    d[9] = u9;
-    d[10] = u10;
-    d[11] = u11;
-    d[12] = u12;
-    d[13] = u13;
-    d[14] = u14;
-    d[15] = u15;
     d[16] = u16;
     d[17] = u17;
     d[18] = u18;
@@ -860,6 +860,48 @@ pub(crate) fn rotate_n6<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 36], d: &m
     let v13 = v[13];
     let v14 = v[14];
     let v15 = v[15];
+    let p12 = v12;
+    let p13 = v13.mul_add(gc1, -(v11 * gs1));
+    let p11 = v11.mul_add(gc1, v13 * gs1);
+    let p14 = v14.mul_add(gc2, -(v10 * gs2));
+    let p10 = v10.mul_add(gc2, v14 * gs2);
+    let p15 = v15.mul_add(gc3, -(v9 * gs3));
+    let p9 = v9.mul_add(gc3, v15 * gs3);
+    let q9 = p14.mul_add(s(0.61237246), p12 * s(-0.7905694));
+    let q10 = -p10;
+    let q11 = p14.mul_add(s(-0.7905694), p12 * s(-0.61237246));
+    let q12 = p11.mul_add(s(0.61237246), p9 * s(0.7905694));
+    let q13 = p15.mul_add(s(-0.96824586), p13 * s(-0.25));
+    let q14 = p11.mul_add(s(0.7905694), p9 * s(-0.61237246));
+    let q15 = p15.mul_add(s(0.25), p13 * s(-0.96824586));
+    let r12 = q12;
+    let r13 = q13.mul_add(bc1, -(q11 * bs1));
+    let r11 = q11.mul_add(bc1, q13 * bs1);
+    let r14 = q14.mul_add(bc2, -(q10 * bs2));
+    let r10 = q10.mul_add(bc2, q14 * bs2);
+    let r15 = q15.mul_add(bc3, -(q9 * bs3));
+    let r9 = q9.mul_add(bc3, q15 * bs3);
+    let t9 = r14.mul_add(s(-0.61237246), r12 * s(0.7905694));
+    let t10 = -r10;
+    let t11 = r14.mul_add(s(0.7905694), r12 * s(0.61237246));
+    let t12 = r11.mul_add(s(-0.61237246), r9 * s(-0.7905694));
+    let t13 = r15.mul_add(s(-0.96824586), r13 * s(-0.25));
+    let t14 = r11.mul_add(s(-0.7905694), r9 * s(0.61237246));
+    let t15 = r15.mul_add(s(0.25), r13 * s(-0.96824586));
+    let u12 = t12;
+    let u13 = t13.mul_add(ac1, -(t11 * as1));
+    let u11 = t11.mul_add(ac1, t13 * as1);
+    let u14 = t14.mul_add(ac2, -(t10 * as2));
+    let u10 = t10.mul_add(ac2, t14 * as2);
+    let u15 = t15.mul_add(ac3, -(t9 * as3));
+    let u9 = t9.mul_add(ac3, t15 * as3);
+    d[9] = u9;
+    d[10] = u10;
+    d[11] = u11;
+    d[12] = u12;
+    d[13] = u13;
+    d[14] = u14;
+    d[15] = u15;
     let v16 = v[16];
     let v17 = v[17];
     let v18 = v[18];
@@ -869,6 +911,60 @@ pub(crate) fn rotate_n6<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 36], d: &m
     let v22 = v[22];
     let v23 = v[23];
     let v24 = v[24];
+    let p20 = v20;
+    let p21 = v21.mul_add(gc1, -(v19 * gs1));
+    let p19 = v19.mul_add(gc1, v21 * gs1);
+    let p22 = v22.mul_add(gc2, -(v18 * gs2));
+    let p18 = v18.mul_add(gc2, v22 * gs2);
+    let p23 = v23.mul_add(gc3, -(v17 * gs3));
+    let p17 = v17.mul_add(gc3, v23 * gs3);
+    let p24 = v24.mul_add(gc4, -(v16 * gs4));
+    let p16 = v16.mul_add(gc4, v24 * gs4);
+    let q16 = p23.mul_add(s(0.35355338), p21 * s(-0.9354144));
+    let q17 = p19.mul_add(s(0.6614378), p17 * s(-0.75));
+    let q18 = p23.mul_add(s(-0.9354144), p21 * s(-0.35355338));
+    let q19 = p19.mul_add(s(0.75), p17 * s(0.6614378));
+    let q20 = p24.mul_add(s(0.73951), p22.mul_add(s(0.559017), p20 * s(0.375)));
+    let q21 = p18.mul_add(s(0.35355338), p16 * s(0.9354144));
+    let q22 = p24.mul_add(s(-0.6614378), p22.mul_add(s(0.5), p20 * s(0.559017)));
+    let q23 = p18.mul_add(s(0.9354144), p16 * s(-0.35355338));
+    let q24 = p24.mul_add(s(0.125), p22.mul_add(s(-0.6614378), p20 * s(0.73951)));
+    let r20 = q20;
+    let r21 = q21.mul_add(bc1, -(q19 * bs1));
+    let r19 = q19.mul_add(bc1, q21 * bs1);
+    let r22 = q22.mul_add(bc2, -(q18 * bs2));
+    let r18 = q18.mul_add(bc2, q22 * bs2);
+    let r23 = q23.mul_add(bc3, -(q17 * bs3));
+    let r17 = q17.mul_add(bc3, q23 * bs3);
+    let r24 = q24.mul_add(bc4, -(q16 * bs4));
+    let r16 = q16.mul_add(bc4, q24 * bs4);
+    let t16 = r23.mul_add(s(-0.35355338), r21 * s(0.9354144));
+    let t17 = r19.mul_add(s(0.6614378), r17 * s(-0.75));
+    let t18 = r23.mul_add(s(0.9354144), r21 * s(0.35355338));
+    let t19 = r19.mul_add(s(0.75), r17 * s(0.6614378));
+    let t20 = r24.mul_add(s(0.73951), r22.mul_add(s(0.559017), r20 * s(0.375)));
+    let t21 = r18.mul_add(s(-0.35355338), r16 * s(-0.9354144));
+    let t22 = r24.mul_add(s(-0.6614378), r22.mul_add(s(0.5), r20 * s(0.559017)));
+    let t23 = r18.mul_add(s(-0.9354144), r16 * s(0.35355338));
+    let t24 = r24.mul_add(s(0.125), r22.mul_add(s(-0.6614378), r20 * s(0.73951)));
+    let u20 = t20;
+    let u21 = t21.mul_add(ac1, -(t19 * as1));
+    let u19 = t19.mul_add(ac1, t21 * as1);
+    let u22 = t22.mul_add(ac2, -(t18 * as2));
+    let u18 = t18.mul_add(ac2, t22 * as2);
+    let u23 = t23.mul_add(ac3, -(t17 * as3));
+    let u17 = t17.mul_add(ac3, t23 * as3);
+    let u24 = t24.mul_add(ac4, -(t16 * as4));
+    let u16 = t16.mul_add(ac4, t24 * as4);
+    d[16] = u16;
+    d[17] = u17;
+    d[18] = u18;
+    d[19] = u19;
+    d[20] = u20;
+    d[21] = u21;
+    d[22] = u22;
+    d[23] = u23;
+    d[24] = u24;
     let v25 = v[25];
     let v26 = v[26];
     let v27 = v[27];
@@ -880,22 +976,6 @@ pub(crate) fn rotate_n6<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 36], d: &m
     let v33 = v[33];
     let v34 = v[34];
     let v35 = v[35];
-    let p12 = v12;
-    let p13 = v13.mul_add(gc1, -(v11 * gs1));
-    let p11 = v11.mul_add(gc1, v13 * gs1);
-    let p14 = v14.mul_add(gc2, -(v10 * gs2));
-    let p10 = v10.mul_add(gc2, v14 * gs2);
-    let p15 = v15.mul_add(gc3, -(v9 * gs3));
-    let p9 = v9.mul_add(gc3, v15 * gs3);
-    let p20 = v20;
-    let p21 = v21.mul_add(gc1, -(v19 * gs1));
-    let p19 = v19.mul_add(gc1, v21 * gs1);
-    let p22 = v22.mul_add(gc2, -(v18 * gs2));
-    let p18 = v18.mul_add(gc2, v22 * gs2);
-    let p23 = v23.mul_add(gc3, -(v17 * gs3));
-    let p17 = v17.mul_add(gc3, v23 * gs3);
-    let p24 = v24.mul_add(gc4, -(v16 * gs4));
-    let p16 = v16.mul_add(gc4, v24 * gs4);
     let p30 = v30;
     let p31 = v31.mul_add(gc1, -(v29 * gs1));
     let p29 = v29.mul_add(gc1, v31 * gs1);
@@ -907,22 +987,6 @@ pub(crate) fn rotate_n6<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 36], d: &m
     let p26 = v26.mul_add(gc4, v34 * gs4);
     let p35 = v35.mul_add(gc5, -(v25 * gs5));
     let p25 = v25.mul_add(gc5, v35 * gs5);
-    let q9 = p14.mul_add(s(0.61237246), p12 * s(-0.7905694));
-    let q10 = -p10;
-    let q11 = p14.mul_add(s(-0.7905694), p12 * s(-0.61237246));
-    let q12 = p11.mul_add(s(0.61237246), p9 * s(0.7905694));
-    let q13 = p15.mul_add(s(-0.96824586), p13 * s(-0.25));
-    let q14 = p11.mul_add(s(0.7905694), p9 * s(-0.61237246));
-    let q15 = p15.mul_add(s(0.25), p13 * s(-0.96824586));
-    let q16 = p23.mul_add(s(0.35355338), p21 * s(-0.9354144));
-    let q17 = p19.mul_add(s(0.6614378), p17 * s(-0.75));
-    let q18 = p23.mul_add(s(-0.9354144), p21 * s(-0.35355338));
-    let q19 = p19.mul_add(s(0.75), p17 * s(0.6614378));
-    let q20 = p24.mul_add(s(0.73951), p22.mul_add(s(0.559017), p20 * s(0.375)));
-    let q21 = p18.mul_add(s(0.35355338), p16 * s(0.9354144));
-    let q22 = p24.mul_add(s(-0.6614378), p22.mul_add(s(0.5), p20 * s(0.559017)));
-    let q23 = p18.mul_add(s(0.9354144), p16 * s(-0.35355338));
-    let q24 = p24.mul_add(s(0.125), p22.mul_add(s(-0.6614378), p20 * s(0.73951)));
     let q25 = p34.mul_add(s(0.19764236), p32.mul_add(s(-0.6846532), p30 * s(0.70156074)));
     let q26 = p28.mul_add(s(0.8660254), p26 * s(-0.5));
     let q27 = p34.mul_add(s(-0.79549515), p32.mul_add(s(0.30618623), p30 * s(0.5229125)));
@@ -934,22 +998,6 @@ pub(crate) fn rotate_n6<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 36], d: &m
     let q33 = p35.mul_add(s(-0.41926274), p33.mul_add(s(0.8125), p31 * s(0.40504628)));
     let q34 = p29.mul_add(s(-0.572822), p27.mul_add(s(0.79549515), p25 * s(-0.19764236)));
     let q35 = p35.mul_add(s(0.0625), p33.mul_add(s(-0.41926274), p31 * s(0.90571105)));
-    let r12 = q12;
-    let r13 = q13.mul_add(bc1, -(q11 * bs1));
-    let r11 = q11.mul_add(bc1, q13 * bs1);
-    let r14 = q14.mul_add(bc2, -(q10 * bs2));
-    let r10 = q10.mul_add(bc2, q14 * bs2);
-    let r15 = q15.mul_add(bc3, -(q9 * bs3));
-    let r9 = q9.mul_add(bc3, q15 * bs3);
-    let r20 = q20;
-    let r21 = q21.mul_add(bc1, -(q19 * bs1));
-    let r19 = q19.mul_add(bc1, q21 * bs1);
-    let r22 = q22.mul_add(bc2, -(q18 * bs2));
-    let r18 = q18.mul_add(bc2, q22 * bs2);
-    let r23 = q23.mul_add(bc3, -(q17 * bs3));
-    let r17 = q17.mul_add(bc3, q23 * bs3);
-    let r24 = q24.mul_add(bc4, -(q16 * bs4));
-    let r16 = q16.mul_add(bc4, q24 * bs4);
     let r30 = q30;
     let r31 = q31.mul_add(bc1, -(q29 * bs1));
     let r29 = q29.mul_add(bc1, q31 * bs1);
@@ -961,22 +1009,6 @@ pub(crate) fn rotate_n6<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 36], d: &m
     let r26 = q26.mul_add(bc4, q34 * bs4);
     let r35 = q35.mul_add(bc5, -(q25 * bs5));
     let r25 = q25.mul_add(bc5, q35 * bs5);
-    let t9 = r14.mul_add(s(-0.61237246), r12 * s(0.7905694));
-    let t10 = -r10;
-    let t11 = r14.mul_add(s(0.7905694), r12 * s(0.61237246));
-    let t12 = r11.mul_add(s(-0.61237246), r9 * s(-0.7905694));
-    let t13 = r15.mul_add(s(-0.96824586), r13 * s(-0.25));
-    let t14 = r11.mul_add(s(-0.7905694), r9 * s(0.61237246));
-    let t15 = r15.mul_add(s(0.25), r13 * s(-0.96824586));
-    let t16 = r23.mul_add(s(-0.35355338), r21 * s(0.9354144));
-    let t17 = r19.mul_add(s(0.6614378), r17 * s(-0.75));
-    let t18 = r23.mul_add(s(0.9354144), r21 * s(0.35355338));
-    let t19 = r19.mul_add(s(0.75), r17 * s(0.6614378));
-    let t20 = r24.mul_add(s(0.73951), r22.mul_add(s(0.559017), r20 * s(0.375)));
-    let t21 = r18.mul_add(s(-0.35355338), r16 * s(-0.9354144));
-    let t22 = r24.mul_add(s(-0.6614378), r22.mul_add(s(0.5), r20 * s(0.559017)));
-    let t23 = r18.mul_add(s(-0.9354144), r16 * s(0.35355338));
-    let t24 = r24.mul_add(s(0.125), r22.mul_add(s(-0.6614378), r20 * s(0.73951)));
     let t25 = r34.mul_add(s(-0.19764236), r32.mul_add(s(0.6846532), r30 * s(-0.70156074)));
     let t26 = r28.mul_add(s(0.8660254), r26 * s(-0.5));
     let t27 = r34.mul_add(s(0.79549515), r32.mul_add(s(-0.30618623), r30 * s(-0.5229125)));
@@ -988,22 +1020,6 @@ pub(crate) fn rotate_n6<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 36], d: &m
     let t33 = r35.mul_add(s(-0.41926274), r33.mul_add(s(0.8125), r31 * s(0.40504628)));
     let t34 = r29.mul_add(s(0.572822), r27.mul_add(s(-0.79549515), r25 * s(0.19764236)));
     let t35 = r35.mul_add(s(0.0625), r33.mul_add(s(-0.41926274), r31 * s(0.90571105)));
-    let u12 = t12;
-    let u13 = t13.mul_add(ac1, -(t11 * as1));
-    let u11 = t11.mul_add(ac1, t13 * as1);
-    let u14 = t14.mul_add(ac2, -(t10 * as2));
-    let u10 = t10.mul_add(ac2, t14 * as2);
-    let u15 = t15.mul_add(ac3, -(t9 * as3));
-    let u9 = t9.mul_add(ac3, t15 * as3);
-    let u20 = t20;
-    let u21 = t21.mul_add(ac1, -(t19 * as1));
-    let u19 = t19.mul_add(ac1, t21 * as1);
-    let u22 = t22.mul_add(ac2, -(t18 * as2));
-    let u18 = t18.mul_add(ac2, t22 * as2);
-    let u23 = t23.mul_add(ac3, -(t17 * as3));
-    let u17 = t17.mul_add(ac3, t23 * as3);
-    let u24 = t24.mul_add(ac4, -(t16 * as4));
-    let u16 = t16.mul_add(ac4, t24 * as4);
     let u30 = t30;
     let u31 = t31.mul_add(ac1, -(t29 * as1));
     let u29 = t29.mul_add(ac1, t31 * as1);
@@ -1015,22 +1031,6 @@ pub(crate) fn rotate_n6<L: Lane>(m: &[[L; 3]; 3], e: &[L; 6], v: &[L; 36], d: &m
     let u26 = t26.mul_add(ac4, t34 * as4);
     let u35 = t35.mul_add(ac5, -(t25 * as5));
     let u25 = t25.mul_add(ac5, t35 * as5);
-    d[9] = u9;
-    d[10] = u10;
-    d[11] = u11;
-    d[12] = u12;
-    d[13] = u13;
-    d[14] = u14;
-    d[15] = u15;
-    d[16] = u16;
-    d[17] = u17;
-    d[18] = u18;
-    d[19] = u19;
-    d[20] = u20;
-    d[21] = u21;
-    d[22] = u22;
-    d[23] = u23;
-    d[24] = u24;
     d[25] = u25;
     d[26] = u26;
     d[27] = u27;
@@ -1065,11 +1065,12 @@ fn product_n1_0_plain(f: &[V<1, false>; 1], g: &[V<1, false>; 1], o: &mut [V<1, 
     unsafe { product_n1_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 1, 1 chunks (plain).
+/// `o = f ∗ g` truncated to order 1, 1 chunks (plain): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n1_0`].
-#[inline]
+/// As [`product_n1_0`]; the CPU must have the features of the `plain` copy.
+#[inline(always)]
 unsafe fn product_n1_plain(f: *const V<1, false>, g: *const V<1, false>, o: *mut V<1, false>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1085,13 +1086,13 @@ fn product_n1_0_fma(f: &[V<1, true>; 1], g: &[V<1, true>; 1], o: &mut [V<1, true
     unsafe { product_n1_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 1, 1 chunks (fma).
+/// `o = f ∗ g` truncated to order 1, 1 chunks (fma): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n1_0`].
+/// As [`product_n1_0`]; the CPU must have the features of the `fma` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n1_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1107,13 +1108,13 @@ fn product_n1_0_avx512(f: &[V<1, true>; 1], g: &[V<1, true>; 1], o: &mut [V<1, t
     unsafe { product_n1_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 1, 1 chunks (avx512).
+/// `o = f ∗ g` truncated to order 1, 1 chunks (avx512): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n1_0`].
+/// As [`product_n1_0`]; the CPU must have the features of the `avx512` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n1_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1160,11 +1161,12 @@ fn product_n2_0_plain(f: &[V<1, false>; 4], g: &[V<1, false>; 4], o: &mut [V<1, 
     unsafe { product_n2_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 2, 1 chunks (plain).
+/// `o = f ∗ g` truncated to order 2, 1 chunks (plain): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n2_0`].
-#[inline]
+/// As [`product_n2_0`]; the CPU must have the features of the `plain` copy.
+#[inline(always)]
 unsafe fn product_n2_plain(f: *const V<1, false>, g: *const V<1, false>, o: *mut V<1, false>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1180,13 +1182,13 @@ fn product_n2_0_fma(f: &[V<1, true>; 4], g: &[V<1, true>; 4], o: &mut [V<1, true
     unsafe { product_n2_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 2, 1 chunks (fma).
+/// `o = f ∗ g` truncated to order 2, 1 chunks (fma): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n2_0`].
+/// As [`product_n2_0`]; the CPU must have the features of the `fma` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n2_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1202,13 +1204,13 @@ fn product_n2_0_avx512(f: &[V<1, true>; 4], g: &[V<1, true>; 4], o: &mut [V<1, t
     unsafe { product_n2_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 2, 1 chunks (avx512).
+/// `o = f ∗ g` truncated to order 2, 1 chunks (avx512): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n2_0`].
+/// As [`product_n2_0`]; the CPU must have the features of the `avx512` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n2_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1325,11 +1327,12 @@ fn product_n3_0_plain(f: &[V<1, false>; 9], g: &[V<1, false>; 9], o: &mut [V<1, 
     unsafe { product_n3_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 3, 1 chunks (plain).
+/// `o = f ∗ g` truncated to order 3, 1 chunks (plain): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n3_0`].
-#[inline]
+/// As [`product_n3_0`]; the CPU must have the features of the `plain` copy.
+#[inline(always)]
 unsafe fn product_n3_plain(f: *const V<1, false>, g: *const V<1, false>, o: *mut V<1, false>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1345,13 +1348,13 @@ fn product_n3_0_fma(f: &[V<1, true>; 9], g: &[V<1, true>; 9], o: &mut [V<1, true
     unsafe { product_n3_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 3, 1 chunks (fma).
+/// `o = f ∗ g` truncated to order 3, 1 chunks (fma): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n3_0`].
+/// As [`product_n3_0`]; the CPU must have the features of the `fma` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n3_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1367,13 +1370,13 @@ fn product_n3_0_avx512(f: &[V<1, true>; 9], g: &[V<1, true>; 9], o: &mut [V<1, t
     unsafe { product_n3_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 3, 1 chunks (avx512).
+/// `o = f ∗ g` truncated to order 3, 1 chunks (avx512): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n3_0`].
+/// As [`product_n3_0`]; the CPU must have the features of the `avx512` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n3_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1679,11 +1682,12 @@ fn product_n4_0_plain(f: &[V<1, false>; 16], g: &[V<1, false>; 16], o: &mut [V<1
     unsafe { product_n4_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 4, 1 chunks (plain).
+/// `o = f ∗ g` truncated to order 4, 1 chunks (plain): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n4_0`].
-#[inline]
+/// As [`product_n4_0`]; the CPU must have the features of the `plain` copy.
+#[inline(always)]
 unsafe fn product_n4_plain(f: *const V<1, false>, g: *const V<1, false>, o: *mut V<1, false>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1699,13 +1703,13 @@ fn product_n4_0_fma(f: &[V<1, true>; 16], g: &[V<1, true>; 16], o: &mut [V<1, tr
     unsafe { product_n4_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 4, 1 chunks (fma).
+/// `o = f ∗ g` truncated to order 4, 1 chunks (fma): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n4_0`].
+/// As [`product_n4_0`]; the CPU must have the features of the `fma` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n4_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -1721,13 +1725,13 @@ fn product_n4_0_avx512(f: &[V<1, true>; 16], g: &[V<1, true>; 16], o: &mut [V<1,
     unsafe { product_n4_0(f.as_ptr(), g.as_ptr(), o.as_mut_ptr()) };
 }
 
-/// `o = f ∗ g` truncated to order 4, 1 chunks (avx512).
+/// `o = f ∗ g` truncated to order 4, 1 chunks (avx512): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n4_0`].
+/// As [`product_n4_0`]; the CPU must have the features of the `avx512` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n4_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -2425,11 +2429,12 @@ unsafe fn product_n5_2_plain(f: *const V<1, false>, g: *const V<1, false>, o: *m
     unsafe { product_n5_2(f, g, o) };
 }
 
-/// `o = f ∗ g` truncated to order 5, 3 chunks (plain).
+/// `o = f ∗ g` truncated to order 5, 3 chunks (plain): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n5_0`].
-#[inline]
+/// As [`product_n5_0`]; the CPU must have the features of the `plain` copy.
+#[inline(always)]
 unsafe fn product_n5_plain(f: *const V<1, false>, g: *const V<1, false>, o: *mut V<1, false>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -2469,13 +2474,13 @@ unsafe fn product_n5_2_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V
     unsafe { product_n5_2(f, g, o) };
 }
 
-/// `o = f ∗ g` truncated to order 5, 3 chunks (fma).
+/// `o = f ∗ g` truncated to order 5, 3 chunks (fma): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n5_0`].
+/// As [`product_n5_0`]; the CPU must have the features of the `fma` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n5_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -2515,13 +2520,13 @@ unsafe fn product_n5_2_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mu
     unsafe { product_n5_2(f, g, o) };
 }
 
-/// `o = f ∗ g` truncated to order 5, 3 chunks (avx512).
+/// `o = f ∗ g` truncated to order 5, 3 chunks (avx512): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n5_0`].
+/// As [`product_n5_0`]; the CPU must have the features of the `avx512` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n5_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -3971,11 +3976,12 @@ unsafe fn product_n6_4_plain(f: *const V<1, false>, g: *const V<1, false>, o: *m
     unsafe { product_n6_4(f, g, o) };
 }
 
-/// `o = f ∗ g` truncated to order 6, 5 chunks (plain).
+/// `o = f ∗ g` truncated to order 6, 5 chunks (plain): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n6_0`].
-#[inline]
+/// As [`product_n6_0`]; the CPU must have the features of the `plain` copy.
+#[inline(always)]
 unsafe fn product_n6_plain(f: *const V<1, false>, g: *const V<1, false>, o: *mut V<1, false>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -4037,13 +4043,13 @@ unsafe fn product_n6_4_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V
     unsafe { product_n6_4(f, g, o) };
 }
 
-/// `o = f ∗ g` truncated to order 6, 5 chunks (fma).
+/// `o = f ∗ g` truncated to order 6, 5 chunks (fma): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n6_0`].
+/// As [`product_n6_0`]; the CPU must have the features of the `fma` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n6_fma(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -4105,13 +4111,13 @@ unsafe fn product_n6_4_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mu
     unsafe { product_n6_4(f, g, o) };
 }
 
-/// `o = f ∗ g` truncated to order 6, 5 chunks (avx512).
+/// `o = f ∗ g` truncated to order 6, 5 chunks (avx512): inlined into the
+/// caller, which calls the chunks directly.
 ///
 /// # Safety
-/// As [`product_n6_0`].
+/// As [`product_n6_0`]; the CPU must have the features of the `avx512` copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[inline]
+#[inline(always)]
 unsafe fn product_n6_avx512(f: *const V<1, true>, g: *const V<1, true>, o: *mut V<1, true>) {
     // SAFETY: the caller's contract.
     unsafe {
@@ -4189,10 +4195,12 @@ pub(crate) fn product_plain(n: usize, f: &[V<1, false>], g: &[V<1, false>], o: &
 ///
 /// # Panics
 /// If a slice is shorter than `n²`.
+///
+/// # Safety
+/// The CPU must have the features of the copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-pub(crate) fn product_fma(n: usize, f: &[V<1, true>], g: &[V<1, true>], o: &mut [V<1, true>]) -> bool {
+#[inline(always)]
+pub(crate) unsafe fn product_fma(n: usize, f: &[V<1, true>], g: &[V<1, true>], o: &mut [V<1, true>]) -> bool {
     match n {
         // SAFETY: the slices hold 1 values each (checked), `o` is exclusive.
         1 => unsafe { product_n1_fma(f[..1].as_ptr(), g[..1].as_ptr(), o[..1].as_mut_ptr()) },
@@ -4215,10 +4223,12 @@ pub(crate) fn product_fma(n: usize, f: &[V<1, true>], g: &[V<1, true>], o: &mut 
 ///
 /// # Panics
 /// If a slice is shorter than `n²`.
+///
+/// # Safety
+/// The CPU must have the features of the copy.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[inline]
-pub(crate) fn product_avx512(n: usize, f: &[V<1, true>], g: &[V<1, true>], o: &mut [V<1, true>]) -> bool {
+#[inline(always)]
+pub(crate) unsafe fn product_avx512(n: usize, f: &[V<1, true>], g: &[V<1, true>], o: &mut [V<1, true>]) -> bool {
     match n {
         // SAFETY: the slices hold 1 values each (checked), `o` is exclusive.
         1 => unsafe { product_n1_avx512(f[..1].as_ptr(), g[..1].as_ptr(), o[..1].as_mut_ptr()) },

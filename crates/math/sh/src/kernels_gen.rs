@@ -304,16 +304,22 @@ fn rotate_kernel(s: &mut String, n: usize) {
                 .unwrap();
             }
         }
-        for i in 9..nn {
-            writeln!(s, "    let v{i} = v[{i}];").unwrap();
-        }
-        z_stage(s, 3, n, "v", "p", "g");
-        x_stage(s, 3, n, &xp, "p", "q");
-        z_stage(s, 3, n, "q", "r", "b");
-        x_stage(s, 3, n, &xm, "r", "t");
-        z_stage(s, 3, n, "t", "u", "a");
-        for i in 9..nn {
-            writeln!(s, "    d[{i}] = u{i};").unwrap();
+        // Band by band, all five stages each: only one band's values are
+        // live at a time (stage by stage over all bands kept every band's
+        // intermediates live and spilled at n = 5, 6).
+        for l in 3..n {
+            let span = l * l..(l + 1) * (l + 1);
+            for i in span.clone() {
+                writeln!(s, "    let v{i} = v[{i}];").unwrap();
+            }
+            z_stage(s, l, l + 1, "v", "p", "g");
+            x_stage(s, l, l + 1, &xp, "p", "q");
+            z_stage(s, l, l + 1, "q", "r", "b");
+            x_stage(s, l, l + 1, &xm, "r", "t");
+            z_stage(s, l, l + 1, "t", "u", "a");
+            for i in span {
+                writeln!(s, "    d[{i}] = u{i};").unwrap();
+            }
         }
     }
     writeln!(s, "}}\n").unwrap();
@@ -587,8 +593,9 @@ fn product_kernel(s: &mut String, n: usize) {
         }
         writeln!(
             s,
-            "/// `o = f ∗ g` truncated to order {n}, {} chunks ({suffix}).\n///\n/// # Safety\n/// As [`product_n{n}_0`].\n{attrs}#[inline]\nunsafe fn product_n{n}_{suffix}{sig} {{\n    // SAFETY: the caller's contract.\n    unsafe {{",
-            chunks.len()
+            "/// `o = f ∗ g` truncated to order {n}, {} chunks ({suffix}): inlined into the\n/// caller, which calls the chunks directly.\n///\n/// # Safety\n/// As [`product_n{n}_0`]; the CPU must have the features of the `{suffix}` copy.\n{}#[inline(always)]\nunsafe fn product_n{n}_{suffix}{sig} {{\n    // SAFETY: the caller's contract.\n    unsafe {{",
+            chunks.len(),
+            isa_cfg(suffix)
         )
         .unwrap();
         for c in 0..chunks.len() {
@@ -611,6 +618,15 @@ fn product_kernel(s: &mut String, n: usize) {
 /// accumulators of a one-chunk kernel stay in registers).
 const ISAS: [(bool, &str); 3] = [(false, "plain"), (true, "fma"), (true, "avx512")];
 
+/// The `#[cfg]` line of one copy of [`ISAS`].
+fn isa_cfg(suffix: &str) -> &'static str {
+    if suffix == "plain" {
+        ""
+    } else {
+        "#[cfg(target_arch = \"x86_64\")]\n"
+    }
+}
+
 /// `#[cfg]`/`#[target_feature]` lines of one copy of [`ISAS`].
 fn isa_attrs(suffix: &str) -> &'static str {
     match suffix {
@@ -631,20 +647,26 @@ fn product_dispatch(s: &mut String) {
             "avx512" => "with fused multiply–add, compiled for AVX-512F",
             _ => "with plain multiply and add",
         };
-        let attrs = if fma {
-            format!("{}#[inline]\n", isa_attrs(suffix))
+        // Inlined into the caller (no target feature of its own): the
+        // caller tests the CPU once, and one call reaches the order's code.
+        let (safety, unsafety) = if fma {
+            (
+                "\n///\n/// # Safety\n/// The CPU must have the features of the copy.",
+                "unsafe ",
+            )
         } else {
-            "#[inline(always)]\n".to_string()
+            ("", "")
         };
         writeln!(
             s,
             "/// Runs the order-`n` product kernel {doc} on `n²`-long slices; `false` (nothing done) outside 1..={KERNEL_PRODUCT_MAX_ORDER}.\n\
-             ///\n/// # Panics\n/// If a slice is shorter than `n²`."
+             ///\n/// # Panics\n/// If a slice is shorter than `n²`.{safety}"
         )
         .unwrap();
         writeln!(
             s,
-            "{attrs}pub(crate) fn product_{suffix}(n: usize, f: &[{t}], g: &[{t}], o: &mut [{t}]) -> bool {{"
+            "{}#[inline(always)]\npub(crate) {unsafety}fn product_{suffix}(n: usize, f: &[{t}], g: &[{t}], o: &mut [{t}]) -> bool {{",
+            isa_cfg(suffix)
         )
         .unwrap();
         writeln!(s, "    match n {{").unwrap();
