@@ -76,6 +76,7 @@ pub fn shade_point_portable(
 ) -> Vec3 {
     dispatch!(
         F16Cells,
+        false,
         light,
         ltaps,
         brdf,
@@ -117,15 +118,15 @@ pub fn blend_function_portable(
     padded: usize,
     out: &mut [f32],
 ) {
-    blend_dispatch!(F16Cells, planes, taps, plane_stride, padded, out);
+    blend_dispatch!(F16Cells, false, planes, taps, plane_stride, padded, out);
 }
 
 macro_rules! blend_dispatch {
-    ($f16:ident, $planes:expr, $taps:expr, $ps:expr, $padded:expr, $out:expr) => {
+    ($f16:ident, $fused:literal, $planes:expr, $taps:expr, $ps:expr, $padded:expr, $out:expr) => {
         match $planes {
-            Planes::F32(v) => blend_with(&F32Cells(v), $taps, $ps, $padded, $out),
-            Planes::F16(v) => blend_with(&$f16(v), $taps, $ps, $padded, $out),
-            Planes::U8 { codes, scales } => blend_with(
+            Planes::F32(v) => blend_with::<$fused, _>(&F32Cells(v), $taps, $ps, $padded, $out),
+            Planes::F16(v) => blend_with::<$fused, _>(&$f16(v), $taps, $ps, $padded, $out),
+            Planes::U8 { codes, scales } => blend_with::<$fused, _>(
                 &U8Cells {
                     codes,
                     scales,
@@ -141,8 +142,15 @@ macro_rules! blend_dispatch {
 }
 use blend_dispatch;
 
+/// `a·b + c`, fused in the AVX2 + FMA copies (`F`; a separate multiply and
+/// add in the portable one, where `f32::mul_add` would be a libm call).
 #[inline(always)]
-fn blend_with<C: Cells>(
+fn madd<const F: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if F { a.mul_add(b, c) } else { a * b + c }
+}
+
+#[inline(always)]
+fn blend_with<const F: bool, C: Cells>(
     cells: &C,
     taps: &[Tap],
     plane_stride: usize,
@@ -157,7 +165,7 @@ fn blend_with<C: Cells>(
             for (b, o8) in o.chunks_exact_mut(8).enumerate() {
                 let s = cells.load8(base + 8 * b);
                 for i in 0..8 {
-                    o8[i] += w * s[i];
+                    o8[i] = madd::<F>(w, s[i], o8[i]);
                 }
             }
         }
@@ -171,13 +179,19 @@ fn blend_with<C: Cells>(
 /// for all-compact tables (f16 lighting read by `$f16`), [`AnyCells`] for
 /// the mixed forms.
 macro_rules! dispatch {
-    ($f16:ident, $light:expr, $ltaps:expr, $brdf:expr, $btaps:expr, $vis:expr, $ls:expr, $stride:expr) => {{
+    ($f16:ident, $fused:literal, $light:expr, $ltaps:expr, $brdf:expr, $btaps:expr, $vis:expr, $ls:expr, $stride:expr) => {{
         let (ls, stride) = ($ls, $stride);
         match ($light, $brdf) {
-            (Planes::F32(l), Planes::F32(b)) => {
-                with_vis(&F32Cells(l), $ltaps, &F32Cells(b), $btaps, $vis, ls, stride)
-            }
-            (Planes::F16(l), Planes::U8 { codes, scales }) => with_vis(
+            (Planes::F32(l), Planes::F32(b)) => with_vis::<$fused, _, _>(
+                &F32Cells(l),
+                $ltaps,
+                &F32Cells(b),
+                $btaps,
+                $vis,
+                ls,
+                stride,
+            ),
+            (Planes::F16(l), Planes::U8 { codes, scales }) => with_vis::<$fused, _, _>(
                 &$f16(l),
                 $ltaps,
                 &U8Cells {
@@ -190,7 +204,7 @@ macro_rules! dispatch {
                 ls,
                 stride,
             ),
-            (l, b) => with_vis(
+            (l, b) => with_vis::<$fused, _, _>(
                 &AnyCells::of(l, ls),
                 $ltaps,
                 &AnyCells::of(b, stride),
@@ -258,6 +272,7 @@ mod x86 {
     ) -> Vec3 {
         super::dispatch!(
             F16cCells,
+            true,
             light,
             ltaps,
             brdf,
@@ -279,12 +294,12 @@ mod x86 {
         padded: usize,
         out: &mut [f32],
     ) {
-        super::blend_dispatch!(F16cCells, planes, taps, plane_stride, padded, out);
+        super::blend_dispatch!(F16cCells, true, planes, taps, plane_stride, padded, out);
     }
 }
 
 #[inline(always)]
-fn with_vis<L: Cells, B: Cells>(
+fn with_vis<const F: bool, L: Cells, B: Cells>(
     light: &L,
     ltaps: &[Tap; 6],
     brdf: &B,
@@ -294,8 +309,8 @@ fn with_vis<L: Cells, B: Cells>(
     stride: usize,
 ) -> Vec3 {
     match vis {
-        None => kernel::<L, B, F32Cells>(light, ltaps, brdf, btaps, None, ls, stride),
-        Some((Planes::F32(v), rows, w)) => kernel(
+        None => kernel::<F, L, B, F32Cells>(light, ltaps, brdf, btaps, None, ls, stride),
+        Some((Planes::F32(v), rows, w)) => kernel::<F, _, _, _>(
             light,
             ltaps,
             brdf,
@@ -304,7 +319,7 @@ fn with_vis<L: Cells, B: Cells>(
             ls,
             stride,
         ),
-        Some((Planes::U8 { codes, scales }, rows, w)) => kernel(
+        Some((Planes::U8 { codes, scales }, rows, w)) => kernel::<F, _, _, _>(
             light,
             ltaps,
             brdf,
@@ -321,7 +336,7 @@ fn with_vis<L: Cells, B: Cells>(
             ls,
             stride,
         ),
-        Some((v, rows, w)) => kernel(
+        Some((v, rows, w)) => kernel::<F, _, _, _>(
             light,
             ltaps,
             brdf,
@@ -355,7 +370,7 @@ fn scaled_taps<const N: usize, C: Cells>(
 }
 
 #[inline(always)]
-fn kernel<L: Cells, B: Cells, V: Cells>(
+fn kernel<const F: bool, L: Cells, B: Cells, V: Cells>(
     light: &L,
     ltaps: &[Tap; 6],
     brdf: &B,
@@ -387,7 +402,7 @@ fn kernel<L: Cells, B: Cells, V: Cells>(
                     if w[a] != 0.0 {
                         let s = cells.load8(rows[a] + base);
                         for i in 0..8 {
-                            v[i] += w[a] * s[i];
+                            v[i] = madd::<F>(w[a], s[i], v[i]);
                         }
                     }
                 }
@@ -399,18 +414,18 @@ fn kernel<L: Cells, B: Cells, V: Cells>(
             for &(o, w) in &lt[ch][..nl] {
                 let s = light.load8(o + base);
                 for i in 0..8 {
-                    l[i] += w * s[i];
+                    l[i] = madd::<F>(w, s[i], l[i]);
                 }
             }
             let mut r = [0.0f32; 8];
             for &(o, w) in &bt[ch][..nb] {
                 let s = brdf.load8(o + base);
                 for i in 0..8 {
-                    r[i] += w * s[i];
+                    r[i] = madd::<F>(w, s[i], r[i]);
                 }
             }
             for i in 0..8 {
-                acc[i] += l[i] * v[i] * r[i];
+                acc[i] = madd::<F>(l[i] * v[i], r[i], acc[i]);
             }
         }
         base += 8;
