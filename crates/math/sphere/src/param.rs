@@ -868,7 +868,15 @@ fn latlong_bilinear_f32(width: usize, height: usize, d: Vec3) -> Bilinear {
         } else {
             (c, r)
         };
-        (i64::from(r.clamp(0, h - 1)) * i64::from(w) + i64::from(c.rem_euclid(w))) as u32
+        // c ∈ [−1, w + w/2]: one wrap, not `rem_euclid` (an integer division).
+        let c = if c < 0 {
+            c + w
+        } else if c >= w {
+            c - w
+        } else {
+            c
+        };
+        (i64::from(r.clamp(0, h - 1)) * i64::from(w) + i64::from(c)) as u32
     };
     Bilinear {
         texels: [
