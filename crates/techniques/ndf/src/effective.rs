@@ -664,7 +664,7 @@ impl LambertTail {
     /// both ends (`κ ≈ 3r` near 0), so the error is second order: ≤ 5e-6
     /// (tested), where the computed form cost an f64 `exp` and eight
     /// recurrence steps per pixel.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn attenuation_468(r: f32) -> [f32; 3] {
         if r >= 1.0 - 1.5 / crate::vmf::KAPPA_MAX as f32 {
@@ -687,13 +687,19 @@ impl LambertTail {
         let i = (x as usize).min(cells - 1);
         let f = x - i as f32;
         let (a, b) = (t[base + i], t[base + i + 1]);
-        [0, 1, 2].map(|c| a[c] + f * (b[c] - a[c]))
+        // Written out: `[0, 1, 2].map(..)` was a call per pixel (`try_map`
+        // not inlined).
+        [
+            a[0] + f * (b[0] - a[0]),
+            a[1] + f * (b[1] - a[1]),
+            a[2] + f * (b[2] - a[2]),
+        ]
     }
 
     /// The tail at mean normal `m` (`|m| ≤ 1`, in the lighting's frame),
     /// per channel, from the baked table: [`lambert_tail_channels`]`(m,
     /// light)` up to the bilinear interpolation of `T_l` at `m̂`.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn eval(&self, m: Vec3) -> Vec3 {
         let r = m.length();

@@ -119,7 +119,7 @@ impl Footprint {
     /// `ρ² = max(major²/n², minor²)` ([`Self::of_lengths`], the form with
     /// lengths, up to f32 rounding: tested). Squares past f32's range take
     /// that form.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn of(uv: Vec2, duv_dx: Vec2, duv_dy: Vec2, width: usize, height: usize) -> Self {
         let s = Vec2::new(width as f32, height as f32);
@@ -406,7 +406,7 @@ impl Footprint {
     /// `1/count` times the trilinear weight), and how many are read: the
     /// level below `lod` (clamped to `0..levels`) and, when `lod` is not an
     /// integer below the top, the one above.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn level_weights(&self, levels: usize) -> ([(usize, f32); 2], usize) {
         let top = (levels - 1) as f32;

@@ -210,6 +210,10 @@ pub struct NdfMethod {
     /// triangle ([`TriangleConsts::flat`]); off only in the test that
     /// compares the two.
     flat_triangles: bool,
+    /// Whether rows may take the AVX2+FMA copy of the pixel loop
+    /// ([`NdfMethod::render_row`]); off only in the test that compares the
+    /// two.
+    simd: bool,
     /// The environment's SH to [`LAMBERT_TAIL_ORDER`] bands per channel, in
     /// the environment's frame, prepared: the Lambert tail's lighting.
     env_tail: LambertTail,
@@ -300,6 +304,7 @@ impl NdfMethod {
             raster: Rasterizer::new(),
             pending_lighting_ms: 0.0,
             flat_triangles: true,
+            simd: true,
             env_tail: LambertTail::default(),
             env_from_world: Mat3::IDENTITY,
             blinn_norm: match options.brdf {
@@ -326,6 +331,7 @@ impl NdfMethod {
     }
 
     /// Shades one visible point (everything in the tangent frame).
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn shade(
         &self,
@@ -491,6 +497,129 @@ impl NdfMethod {
         }
         out * o.colour
     }
+
+    /// One row of pixels: the body of [`Self::render`]'s loop, inlined into
+    /// [`Self::render_row`]'s portable and AVX2+FMA copies.
+    #[inline(always)]
+    fn row_body(&self, ctx: &RowCtx<'_>, y: usize, row: &mut [Vec3]) {
+        // The last triangle's constants (a row crosses few).
+        let mut cached: Option<TriangleConsts> = None;
+        for (x, px) in row.iter_mut().enumerate() {
+            let Some((d, tri, lam)) = ctx.raster.barycentrics_at(ctx.draws, x, y) else {
+                continue;
+            };
+            let o = &self.objects[d];
+            let [i0, i1, i2] = o.triangles[tri].map(|i| i as usize);
+            let tc = match &cached {
+                Some(tc) if tc.draw == d && tc.tri == tri => tc,
+                _ => cached.insert(TriangleConsts::new(
+                    ctx.basis,
+                    ctx.eye,
+                    o,
+                    d,
+                    tri,
+                    self.flat_triangles,
+                    &self.env_from_world,
+                )),
+            };
+            let mix3 = |a: Vec3, b: Vec3, c: Vec3| a * lam.x + b * lam.y + c * lam.z;
+            let position = mix3(o.positions[i0], o.positions[i1], o.positions[i2]);
+            let uv = o.uvs[i0] * lam.x + o.uvs[i1] * lam.y + o.uvs[i2] * lam.z;
+            let (frame, hand) = match &tc.flat {
+                Some(f) => (f.frame, f.hand),
+                None => {
+                    let n = mix3(o.normals[i0], o.normals[i1], o.normals[i2]).normalize_or(Vec3::Z);
+                    let tg =
+                        o.tangents[i0] * lam.x + o.tangents[i1] * lam.y + o.tangents[i2] * lam.z;
+                    (
+                        Frame::from_normal_tangent(n, tg.truncate()),
+                        if tg.w < 0.0 { -1.0 } else { 1.0 },
+                    )
+                }
+            };
+            let fp = match (&o.map, &tc.lod) {
+                // A `match`, not `map_or`: the generic `map_or` was not
+                // inlined, which kept `Footprint::of` out of the AVX2 copy.
+                (Some((_, b)), Some(tl)) => match tl.duv(ctx.basis, x as f32 + 0.5, y as f32 + 0.5)
+                {
+                    Some([dx, dy]) => Footprint::of(uv, dx, dy, b.width, b.height),
+                    None => Footprint::point(uv, 0.0),
+                },
+                _ => Footprint::point(uv, 0.0),
+            };
+            let pixel_env;
+            let env = match &tc.flat {
+                // One normal and tangent: the three vertices'
+                // lighting is the same (λ sums to 1 within an ulp),
+                // prepared once per triangle.
+                Some(f) => &f.env,
+                None => {
+                    let mut light = [0.0f32; 27];
+                    let (l0, l1, l2) = (
+                        &o.light[i0 * 27..i0 * 27 + 27],
+                        &o.light[i1 * 27..i1 * 27 + 27],
+                        &o.light[i2 * 27..i2 * 27 + 27],
+                    );
+                    for j in 0..27 {
+                        light[j] = l0[j] * lam.x + l1[j] * lam.y + l2[j] * lam.z;
+                    }
+                    pixel_env = PixelEnv::new(&light, &frame, hand, &self.env_from_world);
+                    &pixel_env
+                }
+            };
+            *px = self.shade(
+                o,
+                position,
+                ctx.eye,
+                &frame,
+                hand,
+                uv,
+                &fp,
+                env,
+                ctx.scene,
+                ctx.has_env,
+            );
+        }
+    }
+
+    /// [`Self::row_body`], compiled for the CPU it runs on: an AVX2+FMA copy
+    /// (VEX 3-operand code, `roundss` for floors) where the CPU has them,
+    /// else the baseline x86-64 copy. Rust does not contract `a * b + c`
+    /// into an FMA, so both copies compute the same f32 operations: the
+    /// same image bit for bit (tested).
+    fn render_row(&self, ctx: &RowCtx<'_>, y: usize, row: &mut [Vec3]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd && avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA (checked above).
+            unsafe { self.row_avx2(ctx, y, row) };
+            return;
+        }
+        self.row_body(ctx, y, row);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn row_avx2(&self, ctx: &RowCtx<'_>, y: usize, row: &mut [Vec3]) {
+        self.row_body(ctx, y, row);
+    }
+}
+
+/// What [`NdfMethod::row_body`] reads besides the method.
+struct RowCtx<'a> {
+    draws: &'a [DrawCall<'a>],
+    raster: &'a Rasterizer,
+    basis: &'a RayBasis,
+    eye: Vec3,
+    scene: &'a Scene,
+    has_env: bool,
+}
+
+/// Whether the CPU has AVX2 and FMA (detected once).
+#[cfg(target_arch = "x86_64")]
+fn avx2_fma() -> bool {
+    use std::sync::OnceLock;
+    static HAS: OnceLock<bool> = OnceLock::new();
+    *HAS.get_or_init(|| is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"))
 }
 
 /// The camera's unnormalized ray `D(px, py) = f + (px − cx) h_x + (py − cy) h_y`
@@ -574,7 +703,7 @@ impl TriangleLod {
 
     /// `[∂uv/∂x, ∂uv/∂y]` at pixel point `(px, py)`, `None` for a degenerate
     /// triangle or a ray (nearly) parallel to its plane.
-    #[inline]
+    #[inline(always)]
     fn duv(&self, basis: &RayBasis, px: f32, py: f32) -> Option<[Vec2; 2]> {
         let d = basis.ray(px, py);
         let (dn, da1, da2) = (d.dot(self.n), d.dot(self.a1), d.dot(self.a2));
@@ -884,75 +1013,18 @@ impl Relighter for NdfMethod {
                 .par_chunks_mut(w)
                 .enumerate()
                 .for_each(|(y, row)| {
-                    // The last triangle's constants (a row crosses few).
-                    let mut cached: Option<TriangleConsts> = None;
-                    for (x, px) in row.iter_mut().enumerate() {
-                        let Some((d, tri, lam)) = raster_ref.barycentrics_at(&draws, x, y) else {
-                            continue;
-                        };
-                        let o = &this.objects[d];
-                        let [i0, i1, i2] = o.triangles[tri].map(|i| i as usize);
-                        let tc = match &cached {
-                            Some(tc) if tc.draw == d && tc.tri == tri => tc,
-                            _ => cached.insert(TriangleConsts::new(
-                                &basis,
-                                eye,
-                                o,
-                                d,
-                                tri,
-                                this.flat_triangles,
-                                &this.env_from_world,
-                            )),
-                        };
-                        let mix3 = |a: Vec3, b: Vec3, c: Vec3| a * lam.x + b * lam.y + c * lam.z;
-                        let position = mix3(o.positions[i0], o.positions[i1], o.positions[i2]);
-                        let uv = o.uvs[i0] * lam.x + o.uvs[i1] * lam.y + o.uvs[i2] * lam.z;
-                        let (frame, hand) = match &tc.flat {
-                            Some(f) => (f.frame, f.hand),
-                            None => {
-                                let n = mix3(o.normals[i0], o.normals[i1], o.normals[i2])
-                                    .normalize_or(Vec3::Z);
-                                let tg = o.tangents[i0] * lam.x
-                                    + o.tangents[i1] * lam.y
-                                    + o.tangents[i2] * lam.z;
-                                (
-                                    Frame::from_normal_tangent(n, tg.truncate()),
-                                    if tg.w < 0.0 { -1.0 } else { 1.0 },
-                                )
-                            }
-                        };
-                        let fp = match (&o.map, &tc.lod) {
-                            (Some((_, b)), Some(tl)) => tl
-                                .duv(&basis, x as f32 + 0.5, y as f32 + 0.5)
-                                .map_or(Footprint::point(uv, 0.0), |[dx, dy]| {
-                                    Footprint::of(uv, dx, dy, b.width, b.height)
-                                }),
-                            _ => Footprint::point(uv, 0.0),
-                        };
-                        let pixel_env;
-                        let env = match &tc.flat {
-                            // One normal and tangent: the three vertices'
-                            // lighting is the same (λ sums to 1 within an ulp),
-                            // prepared once per triangle.
-                            Some(f) => &f.env,
-                            None => {
-                                let mut light = [0.0f32; 27];
-                                let (l0, l1, l2) = (
-                                    &o.light[i0 * 27..i0 * 27 + 27],
-                                    &o.light[i1 * 27..i1 * 27 + 27],
-                                    &o.light[i2 * 27..i2 * 27 + 27],
-                                );
-                                for j in 0..27 {
-                                    light[j] = l0[j] * lam.x + l1[j] * lam.y + l2[j] * lam.z;
-                                }
-                                pixel_env =
-                                    PixelEnv::new(&light, &frame, hand, &this.env_from_world);
-                                &pixel_env
-                            }
-                        };
-                        *px = this
-                            .shade(o, position, eye, &frame, hand, uv, &fp, env, scene, has_env);
-                    }
+                    this.render_row(
+                        &RowCtx {
+                            draws: &draws,
+                            raster: raster_ref,
+                            basis: &basis,
+                            eye,
+                            scene,
+                            has_env,
+                        },
+                        y,
+                        row,
+                    );
                 });
         }
         let out = Rendered::from_samples(
@@ -1032,6 +1104,57 @@ mod tests {
                 .map(|(p, q)| (*p - *q).abs().max_element())
                 .fold(0.0f32, f32::max);
             assert!(worst <= 1e-5 * peak, "{filter:?}: {worst} of peak {peak}");
+        }
+    }
+
+    #[test]
+    fn avx2_rows_are_the_portable_rows_bit_for_bit() {
+        #[cfg(target_arch = "x86_64")]
+        if !avx2_fma() {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI: this CPU lacks AVX2+FMA, so the fast row path is untested"
+            );
+            return;
+        }
+        let map = NormalMap::bumps(64, 4, 0.8);
+        for (filter, brdf) in [
+            (NdfFilter::Sh, NdfBrdf::Lambert),
+            (NdfFilter::Vmf, NdfBrdf::Blinn { s: 64.0 }),
+            (NdfFilter::Toksvig, NdfBrdf::Blinn { s: 64.0 }),
+            (NdfFilter::Lean, NdfBrdf::Blinn { s: 64.0 }),
+        ] {
+            let mut scene = crate::verify::horizon_plane_scene(&map, brdf, 96, 16.0);
+            scene.env = relight_sphere::EnvMap::from_fn(
+                relight_sphere::Param::LatLong {
+                    width: 32,
+                    height: 16,
+                },
+                |d| Vec3::new(0.5 + 0.5 * d.y.max(0.0), 0.4, 0.3 + 0.2 * d.x.abs()),
+            );
+            let mut m = NdfMethod::new(NdfOptions {
+                filter,
+                brdf,
+                vmf: VmfBakeOptions {
+                    lobes: 3,
+                    ..VmfBakeOptions::default()
+                },
+                ..NdfOptions::default()
+            })
+            .expect("options");
+            m.prepare(&scene, &NoProgress).expect("prepare");
+            let req = FrameRequest::new(scene.camera);
+            let fast = m.render(&scene, &req, &NoProgress).expect("render");
+            m.simd = false;
+            let slow = m.render(&scene, &req, &NoProgress).expect("render");
+            assert!(slow.image.pixels.iter().any(|p| p.max_element() > 0.0));
+            for (p, q) in fast.image.pixels.iter().zip(&slow.image.pixels) {
+                assert_eq!(
+                    p.to_array().map(f32::to_bits),
+                    q.to_array().map(f32::to_bits),
+                    "{filter:?}: {p} vs {q}"
+                );
+            }
         }
     }
 

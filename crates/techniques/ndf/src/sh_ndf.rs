@@ -128,29 +128,30 @@ impl ShNdfPyramid {
 
     /// The mean of [`Self::sample`] over an anisotropic footprint's probes
     /// into `out` (`order²` entries; SH coefficients filter linearly).
-    #[inline]
+    #[inline(always)]
     pub fn sample_footprint(&self, fp: &crate::Footprint, out: &mut [f32]) {
         let nn = self.order * self.order;
         let out = &mut out[..nn];
         out.fill(0.0);
         if nn == 9 {
-            // Lambert's order: the accumulators in registers (two 4-wide
-            // and one scalar), each tap `acc += c·w` as the generic loop,
-            // the taps visited as they are computed.
-            let (mut a, mut b, mut c8) = (glam::Vec4::ZERO, glam::Vec4::ZERO, 0.0f32);
+            // Lambert's order: the accumulators in registers (8 lanes and
+            // one scalar: one 256-bit lane group in an AVX2 caller, two
+            // 128-bit ones in the baseline), each tap `acc += c·w` as the
+            // generic loop, the taps visited as they are computed.
+            let (mut a, mut c8) = ([0.0f32; 8], 0.0f32);
             let (lv, count) = fp.level_weights(self.levels.len());
             for &(k, wk) in &lv[..count] {
                 let l = &self.levels[k];
                 let (texels, _) = l.coeffs.as_chunks::<9>();
                 fp.visit_level((l.width, l.height), wk, |i, w| {
                     let c = &texels[i];
-                    a += glam::Vec4::new(c[0], c[1], c[2], c[3]) * w;
-                    b += glam::Vec4::new(c[4], c[5], c[6], c[7]) * w;
+                    for j in 0..8 {
+                        a[j] += c[j] * w;
+                    }
                     c8 += w * c[8];
                 });
             }
-            out[..4].copy_from_slice(&a.to_array());
-            out[4..8].copy_from_slice(&b.to_array());
+            out[..8].copy_from_slice(&a);
             out[8] = c8;
             return;
         }
