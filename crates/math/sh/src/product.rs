@@ -214,10 +214,12 @@ impl<T: Real> TripleProduct<T> {
         nn * nn
     }
 
-    /// `out = f ∗ g`, the fast form: the symmetric pair products
-    /// `S = f gᵀ + g fᵀ` (upper triangle, a vectorised sweep) into `scratch`,
-    /// then `out_i = Σ w S_{jk}` over the output-major sparse list (register
-    /// accumulation, no read-modify-write chains).
+    /// `out = f ∗ g`, the fast form. In f32: the generated kernel (n ≤ 6) or
+    /// the pseudo-spectral product (n = 7…10), see `product_fast`. Otherwise
+    /// the symmetric pair products `S = f gᵀ + g fᵀ` (upper triangle, a
+    /// vectorised sweep) into `scratch`, then `out_i = Σ w S_{jk}` over the
+    /// output-major sparse list (register accumulation, no read-modify-write
+    /// chains).
     ///
     /// # Panics
     /// If a slice is shorter than `order²` or `scratch` than [`scratch_len`](Self::scratch_len).
@@ -272,11 +274,19 @@ impl<T: Real> TripleProduct<T> {
     }
 
     /// `out = f ∗ f` via the pair products `S = 2 f fᵀ`; see [`product_with`](Self::product_with).
+    /// In f32 at n = 7…10 it is the pseudo-spectral product of `f` with itself
+    /// (same tolerance as `product_fast`).
     ///
     /// # Panics
     /// As [`product_with`](Self::product_with).
     #[inline]
     pub fn square_with(&self, f: &[T], out: &mut [T], scratch: &mut [T]) {
+        if let (Some(h), Some(f), Some(out)) =
+            (&self.high, T::as_f32_slice(f), T::as_f32_slice_mut(out))
+        {
+            h.product(f, f, out);
+            return;
+        }
         let nn = self.order * self.order;
         let (f, out) = (&f[..nn], &mut out[..nn]);
         let s = &mut scratch[..nn * nn];

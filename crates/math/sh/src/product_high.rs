@@ -414,6 +414,9 @@ mod tests {
             hp.product(&f, &g, &mut c);
             assert_eq!(a, c, "n {n} product");
             assert_eq!(b, c, "n {n} product_with");
+            tp.square_with(&f, &mut a, &mut scratch);
+            hp.product(&f, &f, &mut c);
+            assert_eq!(a, c, "n {n} square_with");
         }
         assert!(HighProduct::new(6).is_none());
         assert!(HighProduct::new(11).is_none());
