@@ -45,6 +45,15 @@ fn options(dir: &std::path::Path) -> TripleOptions {
     }
 }
 
+/// The image of `sc` by a fresh method with `options`.
+fn image(sc: &Scene, options: TripleOptions) -> relight_render::Image {
+    let mut m = TripleMethod::new(options).unwrap();
+    m.prepare(sc, &NoProgress).unwrap();
+    render_frame(&mut m, sc, &FrameRequest::new(sc.camera), &NoProgress)
+        .unwrap()
+        .image
+}
+
 fn tmp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("relight-triple-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -95,15 +104,13 @@ fn interpolated_functions_track_the_per_pixel_lookup() {
     sc.camera.height = 72;
     let dir = tmp("interpolated");
     let render = |shading| {
-        let mut m = TripleMethod::new(TripleOptions {
-            shading,
-            ..options(&dir)
-        })
-        .unwrap();
-        m.prepare(&sc, &NoProgress).unwrap();
-        render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress)
-            .unwrap()
-            .image
+        image(
+            &sc,
+            TripleOptions {
+                shading,
+                ..options(&dir)
+            },
+        )
     };
     let pixel = render(Shading::Pixel);
     let interpolated = render(Shading::Interpolated);
@@ -218,15 +225,13 @@ fn svbrdf_is_linear_in_the_blend_weight() {
             } else {
                 sc.objects[1].brdf = glossy.clone();
             }
-            let mut m = TripleMethod::new(TripleOptions {
-                shading,
-                ..options(&dir)
-            })
-            .unwrap();
-            m.prepare(&sc, &NoProgress).unwrap();
-            render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress)
-                .unwrap()
-                .image
+            image(
+                &sc,
+                TripleOptions {
+                    shading,
+                    ..options(&dir)
+                },
+            )
         };
         let a = render(Some(0.0));
         let b = render(None);
@@ -264,25 +269,13 @@ fn bump_mapping_flat_is_exact_bumps_change_the_image_and_vertex_refuses() {
     assert!(rows[2].value < 0.2, "{:?}", rows[2]);
     // A bumpy map changes the image; per-vertex shading refuses it.
     let mut s = scene(env, false);
-    let plain = {
-        let mut m = TripleMethod::new(options(&dir)).unwrap();
-        m.prepare(&s, &NoProgress).unwrap();
-        render_frame(&mut m, &s, &FrameRequest::new(s.camera), &NoProgress)
-            .unwrap()
-            .image
-    };
+    let plain = image(&s, options(&dir));
     // A flat map at a size with silhouette pixels (normals facing away).
     let flat = Arc::new(relight_render::NormalMap::from_vectors(1, 1, &[Vec3::Z]).unwrap());
     let mut big = s.clone();
     big.camera.width = 160;
     big.camera.height = 120;
-    let render = |scene: &Scene| {
-        let mut m = TripleMethod::new(options(&dir)).unwrap();
-        m.prepare(scene, &NoProgress).unwrap();
-        render_frame(&mut m, scene, &FrameRequest::new(scene.camera), &NoProgress)
-            .unwrap()
-            .image
-    };
+    let render = |scene: &Scene| image(scene, options(&dir));
     let plain_big = render(&big);
     for o in &mut big.objects {
         let mut mesh = (*o.mesh).clone();
@@ -452,19 +445,17 @@ fn adaptive_selection_per_vertex_keeps_all_at_5120_and_beats_top_only() {
     let sc = scene(env, true);
     let dir = tmp("adaptive");
     let render = |terms: usize, selection: relight_triple::Selection| {
-        let mut m = TripleMethod::new(TripleOptions {
-            terms,
-            selection,
-            twists: 1,
-            vis_level: 4,
-            shading: Shading::Vertex,
-            ..options(&dir)
-        })
-        .unwrap();
-        m.prepare(&sc, &NoProgress).unwrap();
-        render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress)
-            .unwrap()
-            .image
+        image(
+            &sc,
+            TripleOptions {
+                terms,
+                selection,
+                twists: 1,
+                vis_level: 4,
+                shading: Shading::Vertex,
+                ..options(&dir)
+            },
+        )
     };
     use relight_triple::Selection::{Adaptive, Top};
     let full = render(5120, Top);
