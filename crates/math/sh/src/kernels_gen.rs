@@ -19,8 +19,13 @@
 //!   grouped by index pair, DirectXMath's factorisation: for the pair `(a, b)`
 //!   `t = f_a g_b + f_b g_a` feeds every `y_k` of its triples `{a, b, k}`, and
 //!   `Σ_k Γ f_k`, `Σ_k Γ g_k` feed `y_a` and `y_b` (≈ 3 multiply–adds per
-//!   triple); in chunks above n = 4, each chunk with a portable and an
-//!   AVX2+FMA copy.
+//!   triple); in chunks above n = 4, each chunk with a portable, an
+//!   AVX2+FMA and an AVX-512F copy (the same code with 32 registers). The
+//!   one-chunk kernels (n ≤ 4) read their inputs through fresh pointers per
+//!   pair block ([`crate::lanes::fresh`]), so the inputs are memory operands
+//!   and only the accumulators stay in registers.
+//! * **rotation** runs band by band (all five stages of one band, then the
+//!   next), so only one band's intermediates are live at a time.
 //!
 //! A test regenerates the file and fails on any difference (the CI drift
 //! check); `RELIGHT_SH_REGENERATE=1 cargo test -p relight-sh kernels_source`
