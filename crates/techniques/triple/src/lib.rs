@@ -71,6 +71,7 @@ pub use select::{Selection, SparseVec, select};
 pub mod bench;
 pub mod brdf_table;
 pub mod cache;
+pub mod interpolated;
 pub mod lighting;
 pub mod medium;
 pub mod method;

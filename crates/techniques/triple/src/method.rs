@@ -46,6 +46,7 @@ use crate::adaptive::{ADAPTIVE_LEVEL, select_visibility, shade_adaptive};
 use crate::basis::{Basis, triangles};
 use crate::brdf_table::BrdfTable;
 use crate::cache::{self, BRDF_MAGIC, VIS_MAGIC, bake_or_load, hash_parts};
+use crate::interpolated::{ObjectFunctions, TriangleTables};
 use crate::lighting::{LightTable, frame_of, prefilter};
 use crate::medium::FoggyLighting;
 use crate::quadrature::{LeafGrid, Weighting};
@@ -213,6 +214,8 @@ pub struct TripleMethod {
     colors: Vec<Vec<Vec3>>,
     /// Per object, the vertices' functions of [`Shading::Interpolated`].
     vertex_fns: Vec<VertexFunctions>,
+    /// The covered triangles' tensors of [`Shading::Interpolated`].
+    triangle_tables: TriangleTables,
     pending_lighting_ms: f64,
     loads: usize,
     bakes: usize,
@@ -331,6 +334,7 @@ impl TripleMethod {
             frame: Image::new(0, 0),
             colors: Vec::new(),
             vertex_fns: Vec::new(),
+            triangle_tables: TriangleTables::default(),
             pending_lighting_ms: 0.0,
             loads: 0,
             bakes: 0,
@@ -632,6 +636,21 @@ fn vertex_functions(
         crate::shade::blend_function(&p.brdf.data, &bt, p.brdf.stride, padded, b);
         bt
     };
+    fns.vis.clear();
+    if let (Some(v), 0) = (&p.vis, p.vis_res) {
+        fns.vis.resize(p.mesh.positions.len() * padded, 0.0);
+        fns.vis
+            .par_chunks_mut(padded)
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(i, out)| {
+                let tap = crate::lighting::Tap {
+                    offset: (i * padded) as u32,
+                    weight: 1.0,
+                };
+                crate::shade::blend_function(v, &[tap], padded, padded, out);
+            });
+    }
     let rows = light.par_chunks_mut(row).zip(brdf.par_chunks_mut(row));
     match (second, &p.blend) {
         (Some(second), Some((table2, _))) => rows
@@ -656,6 +675,27 @@ struct VertexFunctions {
     light: Planes,
     brdf: Planes,
     second: Option<Planes>,
+    /// Per-vertex visibility decoded to f32 (`padded` cells per vertex;
+    /// empty without per-vertex visibility).
+    vis: Vec<f32>,
+}
+
+impl VertexFunctions {
+    /// The object's functions for [`TriangleTables`], when its visibility
+    /// is per vertex (or absent).
+    fn tables_input<'a>(&'a self, p: &'a Prepared) -> Option<ObjectFunctions<'a>> {
+        let f32s = |planes: &'a Planes| match planes {
+            Planes::F32(v) => &v[..],
+            _ => &[],
+        };
+        (p.vis_res == 0).then(|| ObjectFunctions {
+            indices: &p.mesh.indices,
+            light: f32s(&self.light),
+            brdf: f32s(&self.brdf),
+            second: self.second.as_ref().map(f32s),
+            vis: p.vis.is_some().then_some(&self.vis[..]),
+        })
+    }
 }
 
 /// Shades one point: world normal `n`, to-eye `to_eye`, by `product`.
@@ -1049,6 +1089,14 @@ impl Relighter for TripleMethod {
                     vertex_functions(table, rot, p, eye, fns);
                 }
                 let fns = &self.vertex_fns;
+                let inputs: Vec<Option<ObjectFunctions>> = objects
+                    .iter()
+                    .zip(fns)
+                    .map(|(p, f)| f.tables_input(p))
+                    .collect();
+                self.triangle_tables
+                    .build(&self.raster.gbuffer().triangle, &inputs, stride);
+                let tables = &self.triangle_tables;
                 self.raster
                     .shade(
                         &draws,
@@ -1057,6 +1105,22 @@ impl Relighter for TripleMethod {
                             let f = &fns[frag.draw as usize];
                             let tri = p.mesh.indices[frag.triangle as usize];
                             let l = frag.barycentrics;
+                            let (d, t) = (frag.draw as usize, frag.triangle as usize);
+                            if let Some(c) = tables.shade(d, t, l, false) {
+                                let c = match &p.blend {
+                                    Some((_, blend)) => {
+                                        let u = &p.mesh.uvs;
+                                        let uv = u[tri[0] as usize] * l.x
+                                            + u[tri[1] as usize] * l.y
+                                            + u[tri[2] as usize] * l.z;
+                                        let w = blend.weight_at(uv);
+                                        let c2 = tables.shade(d, t, l, true).unwrap_or(Vec3::ZERO);
+                                        c * (1.0 - w) + c2 * w
+                                    }
+                                    None => c,
+                                };
+                                return segment(c, frag.position);
+                            }
                             let mut lt = [crate::lighting::Tap::default(); 6];
                             let mut bt = [crate::lighting::Tap::default(); 4];
                             for (a, w) in [l.x, l.y, l.z].into_iter().enumerate() {
@@ -1141,9 +1205,11 @@ impl Relighter for TripleMethod {
         ))
     }
 
-    /// Multiply-adds per cell ([`FMA_PER_CELL`] per pixel sample or vertex;
-    /// interpolated: [`FMA_PER_CELL_INTERPOLATED`] per pixel plus
-    /// [`FMA_PER_VERTEX_CELL`] per vertex) × padded cells.
+    /// Multiply-adds per cell ([`FMA_PER_CELL`] per pixel sample or vertex)
+    /// × padded cells; interpolated: [`FMA_PER_VERTEX_CELL`] per vertex and
+    /// [`crate::interpolated::FMA_PER_TRIANGLE_CELL`] per built triangle per
+    /// cell, [`crate::interpolated::FMA_PER_PIXEL`] per pixel of those
+    /// triangles, [`FMA_PER_CELL_INTERPOLATED`] per cell for the others.
     fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
         let table = self.table.as_ref()?;
         let pixels = self.raster.gbuffer().covered_pixels();
@@ -1152,7 +1218,24 @@ impl Relighter for TripleMethod {
             Shading::Pixel => pixels * FMA_PER_CELL,
             Shading::Vertex => vertices * FMA_PER_CELL,
             Shading::Interpolated => {
-                pixels * FMA_PER_CELL_INTERPOLATED + vertices * FMA_PER_VERTEX_CELL
+                // Pixels of triangles with a tensor cost a fixed count;
+                // the others (visibility textures) the per-cell kernel.
+                let g = self.raster.gbuffer();
+                let tensor_pixels = g
+                    .triangle
+                    .iter()
+                    .filter(|&&t| self.triangle_tables.covers(t))
+                    .count();
+                let t = &self.triangle_tables;
+                let fixed = tensor_pixels * crate::interpolated::FMA_PER_PIXEL;
+                return Some(FrameWork {
+                    view_fma: (fixed
+                        + ((pixels - tensor_pixels) * FMA_PER_CELL_INTERPOLATED
+                            + t.built() * crate::interpolated::FMA_PER_TRIANGLE_CELL
+                            + vertices * FMA_PER_VERTEX_CELL)
+                            * table.padded) as f64,
+                    lighting_fma: 0.0,
+                });
             }
         };
         let _ = request;
