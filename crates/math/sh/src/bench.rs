@@ -464,10 +464,10 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
             );
             escape(&dst[..]);
         });
-        let how = if n >= 7 {
+        let how = if n >= crate::product_high::HIGH_MIN_ORDER {
             "f32 pseudo-spectral: 16-node Gauss z × φ-Fourier convolution"
         } else {
-            "pair products + output-major Γ"
+            "generated straight-line kernel (Gaunt triples grouped by pair)"
         };
         rows.push(row("product", n, 0.0, a, a, how.into()));
         let a = time_ns(r, batches, |i| {

@@ -53,7 +53,7 @@ pub struct TripleProduct<T> {
     /// so that `(f ∗ g)_i = Σ w S_{jk}` with `S = f gᵀ + g fᵀ`.
     pairs: Vec<(u32, T)>,
     out_start: Vec<u32>,
-    /// Orders 7…10: the f32 pseudo-spectral product ([`crate::product_high`]).
+    /// Orders 5…10: the f32 pseudo-spectral product ([`crate::product_high`]).
     high: Option<Box<crate::product_high::HighProduct>>,
 }
 
@@ -215,7 +215,7 @@ impl<T: Real> TripleProduct<T> {
     }
 
     /// `out = f ∗ g`, the fast form. In f32: the generated kernel (n ≤ 6) or
-    /// the pseudo-spectral product (n = 7…10), see `product_fast`. Otherwise
+    /// the pseudo-spectral product (n = 5…10), see `product_fast`. Otherwise
     /// the symmetric pair products `S = f gᵀ + g fᵀ` (upper triangle, a
     /// vectorised sweep) into `scratch`, then `out_i = Σ w S_{jk}` over the
     /// output-major sparse list (register accumulation, no read-modify-write
@@ -233,7 +233,7 @@ impl<T: Real> TripleProduct<T> {
 
     /// The f32 fast paths, where one exists: the generated straight-line
     /// kernel ([`crate::fast`], n ≤ 6) or the pseudo-spectral product
-    /// ([`crate::product_high`], n = 7…10; equal to the Gaunt sum up to f32
+    /// ([`crate::product_high`], n = 5…10; equal to the Gaunt sum up to f32
     /// rounding, `|Δ_i| ≤ 2·10⁻⁷ ‖f‖₂‖g‖₂`).
     #[inline(always)]
     fn product_fast(&self, f: &[T], g: &[T], out: &mut [T]) -> bool {
@@ -274,7 +274,7 @@ impl<T: Real> TripleProduct<T> {
     }
 
     /// `out = f ∗ f` via the pair products `S = 2 f fᵀ`; see [`product_with`](Self::product_with).
-    /// In f32 at n = 7…10 it is the pseudo-spectral product of `f` with itself
+    /// In f32 at n = 5…10 it is the pseudo-spectral product of `f` with itself
     /// (same tolerance as `product_fast`).
     ///
     /// # Panics

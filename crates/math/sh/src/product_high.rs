@@ -1,4 +1,4 @@
-//! The truncated SH product at orders 7…10 in f32, pseudo-spectrally:
+//! The truncated SH product at orders 5…10 in f32, pseudo-spectrally:
 //! synthesis on a Gauss–Legendre grid in `z`, the product of the two φ-Fourier
 //! series by convolution, and analysis back to SH by the same rule.
 //!
@@ -26,7 +26,7 @@
 //! truncated product of [`crate::product::TripleProduct::product_triples`]
 //! up to f32 rounding only: the tests bound `|Δ_i| ≤ 2·10⁻⁷ · ‖f‖₂‖g‖₂`
 //! against the f64 Gaunt product on the same (f32) inputs (measured
-//! ≤ 1.8·10⁻⁸ at n = 7…10).
+//! ≤ 1.8·10⁻⁸ at n = 7…10; n = 5, 6 are tested the same way).
 //!
 //! # Paths
 //! One generic kernel, instantiated for the portable 8-lane array type
@@ -41,7 +41,7 @@ use crate::lanes::{Lane, V};
 use std::f64::consts::PI;
 
 /// Lowest order taken by this path.
-pub(crate) const HIGH_MIN_ORDER: usize = 7;
+pub(crate) const HIGH_MIN_ORDER: usize = 5;
 /// Highest order taken by this path (the 16-node rule is exact up to here).
 pub(crate) const HIGH_MAX_ORDER: usize = 10;
 /// Gauss–Legendre nodes in `z` (8 north + 8 mirrored south).
@@ -209,11 +209,13 @@ impl HighProduct {
     #[inline(always)]
     fn dispatch<W: Vec8>(&self, f: &[f32], g: &[f32], out: &mut [f32]) {
         match self.order {
+            5 => self.kernel::<W, 5>(f, g, out),
+            6 => self.kernel::<W, 6>(f, g, out),
             7 => self.kernel::<W, 7>(f, g, out),
             8 => self.kernel::<W, 8>(f, g, out),
             9 => self.kernel::<W, 9>(f, g, out),
             10 => self.kernel::<W, 10>(f, g, out),
-            _ => unreachable!("HighProduct is only built for orders 7..=10"),
+            _ => unreachable!("HighProduct is only built for orders 5..=10"),
         }
     }
 
@@ -397,7 +399,7 @@ mod tests {
         }
     }
 
-    /// The public entry points take this path at orders 7…10 in f32.
+    /// The public entry points take this path at orders 5…10 in f32.
     #[test]
     fn triple_product_uses_it() {
         for n in HIGH_MIN_ORDER..=HIGH_MAX_ORDER {
@@ -418,7 +420,7 @@ mod tests {
             hp.product(&f, &f, &mut c);
             assert_eq!(a, c, "n {n} square_with");
         }
-        assert!(HighProduct::new(6).is_none());
+        assert!(HighProduct::new(HIGH_MIN_ORDER - 1).is_none());
         assert!(HighProduct::new(11).is_none());
     }
 }
