@@ -628,13 +628,17 @@ fn vertex_functions(
             None
         }
     };
+    let used = &fns.used;
     let one = |v: usize, l: &mut [f32], b: &mut [f32]| {
+        if !used[v] {
+            return None;
+        }
         let n = p.mesh.normals[v];
         let to_eye = (eye - p.mesh.positions[v]).normalize_or(n);
         let (lt, bt) = point_taps(table, rot, &p.brdf, n, to_eye);
         crate::shade::blend_function(&table.data, &lt, table.stride, padded, l);
         crate::shade::blend_function(&p.brdf.data, &bt, p.brdf.stride, padded, b);
-        bt
+        Some(bt)
     };
     fns.vis.clear();
     if let (Some(v), 0) = (&p.vis, p.vis_res) {
@@ -658,12 +662,39 @@ fn vertex_functions(
             .enumerate()
             .with_min_len(64)
             .for_each(|(v, ((l, b), b2))| {
-                let bt = one(v, l, b);
-                crate::shade::blend_function(&table2.data, &bt, table2.stride, padded, b2);
+                if let Some(bt) = one(v, l, b) {
+                    crate::shade::blend_function(&table2.data, &bt, table2.stride, padded, b2);
+                }
             }),
         _ => rows.enumerate().with_min_len(64).for_each(|(v, (l, b))| {
             one(v, l, b);
         }),
+    }
+}
+
+/// Marks, per object, the vertices of the triangles `triangle_ids` (the
+/// G-buffer's global ids, objects' triangles numbered in order) shows.
+fn mark_used_vertices(triangle_ids: &[u32], objects: &[Prepared], fns: &mut [VertexFunctions]) {
+    let mut offsets = Vec::with_capacity(objects.len() + 1);
+    let mut total = 0usize;
+    for (p, f) in objects.iter().zip(fns.iter_mut()) {
+        offsets.push(total);
+        total += p.mesh.indices.len();
+        f.used.clear();
+        f.used.resize(p.mesh.positions.len(), false);
+    }
+    offsets.push(total);
+    let mut last = usize::MAX;
+    for &id in triangle_ids {
+        let id = id as usize;
+        if id >= total || id == last {
+            continue;
+        }
+        last = id;
+        let d = offsets.partition_point(|&o| o <= id) - 1;
+        for v in objects[d].mesh.indices[id - offsets[d]] {
+            fns[d].used[v as usize] = true;
+        }
     }
 }
 
@@ -678,6 +709,9 @@ struct VertexFunctions {
     /// Per-vertex visibility decoded to f32 (`padded` cells per vertex;
     /// empty without per-vertex visibility).
     vis: Vec<f32>,
+    /// The vertices of the triangles the frame shows: only their functions
+    /// are computed (the others' rows are stale and never read).
+    used: Vec<bool>,
 }
 
 impl VertexFunctions {
@@ -1085,6 +1119,11 @@ impl Relighter for TripleMethod {
                 let row = 3 * stride;
                 self.vertex_fns
                     .resize_with(objects.len(), VertexFunctions::default);
+                mark_used_vertices(
+                    &self.raster.gbuffer().triangle,
+                    objects,
+                    &mut self.vertex_fns,
+                );
                 for (p, fns) in objects.iter().zip(&mut self.vertex_fns) {
                     vertex_functions(table, rot, p, eye, fns);
                 }
@@ -1206,7 +1245,8 @@ impl Relighter for TripleMethod {
     }
 
     /// Multiply-adds per cell ([`FMA_PER_CELL`] per pixel sample or vertex)
-    /// × padded cells; interpolated: [`FMA_PER_VERTEX_CELL`] per vertex and
+    /// × padded cells; interpolated: [`FMA_PER_VERTEX_CELL`] per vertex of a
+    /// shown triangle and
     /// [`crate::interpolated::FMA_PER_TRIANGLE_CELL`] per built triangle per
     /// cell, [`crate::interpolated::FMA_PER_PIXEL`] per pixel of those
     /// triangles, [`FMA_PER_CELL_INTERPOLATED`] per cell for the others.
@@ -1228,6 +1268,11 @@ impl Relighter for TripleMethod {
                     .count();
                 let t = &self.triangle_tables;
                 let fixed = tensor_pixels * crate::interpolated::FMA_PER_PIXEL;
+                let vertices: usize = self
+                    .vertex_fns
+                    .iter()
+                    .map(|f| f.used.iter().filter(|&&u| u).count())
+                    .sum();
                 return Some(FrameWork {
                     view_fma: (fixed
                         + ((pixels - tensor_pixels) * FMA_PER_CELL_INTERPOLATED
