@@ -680,7 +680,10 @@ pub fn rotate_rgb(
 }
 
 /// Channel-wise truncated product of two RGB coefficient triples,
-/// `out_c = f_c ∗ g_c` for c = R, G, B, with the generated mono kernel per channel. Orders `1 ..=` [`KERNEL_PRODUCT_MAX_ORDER`].
+/// `out_c = f_c ∗ g_c` for c = R, G, B, with the mono product per channel:
+/// the generated kernel below [`crate::product_high::HIGH_MIN_ORDER`], the
+/// pseudo-spectral one from there (tables built once per order). Orders
+/// `1 ..=` [`KERNEL_PRODUCT_MAX_ORDER`].
 ///
 /// # Errors
 /// [`ShError::OrderOutOfRange`] or [`ShError::LengthMismatch`].
@@ -698,8 +701,14 @@ pub fn product_rgb(
     for c in &out {
         check_len("output channel", order, c.len(), nn)?;
     }
+    let high = crate::product_high::HighProduct::cached(order);
     for ((f, g), out) in f.into_iter().zip(g).zip(out) {
-        product_one(order, f, g, out);
+        match high {
+            Some(h) => h.product(f, g, out),
+            None => {
+                product_one(order, f, g, out);
+            }
+        }
     }
     Ok(())
 }
@@ -1281,4 +1290,4 @@ const _: () = assert!(KERNEL_EVAL_MAX_ORDER <= MAX_ORDER);
 
 #[cfg(test)]
 #[path = "fast_tests.rs"]
-mod tests;
+pub(crate) mod tests;

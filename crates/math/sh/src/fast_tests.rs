@@ -9,7 +9,7 @@ use crate::rotation::ZyzRotation;
 
 /// True when the AVX2+FMA kernels can run. Under `CI` a CPU without them fails
 /// the test instead of silently testing the portable path against itself.
-fn avx2_or_skip() -> bool {
+pub(crate) fn avx2_or_skip() -> bool {
     if crate::lanes::avx2_fma_available() {
         return true;
     }

@@ -167,6 +167,14 @@ impl HighProduct {
         })
     }
 
+    /// The tables of `order`, built once per process (`None` outside
+    /// `HIGH_MIN_ORDER ..= HIGH_MAX_ORDER`).
+    pub(crate) fn cached(order: usize) -> Option<&'static Self> {
+        static TABLES: [std::sync::OnceLock<Option<HighProduct>>; HIGH_MAX_ORDER + 1] =
+            [const { std::sync::OnceLock::new() }; HIGH_MAX_ORDER + 1];
+        TABLES.get(order)?.get_or_init(|| Self::new(order)).as_ref()
+    }
+
     /// `out = f ∗ g`, truncated to the order: AVX2 + FMA where available
     /// ([`crate::lanes::avx2_fma_available`]), else [`product_portable`](Self::product_portable).
     ///
@@ -329,18 +337,9 @@ mod tests {
         }
     }
 
-    /// True when the AVX2+FMA path can run. Under `CI` a CPU without it fails
-    /// the test instead of silently testing the portable path against itself.
+    /// True when the AVX2+FMA path can run (fails under `CI` without it).
     fn avx2_or_skip() -> bool {
-        if crate::lanes::avx2_fma_available() {
-            return true;
-        }
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI: this CPU lacks AVX2+FMA, so the AVX2 pseudo-spectral product cannot be tested here"
-        );
-        eprintln!("skipping the AVX2 half: this CPU lacks AVX2+FMA");
-        false
+        crate::fast::tests::avx2_or_skip()
     }
 
     /// Both paths against the f64 Gaunt-triple product, within `2e-7 ‖f‖‖g‖`.
