@@ -33,7 +33,7 @@ fn avx512_or_skip() -> bool {
     false
 }
 
-fn rng(seed: u64) -> impl FnMut() -> f64 {
+pub(crate) fn rng(seed: u64) -> impl FnMut() -> f64 {
     let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
     move || {
         s ^= s << 13;

@@ -327,14 +327,10 @@ mod tests {
     use super::*;
     use crate::product::TripleProduct;
 
+    /// Uniform in [−1, 1): twice `fast_tests`' generator (the same stream).
     fn rng(seed: u64) -> impl FnMut() -> f64 {
-        let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-        move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        }
+        let mut r = crate::fast::tests::rng(seed);
+        move || 2.0 * r()
     }
 
     /// True when the AVX2+FMA path can run (fails under `CI` without it).
