@@ -18,8 +18,10 @@
 //!   (`eval_inline`, plain multiply and add: no CPU test, no call), and
 //!   rotation has one non-inlined function per order and instruction set
 //!   (no jump table, each order its own stack frame), and from order
-//!   `AVX512_ROTATE_MIN_ORDER` (4) on a third copy compiled for AVX-512F (the
-//!   same scalar code with 32 registers instead of 16, fewer spills). [`crate::eval_sh_array`] takes
+//!   `AVX512_ROTATE_MIN_ORDER` (4) on a third copy for AVX-512 in which
+//!   bands ≥ 3 run with their coefficients across vector lanes
+//!   ([`crate::simd_bands`]; the scalar copies are bound by their multiply
+//!   count there). [`crate::eval_sh_array`] takes
 //!   the order as an array length, so even the order dispatch goes.
 //! * Rotation takes the 3×3 matrix: bands 1 and 2 come straight from it (a
 //!   linear and a quadratic form, no Euler angles: order ≤ 3 needs no square
@@ -324,6 +326,42 @@ fn rotate_fixed<const F: bool, const N: usize, const NN: usize>(
     kernels::rotate::<V<1, F>>(N, &matrix_array::<F>(m), &e, as_v1(src), as_v1_mut(dst));
 }
 
+/// [`rotate_fixed`] for the AVX-512 copies from order 4: bands 0–2 by the
+/// same scalar code (straight from the matrix), bands ≥ 3 in vector
+/// registers ([`crate::simd_bands`], `K` non-zeros per row of `X±`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline]
+fn rotate_fixed_avx512<const N: usize, const NN: usize, const K: usize>(
+    m: &[[f32; 3]; 3],
+    src: &[f32; NN],
+    dst: &mut [f32; NN],
+) {
+    let Some(e) = crate::rotation::euler_zyz_off_pole(&Rot3 { m: *m }) else {
+        // Near the poles: the scalar kernel with the general decomposition.
+        rotate_fixed::<true, N, NN>(m, src, dst);
+        return;
+    };
+    let head = [V::splat(0.0); 6];
+    kernels::rotate::<V<1, true>>(
+        3,
+        &matrix_array::<true>(m),
+        &head,
+        as_v1(&src[..9]),
+        as_v1_mut(&mut dst[..9]),
+    );
+    let angles = [
+        e.cos_alpha,
+        e.sin_alpha,
+        e.cos_beta,
+        e.sin_beta,
+        e.cos_gamma,
+        e.sin_gamma,
+    ];
+    let t = crate::simd_bands::BandTables::get(N);
+    crate::simd_bands::rotate_bands::<N, K>(t, angles, src, dst);
+}
+
 #[inline(always)]
 fn as_v1<const F: bool>(s: &[f32]) -> &[V<1, F>] {
     // SAFETY: as `as_v`.
@@ -358,7 +396,7 @@ fn head_mut<const K: usize>(s: &mut [f32]) -> &mut [f32; K] {
 /// order 6, and order 4 spilled its values through it: 24–32 ns against
 /// 10–13 ns at order 3.)
 macro_rules! rotate_per_order {
-    ($($n:literal $nn:literal $portable:ident $fma:ident $avx512:ident;)*) => {$(
+    ($($n:literal $nn:literal $k:literal $portable:ident $fma:ident $avx512:ident;)*) => {$(
         /// [`rotate_one`] at order
         #[doc = stringify!($n)]
         /// with plain multiply and add.
@@ -390,7 +428,11 @@ macro_rules! rotate_per_order {
         #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
         #[inline(never)]
         unsafe fn $avx512(m: &[[f32; 3]; 3], src: &[f32; $nn], dst: &mut [f32; $nn]) {
-            rotate_fixed::<true, $n, $nn>(m, src, dst);
+            if $n >= crate::simd_bands::BANDS_MIN_ORDER {
+                rotate_fixed_avx512::<$n, $nn, $k>(m, src, dst);
+            } else {
+                rotate_fixed::<true, $n, $nn>(m, src, dst);
+            }
         }
     )*
 
@@ -496,20 +538,19 @@ macro_rules! rotate_per_order {
 }
 
 rotate_per_order! {
-    1 1 rotate_n1_portable rotate_n1_fma rotate_n1_avx512;
-    2 4 rotate_n2_portable rotate_n2_fma rotate_n2_avx512;
-    3 9 rotate_n3_portable rotate_n3_fma rotate_n3_avx512;
-    4 16 rotate_n4_portable rotate_n4_fma rotate_n4_avx512;
-    5 25 rotate_n5_portable rotate_n5_fma rotate_n5_avx512;
-    6 36 rotate_n6_portable rotate_n6_fma rotate_n6_avx512;
+    1 1 0 rotate_n1_portable rotate_n1_fma rotate_n1_avx512;
+    2 4 0 rotate_n2_portable rotate_n2_fma rotate_n2_avx512;
+    3 9 0 rotate_n3_portable rotate_n3_fma rotate_n3_avx512;
+    4 16 2 rotate_n4_portable rotate_n4_fma rotate_n4_avx512;
+    5 25 3 rotate_n5_portable rotate_n5_fma rotate_n5_avx512;
+    6 36 3 rotate_n6_portable rotate_n6_fma rotate_n6_avx512;
 }
 
-/// Smallest order at which [`rotate_one`] takes the AVX-512 copy (the same
-/// scalar code with 32 vector registers instead of 16: fewer spills). With
-/// one function per order, pinned, alternating `set_isa_limit`: order 4
-/// 21.0 ns against 23.2 ns for the AVX2 copy, order 5 34.5 against 37.3 ns,
-/// order 6 49.4 against 56.1 ns; order 3 equal (9.1 ns).
-#[cfg(target_arch = "x86_64")]
+/// Smallest order at which [`rotate_one`] takes the AVX-512 copy: bands 0–2
+/// by the scalar code, bands ≥ 3 in vector registers
+/// ([`crate::simd_bands`]). Pinned, `relight bench sh` (`zyz` total):
+/// order 4 24.8 → 18.7 ns, order 5 34.1 → 24.8 ns, order 6 49.4 → 37.5 ns
+/// against the same scalar code for every band.
 pub(crate) const AVX512_ROTATE_MIN_ORDER: usize = 4;
 
 /// Generated rotation of one f32 vector given its ZYZ angles (the matrix is

@@ -17,8 +17,9 @@ pub enum Isa {
     Portable,
     /// AVX2 with FMA.
     Avx2,
-    /// AVX-512F (the register-resident rotation kernels of [`crate::rotation`]
-    /// and [`crate::taylor`]).
+    /// AVX-512F with AVX-512VL, AVX2 and FMA (the register-resident rotation
+    /// kernels of [`crate::rotation`] and [`crate::taylor`], and the vector
+    /// bands of [`crate::fast`]'s rotation from order 4).
     Avx512,
 }
 
@@ -53,11 +54,18 @@ pub fn detected_isa() -> Isa {
 fn detect() -> Isa {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx512f") {
+        let avx2 = std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma");
+        // The AVX-512 copies are compiled with VL, AVX2 and FMA as well
+        // (256-bit masked operations, FMA scalars): a CPU with AVX-512F alone
+        // (Knights Landing lacks VL) runs the AVX2 copies.
+        if avx2
+            && std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl")
+        {
             return Isa::Avx512;
         }
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
+        if avx2 {
             return Isa::Avx2;
         }
     }

@@ -94,6 +94,7 @@ pub mod real;
 pub mod rotation;
 mod simd;
 mod simd_avx2;
+mod simd_bands;
 pub mod taylor;
 pub mod window;
 

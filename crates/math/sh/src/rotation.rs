@@ -113,24 +113,33 @@ pub(crate) fn normalize2<T: Real>(c: T, s: T) -> (T, T) {
 /// square-root/division pairs were the longest chain of a low-order rotation.
 #[inline]
 pub(crate) fn euler_zyz_direct<T: Real>(rot: &Rot3<T>) -> EulerZyz<T> {
+    euler_zyz_off_pole(rot).unwrap_or_else(|| rot.euler_zyz())
+}
+
+/// The one-division part of [`euler_zyz_direct`]: `None` where
+/// `sin² β < 0.01`. Callers that keep the angles in registers branch on this
+/// around their whole kernel (a join after the two decompositions sent the
+/// angles through the stack, and the vector reload of four scalar stores
+/// missed store-to-load forwarding).
+#[inline]
+pub(crate) fn euler_zyz_off_pole<T: Real>(rot: &Rot3<T>) -> Option<EulerZyz<T>> {
     let m = &rot.m;
     let sb2 = m[0][2] * m[0][2] + m[1][2] * m[1][2];
-    if sb2.to_f64() >= 0.01 {
-        // 1/sin β as sin β · (1/sin² β): the square root and the division
-        // run side by side instead of one after the other.
-        let sb = sb2.sqrt();
-        let inv = sb * (T::ONE / sb2);
-        EulerZyz {
-            cos_alpha: m[0][2] * inv,
-            sin_alpha: m[1][2] * inv,
-            cos_beta: m[2][2],
-            sin_beta: sb,
-            cos_gamma: -(m[2][0] * inv),
-            sin_gamma: m[2][1] * inv,
-        }
-    } else {
-        rot.euler_zyz()
+    if sb2.to_f64() < 0.01 {
+        return None;
     }
+    // 1/sin β as sin β · (1/sin² β): the square root and the division
+    // run side by side instead of one after the other.
+    let sb = sb2.sqrt();
+    let inv = sb * (T::ONE / sb2);
+    Some(EulerZyz {
+        cos_alpha: m[0][2] * inv,
+        sin_alpha: m[1][2] * inv,
+        cos_beta: m[2][2],
+        sin_beta: sb,
+        cos_gamma: -(m[2][0] * inv),
+        sin_gamma: m[2][1] * inv,
+    })
 }
 
 impl<T: Real> Rot3<T> {
