@@ -407,9 +407,7 @@ mod tests {
 
     #[test]
     fn writes_only_bands_3_and_up_and_matches_the_scalar_kernel() {
-        if !crate::simd::available() {
-            // The f64 comparison of every AVX-512 copy is in `fast_tests`
-            // (which fails under `CI` without AVX-512 only for AVX2).
+        if !crate::fast::tests::avx512_or_skip() {
             return;
         }
         let rot = Rot3::from_euler_zyz(&crate::rotation::EulerZyz::from_angles(0.4f32, 1.1, -2.3));
