@@ -322,18 +322,7 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
             eval_sh_into(n, *opaque(&dirs[i % SET]), &mut dst);
             escape(&dst[..]);
         });
-        rows.push(row(
-            "eval",
-            n,
-            0.0,
-            a,
-            a,
-            if n <= 8 {
-                "generated".into()
-            } else {
-                "recurrence".into()
-            },
-        ));
+        rows.push(row("eval", n, 0.0, a, a, crate::fast::eval_path(n).into()));
         if let Some(a) = time_eval_array(n, reps, batches, &dirs) {
             rows.push(row(
                 "eval_array",

@@ -113,9 +113,10 @@ macro_rules! eval_per_order {
     /// [`KERNEL_EVAL_MAX_ORDER`].
     ///
     /// Orders up to [`INLINE_EVAL_MAX_ORDER`] are inlined ([`eval_inline`]);
-    /// larger ones call the order's own AVX2+FMA function on a CPU with
+    /// larger ones call the vector kernel of [`crate::simd_eval`] on a CPU
+    /// with AVX-512, else the order's own AVX2+FMA function on a CPU with
     /// AVX2 and FMA ([`crate::lanes::avx2_fma_available`], a cached flag
-    /// test per call), else its portable one. The direction comes as three
+    /// test per call), else its portable one ([`eval_path`] names the choice). The direction comes as three
     /// scalars, in registers: a `[f32; 3]` argument is passed through memory
     /// and the kernel's combined loads of it missed store forwarding (12 ns
     /// instead of 4 ns at n = 3).
@@ -130,6 +131,12 @@ macro_rules! eval_per_order {
         match order {
             $($n => {
                 let out = head_mut::<$nn>(out);
+                #[cfg(target_arch = "x86_64")]
+                if $n >= crate::simd_eval::EVAL_MIN_ORDER && crate::simd::available() {
+                    // SAFETY: AVX-512 (F, VL), AVX2 and FMA were detected.
+                    unsafe { crate::simd_eval::eval::<$n, $nn>(x, y, z, out) };
+                    return true;
+                }
                 #[cfg(target_arch = "x86_64")]
                 if crate::lanes::avx2_fma_available() {
                     // SAFETY: AVX2 and FMA were detected.
@@ -154,6 +161,25 @@ eval_per_order! {
     6 36 eval_n6 eval_n6_portable eval_n6_fma;
     7 49 eval_n7 eval_n7_portable eval_n7_fma;
     8 64 eval_n8 eval_n8_portable eval_n8_fma;
+}
+
+/// Which code [`eval_one`] runs at `order` on this CPU (for reports).
+pub(crate) fn eval_path(order: usize) -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    if (crate::simd_eval::EVAL_MIN_ORDER..=KERNEL_EVAL_MAX_ORDER).contains(&order)
+        && crate::simd::available()
+    {
+        return "AVX-512 lanes";
+    }
+    if order <= INLINE_EVAL_MAX_ORDER {
+        "generated, inlined"
+    } else if order > KERNEL_EVAL_MAX_ORDER {
+        "recurrence"
+    } else if crate::lanes::avx2_fma_available() {
+        "generated, AVX2+FMA"
+    } else {
+        "generated"
+    }
 }
 
 /// Largest order whose evaluation [`eval_one`] inlines into its caller: plain

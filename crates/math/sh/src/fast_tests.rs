@@ -157,6 +157,50 @@ fn eval_inline_short_output_panics() {
     crate::eval_sh_into(3, [0.0, 0.0, 1.0], &mut out);
 }
 
+/// The AVX-512 evaluation ([`crate::simd_eval`]) at every order it can run
+/// (1 … 8; [`eval_one`] sends it 5 … 8) against the f64 recurrence, writing
+/// exactly `n²` values (sentinels after them stay).
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn avx512_eval_matches_recurrence_every_order() {
+    if !avx512_or_skip() {
+        return;
+    }
+    fn run<const N: usize, const NN: usize>(d: [f32; 3], buf: &mut [f32]) {
+        let out: &mut [f32; NN] = (&mut buf[..NN]).try_into().unwrap();
+        // SAFETY: AVX-512 was detected by the caller.
+        unsafe { crate::simd_eval::eval::<N, NN>(d[0], d[1], d[2], out) };
+    }
+    for (k, &d) in dirs(60, 7)
+        .iter()
+        .chain(&[[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
+        .enumerate()
+    {
+        for n in 1..=crate::simd_eval::EVAL_MAX_ORDER {
+            let nn = n * n;
+            let mut buf = vec![f32::NAN; nn + 16];
+            buf[nn..].fill(-7.0);
+            match n {
+                1 => run::<1, 1>(d, &mut buf),
+                2 => run::<2, 4>(d, &mut buf),
+                3 => run::<3, 9>(d, &mut buf),
+                4 => run::<4, 16>(d, &mut buf),
+                5 => run::<5, 25>(d, &mut buf),
+                6 => run::<6, 36>(d, &mut buf),
+                7 => run::<7, 49>(d, &mut buf),
+                _ => run::<8, 64>(d, &mut buf),
+            }
+            let want = eval_ref(n, d);
+            let err = max_diff(&buf[..nn], &want);
+            assert!(
+                err < 4e-6 * nn as f64,
+                "AVX-512 eval n={n} dir {k} {d:?}: {err}"
+            );
+            assert!(buf[nn..].iter().all(|&v| v == -7.0), "n={n}: wrote past n²");
+        }
+    }
+}
+
 #[test]
 fn eval_kernels_match_recurrence() {
     let ds = dirs(40, 1);

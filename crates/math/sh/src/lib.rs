@@ -95,6 +95,7 @@ pub mod rotation;
 mod simd;
 mod simd_avx2;
 mod simd_bands;
+mod simd_eval;
 pub mod taylor;
 pub mod window;
 

@@ -53,11 +53,11 @@ const SLOTS: usize = 3;
 
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, Default)]
-struct F16([f32; LANES]);
+pub(crate) struct F16(pub(crate) [f32; LANES]);
 
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, Default)]
-struct I16([i32; LANES]);
+pub(crate) struct I16(pub(crate) [i32; LANES]);
 
 /// One fixed ±90° X matrix in permute form: register `r`'s output is
 /// `Σ_k w[r][k] ∘ v_r[idx[r][k]]`.
