@@ -342,8 +342,6 @@ pub(crate) unsafe fn eval_one_fma(order: usize, x: f32, y: f32, z: f32, out: &mu
 
 // No `array::map` below: it was not inlined into the kernels' callers
 // (three out-of-line `try_map` calls per rotation, copying through the stack).
-// No `array::map` below: it was not inlined into the kernels' callers
-// (three out-of-line `try_map` calls per rotation, copying through the stack).
 #[inline(always)]
 fn euler_array<const F: bool>(e: &EulerZyz<f32>) -> [V<1, F>; 6] {
     let s = V::splat;
