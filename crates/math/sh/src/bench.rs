@@ -456,7 +456,7 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
         let how = if n >= crate::product_high::HIGH_MIN_ORDER {
             "f32 pseudo-spectral: 16-node Gauss z × φ-Fourier convolution"
         } else {
-            "generated straight-line kernel (Gaunt triples grouped by pair)"
+            crate::fast::product_path(n)
         };
         rows.push(row("product", n, 0.0, a, a, how.into()));
         let a = time_ns(r, batches, |i| {

@@ -663,8 +663,11 @@ unsafe fn rotate_rgb_fma(order: usize, rot: &Rot3<f32>, src: [&[f32]; 3], dst: [
     rotate_rgb_mat::<true>(order, rot, src, dst);
 }
 
-/// Generated truncated product of two f32 vectors; `false` above [`KERNEL_PRODUCT_MAX_ORDER`].
-/// Runs [`product_one_fma`] on a CPU with AVX2 and FMA, else [`product_one_portable`].
+/// Truncated product of two f32 vectors; `false` above [`KERNEL_PRODUCT_MAX_ORDER`].
+/// On a CPU with AVX-512: the lane-slot kernels of [`crate::simd_product`]
+/// at n = 3, 4, else [`product_one_avx512`]; with AVX2 and FMA
+/// [`product_one_fma`]; else [`product_one_portable`] ([`product_path`]
+/// names the choice).
 ///
 /// # Panics
 /// If a slice is shorter than `order²`.
@@ -672,8 +675,14 @@ unsafe fn rotate_rgb_fma(order: usize, rot: &Rot3<f32>, src: [&[f32]; 3], dst: [
 pub(crate) fn product_one(order: usize, f: &[f32], g: &[f32], out: &mut [f32]) -> bool {
     #[cfg(target_arch = "x86_64")]
     if crate::simd::available() {
-        // SAFETY: AVX-512F (with VL, AVX2 and FMA) was detected.
-        return unsafe { product_one_avx512(order, f, g, out) };
+        use crate::simd_product::{product_n3, product_n4};
+        // SAFETY (all three): AVX-512F (with VL, AVX2 and FMA) was detected.
+        match order {
+            3 => unsafe { product_n3(head(f), head(g), head_mut(out)) },
+            4 => unsafe { product_n4(head(f), head(g), head_mut(out)) },
+            _ => return unsafe { product_one_avx512(order, f, g, out) },
+        }
+        return true;
     }
     #[cfg(target_arch = "x86_64")]
     if crate::lanes::avx2_fma_available() {
@@ -681,6 +690,18 @@ pub(crate) fn product_one(order: usize, f: &[f32], g: &[f32], out: &mut [f32]) -
         return unsafe { product_one_fma(order, f, g, out) };
     }
     product_one_portable(order, f, g, out)
+}
+
+/// Which code [`product_one`] runs at `order` on this CPU (for reports).
+pub(crate) fn product_path(order: usize) -> &'static str {
+    let avx512 = crate::simd::available();
+    if avx512 && (order == 3 || order == 4) {
+        "AVX-512 lane slots (Gaunt terms across output lanes)"
+    } else if avx512 || crate::lanes::avx2_fma_available() {
+        "generated straight-line kernel (Gaunt triples grouped by pair), FMA"
+    } else {
+        "generated straight-line kernel (Gaunt triples grouped by pair)"
+    }
 }
 
 /// [`product_one`] with plain multiply and add (the portable path).

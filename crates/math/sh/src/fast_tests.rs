@@ -482,6 +482,37 @@ fn product_kernels_match_gaunt_triples() {
     }
 }
 
+/// The lane-slot products of [`crate::simd_product`] (n = 3, 4) against the
+/// f64 Gaunt triples, writing exactly `n²` values (sentinels after them stay).
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn avx512_slot_products_match_gaunt_triples() {
+    if !avx512_or_skip() {
+        return;
+    }
+    for n in [3usize, 4] {
+        let nn = n * n;
+        let vs = vecs(n, 12, 60 + n as u64);
+        for k in 0..10 {
+            let (f, g) = (&vs[k], &vs[k + 1]);
+            let mut buf = vec![f32::NAN; nn + 16];
+            buf[nn..].fill(-7.0);
+            // SAFETY: AVX-512 was detected.
+            unsafe {
+                if n == 3 {
+                    crate::simd_product::product_n3(head(f), head(g), head_mut(&mut buf));
+                } else {
+                    crate::simd_product::product_n4(head(f), head(g), head_mut(&mut buf));
+                }
+            }
+            let want = prod_ref(n, f, g);
+            let err = max_diff(&buf[..nn], &want);
+            assert!(err < 2e-6 * nn as f64, "slot product n={n} pair {k}: {err}");
+            assert!(buf[nn..].iter().all(|&v| v == -7.0), "n={n}: wrote past n²");
+        }
+    }
+}
+
 #[test]
 fn public_entry_points_use_the_kernels_and_agree() {
     // eval_sh_into, ZyzRotation::apply and TripleProduct::product_with (f32)

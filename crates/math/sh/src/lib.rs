@@ -96,6 +96,7 @@ mod simd;
 mod simd_avx2;
 mod simd_bands;
 mod simd_eval;
+mod simd_product;
 pub mod taylor;
 pub mod window;
 
