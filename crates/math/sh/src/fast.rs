@@ -116,8 +116,8 @@ macro_rules! eval_per_order {
     /// larger ones call the vector kernel of [`crate::simd_eval`] on a CPU
     /// with AVX-512, else the order's own AVX2+FMA function on a CPU with
     /// AVX2 and FMA ([`crate::lanes::avx2_fma_available`], a cached flag
-    /// test per call), else its portable one ([`eval_path`] names the choice). The direction comes as three
-    /// scalars, in registers: a `[f32; 3]` argument is passed through memory
+    /// test per call), else its portable one ([`eval_path`] names the
+    /// choice). The direction comes as three scalars, in registers: a `[f32; 3]` argument is passed through memory
     /// and the kernel's combined loads of it missed store forwarding (12 ns
     /// instead of 4 ns at n = 3).
     ///
