@@ -85,6 +85,7 @@ pub mod isa;
 #[rustfmt::skip]
 pub(crate) mod kernels;
 pub mod kernels_gen;
+mod lane_tables;
 mod lanes;
 pub mod product;
 mod product_high;

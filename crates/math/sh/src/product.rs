@@ -406,23 +406,28 @@ impl<T: Real> TripleProduct<T> {
         for (i, j, k, v) in self.entries() {
             let v = v.to_f64();
             // Every distinct permutation (a, b, c) adds Γ f_c to M[a][b].
-            let mut perms = [
-                [i, j, k],
-                [i, k, j],
-                [j, i, k],
-                [j, k, i],
-                [k, i, j],
-                [k, j, i],
-            ]
-            .to_vec();
-            perms.sort_unstable();
-            perms.dedup();
-            for [a, b, c] in perms {
+            for [a, b, c] in distinct_orderings(i, j, k) {
                 m[(a, b)] += v * f[c];
             }
         }
         m
     }
+}
+
+/// The distinct orderings of the indices of one Gaunt coefficient (Γ is
+/// symmetric in them): six, three or one.
+pub(crate) fn distinct_orderings(i: usize, j: usize, k: usize) -> Vec<[usize; 3]> {
+    let mut perms = vec![
+        [i, j, k],
+        [i, k, j],
+        [j, i, k],
+        [j, k, i],
+        [k, i, j],
+        [k, j, i],
+    ];
+    perms.sort_unstable();
+    perms.dedup();
+    perms
 }
 
 /// The constant-1 vector `(√(4π), 0, …)` of length `order²`.

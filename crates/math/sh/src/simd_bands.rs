@@ -35,6 +35,7 @@
 use std::arch::x86_64::*;
 use std::sync::OnceLock;
 
+use crate::lane_tables::{F16, I16};
 use crate::rotation::{Rot3, ShRotation};
 
 /// Smallest order with bands above 2.
@@ -50,14 +51,6 @@ const REGS: usize = 2;
 const DEG: usize = BANDS_MAX_ORDER - 1;
 /// Most non-zeros in a row of `X±` over bands 3–5.
 const SLOTS: usize = 3;
-
-#[repr(C, align(64))]
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct F16(pub(crate) [f32; LANES]);
-
-#[repr(C, align(64))]
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct I16(pub(crate) [i32; LANES]);
 
 /// One fixed ±90° X matrix in permute form: register `r`'s output is
 /// `Σ_k w[r][k] ∘ v_r[idx[r][k]]`.

@@ -35,7 +35,7 @@
 use std::arch::x86_64::*;
 use std::sync::OnceLock;
 
-use crate::simd_bands::{F16, I16};
+use crate::lane_tables::{F16, I16};
 
 /// Smallest order [`crate::fast::eval_one`] sends here: below it the inlined
 /// scalar kernels are cheaper than a call.

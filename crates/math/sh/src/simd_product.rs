@@ -30,7 +30,7 @@
 use std::arch::x86_64::*;
 use std::sync::OnceLock;
 
-use crate::simd_bands::{F16, I16};
+use crate::lane_tables::{F16, I16, Row8};
 
 /// Most terms of one output at n = 4 (checked when the tables are built), a
 /// multiple of [`N4_ACC`].
@@ -45,21 +45,8 @@ fn terms(n: usize) -> Vec<Vec<(usize, usize, f64)>> {
     let tp = crate::product::TripleProduct::<f64>::new(n).expect("order ≤ 4");
     let mut terms: Vec<Vec<(usize, usize, f64)>> = vec![Vec::new(); n * n];
     for (i, j, k, w) in tp.entries() {
-        let mut perms = [
-            (i, j, k),
-            (i, k, j),
-            (j, i, k),
-            (j, k, i),
-            (k, i, j),
-            (k, j, i),
-        ];
-        perms.sort_unstable();
-        let mut last = None;
-        for p in perms {
-            if last != Some(p) {
-                terms[p.2].push((p.0, p.1, w));
-                last = Some(p);
-            }
+        for [a, b, c] in crate::product::distinct_orderings(i, j, k) {
+            terms[c].push((a, b, w));
         }
     }
     terms
@@ -128,16 +115,6 @@ pub(crate) unsafe fn product_n4(f: &[f32; 16], g: &[f32; 16], out: &mut [f32; 16
     }
 }
 
-/// Eight f32 lanes, 32-byte aligned.
-#[repr(C, align(32))]
-#[derive(Clone, Copy, Debug, Default)]
-struct F8([f32; 8]);
-
-/// Eight i32 lanes, 32-byte aligned.
-#[repr(C, align(32))]
-#[derive(Clone, Copy, Debug, Default)]
-struct I8([i32; 8]);
-
 /// Most terms of one output among 0 … 7 at n = 3 (checked at build).
 const N3_SLOTS: usize = 10;
 /// Terms of output 8 at n = 3 (checked at build).
@@ -149,12 +126,12 @@ const N3_LAST: usize = 8;
 /// Half the vector work of the 16-lane form, whose lanes 9 … 15 idle.
 #[derive(Debug)]
 struct SlotsN3 {
-    idx: [I8; N3_SLOTS],
-    w: [F8; N3_SLOTS],
+    idx: [Row8<i32>; N3_SLOTS],
+    w: [Row8<f32>; N3_SLOTS],
     /// Output 8: its eight terms across the lanes of one more slot, summed
     /// across lanes at the end.
-    last_idx: I8,
-    last_w: F8,
+    last_idx: Row8<i32>,
+    last_w: Row8<f32>,
 }
 
 impl SlotsN3 {
@@ -164,10 +141,10 @@ impl SlotsN3 {
         assert_eq!(most, N3_SLOTS, "slots of outputs 0 … 7 at order 3");
         assert_eq!(terms[8].len(), N3_LAST, "terms of output 8 at order 3");
         let mut s = Self {
-            idx: [I8::default(); N3_SLOTS],
-            w: [F8::default(); N3_SLOTS],
-            last_idx: I8::default(),
-            last_w: F8::default(),
+            idx: [Row8::default(); N3_SLOTS],
+            w: [Row8::default(); N3_SLOTS],
+            last_idx: Row8::default(),
+            last_w: Row8::default(),
         };
         for (k, ts) in terms[..8].iter().enumerate() {
             for (slot, &(i, j, w)) in ts.iter().enumerate() {
@@ -201,7 +178,7 @@ pub(crate) unsafe fn product_n3(f: &[f32; 9], g: &[f32; 9], out: &mut [f32; 9]) 
     unsafe {
         let (f0, f1) = (_mm256_loadu_ps(f.as_ptr()), _mm256_set1_ps(f[8]));
         let (g0, g1) = (_mm256_loadu_ps(g.as_ptr()), _mm256_set1_ps(g[8]));
-        let term = |idx: &I8, w: &F8| {
+        let term = |idx: &Row8<i32>, w: &Row8<f32>| {
             let ij = _mm256_load_si256(idx.0.as_ptr().cast());
             let fi = _mm256_permutex2var_ps(f0, ij, f1);
             let gj = _mm256_permutex2var_ps(g0, _mm256_srli_epi32::<4>(ij), g1);
