@@ -138,13 +138,13 @@ fn eval_recurrence<T: Real>(tab: &Tables<T>, order: usize, x: T, y: T, z: T, out
 trait FastEval: Real {
     /// The inlined small orders (checks its own output length); `false`
     /// (nothing done) where the type has none or the order is larger.
-    fn eval_small(order: usize, x: Self, y: Self, z: Self, out: &mut [Self]) -> bool;
+    fn eval_small(order: usize, dir: [Self; 3], out: &mut [Self]) -> bool;
     fn eval_fast(order: usize, x: Self, y: Self, z: Self, out: &mut [Self]) -> bool;
 }
 impl FastEval for f32 {
     #[inline(always)]
-    fn eval_small(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
-        crate::fast::eval_inline(order, x, y, z, out)
+    fn eval_small(order: usize, dir: [f32; 3], out: &mut [f32]) -> bool {
+        crate::fast::eval_inline_dir(order, dir, out)
     }
     #[inline(always)]
     fn eval_fast(order: usize, x: f32, y: f32, z: f32, out: &mut [f32]) -> bool {
@@ -153,7 +153,7 @@ impl FastEval for f32 {
 }
 impl FastEval for f64 {
     #[inline(always)]
-    fn eval_small(_order: usize, _x: f64, _y: f64, _z: f64, _out: &mut [f64]) -> bool {
+    fn eval_small(_order: usize, _dir: [f64; 3], _out: &mut [f64]) -> bool {
         false
     }
     #[inline(always)]
@@ -184,10 +184,10 @@ impl ShFloat for f64 {}
 /// larger orders call one out-of-line kernel.
 #[inline(always)]
 pub fn eval_sh_into<T: ShFloat>(order: usize, dir: [T; 3], out: &mut [T]) {
-    let [x, y, z] = dir;
-    if T::eval_small(order, x, y, z, out) {
+    if T::eval_small(order, dir, out) {
         return;
     }
+    let [x, y, z] = dir;
     assert!(
         (1..=MAX_ORDER).contains(&order) && out.len() >= order * order,
         "eval_sh_into: order {order} out of range or output too short ({})",

@@ -15,7 +15,9 @@
 //!   a cached CPU-feature test (`eval_one`, `rotate_one`, `product_one`);
 //!   `rotate_euler_one` (angles given) is plain only. Two exceptions:
 //!   evaluation at n ≤ [`INLINE_EVAL_MAX_ORDER`] is inlined into the caller
-//!   (`eval_inline`, plain multiply and add: no CPU test, no call), and
+//!   (`eval_inline`, plain multiply and add: no call; at n = 4 on a CPU with
+//!   AVX-512 one call to [`crate::simd_eval::eval_n4`], as the scalar
+//!   kernel's ≈ 27 multiplies bound it there), and
 //!   rotation has one non-inlined function per order and instruction set
 //!   (no jump table, each order its own stack frame), and from order
 //!   `AVX512_ROTATE_MIN_ORDER` (4) on a third copy for AVX-512 in which
@@ -166,7 +168,7 @@ eval_per_order! {
 /// Which code [`eval_one`] runs at `order` on this CPU (for reports).
 pub(crate) fn eval_path(order: usize) -> &'static str {
     #[cfg(target_arch = "x86_64")]
-    if (crate::simd_eval::EVAL_MIN_ORDER..=KERNEL_EVAL_MAX_ORDER).contains(&order)
+    if (order == 4 || (crate::simd_eval::EVAL_MIN_ORDER..=KERNEL_EVAL_MAX_ORDER).contains(&order))
         && crate::simd::available()
     {
         return "AVX-512 lanes";
@@ -186,7 +188,10 @@ pub(crate) fn eval_path(order: usize) -> &'static str {
 /// multiply and add, no CPU-feature test, no call, no order dispatch once the
 /// caller's order is known. At n ≤ 4 (at most 16 values, ≈ 20 multiplies)
 /// the test, the call and the jump table of the FMA copy cost more than FMA
-/// saves; the code is small enough to copy into every caller.
+/// saves; the code is small enough to copy into every caller. The one
+/// exception is n = 4 on a CPU with AVX-512: there a flag test and a call to
+/// the two-register kernel [`crate::simd_eval::eval_n4`] beat the inlined
+/// multiplies (`relight bench sh`, rows `eval 4` and `eval_array 4`).
 pub const INLINE_EVAL_MAX_ORDER: usize = 4;
 
 /// [`eval_one`] for `order ≤` [`INLINE_EVAL_MAX_ORDER`], inlined: the
@@ -219,9 +224,28 @@ pub(crate) fn eval_inline(order: usize, x: f32, y: f32, z: f32, out: &mut [f32])
     true
 }
 
+/// [`eval_inline`] with the direction by reference, as
+/// [`crate::eval_sh_into`] has it: at n = 4 on a CPU with AVX-512 the
+/// vector kernel [`crate::simd_eval::eval_n4`] reads it from memory (one
+/// broadcast load per component) ahead of the order dispatch.
+#[inline(always)]
+pub(crate) fn eval_inline_dir(order: usize, dir: [f32; 3], out: &mut [f32]) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if order == 4
+        && crate::simd::available()
+        && let Some(o) = out.get_mut(..16)
+    {
+        // SAFETY: AVX-512 (F, VL), AVX2 and FMA were detected.
+        unsafe { crate::simd_eval::eval_n4(&dir, o.try_into().expect("16 values")) };
+        return true;
+    }
+    eval_inline(order, dir[0], dir[1], dir[2], out)
+}
+
 /// All `NN = n²` basis values at `(x, y, z)` into a fixed-size array, the
 /// order known at compile time: `n ≤` [`INLINE_EVAL_MAX_ORDER`] inlined
-/// (plain multiply and add), larger `n ≤` [`KERNEL_EVAL_MAX_ORDER`] through
+/// (plain multiply and add; n = 4 calls [`crate::simd_eval::eval_n4`] on a
+/// CPU with AVX-512), larger `n ≤` [`KERNEL_EVAL_MAX_ORDER`] through
 /// the out-of-line FMA dispatch of [`eval_one`]. `NN` must be one of
 /// 1, 4, 9, …, 64 (a compile-time error otherwise).
 #[inline(always)]
@@ -247,7 +271,16 @@ pub(crate) fn eval_array<const NN: usize>(x: f32, y: f32, z: f32, out: &mut [f32
         9 => eval_n3_sse(x, y, z, v::<9>(out)),
         #[cfg(not(target_arch = "x86_64"))]
         9 => kernels::eval_n3(xs, ys, zs, v::<9>(out)),
-        16 => kernels::eval_n4(xs, ys, zs, v::<16>(out)),
+        16 => {
+            #[cfg(target_arch = "x86_64")]
+            if crate::simd::available() {
+                // SAFETY: AVX-512 (F, VL), AVX2 and FMA were detected; `out`
+                // holds 16 values.
+                unsafe { crate::simd_eval::eval_n4(&[x, y, z], &mut *out.as_mut_ptr().cast()) };
+                return;
+            }
+            kernels::eval_n4(xs, ys, zs, v::<16>(out));
+        }
         _ => {
             let n = if NN == 25 {
                 5

@@ -158,7 +158,8 @@ fn eval_inline_short_output_panics() {
 }
 
 /// The AVX-512 evaluation ([`crate::simd_eval`]) at every order it can run
-/// (1 … 8; [`eval_one`] sends it 5 … 8) against the f64 recurrence, writing
+/// (1 … 8; [`eval_one`] sends it 5 … 8) and its order-4 kernel `eval_n4`
+/// (what the inlined paths call at n = 4) against the f64 recurrence, writing
 /// exactly `n²` values (sentinels after them stay).
 #[cfg(target_arch = "x86_64")]
 #[test]
@@ -198,6 +199,16 @@ fn avx512_eval_matches_recurrence_every_order() {
             );
             assert!(buf[nn..].iter().all(|&v| v == -7.0), "n={n}: wrote past n²");
         }
+        // The two-half order-4 kernel the inlined paths call on this CPU.
+        let mut buf = [-7.0f32; 32];
+        // SAFETY: AVX-512 was detected above.
+        unsafe { crate::simd_eval::eval_n4(&d, (&mut buf[..16]).try_into().unwrap()) };
+        let err = max_diff(&buf[..16], &eval_ref(4, d));
+        assert!(err < 4e-6 * 16.0, "AVX-512 eval_n4 dir {k} {d:?}: {err}");
+        assert!(
+            buf[16..].iter().all(|&v| v == -7.0),
+            "eval_n4 wrote past 16"
+        );
     }
 }
 

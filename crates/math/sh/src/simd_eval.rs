@@ -1,5 +1,6 @@
 //! Evaluation of all `n²` basis functions at one direction with the
-//! coefficients across the lanes of AVX-512 registers (used for n = 5 … 8).
+//! coefficients across the lanes of AVX-512 registers (used for n = 5 … 8,
+//! and at n = 4 as [`eval_n4`]: the same scheme in two 256-bit halves).
 //!
 //! Every real SH basis value factors as
 //!
@@ -35,7 +36,7 @@
 use std::arch::x86_64::*;
 use std::sync::OnceLock;
 
-use crate::lane_tables::{F16, I16};
+use crate::lane_tables::{F16, I16, Row8};
 
 /// Smallest order [`crate::fast::eval_one`] sends here: below it the inlined
 /// scalar kernels are cheaper than a call.
@@ -96,6 +97,46 @@ impl EvalTables {
     }
 }
 
+/// [`EvalTables`]' first register (the 16 values of order 4) as two 8-lane
+/// halves for [`eval_n4`], whose power table is `[c₁ s₁ c₂ s₂ c₃ s₃ 1 1]`
+/// (8 lanes: `T₀`'s lane [`ONE`] moves to lane 6) and `z` times it.
+#[derive(Debug)]
+struct EvalTables4 {
+    /// Index into `T₀ ∪ T₁` (`+ 8` selects `T₁`).
+    pick: [Row8<i32>; 2],
+    /// `h0[r]`, `h1[r]`: the coefficients of `1` and `z²` in `H`.
+    h0: [Row8<f32>; 2],
+    h1: [Row8<f32>; 2],
+}
+
+impl EvalTables4 {
+    fn new() -> Self {
+        let t = EvalTables::get();
+        let mut t4 = Self {
+            pick: [Row8::default(); 2],
+            h0: [Row8::default(); 2],
+            h1: [Row8::default(); 2],
+        };
+        for i in 0..LANES {
+            let (r, lane) = (i / 8, i % 8);
+            let pick = t.pick[0].0[i];
+            let a = pick % LANES as i32;
+            let a = if a == ONE { 6 } else { a };
+            debug_assert!(a <= 6, "order 4 needs powers up to 3 only");
+            t4.pick[r].0[lane] = a + if pick >= LANES as i32 { 8 } else { 0 };
+            t4.h0[r].0[lane] = t.h[0][0].0[i];
+            t4.h1[r].0[lane] = t.h[0][1].0[i];
+            debug_assert!(t.h[0][2..].iter().all(|h| h.0[i] == 0.0));
+        }
+        t4
+    }
+
+    fn get() -> &'static Self {
+        static T: OnceLock<EvalTables4> = OnceLock::new();
+        T.get_or_init(Self::new)
+    }
+}
+
 /// `a ∘ b` for complex numbers stored as `(re, im)` lane pairs.
 ///
 /// # Safety
@@ -127,6 +168,57 @@ unsafe fn cmul256(a: __m256, b: __m256) -> __m256 {
             _mm256_moveldup_ps(b),
             _mm256_mul_ps(swapped, _mm256_movehdup_ps(b)),
         )
+    }
+}
+
+/// The 16 basis values of order 4 at the unit direction `dir` in two 256-bit
+/// registers (the values of [`crate::kernels`]' `eval_n4` up to rounding),
+/// for [`crate::fast::eval_inline`] and [`crate::fast::eval_array`]. The
+/// scalar kernel issues ≈ 27 multiplies (the core has two multiply pipes);
+/// here ten, and five shuffles: `x`, `y`, `z` are broadcast from memory
+/// (loads, no shuffle), the powers `(x + iy)²` and `(x + iy)³` are two
+/// complex multiplies, then per half one two-table permute of
+/// `T₀ = [c₁ s₁ c₂ s₂ c₃ s₃ 1 1]` and `T₁ = z T₀`, one `H(z²)` multiply–add
+/// with per-lane tables, one multiply and one store.
+///
+/// The direction comes by reference: each broadcast reads one f32, so a
+/// caller that has just stored the three values separately still gets them
+/// by store forwarding.
+///
+/// # Safety
+/// The CPU must support AVX-512F, AVX-512VL, AVX2 and FMA.
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[inline(never)]
+pub(crate) unsafe fn eval_n4(dir: &[f32; 3], out: &mut [f32; 16]) {
+    let tab = EvalTables4::get();
+    // SAFETY: the features are enabled; the tables are 32-byte aligned; the
+    // two stores write out[0..8] and out[8..16].
+    unsafe {
+        let bx = _mm_broadcast_ss(&dir[0]);
+        let by = _mm_broadcast_ss(&dir[1]);
+        let zb = _mm256_broadcast_ss(&dir[2]);
+        let p = _mm_blend_ps::<0b1010>(bx, by); // c₁ s₁ c₁ s₁
+        let p_swapped = _mm_blend_ps::<0b1010>(by, bx); // s₁ c₁ s₁ c₁
+        // (x + iy) w = x w + i y w: fmaddsub(x, w, y · swap(w)).
+        let sq = _mm_fmaddsub_ps(bx, p, _mm_mul_ps(by, p_swapped));
+        let cube = _mm_fmaddsub_ps(bx, sq, _mm_mul_ps(by, _mm_permute_ps::<0b10_11_00_01>(sq)));
+        let t0 = _mm256_set_m128(
+            _mm_blend_ps::<0b1100>(cube, _mm_set1_ps(1.0)), // c₃ s₃ 1 1
+            _mm_movelh_ps(p, sq),                           // c₁ s₁ c₂ s₂
+        );
+        let t1 = _mm256_mul_ps(t0, zb);
+        let z2 = _mm256_mul_ps(zb, zb);
+        let dst = out.as_mut_ptr();
+        for r in 0..2 {
+            let h = _mm256_fmadd_ps(
+                _mm256_load_ps(tab.h1[r].0.as_ptr()),
+                z2,
+                _mm256_load_ps(tab.h0[r].0.as_ptr()),
+            );
+            let pick = _mm256_load_si256(tab.pick[r].0.as_ptr().cast());
+            let a = _mm256_permutex2var_ps(t0, pick, t1);
+            _mm256_storeu_ps(dst.add(8 * r), _mm256_mul_ps(h, a));
+        }
     }
 }
 
