@@ -21,9 +21,9 @@
 //!   rotation has one non-inlined function per order and instruction set
 //!   (no jump table, each order its own stack frame), and from order
 //!   `AVX512_ROTATE_MIN_ORDER` (4) on a third copy for AVX-512 in which
-//!   bands ≥ 3 run with their coefficients across vector lanes
-//!   ([`crate::simd_bands`]; the scalar copies are bound by their multiply
-//!   count there). [`crate::eval_sh_array`] takes
+//!   bands ≥ 3 (at order 4 bands 1–3) run with their coefficients across
+//!   vector lanes ([`crate::simd_bands`]; the scalar copies are bound by
+//!   their multiply count there). [`crate::eval_sh_array`] takes
 //!   the order as an array length, so even the order dispatch goes.
 //! * Rotation takes the 3×3 matrix: bands 1 and 2 come straight from it (a
 //!   linear and a quadratic form, no Euler angles: order ≤ 3 needs no square
@@ -418,9 +418,11 @@ fn rotate_fixed<const F: bool, const N: usize, const NN: usize>(
     kernels::rotate::<V<1, F>>(N, &matrix_array::<F>(m), &e, as_v1(src), as_v1_mut(dst));
 }
 
-/// [`rotate_fixed`] for the AVX-512 copies from order 4: bands 0–2 by the
-/// same scalar code (straight from the matrix), bands ≥ 3 in vector
-/// registers ([`crate::simd_bands`], `K` non-zeros per row of `X±`).
+/// [`rotate_fixed`] for the AVX-512 copies from order 4: the bands from
+/// [`crate::simd_bands::first`] on in vector registers
+/// ([`crate::simd_bands`], `K` non-zeros per row of `X±`): bands 1–3 at
+/// order 4, bands 3 and up above it, where bands 0–2 run the same scalar
+/// code as the other copies (straight from the matrix).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
 #[inline]
@@ -434,14 +436,18 @@ fn rotate_fixed_avx512<const N: usize, const NN: usize, const K: usize>(
         rotate_fixed::<true, N, NN>(m, src, dst);
         return;
     };
-    let head = [V::splat(0.0); 6];
-    kernels::rotate::<V<1, true>>(
-        3,
-        &matrix_array::<true>(m),
-        &head,
-        as_v1(&src[..9]),
-        as_v1_mut(&mut dst[..9]),
-    );
+    if crate::simd_bands::first(N) == 1 {
+        dst[0] = src[0];
+    } else {
+        let head = [V::splat(0.0); 6];
+        kernels::rotate::<V<1, true>>(
+            3,
+            &matrix_array::<true>(m),
+            &head,
+            as_v1(&src[..9]),
+            as_v1_mut(&mut dst[..9]),
+        );
+    }
     let angles = [
         e.cos_alpha,
         e.sin_alpha,
@@ -638,11 +644,10 @@ rotate_per_order! {
     6 36 3 rotate_n6_portable rotate_n6_fma rotate_n6_avx512;
 }
 
-/// Smallest order at which [`rotate_one`] takes the AVX-512 copy: bands 0–2
-/// by the scalar code, bands ≥ 3 in vector registers
-/// ([`crate::simd_bands`]). Pinned, `relight bench sh` (`zyz` total):
-/// order 4 24.8 → 18.7 ns, order 5 34.1 → 24.8 ns, order 6 49.4 → 37.5 ns
-/// against the same scalar code for every band.
+/// Smallest order at which [`rotate_one`] takes the AVX-512 copy: bands ≥ 3
+/// in vector registers, and bands 1–2 with them at order 4
+/// ([`crate::simd_bands`]). Figures: `relight bench sh`, row `zyz`, and
+/// docs/performance.md.
 pub(crate) const AVX512_ROTATE_MIN_ORDER: usize = 4;
 
 /// Generated rotation of one f32 vector given its ZYZ angles (the matrix is

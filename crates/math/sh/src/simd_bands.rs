@@ -1,15 +1,20 @@
-//! Bands 3 … n−1 (n = 4 … 6) of the exact rotation from a matrix, with the
-//! band coefficients across the lanes of AVX-512 registers.
+//! The bands above 0 of the exact rotation from a matrix at n = 4 … 6 —
+//! bands 1–3 at n = 4, bands 3 … n−1 at n = 5, 6 — with the band
+//! coefficients across the lanes of AVX-512 registers.
 //!
 //! [`crate::fast::rotate_one`] computes bands 1 and 2 straight from the
-//! matrix and the higher bands by the ZYZ ("ZXZXZ") factorisation
-//! `R_z(α) X₋ R_z(β) X₊ R_z(γ)` of [`crate::rotation::ZyzRotation`]. As
-//! scalar code those higher bands cost about 75 multiplies per band: the
-//! scalar kernel is bound by its multiply count (order 4: 106 of 238
-//! instructions). Here the 7 + 9 + 11 coefficients of bands 3–5 sit in one
-//! register (n = 4, 5) or two (n = 6; no band crosses a register), so each
-//! stage is a few full-width operations on constant per-order tables
-//! ([`BandTables`]):
+//! matrix (a linear and a quadratic form) and the higher bands by the ZYZ
+//! ("ZXZXZ") factorisation `R_z(α) X₋ R_z(β) X₊ R_z(γ)` of
+//! [`crate::rotation::ZyzRotation`]. As scalar code those higher bands cost
+//! about 75 multiplies per band: the scalar kernel is bound by its multiply
+//! count (order 4: 106 of 238 instructions). Here the 7 + 9 + 11
+//! coefficients of bands 3–5 sit in one register (n = 5) or two (n = 6; no
+//! band crosses a register), so each stage is a few full-width operations on
+//! constant per-order tables ([`BandTables`]). At n = 4 the 3 + 5 + 7
+//! coefficients of bands 1–3 fill 15 lanes of one register: the same
+//! stages then replace the ≈ 130 scalar instructions of bands 1 and 2 at no
+//! extra vector instruction (pinned, `zyz` n = 4: 21.3 → 16.3 ns against
+//! band 3 alone in a 256-bit register beside the scalar bands 1–2).
 //!
 //! * **Z rotation** by θ: `out = C ∘ v + S ∘ v̄`, `v̄` the register with each
 //!   band reversed (`v̄_{l,m} = v_{l,−m}`, one permute), `C_i = cos(|m_i|θ)`,
@@ -26,8 +31,8 @@
 //!   The values are the same f64 Ivanic–Ruedenberg matrices the scalar
 //!   kernel's literals come from, rounded to f32.
 //!
-//! The bands 0–2 and 3+ are independent, so the scalar and vector parts of a
-//! call overlap in the out-of-order core. Tested against the portable scalar
+//! At n = 5, 6 the bands 0–2 and 3+ are independent, so the scalar and
+//! vector parts of a call overlap in the out-of-order core. Tested against the portable scalar
 //! kernel and the f64 matrices in `fast_tests` (every order 1–6).
 
 #![cfg(target_arch = "x86_64")]
@@ -42,8 +47,12 @@ use crate::rotation::{Rot3, ShRotation};
 pub(crate) const BANDS_MIN_ORDER: usize = 4;
 /// Largest order this kernel covers (two registers).
 pub(crate) const BANDS_MAX_ORDER: usize = 6;
-/// Flat index of `(l, m) = (3, −3)`, the first coefficient handled here.
-const FIRST: usize = 9;
+/// First flat index this kernel handles at order `n`: `(1, −1)` at n = 4
+/// (bands 1–3, 15 lanes), `(3, −3)` above (bands 1 and 2 stay with the
+/// scalar code, beside the two registers that bands 3–5 fill).
+pub(crate) const fn first(n: usize) -> usize {
+    if n == 4 { 1 } else { 9 }
+}
 const LANES: usize = 16;
 /// Registers for bands 3–5 (27 coefficients).
 const REGS: usize = 2;
@@ -106,8 +115,9 @@ fn lm(i: usize) -> (usize, isize) {
 /// [`XPerm`] of the band matrices of `x` for bands 3 … n−1.
 fn x_perm(n: usize, x: &ShRotation<f64>) -> XPerm {
     let mut p = XPerm::default();
-    for i in FIRST..n * n {
-        let (r, lane) = ((i - FIRST) / LANES, (i - FIRST) % LANES);
+    let f0 = first(n);
+    for i in f0..n * n {
+        let (r, lane) = ((i - f0) / LANES, (i - f0) % LANES);
         let (l, m1) = lm(i);
         let b = (l * (l + 1)) as isize;
         let mut k = 0;
@@ -121,7 +131,7 @@ fn x_perm(n: usize, x: &ShRotation<f64>) -> XPerm {
                 k < SLOTS,
                 "X± row ({l}, {m1}) has more than {SLOTS} non-zeros"
             );
-            let j = (b + m2) as usize - FIRST;
+            let j = (b + m2) as usize - f0;
             assert_eq!(j / LANES, r, "band {l} crosses a register");
             p.idx[r][k].0[lane] = (j % LANES) as i32;
             p.w[r][k].0[lane] = v as f32;
@@ -143,13 +153,14 @@ impl BandTables {
             x_plus: XPerm::default(),
             x_minus: XPerm::default(),
         };
-        for i in FIRST..n * n {
-            let (r, lane) = ((i - FIRST) / LANES, (i - FIRST) % LANES);
+        let f0 = first(n);
+        for i in f0..n * n {
+            let (r, lane) = ((i - f0) / LANES, (i - f0) % LANES);
             let (l, m) = lm(i);
             let am = m.unsigned_abs();
             s.mask[r] |= 1 << lane;
             let mirror = (l * (l + 1)) as isize - m;
-            s.swap[r].0[lane] = ((mirror as usize - FIRST) % LANES) as i32;
+            s.swap[r].0[lane] = ((mirror as usize - f0) % LANES) as i32;
             for j in 0..=DEG {
                 s.cos_poly[r][j].0[lane] = t[am][j] as f32;
             }
@@ -179,100 +190,40 @@ impl BandTables {
     }
 }
 
-/// A register of f32 lanes: the 512-bit one, or the 256-bit one where a
-/// band fits in eight lanes (order 4: CPUs that split 512-bit operations in
-/// two then do half the work).
-trait Reg: Copy {
-    /// Lanes below this are used; the tables hold 16.
-    const W: usize;
-    /// # Safety
-    /// AVX-512F and AVX-512VL must be enabled in the caller.
-    unsafe fn ld(v: &F16) -> Self;
-    /// # Safety
-    /// As [`Reg::ld`].
-    unsafe fn perm(idx: &I16, v: Self) -> Self;
-    /// # Safety
-    /// As [`Reg::ld`].
-    unsafe fn set1(x: f32) -> Self;
-    /// `a · b + c`.
-    /// # Safety
-    /// As [`Reg::ld`].
-    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self;
-    /// # Safety
-    /// As [`Reg::ld`].
-    unsafe fn mul(a: Self, b: Self) -> Self;
-    /// # Safety
-    /// As [`Reg::ld`]; the lanes in `mask` of `p` must be readable.
-    unsafe fn load_masked(mask: u16, p: *const f32) -> Self;
-    /// # Safety
-    /// As [`Reg::ld`]; the lanes in `mask` of `p` must be writable.
-    unsafe fn store_masked(p: *mut f32, mask: u16, v: Self);
+// Thin wrappers over the 512-bit intrinsics the stages use, so that the
+// stages read as vector algebra.
+//
+// SAFETY (all): AVX-512F must be enabled in the caller; `F16`/`I16` are
+// 64-byte aligned; `load_masked`/`store_masked` touch only the lanes of
+// `mask`, which the caller keeps within its slice.
+#[inline(always)]
+unsafe fn ld(v: &F16) -> __m512 {
+    unsafe { _mm512_load_ps(v.0.as_ptr()) }
 }
-
-// SAFETY (both impls): `F16`/`I16` are 64-byte aligned, the intrinsics need
-// the features every caller enables.
-impl Reg for __m512 {
-    const W: usize = 16;
-    #[inline(always)]
-    unsafe fn ld(v: &F16) -> Self {
-        unsafe { _mm512_load_ps(v.0.as_ptr()) }
-    }
-    #[inline(always)]
-    unsafe fn perm(idx: &I16, v: Self) -> Self {
-        unsafe { _mm512_permutexvar_ps(_mm512_load_si512(idx.0.as_ptr().cast()), v) }
-    }
-    #[inline(always)]
-    unsafe fn set1(x: f32) -> Self {
-        unsafe { _mm512_set1_ps(x) }
-    }
-    #[inline(always)]
-    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
-        unsafe { _mm512_fmadd_ps(a, b, c) }
-    }
-    #[inline(always)]
-    unsafe fn mul(a: Self, b: Self) -> Self {
-        unsafe { _mm512_mul_ps(a, b) }
-    }
-    #[inline(always)]
-    unsafe fn load_masked(mask: u16, p: *const f32) -> Self {
-        unsafe { _mm512_maskz_loadu_ps(mask, p) }
-    }
-    #[inline(always)]
-    unsafe fn store_masked(p: *mut f32, mask: u16, v: Self) {
-        unsafe { _mm512_mask_storeu_ps(p, mask, v) }
-    }
+#[inline(always)]
+unsafe fn perm(idx: &I16, v: __m512) -> __m512 {
+    unsafe { _mm512_permutexvar_ps(_mm512_load_si512(idx.0.as_ptr().cast()), v) }
 }
-
-impl Reg for __m256 {
-    const W: usize = 8;
-    #[inline(always)]
-    unsafe fn ld(v: &F16) -> Self {
-        unsafe { _mm256_load_ps(v.0.as_ptr()) }
-    }
-    #[inline(always)]
-    unsafe fn perm(idx: &I16, v: Self) -> Self {
-        unsafe { _mm256_permutevar8x32_ps(v, _mm256_load_si256(idx.0.as_ptr().cast())) }
-    }
-    #[inline(always)]
-    unsafe fn set1(x: f32) -> Self {
-        unsafe { _mm256_set1_ps(x) }
-    }
-    #[inline(always)]
-    unsafe fn fmadd(a: Self, b: Self, c: Self) -> Self {
-        unsafe { _mm256_fmadd_ps(a, b, c) }
-    }
-    #[inline(always)]
-    unsafe fn mul(a: Self, b: Self) -> Self {
-        unsafe { _mm256_mul_ps(a, b) }
-    }
-    #[inline(always)]
-    unsafe fn load_masked(mask: u16, p: *const f32) -> Self {
-        unsafe { _mm256_maskz_loadu_ps(mask as u8, p) }
-    }
-    #[inline(always)]
-    unsafe fn store_masked(p: *mut f32, mask: u16, v: Self) {
-        unsafe { _mm256_mask_storeu_ps(p, mask as u8, v) }
-    }
+#[inline(always)]
+unsafe fn set1(x: f32) -> __m512 {
+    unsafe { _mm512_set1_ps(x) }
+}
+/// `a · b + c`.
+#[inline(always)]
+unsafe fn fmadd(a: __m512, b: __m512, c: __m512) -> __m512 {
+    unsafe { _mm512_fmadd_ps(a, b, c) }
+}
+#[inline(always)]
+unsafe fn mul(a: __m512, b: __m512) -> __m512 {
+    unsafe { _mm512_mul_ps(a, b) }
+}
+#[inline(always)]
+unsafe fn load_masked(mask: u16, p: *const f32) -> __m512 {
+    unsafe { _mm512_maskz_loadu_ps(mask, p) }
+}
+#[inline(always)]
+unsafe fn store_masked(p: *mut f32, mask: u16, v: __m512) {
+    unsafe { _mm512_mask_storeu_ps(p, mask, v) }
 }
 
 /// One Z rotation of register `r` by the angle with `cos = x`, `sin = y`.
@@ -280,23 +231,28 @@ impl Reg for __m256 {
 /// # Safety
 /// AVX-512F and AVX-512VL must be enabled in the caller.
 #[inline(always)]
-unsafe fn z_stage<R: Reg, const N: usize>(t: &BandTables, r: usize, (x, y): (f32, f32), v: R) -> R {
+unsafe fn z_stage<const N: usize>(
+    t: &BandTables,
+    r: usize,
+    (x, y): (f32, f32),
+    v: __m512,
+) -> __m512 {
     let (cp, sp) = (&t.cos_poly[r], &t.sin_poly[r]);
     // SAFETY: the caller's contract.
     unsafe {
-        let (xb, yb) = (R::set1(x), R::set1(y));
+        let (xb, yb) = (set1(x), set1(y));
         // `C` of degree N − 1 (the order's largest |m|), `S / y` of degree
         // N − 2; constant bounds, unrolled.
-        let mut c = R::ld(&cp[N.saturating_sub(1)]);
+        let mut c = ld(&cp[N.saturating_sub(1)]);
         for j in (0..N.saturating_sub(1)).rev() {
-            c = R::fmadd(c, xb, R::ld(&cp[j]));
+            c = fmadd(c, xb, ld(&cp[j]));
         }
-        let mut s = R::ld(&sp[N.saturating_sub(2)]);
+        let mut s = ld(&sp[N.saturating_sub(2)]);
         for j in (0..N.saturating_sub(2)).rev() {
-            s = R::fmadd(s, xb, R::ld(&sp[j]));
+            s = fmadd(s, xb, ld(&sp[j]));
         }
-        let vr = R::perm(&t.swap[r], v);
-        R::fmadd(vr, R::mul(s, yb), R::mul(v, c))
+        let vr = perm(&t.swap[r], v);
+        fmadd(vr, mul(s, yb), mul(v, c))
     }
 }
 
@@ -305,21 +261,21 @@ unsafe fn z_stage<R: Reg, const N: usize>(t: &BandTables, r: usize, (x, y): (f32
 /// # Safety
 /// As [`z_stage`].
 #[inline(always)]
-unsafe fn x_stage<R: Reg, const K: usize>(p: &XPerm, r: usize, v: R) -> R {
+unsafe fn x_stage<const K: usize>(p: &XPerm, r: usize, v: __m512) -> __m512 {
     // SAFETY: the caller's contract.
     unsafe {
-        let mut o = R::mul(R::perm(&p.idx[r][0], v), R::ld(&p.w[r][0]));
+        let mut o = mul(perm(&p.idx[r][0], v), ld(&p.w[r][0]));
         for k in 1..K {
-            o = R::fmadd(R::perm(&p.idx[r][k], v), R::ld(&p.w[r][k]), o);
+            o = fmadd(perm(&p.idx[r][k], v), ld(&p.w[r][k]), o);
         }
         o
     }
 }
 
-/// `dst[9..N²] = (R_z(α) X₋ R_z(β) X₊ R_z(γ) src)[9..N²]` with
-/// `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`; `K` is the most
-/// non-zeros per row of `X±` at this order (2 for `N = 4`, else 3). Order 4
-/// (seven coefficients) runs on 256-bit registers.
+/// `dst[f..N²] = (R_z(α) X₋ R_z(β) X₊ R_z(γ) src)[f..N²]`, `f =`
+/// [`first`]`(N)`, with `e = [cos α, sin α, cos β, sin β, cos γ, sin γ]`;
+/// `K` is the most non-zeros per row of `X±` at this order (2 for `N = 4`,
+/// bands 1–3; else 3).
 ///
 /// # Panics
 /// If a slice is shorter than `N²`.
@@ -338,44 +294,19 @@ pub(crate) fn rotate_bands<const N: usize, const K: usize>(
         src.len() >= N * N && dst.len() >= N * N,
         "slices hold N² values"
     );
-    if N == 4 {
-        // SAFETY: the features are enabled; the mask keeps to N² ≤ len.
-        unsafe { bands::<__m256, N, K>(t, e, src, dst) }
-    } else {
-        // SAFETY: as above.
-        unsafe { bands::<__m512, N, K>(t, e, src, dst) }
-    }
-}
-
-/// [`rotate_bands`] on registers `R`.
-///
-/// # Safety
-/// AVX-512F and AVX-512VL must be enabled in the caller; the slices hold
-/// `N²` values; with `R::W = 8`, every register's mask fits in 8 lanes.
-#[inline(always)]
-unsafe fn bands<R: Reg, const N: usize, const K: usize>(
-    t: &BandTables,
-    e: [f32; 6],
-    src: &[f32],
-    dst: &mut [f32],
-) {
-    let regs = (N * N).saturating_sub(FIRST).div_ceil(LANES);
+    let f0 = first(N);
+    let regs = (N * N - f0).div_ceil(LANES);
     for r in 0..regs {
-        debug_assert_eq!(
-            u32::from(t.mask[r]) >> R::W,
-            0,
-            "mask wider than the register"
-        );
-        // SAFETY: the caller's contract; the mask selects lanes
-        // FIRST + 16r + i < N².
+        // SAFETY: the features are enabled; the mask selects lanes
+        // f0 + 16r + i < N² ≤ len.
         unsafe {
-            let v = R::load_masked(t.mask[r], src.as_ptr().add(FIRST + LANES * r));
-            let a = z_stage::<R, N>(t, r, (e[4], e[5]), v);
-            let b = x_stage::<R, K>(&t.x_plus, r, a);
-            let c = z_stage::<R, N>(t, r, (e[2], e[3]), b);
-            let d = x_stage::<R, K>(&t.x_minus, r, c);
-            let o = z_stage::<R, N>(t, r, (e[0], e[1]), d);
-            R::store_masked(dst.as_mut_ptr().add(FIRST + LANES * r), t.mask[r], o);
+            let v = load_masked(t.mask[r], src.as_ptr().add(f0 + LANES * r));
+            let a = z_stage::<N>(t, r, (e[4], e[5]), v);
+            let b = x_stage::<K>(&t.x_plus, r, a);
+            let c = z_stage::<N>(t, r, (e[2], e[3]), b);
+            let d = x_stage::<K>(&t.x_minus, r, c);
+            let o = z_stage::<N>(t, r, (e[0], e[1]), d);
+            store_masked(dst.as_mut_ptr().add(f0 + LANES * r), t.mask[r], o);
         }
     }
 }
@@ -399,7 +330,7 @@ mod tests {
     }
 
     #[test]
-    fn writes_only_bands_3_and_up_and_matches_the_scalar_kernel() {
+    fn writes_only_its_bands_and_matches_the_scalar_kernel() {
         if !crate::fast::tests::avx512_or_skip() {
             return;
         }
@@ -427,15 +358,16 @@ mod tests {
                     _ => rotate_bands::<6, 3>(BandTables::get(6), angles, &src, &mut dst),
                 }
             }
+            let f0 = first(n);
             assert!(
-                dst[..FIRST].iter().chain(&dst[nn..]).all(|v| v.is_nan()),
+                dst[..f0].iter().chain(&dst[nn..]).all(|v| v.is_nan()),
                 "n = {n}"
             );
             let mut want = vec![0.0f32; nn];
             let z = crate::rotation::ZyzRotation::<f32>::new(n).expect("order");
             let mut scratch = vec![0.0f32; nn];
             z.apply_euler_portable(&e, &src[..nn], &mut want, &mut scratch);
-            for i in FIRST..nn {
+            for i in f0..nn {
                 assert!(
                     (dst[i] - want[i]).abs() < 2e-6,
                     "n = {n}, i = {i}: {} vs {}",
@@ -452,9 +384,9 @@ mod tests {
         for n in BANDS_MIN_ORDER..=BANDS_MAX_ORDER {
             let t = BandTables::get(n);
             let lanes: u32 = t.mask.iter().map(|m| m.count_ones()).sum();
-            assert_eq!(lanes as usize, n * n - FIRST);
-            // The dispatch in `fast` runs order 4 with two slots: band 3's
-            // rows have at most two non-zeros.
+            assert_eq!(lanes as usize, n * n - first(n));
+            // The dispatch in `fast` runs order 4 with two slots: the rows
+            // of bands 1–3 have at most two non-zeros.
             if n == 4 {
                 for x in [&t.x_plus, &t.x_minus] {
                     assert!(x.w[0][2].0.iter().all(|&w| w == 0.0));
