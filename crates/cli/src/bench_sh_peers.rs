@@ -7,9 +7,15 @@
 //! directory of them (`$PEERS_WORK/runs/<session>/`): every line is one peer
 //! timing `{peer, method, order, metric, ns, …}`; lines of the same peer,
 //! method, order and metric (rounds) are reduced to their median. The speedup
-//! is peer ns ÷ relight ns (above 1: relight is faster). Relight's figures are
-//! the ones this process just measured, so for an interleaved comparison run
-//! the kit and this command back to back on the same pinned CPU.
+//! is peer ns ÷ relight ns (above 1: relight is faster).
+//!
+//! Relight's figures: where `PATH` is a runs directory holding the kit's own
+//! relight rounds (`r<k>_relight.json`, the `relight bench sh --json` it ran
+//! between the peers), the median of those rounds, so that every row —
+//! the batch and `eval_sh_array` rows too — is the kit's interleaved
+//! comparison; otherwise the figures this process just measured (run it
+//! pinned to the kit's CPU, right after the kit). The column `relight_from`
+//! says which.
 
 use anyhow::{Context, Result, bail};
 use serde::Serialize;
@@ -23,6 +29,8 @@ pub struct PeerRow {
     pub order: usize,
     pub relight: String,
     pub relight_ns: f64,
+    /// Where `relight_ns` comes from: the kit's rounds or this run.
+    pub relight_from: String,
     pub peer: String,
     pub peer_ns: f64,
     /// peer ns ÷ relight ns.
@@ -274,9 +282,81 @@ fn read_peers(path: &Path) -> Result<BTreeMap<(String, String, usize, String), f
         .collect())
 }
 
-/// The comparison rows for `rows` (this run) against the kit's timings at `path`.
+/// Relight's `(ns_apply, ns_total)` per `(method, order)`.
+type KitRelight = BTreeMap<(String, usize), (f64, f64)>;
+
+/// Relight's `(ns_apply, ns_total)` per `(method, order)` from the kit's
+/// relight rounds in the runs directory `dir` (the first JSON array of each
+/// `r<k>_relight.json`, the `bench sh` table), median over the rounds, and
+/// the number of rounds; `None` where `dir` is not a directory or holds none.
+fn read_kit_relight(dir: &Path) -> Result<Option<(KitRelight, usize)>> {
+    if !dir.is_dir() {
+        return Ok(None);
+    }
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .with_context(|| format!("--peers {}: cannot list the directory", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with('r') && n.ends_with("_relight.json"))
+        })
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Ok(None);
+    }
+    let mut all: BTreeMap<(String, usize), (Vec<f64>, Vec<f64>)> = BTreeMap::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f)
+            .with_context(|| format!("--peers {}: cannot read", f.display()))?;
+        let first = serde_json::Deserializer::from_str(&text)
+            .into_iter::<serde_json::Value>()
+            .next()
+            .transpose()
+            .with_context(|| format!("--peers {}: not relight's JSON output", f.display()))?;
+        let Some(serde_json::Value::Array(rows)) = first else {
+            bail!(
+                "--peers {}: expected the `relight bench sh --json` table (a JSON array) first",
+                f.display()
+            );
+        };
+        for r in &rows {
+            let (Some(method), Some(order), Some(apply), Some(total)) = (
+                r.get("method").and_then(serde_json::Value::as_str),
+                r.get("order").and_then(serde_json::Value::as_u64),
+                r.get("ns_apply").and_then(serde_json::Value::as_f64),
+                r.get("ns_total").and_then(serde_json::Value::as_f64),
+            ) else {
+                bail!(
+                    "--peers {}: a bench sh row needs method, order, ns_apply and ns_total",
+                    f.display()
+                );
+            };
+            let e = all.entry((method.to_string(), order as usize)).or_default();
+            e.0.push(apply);
+            e.1.push(total);
+        }
+    }
+    let rounds = files.len();
+    Ok(Some((
+        all.into_iter()
+            .map(|(k, (mut a, mut t))| (k, (median(&mut a), median(&mut t))))
+            .collect(),
+        rounds,
+    )))
+}
+
+/// The comparison rows against the kit's timings at `path`: relight's
+/// figures from the kit's own rounds where `path` holds them, else `rows`
+/// (this run).
 pub fn compare(rows: &[relight_sh::ShBenchRow], path: &Path) -> Result<Vec<PeerRow>> {
     let peers = read_peers(path)?;
+    let kit = read_kit_relight(path)?;
+    let from = match &kit {
+        Some((_, k)) => format!("kit, median of {k} rounds"),
+        None => "this run".to_string(),
+    };
     let mut out = Vec::new();
     for &(peer, pm, metric, rm, field, orders, need, target) in TARGETS {
         for &n in orders {
@@ -285,12 +365,19 @@ pub fn compare(rows: &[relight_sh::ShBenchRow], path: &Path) -> Result<Vec<PeerR
             else {
                 continue;
             };
-            let Some(r) = rows.iter().find(|r| r.method == rm && r.order == n) else {
-                continue;
+            let (apply, total) = match &kit {
+                Some((m, _)) => match m.get(&(rm.to_string(), n)) {
+                    Some(&v) => v,
+                    None => continue,
+                },
+                None => match rows.iter().find(|r| r.method == rm && r.order == n) {
+                    Some(r) => (r.ns_apply, r.ns_total),
+                    None => continue,
+                },
             };
             let relight_ns = match field {
-                Field::Apply => r.ns_apply,
-                Field::Total => r.ns_total,
+                Field::Apply => apply,
+                Field::Total => total,
             };
             let speedup = peer_ns / relight_ns;
             let pass = if need <= 0.0 {
@@ -303,6 +390,7 @@ pub fn compare(rows: &[relight_sh::ShBenchRow], path: &Path) -> Result<Vec<PeerR
                 order: n,
                 relight: rm.to_string(),
                 relight_ns,
+                relight_from: from.clone(),
                 peer: format!("{peer} {pm}"),
                 peer_ns,
                 speedup,
@@ -312,4 +400,71 @@ pub fn compare(rows: &[relight_sh::ShBenchRow], path: &Path) -> Result<Vec<PeerR
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(method: &str, order: usize, apply: f64, total: f64) -> relight_sh::ShBenchRow {
+        relight_sh::ShBenchRow {
+            method: method.into(),
+            order,
+            ns_build: 0.0,
+            ns_apply: apply,
+            ns_total: total,
+            note: String::new(),
+        }
+    }
+
+    /// A fresh directory under the system temp dir.
+    fn dir(name: &str) -> std::path::PathBuf {
+        let d =
+            std::env::temp_dir().join(format!("relight-peers-test-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    const DX_EVAL: &str = r#"{"peer":"directxmath","method":"XMSHEvalDirection","order":3,"metric":"apply","ns":3.0}"#;
+
+    #[test]
+    fn this_run_without_kit_rounds_and_kit_medians_with_them() {
+        let d = dir("medians");
+        std::fs::write(d.join("r1_dxsh.jsonl"), format!("{DX_EVAL}\n")).unwrap();
+        let rows = [row("eval", 3, 6.0, 6.0)];
+        // No relight rounds: this run's 6 ns, 0.5×, a failure.
+        let c = compare(&rows, &d).unwrap();
+        assert_eq!(c.len(), 1);
+        assert_eq!(c[0].relight_from, "this run");
+        assert!((c[0].speedup - 0.5).abs() < 1e-12);
+        assert_eq!(c[0].pass, serde_json::Value::Bool(false));
+        // Three kit rounds (the first array is the bench sh table; later
+        // documents are other tables): median 2 ns, 1.5×, a pass.
+        for (k, ns) in [(1, 2.0), (2, 9.0), (3, 1.0)] {
+            let t = format!(
+                r#"[{{"method":"eval","order":3,"ns_build":0,"ns_apply":{ns},"ns_total":{ns},"note":""}}]
+[{{"order":3,"ms_frame":1.0}}]"#
+            );
+            std::fs::write(d.join(format!("r{k}_relight.json")), t).unwrap();
+        }
+        let c = compare(&rows, &d).unwrap();
+        assert_eq!(c[0].relight_from, "kit, median of 3 rounds");
+        assert!((c[0].relight_ns - 2.0).abs() < 1e-12);
+        assert_eq!(c[0].pass, serde_json::Value::Bool(true));
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn a_corrupt_kit_round_is_an_error_naming_the_file() {
+        let d = dir("corrupt");
+        std::fs::write(d.join("r1_dxsh.jsonl"), format!("{DX_EVAL}\n")).unwrap();
+        std::fs::write(d.join("r1_relight.json"), "[{\"method\": \"eval\", \"ord").unwrap();
+        let e = compare(&[], &d).unwrap_err();
+        assert!(format!("{e:#}").contains("r1_relight.json"), "{e:#}");
+        std::fs::write(d.join("r1_relight.json"), "[{\"method\": \"eval\"}]").unwrap();
+        let e = compare(&[], &d).unwrap_err();
+        assert!(format!("{e:#}").contains("needs method, order"), "{e:#}");
+        let _ = std::fs::remove_dir_all(&d);
+    }
 }
