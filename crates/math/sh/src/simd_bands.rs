@@ -13,8 +13,8 @@
 //! constant per-order tables ([`BandTables`]). At n = 4 the 3 + 5 + 7
 //! coefficients of bands 1–3 fill 15 lanes of one register: the same
 //! stages then replace the ≈ 130 scalar instructions of bands 1 and 2 at no
-//! extra vector instruction (pinned, `zyz` n = 4: 21.3 → 16.3 ns against
-//! band 3 alone in a 256-bit register beside the scalar bands 1–2).
+//! extra vector instruction (figures: `relight bench sh`, row `zyz`, and
+//! docs/performance.md).
 //!
 //! * **Z rotation** by θ: `out = C ∘ v + S ∘ v̄`, `v̄` the register with each
 //!   band reversed (`v̄_{l,m} = v_{l,−m}`, one permute), `C_i = cos(|m_i|θ)`,
@@ -32,8 +32,9 @@
 //!   kernel's literals come from, rounded to f32.
 //!
 //! At n = 5, 6 the bands 0–2 and 3+ are independent, so the scalar and
-//! vector parts of a call overlap in the out-of-order core. Tested against the portable scalar
-//! kernel and the f64 matrices in `fast_tests` (every order 1–6).
+//! vector parts of a call overlap in the out-of-order core. Tested against
+//! the portable scalar kernel and the f64 matrices in `fast_tests` (every
+//! order 1–6).
 
 #![cfg(target_arch = "x86_64")]
 
@@ -112,7 +113,7 @@ fn lm(i: usize) -> (usize, isize) {
     (l, i as isize - (l * (l + 1)) as isize)
 }
 
-/// [`XPerm`] of the band matrices of `x` for bands 3 … n−1.
+/// [`XPerm`] of the band matrices of `x` for the bands from [`first`]`(n)`.
 fn x_perm(n: usize, x: &ShRotation<f64>) -> XPerm {
     let mut p = XPerm::default();
     let f0 = first(n);
