@@ -234,6 +234,43 @@ impl std::fmt::Debug for RotationMatrices {
     }
 }
 
+/// Phase 1 of [`RotationMatrices::local_lighting`]: requests every cache
+/// line of the column ranges `ranges` of `e` before any is read, so that the
+/// core keeps many misses in flight instead of paying memory latency once per
+/// column (the matrices are far larger than the caches; a column averages
+/// ≈ 40 entries, 2–3 lines). On x86-64 a prefetch into L2 per line (no load
+/// to retire, no register); elsewhere one load per line.
+fn prefetch_ranges(e: &[Entry], ranges: &[(usize, usize)]) {
+    /// Entries per 64-byte cache line.
+    const LINE: usize = 64 / std::mem::size_of::<Entry>();
+    #[cfg(target_arch = "x86_64")]
+    for &(a, b) in ranges {
+        // Line starts from the range's first entry on (the last line may
+        // start before `b`'s line; one past the end is never touched).
+        let mut p = a;
+        while p < b {
+            // SAFETY: `p < b ≤ e.len()`: the address is inside `e`;
+            // a prefetch has no architectural effect.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T1 }>(
+                    e.as_ptr().add(p).cast(),
+                );
+            }
+            p += LINE;
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut touch = 0i32;
+        for &(a, b) in ranges {
+            for p in (a..b).step_by(LINE) {
+                touch = touch.wrapping_add(i32::from(e[p].value));
+            }
+        }
+        std::hint::black_box(touch);
+    }
+}
+
 /// Per-target-texel supersample pattern: local directions and normalised weights.
 struct TargetSamples {
     per_texel: usize,
@@ -620,10 +657,8 @@ impl RotationMatrices {
                 let base = nb[k] as usize;
                 let cp = &c[k * (nn + 1)..(k + 1) * (nn + 1)];
                 let scale = s[k];
-                // Phase 1: all column ranges, then one load per column. The
-                // loads are independent, so the core keeps many cache misses
-                // in flight instead of paying DRAM latency once per column
-                // (the matrices are far larger than the caches).
+                // Phase 1: all column ranges, then every line of them
+                // requested (`prefetch_ranges`).
                 ranges.clear();
                 ranges.extend(light.indices.iter().map(|&i| {
                     (
@@ -631,13 +666,7 @@ impl RotationMatrices {
                         base + cp[i as usize + 1] as usize,
                     )
                 }));
-                let mut touch = 0i32;
-                for &(a, b) in ranges.iter() {
-                    if a < b {
-                        touch = touch.wrapping_add(i32::from(e[a].value));
-                    }
-                }
-                std::hint::black_box(touch);
+                prefetch_ranges(e, ranges);
                 // Phase 2: scatter-add every used column.
                 for (&(a, b), &l) in ranges.iter().zip(&lights) {
                     let l = l * scale;
