@@ -549,6 +549,12 @@ macro_rules! rotate_per_order {
     /// If a slice is shorter than `order²`.
     #[inline]
     pub(crate) fn rotate_one(order: usize, m: &[[f32; 3]; 3], src: &[f32], dst: &mut [f32]) -> bool {
+        if order == 2 {
+            // Band 1 is the matrix itself (nine multiplies and adds, plain):
+            // inlined into the caller, no CPU test, no call.
+            rotate_fixed::<false, 2, 4>(m, head(src), head_mut(dst));
+            return true;
+        }
         match order {
             $($n => {
                 let (src, dst) = (head::<$nn>(src), head_mut::<$nn>(dst));
@@ -711,6 +717,10 @@ unsafe fn rotate_rgb_fma(order: usize, rot: &Rot3<f32>, src: [&[f32]; 3], dst: [
 /// If a slice is shorter than `order²`.
 #[inline]
 pub(crate) fn product_one(order: usize, f: &[f32], g: &[f32], out: &mut [f32]) -> bool {
+    if order == 2 {
+        product_n2_inline(head(f), head(g), head_mut(out));
+        return true;
+    }
     #[cfg(target_arch = "x86_64")]
     if crate::simd::available() {
         use crate::simd_product::{product_n3, product_n4};
@@ -730,10 +740,29 @@ pub(crate) fn product_one(order: usize, f: &[f32], g: &[f32], out: &mut [f32]) -
     product_one_portable(order, f, g, out)
 }
 
+/// The order-2 truncated product, inlined into [`product_one`]'s caller (no
+/// CPU test, no call): with `Y₀₀ = 1/(2√π)` the only Gaunt terms are
+/// `∫ y₀ y_i y_i = Y₀₀` (band 1 times band 1 has no band-1 part, by parity),
+/// so `o₀ = Y₀₀ f·g` and `o_k = Y₀₀ (f₀ g_k + g₀ f_k)`, eleven multiplies and
+/// adds with the sum in registers. (The generated kernel, shared with the
+/// larger orders, accumulates `o₀` through memory: a chain of four
+/// store-to-load forwards, 4.6 ns against DirectXMath's 3.6.)
+#[inline(always)]
+fn product_n2_inline(f: &[f32; 4], g: &[f32; 4], o: &mut [f32; 4]) {
+    const Y00: f32 = 0.282_094_8;
+    let (cf, cg) = (Y00 * f[0], Y00 * g[0]);
+    o[0] = Y00 * ((f[0] * g[0] + f[1] * g[1]) + (f[2] * g[2] + f[3] * g[3]));
+    for k in 1..4 {
+        o[k] = cf * g[k] + cg * f[k];
+    }
+}
+
 /// Which code [`product_one`] runs at `order` on this CPU (for reports).
 pub(crate) fn product_path(order: usize) -> &'static str {
     let avx512 = crate::simd::available();
-    if avx512 && (order == 3 || order == 4) {
+    if order == 2 {
+        "inlined straight-line code, sums in registers"
+    } else if avx512 && (order == 3 || order == 4) {
         "AVX-512 lane slots (Gaunt terms across output lanes)"
     } else if avx512 || crate::lanes::avx2_fma_available() {
         "generated straight-line kernel (Gaunt triples grouped by pair), FMA"
