@@ -223,16 +223,21 @@ fn median(v: &mut [f64]) -> f64 {
     }
 }
 
+/// The files of the kit's runs directory `dir` whose names pass `keep`, sorted.
+fn files_named(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<std::path::PathBuf>> {
+    let mut f: Vec<_> = std::fs::read_dir(dir)
+        .with_context(|| format!("--peers {}: cannot list the directory", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(&keep))
+        .collect();
+    f.sort();
+    Ok(f)
+}
+
 /// Reads peer timings: `(peer, method, order, metric) → median ns`.
 fn read_peers(path: &Path) -> Result<BTreeMap<(String, String, usize, String), f64>> {
     let files: Vec<std::path::PathBuf> = if path.is_dir() {
-        let mut f: Vec<_> = std::fs::read_dir(path)
-            .with_context(|| format!("--peers {}: cannot list the directory", path.display()))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|x| x == "jsonl"))
-            .collect();
-        f.sort();
-        f
+        files_named(path, |n| n.ends_with(".jsonl"))?
     } else {
         vec![path.to_path_buf()]
     };
@@ -293,16 +298,7 @@ fn read_kit_relight(dir: &Path) -> Result<Option<(KitRelight, usize)>> {
     if !dir.is_dir() {
         return Ok(None);
     }
-    let mut files: Vec<_> = std::fs::read_dir(dir)
-        .with_context(|| format!("--peers {}: cannot list the directory", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with('r') && n.ends_with("_relight.json"))
-        })
-        .collect();
-    files.sort();
+    let files = files_named(dir, |n| n.starts_with('r') && n.ends_with("_relight.json"))?;
     if files.is_empty() {
         return Ok(None);
     }
