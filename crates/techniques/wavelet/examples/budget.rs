@@ -326,6 +326,10 @@ fn main() {
         }
         wl
     };
+    // Every sampled normal's local lighting, formed once.
+    let local: Vec<Vec<Vec3A>> = (0..ntess * ntess)
+        .map(|k| r.local_lighting(k).expect("local lighting"))
+        .collect();
     let dot = |b: &BrdfBake, s: usize, l: &[Vec3A]| {
         let (idx, val) = b.slice(s);
         let mut acc = Vec3A::ZERO;
@@ -349,7 +353,7 @@ fn main() {
                 wl.z = 1e-3;
                 wl = wl.normalize();
             }
-            acc += dot(b, b.nearest_slice(wl), r.local_lighting(nk[c] as usize)) * nw[c];
+            acc += dot(b, b.nearest_slice(wl), &local[nk[c] as usize]) * nw[c];
         }
         acc
     });
@@ -377,7 +381,7 @@ fn main() {
         dot(
             b,
             b.nearest_slice(local_wo(nrm, wo)),
-            r.local_lighting(nk[c] as usize),
+            &local[nk[c] as usize],
         )
     });
     report(

@@ -16,13 +16,14 @@
 //! | call | work |
 //! |---|---|
 //! | [`Relighter::prepare`] | rotation matrices and one BRDF bake per distinct BRDF: from memory when already held, else [`bake_or_load_rotation`] / [`bake_or_load_brdf`] (the disk cache in [`WaveletOptions::cache_dir`], baked on a miss, with progress and cancellation); per-vertex AO when `ao > 0` (kept while the meshes are the same); then `set_lighting` |
-//! | [`Relighter::set_lighting`] | step 1: the environment seen through `world_from_env` sampled onto the octahedral map, Haar transform, top `terms`, times every rotation matrix |
-//! | [`Relighter::render`] | step 2 for the frame's eye (every vertex), Gouraud raster at `aa × aa` samples per pixel, box filter |
+//! | [`Relighter::set_lighting`] | step 1: the environment seen through `world_from_env` sampled onto the octahedral map, Haar transform, top `terms`; the products with the rotation matrices wait for a frame |
+//! | [`Relighter::render`] | step 1's products for the sampled normals the frame's vertices blend and the lighting lacks, step 2 for the frame's eye (the vertices of visible triangles), Gouraud raster at `aa × aa` samples per pixel, box filter |
 //!
 //! # Timings
 //! `set_lighting` returns its milliseconds; the next frame also reports them
 //! as [`FrameTimings::lighting_ms`] (then 0 until the next lighting change);
-//! [`FrameTimings::view_ms`] is step 2 + raster.
+//! [`FrameTimings::view_ms`] is step 2 + raster, and the products of step 1
+//! that the frame formed.
 
 use crate::WaveletError;
 use crate::brdf_bake::{BrdfBake, BrdfBakeParams};
@@ -431,7 +432,8 @@ impl Relighter for WaveletMethod {
     /// lighting (the dot products of the visible vertices that the memo did
     /// not hold, [`crate::memo`]) × RGB, plus the Gouraud resolve (3 × RGB per
     /// pixel); step 1 as the rotation-matrix entries the kept terms touch
-    /// (nnz × terms / N) × RGB.
+    /// (nnz × terms / N) × RGB, for every sampled normal: an upper bound, as
+    /// frames form the products of the normals they blend only.
     fn frame_work(
         &self,
         _scene: &Scene,

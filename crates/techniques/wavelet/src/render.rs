@@ -6,9 +6,13 @@
 //!    environment is sampled onto the `n × n` octahedral map (solid-angle
 //!    mean of ss × ss samples per texel, ss ≥ 4 and ≈ one sample per
 //!    environment texel), Haar-transformed, approximated by its
-//!    top `terms` coefficients (one RGB index set), and multiplied by every
-//!    rotation matrix: `L̃_k = 𝐑_k 𝐋` for all sampled normals `k`, stored
+//!    top `terms` coefficients (one RGB index set), and multiplied by the
+//!    rotation matrices: `L̃_k = 𝐑_k 𝐋` for sampled normals `k`, stored
 //!    densely (`ntess² × M` RGB, `Vec3A`) so that step 2 gathers by index.
+//!    The products are formed on demand ([`LocalLighting`]): a lighting
+//!    change marks every `L̃_k` stale, and a frame forms only those of the
+//!    normals its vertices blend (on the default scene about half of them: a
+//!    camera sees the surfaces that face it).
 //! 2. **View change** ([`WaveletRenderer::shade_vertices`]): per vertex, the
 //!    four sampled normals around the vertex normal get bilinear weights
 //!    `w_c`; a view direction picks the nearest baked BRDF slice `𝐅` (paper:
@@ -40,8 +44,8 @@ use relight_render::raster::{
 };
 use relight_render::{Camera, Image, Scene};
 use relight_sphere::EnvMap;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::{Arc, PoisonError, RwLock, RwLockReadGuard};
 use std::time::Instant;
 
 /// How the local lighting of the four sampled normals around a vertex normal
@@ -80,10 +84,21 @@ pub struct LightingStats {
     pub terms: usize,
     /// Fraction of the lighting's Haar L2 energy kept by the terms.
     pub energy_fraction: f64,
-    /// Sampling + transform + selection, ms.
+    /// Sampling + transform + selection, ms (the rotation-matrix products
+    /// follow on demand, [`LocalLighting`]).
     pub project_ms: f64,
-    /// Multiplication by every rotation matrix, ms.
-    pub rotate_ms: f64,
+}
+
+/// The local lighting `L̃_k = 𝐑_k 𝐋` of the sampled normals (step 1),
+/// formed on demand: [`WaveletRenderer::render_into`] forms the rows of the
+/// normals its frame's vertices blend, the other entry points every row
+/// they read. A lighting change clears `ready`.
+#[derive(Debug, Default)]
+struct LocalLighting {
+    /// `ntess² × M` RGB; row `k` is valid where `ready[k]`.
+    values: Vec<Vec3A>,
+    /// Per sampled normal: whether its row holds the current lighting.
+    ready: Vec<bool>,
 }
 
 /// The wavelet renderer state: rotation matrices and the local lighting of
@@ -94,7 +109,8 @@ pub struct WaveletRenderer {
     /// Ranking of the lighting's non-linear approximation.
     pub ranking: Ranking,
     light: SparseRgb,
-    local: Vec<Vec3A>,
+    /// Behind a lock so that the `&self` frame paths can form missing rows.
+    local: RwLock<LocalLighting>,
     world_from_env: Mat3,
     /// Samples per octahedral texel side when sampling a lighting function
     /// ([`WaveletRenderer::set_lighting_fn`], default 4). [`WaveletRenderer::set_lighting`]
@@ -154,7 +170,10 @@ impl WaveletRenderer {
             terms,
             ranking: Ranking::Magnitude,
             light: SparseRgb::default(),
-            local: vec![Vec3A::ZERO; p.normals() * p.target_len()],
+            local: RwLock::new(LocalLighting {
+                values: vec![Vec3A::ZERO; p.normals() * p.target_len()],
+                ready: vec![false; p.normals()],
+            }),
             world_from_env: Mat3::IDENTITY,
             lighting_supersample: 4,
             normal_interp: NormalInterp::default(),
@@ -179,11 +198,85 @@ impl WaveletRenderer {
         &self.light
     }
 
-    /// Local lighting of sampled normal `k` (M Haar coefficients, RGB).
-    #[must_use]
-    pub fn local_lighting(&self, k: usize) -> &[Vec3A] {
+    /// Local lighting of sampled normal `k` (M Haar coefficients, RGB),
+    /// formed first if the current lighting lacks it.
+    ///
+    /// # Errors
+    /// `k` ≥ ntess².
+    pub fn local_lighting(&self, k: usize) -> Result<Vec<Vec3A>, WaveletError> {
+        let normals = self.rot.params().normals();
+        if k >= normals {
+            return Err(bad("k", k, format!("must be < ntess² = {normals}")));
+        }
+        let mut wanted = vec![false; normals];
+        wanted[k] = true;
+        let local = self.local_for(&wanted)?;
         let mm = self.rot.params().target_len();
-        &self.local[k * mm..(k + 1) * mm]
+        Ok(local.values[k * mm..(k + 1) * mm].to_vec())
+    }
+
+    /// The local lighting with the rows `wanted` marks formed: a read lock
+    /// when they are all current, else the missing rows are formed under a
+    /// write lock first.
+    fn local_for(
+        &self,
+        wanted: &[bool],
+    ) -> Result<RwLockReadGuard<'_, LocalLighting>, WaveletError> {
+        {
+            let local = self.local.read().unwrap_or_else(PoisonError::into_inner);
+            if wanted.iter().zip(&local.ready).all(|(&w, &r)| r || !w) {
+                return Ok(local);
+            }
+        }
+        {
+            let mut guard = self.local.write().unwrap_or_else(PoisonError::into_inner);
+            let LocalLighting { values, ready } = &mut *guard;
+            let missing: Vec<bool> = wanted.iter().zip(&*ready).map(|(&w, &r)| w && !r).collect();
+            self.rot
+                .local_lighting_some(&self.light, values, &missing)?;
+            for (r, m) in ready.iter_mut().zip(missing) {
+                *r |= m;
+            }
+        }
+        Ok(self.local.read().unwrap_or_else(PoisonError::into_inner))
+    }
+
+    /// The local lighting with every row formed.
+    fn local_all(&self) -> Result<RwLockReadGuard<'_, LocalLighting>, WaveletError> {
+        self.local_for(&vec![true; self.rot.params().normals()])
+    }
+
+    /// Marks, per sampled normal, whether one of `normals` blends it
+    /// ([`normal_bilinear`]'s four neighbours).
+    fn normals_blended(&self, normals: impl ParallelIterator<Item = Vec3>) -> Vec<bool> {
+        let p = self.rot.params();
+        let count = p.normals();
+        normals
+            .fold(
+                || vec![false; count],
+                |mut w, n| {
+                    for k in normal_bilinear(n, p.ntess).0 {
+                        w[k as usize] = true;
+                    }
+                    w
+                },
+            )
+            .reduce(
+                || vec![false; count],
+                |mut a, b| {
+                    for (x, y) in a.iter_mut().zip(b) {
+                        *x |= y;
+                    }
+                    a
+                },
+            )
+    }
+
+    /// Starts a new lighting: every local-lighting row stale.
+    fn lighting_changed(&mut self) {
+        self.lighting_generation += 1;
+        let local = self.local.get_mut().unwrap_or_else(PoisonError::into_inner);
+        local.ready.fill(false);
     }
 
     /// Step 1 for an environment map rotated by `world_from_env`
@@ -230,14 +323,11 @@ impl WaveletRenderer {
         self.samples = Some(samples);
         self.light = top_k_rgb(&coeffs, n, self.terms, self.ranking);
         let energy = energy_fraction(&self.light, &coeffs);
-        let t1 = Instant::now();
-        self.lighting_generation += 1;
-        self.rot.local_lighting(&self.light, &mut self.local)?;
+        self.lighting_changed();
         Ok(LightingStats {
             terms: self.light.nnz(),
             energy_fraction: energy,
-            project_ms: (t1 - t0).as_secs_f64() * 1e3,
-            rotate_ms: t1.elapsed().as_secs_f64() * 1e3,
+            project_ms: t0.elapsed().as_secs_f64() * 1e3,
         })
     }
 
@@ -246,9 +336,10 @@ impl WaveletRenderer {
     /// # Errors
     /// Indices ≥ N.
     pub fn set_lighting_sparse(&mut self, light: SparseRgb) -> Result<(), WaveletError> {
+        self.rot.check_light(&light)?;
         self.light = light;
-        self.lighting_generation += 1;
-        self.rot.local_lighting(&self.light, &mut self.local)
+        self.lighting_changed();
+        Ok(())
     }
 
     /// One BRDF bake per object, baked for this target size m; one normal per vertex.
@@ -282,11 +373,10 @@ impl WaveletRenderer {
 
     /// Colour of one surface point (normal `n`, unit view direction `wo`, world).
     #[inline]
-    fn shade_point(&self, n: Vec3, wo: Vec3, brdf: &BrdfBake) -> Vec3A {
+    fn shade_point(&self, local: &[Vec3A], n: Vec3, wo: Vec3, brdf: &BrdfBake) -> Vec3A {
         let p = self.rot.params();
         let (mm, ntess) = (p.target_len(), p.ntess);
         let (nk, nw) = normal_bilinear(n, ntess);
-        let local = &self.local;
         let lit = |c: usize| &local[nk[c] as usize * mm..][..mm];
         let above = above_horizon;
         // A view-independent slice makes both rules identical: take the cheaper.
@@ -340,9 +430,9 @@ impl WaveletRenderer {
     /// chain [`WaveletRenderer::shade_point`]'s mirror-aligned loop runs per
     /// neighbour, so the bits are the same.
     #[inline]
-    fn slice_dot(&self, brdf: &BrdfBake, s: usize, c: usize) -> Vec3A {
+    fn slice_dot(&self, local: &[Vec3A], brdf: &BrdfBake, s: usize, c: usize) -> Vec3A {
         let mm = self.rot.params().target_len();
-        let l = &self.local[c * mm..][..mm];
+        let l = &local[c * mm..][..mm];
         let (idx, val) = brdf.slice(s);
         let mut a = Vec3A::ZERO;
         for (&j, &f) in idx.iter().zip(val) {
@@ -363,6 +453,7 @@ impl WaveletRenderer {
     #[inline]
     fn shade_point_memo(
         &self,
+        local: &[Vec3A],
         n: Vec3,
         wo: Vec3,
         brdf: &BrdfBake,
@@ -391,7 +482,9 @@ impl WaveletRenderer {
         let mut computed = 0;
         let a: [Vec3A; 4] = std::array::from_fn(|c| {
             let key = base + slices[c] as u32 * normals + nk[c];
-            let (v, fresh) = memo.get_or(key, || self.slice_dot(brdf, slices[c], nk[c] as usize));
+            let (v, fresh) = memo.get_or(key, || {
+                self.slice_dot(local, brdf, slices[c], nk[c] as usize)
+            });
             computed += u32::from(fresh);
             v
         });
@@ -433,10 +526,13 @@ impl WaveletRenderer {
         let bg = |d: Vec3| env.eval(env_from_world * d);
         let opts = RasterOptions::default().fit_depth(camera, &draws);
         let mut raster = Rasterizer::new();
+        // Pixel normals reach every sampled normal between the vertices'.
+        let local = self.local_all()?;
+        let local = &local.values;
         let shader = |f: &relight_render::raster::Fragment| {
             let a = f.attributes;
             let n = Vec3::new(a[0], a[1], a[2]).normalize_or(f.normal);
-            Vec3::from(self.shade_point(n, f.to_eye, brdfs[f.object as usize]))
+            Vec3::from(self.shade_point(local, n, f.to_eye, brdfs[f.object as usize]))
         };
         raster
             .render(
@@ -490,13 +586,15 @@ impl WaveletRenderer {
                 format!("need one value per vertex ({})", positions.len()),
             ));
         }
+        let local = self.local_for(&self.normals_blended(normals.par_iter().copied()))?;
+        let local = &local.values;
         out.par_chunks_mut(1024).enumerate().for_each(|(chunk, o)| {
             for (q, c) in o.iter_mut().enumerate() {
                 let v = chunk * 1024 + q;
                 let n = normals[v];
                 let wo = (eye - positions[v]).normalize_or(n);
                 let a = ao.map_or(1.0, |a| a[v]);
-                *c = Vec3::from(self.shade_point(n, wo, brdf)) * a;
+                *c = Vec3::from(self.shade_point(local, n, wo, brdf)) * a;
             }
         });
         Ok(())
@@ -708,6 +806,14 @@ impl WaveletRenderer {
         // memo pairs while they are in cache (the scan order above jumps
         // across objects and rows).
         todo.par_sort_unstable();
+        // Step 1's products for the normals these vertices blend.
+        let local = self.local_for(
+            &self.normals_blended(
+                todo.par_iter()
+                    .map(|&(d, v)| scene.objects[d as usize].mesh.normals[v as usize]),
+            ),
+        )?;
+        let local = &local.values;
         let eye = camera.eye;
         let memo = cache.memo.as_ref().filter(|_| use_memo);
         let slice_terms = |d: usize| brdfs[d].params.terms as u32;
@@ -722,8 +828,8 @@ impl WaveletRenderer {
                 let a = ao.map_or(1.0, |a| a[d][v]);
                 let (c, dots) = match memo {
                     // Pair keys fit: `bases[d] + s · normals + c < next_key`.
-                    Some(m) => self.shade_point_memo(n, wo, brdfs[d], bases[d] as u32, m),
-                    None => (self.shade_point(n, wo, brdfs[d]), 4),
+                    Some(m) => self.shade_point_memo(local, n, wo, brdfs[d], bases[d] as u32, m),
+                    None => (self.shade_point(local, n, wo, brdfs[d]), 4),
                 };
                 (Vec3::from(c) * a, dots * slice_terms(d))
             })
@@ -983,6 +1089,10 @@ mod tests {
         eye: Vec3,
     ) -> Vec<usize> {
         let exact = r.normal_interp == NormalInterp::MirrorAligned;
+        // Every row formed: a row formed on demand for a frame is the same
+        // product as one formed here.
+        let local = r.local_all().unwrap();
+        let local = &local.values;
         (0..scene.objects.len())
             .map(|d| {
                 let mesh = &scene.objects[d].mesh;
@@ -993,7 +1103,7 @@ mod tests {
                     }
                     let n = mesh.normals[v];
                     let wo = (eye - mesh.positions[v]).normalize_or(n);
-                    let want = Vec3::from(r.shade_point(n, wo, brdfs[d]));
+                    let want = Vec3::from(r.shade_point(local, n, wo, brdfs[d]));
                     let got = cache.colors[d][v];
                     if exact && !brdfs[d].view_independent {
                         assert_eq!(
@@ -1122,6 +1232,52 @@ mod tests {
         r.normal_interp = NormalInterp::Paper;
         let paper = frame(&r, &cam, &mut cache);
         assert!(paper.iter().all(|&n| n > 100), "{paper:?}");
+    }
+
+    /// A frame forms only the local lighting of the normals its vertices
+    /// blend, and its image is the one every row formed up front gives, bit
+    /// for bit; a lighting change makes every row stale again.
+    #[test]
+    fn frames_form_only_the_local_lighting_they_blend() {
+        let (mut r, scene, bakes) = setup();
+        let brdfs = [&bakes[0], &bakes[1], &bakes[0]];
+        let cam = scene.camera;
+        let formed = |r: &WaveletRenderer| {
+            let local = r.local.read().unwrap();
+            local.ready.iter().filter(|&&x| x).count()
+        };
+        let light = |d: Vec3| Vec3::new(1.0 + d.x, 0.5, 0.8 + 0.5 * d.y);
+        r.set_lighting_fn(light).unwrap();
+        assert_eq!(formed(&r), 0, "a lighting change forms nothing");
+        let draw = |r: &WaveletRenderer| {
+            let mut img = Image::new(cam.width, cam.height);
+            r.render_into(
+                &scene,
+                &brdfs,
+                &cam,
+                None,
+                &mut Rasterizer::new(),
+                &mut VertexColors::default(),
+                true,
+                &mut img,
+            )
+            .unwrap();
+            img.pixels
+                .iter()
+                .map(|p| p.to_array().map(f32::to_bits))
+                .collect::<Vec<_>>()
+        };
+        let lazy = draw(&r);
+        let normals = r.rot.params().normals();
+        let used = formed(&r);
+        assert!(
+            used > 0 && used < normals,
+            "{used} of {normals} rows formed for one view"
+        );
+        r.set_lighting_fn(light).unwrap();
+        drop(r.local_all().unwrap());
+        assert_eq!(formed(&r), normals);
+        assert_eq!(lazy, draw(&r), "rows formed on demand differ");
     }
 
     /// A lighting change under the same camera reuses the visibility buffer

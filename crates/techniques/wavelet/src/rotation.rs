@@ -637,6 +637,49 @@ impl RotationMatrices {
     /// # Errors
     /// A light index ≥ N or a wrong `out` length.
     pub fn local_lighting(&self, light: &SparseRgb, out: &mut [Vec3A]) -> Result<(), WaveletError> {
+        self.local_lighting_of(light, out, None)
+    }
+
+    /// [`RotationMatrices::local_lighting`] for the sampled normals `k` with
+    /// `wanted[k]` only (`wanted.len()` = T); the other rows of `out` are
+    /// left as they are.
+    ///
+    /// # Errors
+    /// As [`RotationMatrices::local_lighting`], or a wrong `wanted` length.
+    pub fn local_lighting_some(
+        &self,
+        light: &SparseRgb,
+        out: &mut [Vec3A],
+        wanted: &[bool],
+    ) -> Result<(), WaveletError> {
+        if wanted.len() != self.params.normals() {
+            return Err(bad(
+                "wanted",
+                wanted.len(),
+                format!("must hold ntess² = {}", self.params.normals()),
+            ));
+        }
+        self.local_lighting_of(light, out, Some(wanted))
+    }
+
+    /// Checks a source lighting's indices against N.
+    ///
+    /// # Errors
+    /// The first index ≥ N.
+    pub fn check_light(&self, light: &SparseRgb) -> Result<(), WaveletError> {
+        let nn = self.params.source_len();
+        match light.indices.iter().find(|&&i| i as usize >= nn) {
+            Some(&i) => Err(bad("light index", i, format!("must be < N = {nn}"))),
+            None => Ok(()),
+        }
+    }
+
+    fn local_lighting_of(
+        &self,
+        light: &SparseRgb,
+        out: &mut [Vec3A],
+        wanted: Option<&[bool]>,
+    ) -> Result<(), WaveletError> {
         let (nn, mm) = (self.params.source_len(), self.params.target_len());
         if out.len() != self.params.normals() * mm {
             return Err(bad(
@@ -645,12 +688,17 @@ impl RotationMatrices {
                 format!("must hold ntess² · M = {}", self.params.normals() * mm),
             ));
         }
-        if let Some(&i) = light.indices.iter().find(|&&i| i as usize >= nn) {
-            return Err(bad("light index", i, format!("must be < N = {nn}")));
-        }
+        self.check_light(light)?;
         let (nb, s, c, e) = self.sections();
         let lights: Vec<Vec3A> = light.values.iter().map(|v| Vec3A::from_array(*v)).collect();
-        out.par_chunks_mut(mm).enumerate().for_each_init(
+        // The wanted rows as a list, so that rayon splits the work between
+        // threads evenly however the wanted normals cluster on the grid.
+        let rows: Vec<(usize, &mut [Vec3A])> = out
+            .chunks_mut(mm)
+            .enumerate()
+            .filter(|(k, _)| wanted.is_none_or(|w| w[*k]))
+            .collect();
+        rows.into_par_iter().for_each_init(
             || Vec::with_capacity(light.nnz()),
             |ranges: &mut Vec<(usize, usize)>, (k, o)| {
                 o.fill(Vec3A::ZERO);
