@@ -14,7 +14,7 @@ use std::f32::consts::{FRAC_PI_2, PI};
 /// Coefficients of `P(s)`, lowest order first (module docs), as derived in
 /// f64; the compiler rounds each to the nearest f32.
 #[allow(clippy::excessive_precision)]
-const P: [f32; 8] = [
+pub(crate) const P: [f32; 8] = [
     0.999_999_9,
     -0.333_318_13,
     0.199_669_62,

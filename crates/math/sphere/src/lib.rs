@@ -54,6 +54,7 @@
 pub mod atan;
 pub mod frame;
 pub mod icosahedral;
+pub mod latlong_batch;
 pub mod map;
 pub mod param;
 pub mod verify;

@@ -5,9 +5,10 @@
 //! approximated").
 
 use crate::octa::{oct_density, oct_dir_from_uv};
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use relight_haar::{Ranking, SparseRgb, forward_2d_with_scratch, top_k_rgb};
+use relight_sphere::EnvMap;
 
 /// Texel values of `f` on the `n × n` octahedral map: each texel is the
 /// solid-angle-weighted mean of `ss × ss` stratified samples (area integral
@@ -95,6 +96,33 @@ impl OctSamples {
             })
             .collect()
     }
+
+    /// Texel values of `env` seen through `env_from_world`: [`OctSamples::sample`]
+    /// of `|d| env.eval(env_from_world * d)`, bit for bit, with the lookups
+    /// of a texel made together ([`EnvMap::eval_many`]).
+    #[must_use]
+    pub fn sample_env(&self, env: &EnvMap, env_from_world: Mat3) -> Vec<[f32; 3]> {
+        /// Samples per texel at most (`ss` ≤ 8).
+        const MAX: usize = 64;
+        let k = self.ss * self.ss;
+        if k > MAX {
+            return self.sample(|d| env.eval(env_from_world * d));
+        }
+        self.dirs
+            .par_chunks(k)
+            .zip(self.weights.par_chunks(k))
+            .zip(self.sums.par_iter())
+            .map(|((dirs, weights), &sum)| {
+                let mut radiance = [Vec3::ZERO; MAX];
+                env.eval_many(env_from_world, dirs, &mut radiance[..k]);
+                let mut acc = Vec3::ZERO;
+                for (&l, &w) in radiance[..k].iter().zip(weights) {
+                    acc += l * w;
+                }
+                (acc / sum).to_array()
+            })
+            .collect()
+    }
 }
 
 /// Haar transform (orthonormal, nonstandard) of an RGB `n × n` map.
@@ -133,6 +161,36 @@ pub fn project_lighting(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`OctSamples::sample_env`] is [`OctSamples::sample`] of the rotated
+    /// map's lookups, bit for bit (lat-long: the block path; octahedral: one
+    /// lookup each), at every supersampling the renderer picks.
+    #[test]
+    fn sample_env_equals_sampling_the_lookups() {
+        let param = relight_sphere::Param::LatLong {
+            width: 48,
+            height: 24,
+        };
+        let texels = (0..param.len())
+            .map(|i| Vec3::new(1.0 + (i as f32).sin(), 0.1 * (i % 7) as f32, 0.5))
+            .collect();
+        let latlong = EnvMap { param, texels };
+        let oct = latlong.resample(relight_sphere::Param::Octahedral { n: 8 }, 1);
+        let m = Mat3::from_euler(glam::EulerRot::YXZ, 1.1, 0.4, -0.2);
+        for env in [&latlong, &oct] {
+            for ss in [1, 4, 6, 8, 9] {
+                let s = OctSamples::new(8, ss);
+                let bits = |v: Vec<[f32; 3]>| -> Vec<[u32; 3]> {
+                    v.iter().map(|t| t.map(f32::to_bits)).collect()
+                };
+                assert_eq!(
+                    bits(s.sample_env(env, m)),
+                    bits(s.sample(|d| env.eval(m * d))),
+                    "ss {ss}"
+                );
+            }
+        }
+    }
 
     /// The samples kept by [`OctSamples`] give the bits of evaluating the
     /// map's points and weights at every call (the computation they replace).

@@ -294,7 +294,7 @@ impl WaveletRenderer {
         let n = self.rot.params().n;
         let ss = ((env.texels.len() as f64 / (n * n) as f64).sqrt().ceil() as usize)
             .clamp(self.lighting_supersample.max(1), 8);
-        self.project(ss, |d| env.eval(env_from_world * d))
+        self.project(ss, |s| s.sample_env(env, env_from_world))
     }
 
     /// Step 1 for a lighting function of the world direction.
@@ -305,13 +305,15 @@ impl WaveletRenderer {
         &mut self,
         f: impl Fn(Vec3) -> Vec3 + Sync,
     ) -> Result<LightingStats, WaveletError> {
-        self.project(self.lighting_supersample.max(1), f)
+        self.project(self.lighting_supersample.max(1), |s| s.sample(f))
     }
 
+    /// Step 1's projection: `sample` gives the octahedral texels from the
+    /// sample points at `ss × ss` per texel.
     fn project(
         &mut self,
         ss: usize,
-        f: impl Fn(Vec3) -> Vec3 + Sync,
+        sample: impl FnOnce(&OctSamples) -> Vec<[f32; 3]>,
     ) -> Result<LightingStats, WaveletError> {
         let t0 = Instant::now();
         let n = self.rot.params().n;
@@ -319,7 +321,7 @@ impl WaveletRenderer {
             Some(s) if s.size() == (n, ss.max(1)) => s,
             _ => OctSamples::new(n, ss),
         };
-        let coeffs = haar_rgb(&samples.sample(f), n);
+        let coeffs = haar_rgb(&sample(&samples), n);
         self.samples = Some(samples);
         self.light = top_k_rgb(&coeffs, n, self.terms, self.ranking);
         let energy = energy_fraction(&self.light, &coeffs);
