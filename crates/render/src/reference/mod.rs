@@ -62,7 +62,11 @@
 //!   importance sampling [`EnvSampler`]; uniform by area on the rectangle)
 //!   and one BSDF / phase sample, combined per light by multiple importance
 //!   sampling with the power heuristic (Veach & Guibas 1995, §4); point lights
-//!   by one deterministic connection each. A blended BRDF samples one lobe
+//!   by one deterministic connection each. With [`LightSampling::Wavelet`]
+//!   each area light also gets, at surface vertices, one sample of its
+//!   light × BRDF·cos product on the expanded top face
+//!   ([`wavelet_sampling`], sun-thesis-2008 §4.6.1), the three weighted by
+//!   the power heuristic. A blended BRDF samples one lobe
 //!   chosen by weight and reports the mixture's density (an unbiased
 //!   one-sample mixture).
 //! * **Light scattered into a segment** ([`medium`]): per point light, one

@@ -222,8 +222,7 @@ pub(crate) fn validate(
     if opts.light_sampling == LightSampling::Wavelet
         && let Err((parameter, problem)) = opts.wavelet.check()
     {
-        return Err(ReferenceError::InvalidOption { parameter, problem,
-        });
+        return Err(ReferenceError::InvalidOption { parameter, problem });
     }
     validate_scene(scene)
 }
@@ -267,7 +266,8 @@ pub fn render_reference_with(
 ) -> Result<ReferenceImage, ReferenceError> {
     validate(scene, &scene.camera, opts)?;
     let wavelet = wavelet_lights(scene, opts);
-    let tracer = Tracer::new(scene, bvh, Lights::new(scene, light), opts).with_wavelet(wavelet.as_ref());
+    let tracer =
+        Tracer::new(scene, bvh, Lights::new(scene, light), opts).with_wavelet(wavelet.as_ref());
     let mut acc = Accumulator::new(scene.camera.width, scene.camera.height);
     acc.add_samples(&tracer, scene, &scene.camera, opts, opts.spp, progress)?;
     Ok(acc.image())

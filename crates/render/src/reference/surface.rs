@@ -26,6 +26,12 @@
 //!   BSDF/phase sample, each weighted by the power heuristic against the
 //!   other's density for that light (Veach 1997, §9.2.4); the weights of the
 //!   two strategies sum to one per light, so the sum is unbiased;
+//! * with [`LightSampling::Wavelet`] at a surface vertex, each area light
+//!   also gets one sample of its light × BRDF·cos product on the expanded
+//!   top face ([`super::wavelet_sampling`]); its light, BSDF and wavelet
+//!   samples are weighted by the three-strategy power heuristic, and the
+//!   wavelet density is 0 outside the face, where the other two carry the
+//!   light;
 //! * each point light: one connection (a delta: no MIS);
 //! * the BSDF/phase sample collects every area light it crosses (front side)
 //!   before the first occluder, and the environment when nothing occludes.
@@ -35,15 +41,15 @@
 
 use super::LightSampling;
 use super::integrator::Tracer;
-use super::wavelet_sampling::{FaceProduct, FaceSet, power3};
-use std::cell::RefCell;
 use super::lights::{Lights, area_light_pdf, area_light_sample, point_light_sample};
+use super::wavelet_sampling::{FaceProduct, FaceSet, power3};
 use crate::bvh::{Hit, SceneBvh, ShadingPoint, offset_ray_origin};
 use crate::sampling::{Rng, sample_uniform_sphere, uniform_sphere_pdf};
 use crate::{BrdfBlend, Object};
 use glam::{Mat3, Vec2, Vec3};
 use relight_brdf::{Brdf, BrdfSample};
 use relight_sphere::Frame;
+use std::cell::RefCell;
 
 #[cfg(doc)]
 use crate::NormalMap;
@@ -328,11 +334,7 @@ pub(crate) fn direct_light(
     if tr.light_sampling == LightSampling::Wavelet
         && let Some(wl) = tr.wavelet
         && let Scatter::Surface {
-            p,
-            frame,
-            wo,
-            bsdf,
-            ..
+            p, frame, wo, bsdf, ..
         } = sc
         && !tr.lights.areas.is_empty()
     {
@@ -418,13 +420,8 @@ fn direct_light_with(
         if let Some((t, uv)) = a.intersect(o, wi, 0.0) {
             let pdf_l = area_light_pdf(a, wi, t);
             let le = a.radiance_at(uv);
-            if pdf_l > 0.0
-                && le != Vec3::ZERO
-                && tr.unoccluded(o, wi, t * (1.0 - 1e-4), rays)
-            {
-                l += rho
-                    * le
-                    * (tr.transmittance(o, wi, t) * power3(pdf_w, pdf_l, pdf_sc) / pdf_w);
+            if pdf_l > 0.0 && le != Vec3::ZERO && tr.unoccluded(o, wi, t * (1.0 - 1e-4), rays) {
+                l += rho * le * (tr.transmittance(o, wi, t) * power3(pdf_w, pdf_l, pdf_sc) / pdf_w);
             }
         }
     }

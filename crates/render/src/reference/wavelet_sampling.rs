@@ -315,7 +315,8 @@ impl FaceProduct {
     /// True when built for `options` (same order, face and BRDF reads).
     #[must_use]
     pub fn matches(&self, options: &WaveletSamplingOptions) -> bool {
-        self.n == options.order && self.face == options.face
+        self.n == options.order
+            && self.face == options.face
             && self.brdf_subsamples == options.brdf_subsamples
     }
 
@@ -357,8 +358,7 @@ impl FaceProduct {
                 for j in 0..q {
                     let v2 = (-0.5 * s_face + i2 as f64 * cell + (j as f64 + 0.5) * sub) as f32;
                     for i in 0..q {
-                        let v1 =
-                            (-0.5 * s_face + i1 as f64 * cell + (i as f64 + 0.5) * sub) as f32;
+                        let v1 = (-0.5 * s_face + i1 as f64 * cell + (i as f64 + 0.5) * sub) as f32;
                         let r2 = 1.0 + v1 * v1 + v2 * v2;
                         let inv = r2.sqrt().recip();
                         let d = (x_axis * v1 - y_axis * v2 - z_axis) * inv;
@@ -398,7 +398,7 @@ impl FaceProduct {
             f64::from(d.dot(light.world_from_light.y_axis)),
             f64::from(d.dot(light.world_from_light.z_axis)),
         );
-        if !(z > 1e-6) {
+        if z.is_nan() || z <= 1e-6 {
             return false;
         }
         let (w, h) = (f64::from(light.size.x), f64::from(light.size.y));
@@ -467,7 +467,7 @@ impl FaceProduct {
     #[must_use]
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
         let total = self.total();
-        if !(total > 0.0) {
+        if total.is_nan() || total <= 0.0 {
             return None;
         }
         let below_one = 1.0 - f32::EPSILON;
@@ -478,7 +478,12 @@ impl FaceProduct {
             let off = Self::level_offset(l);
             let (ci, cj) = (2 * i, 2 * j);
             let at = |a: usize, b: usize| self.tree[off + b * side + a];
-            let (c00, c10, c01, c11) = (at(ci, cj), at(ci + 1, cj), at(ci, cj + 1), at(ci + 1, cj + 1));
+            let (c00, c10, c01, c11) = (
+                at(ci, cj),
+                at(ci + 1, cj),
+                at(ci, cj + 1),
+                at(ci + 1, cj + 1),
+            );
             // u₁: left (c00 + c01) or right column.
             let left = c00 + c01;
             let sum = left + c10 + c11;
@@ -507,7 +512,7 @@ impl FaceProduct {
             j = cj + usize::from(up);
         }
         let p_cell = self.cell_probability(i, j);
-        if !(p_cell > 0.0) {
+        if p_cell.is_nan() || p_cell <= 0.0 {
             return None;
         }
         let n = self.n as f32;
@@ -524,7 +529,7 @@ impl FaceProduct {
     #[must_use]
     pub fn cell_of(&self, dir: Vec3) -> Option<(usize, usize, f32)> {
         let c = -dir.dot(self.axes.z_axis);
-        if !(c > 0.0) {
+        if c.is_nan() || c <= 0.0 {
             return None;
         }
         let v1 = dir.dot(self.axes.x_axis) / c;
@@ -572,7 +577,10 @@ impl FaceSet {
         rho: impl Fn(Vec3) -> Vec3 + Copy,
     ) {
         if self.faces.len() != areas.len()
-            || self.faces.first().is_some_and(|f| !f.matches(&lights.options))
+            || self
+                .faces
+                .first()
+                .is_some_and(|f| !f.matches(&lights.options))
         {
             self.faces = areas
                 .iter()
@@ -594,5 +602,9 @@ pub(crate) fn power3(p: f32, a: f32, b: f32) -> f32 {
         return 1.0;
     }
     let (p2, d) = (p * p, p * p + a * a + b * b);
-    if d > 0.0 && d.is_finite() { p2 / d } else { 0.0 }
+    if d > 0.0 && d.is_finite() {
+        p2 / d
+    } else {
+        0.0
+    }
 }

@@ -203,11 +203,7 @@ pub fn pdf_sphere_integral(face: &FaceProduct, res: usize) -> f64 {
         let mut row = 0.0f64;
         for i in 0..2 * res {
             let phi = (i as f64 + 0.5) * dp;
-            let d = Vec3::new(
-                (st * phi.cos()) as f32,
-                (st * phi.sin()) as f32,
-                ct as f32,
-            );
+            let d = Vec3::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
             row += f64::from(face.pdf(d));
         }
         sum += row * st;
