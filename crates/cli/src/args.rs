@@ -226,6 +226,12 @@ pub struct MethodFlags {
     /// (single scattering only, the fog model's classes) [default: multiple].
     #[arg(long, value_enum)]
     pub scattering: Option<Scattering>,
+    /// Light sampling strategy of the reference: `mis` (light + BSDF samples,
+    /// power heuristic), `light` (light samples only), `bsdf` (BSDF samples
+    /// only) or `wavelet` (mis plus wavelet importance sampling of the area
+    /// lights' light × BRDF product, sun-thesis §4.6.1) [default: mis].
+    #[arg(long, value_name = "STRATEGY")]
+    pub light_sampling: Option<String>,
     /// SH order, number of bands (sh; fog's environment part; radiance-cache
     /// records) [default: 6; shexp: 4]; nearfield: wavelet order per axis, a
     /// power of two 4…64 [default: 32].
@@ -665,6 +671,8 @@ pub enum VerifySuite {
     Nearfield,
     /// Near-field relighting: only the face-coverage and per-vertex rows (no reference render).
     NearfieldVertex,
+    /// Wavelet importance sampling of area lights: density, unbiasedness, variance at 8 spp.
+    Importance,
 }
 
 #[derive(Args, Debug)]

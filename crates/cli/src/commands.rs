@@ -541,6 +541,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
         VerifySuite::Triple => crate::triple::verify(&a, &report, bar),
         VerifySuite::Nearfield => crate::nearfield::verify(&a, &report, bar, false),
         VerifySuite::NearfieldVertex => crate::nearfield::verify(&a, &report, bar, true),
+        VerifySuite::Importance => verify_importance(&a, &report),
         VerifySuite::Sh => {
             let opts = relight_shlight::VerifyOptions::new(a.quick);
             let default = relight_scene::default_scene(opts.width, opts.height);
@@ -712,6 +713,31 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `relight verify importance`: wavelet importance sampling of area lights
+/// (issue 13); fails (exit 1) when a gated row fails.
+fn verify_importance(a: &VerifyArgs, report: &Report) -> Result<()> {
+    let o = relight_render::reference::WaveletVerifyOptions::new(a.quick);
+    let rows = relight_render::reference::verify_wavelet_sampling(&o)?;
+    let v = report.table_verdicts(
+        &format!(
+            "relight verify importance (glossy sphere under a textured area light, {}x{}, wavelet order {}, face {})",
+            o.size, o.size, o.wavelet.order, o.wavelet.face
+        ),
+        &rows,
+        &[],
+    )?;
+    if let Some(v) = v
+        && v.fail > 0
+    {
+        bail!(
+            "verify importance: {} of {} gated rows fail",
+            v.fail,
+            v.fail + v.pass
+        );
+    }
+    Ok(())
 }
 
 /// One `verify fog` plot: the rows of one check, whose `param` means

@@ -26,13 +26,14 @@ pub fn kind_of(m: Method) -> MethodKind {
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 26] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 27] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
         &[MethodKind::Reference, MethodKind::RadianceCache],
     ),
     ("--scattering", &[MethodKind::Reference]),
+    ("--light-sampling", &[MethodKind::Reference]),
     (
         "--order",
         &[
@@ -77,6 +78,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.spp.is_some(),
         f.seed.is_some(),
         f.scattering.is_some(),
+        f.light_sampling.is_some(),
         f.order.is_some(),
         f.error.is_some(),
         f.rotation.is_some(),
@@ -144,7 +146,8 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         };
     }
     clear!(
-        spp => "--spp", seed => "--seed", scattering => "--scattering", order => "--order",
+        spp => "--spp", seed => "--seed", scattering => "--scattering",
+        light_sampling => "--light-sampling", order => "--order",
         error => "--error", rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
         ao => "--ao", cache => "--cache", fog => "--fog", exp => "--exp", spheres => "--spheres",
         visibility_texture => "--visibility-texture",
@@ -177,6 +180,11 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
                         relight_render::reference::MediumMode::MultipleScattering
                     }
                 };
+            }
+            if let Some(s) = &f.light_sampling {
+                r.light_sampling = s
+                    .parse()
+                    .map_err(|e| anyhow!("--light-sampling {s}: {e}"))?;
             }
         }
         MethodOptions::Sh(s) => {

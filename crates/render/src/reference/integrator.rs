@@ -33,7 +33,7 @@
 use super::lights::Lights;
 use super::medium::{ball_segment, inscatter, transmittance};
 use super::surface::{direct_light, surface_vertex};
-use super::{LightSampling, MediumMode, ReferenceOptions};
+use super::{LightSampling, MediumMode, ReferenceOptions, WaveletLights};
 use crate::bvh::{Hit, SceneBvh};
 use crate::sampling::{Rng, sample_uniform_sphere};
 use crate::{Medium, Object, Scene};
@@ -52,6 +52,9 @@ pub(crate) struct Tracer<'a> {
     pub medium: Option<Medium>,
     pub mode: MediumMode,
     pub light_sampling: LightSampling,
+    /// The area lights' grids for [`LightSampling::Wavelet`] (`None`: that
+    /// strategy falls back to plain MIS).
+    pub wavelet: Option<&'a WaveletLights>,
 }
 
 impl<'a> Tracer<'a> {
@@ -69,7 +72,14 @@ impl<'a> Tracer<'a> {
             medium: scene.medium.filter(|m| m.beta > 0.0),
             mode: opts.medium_mode,
             light_sampling: opts.light_sampling,
+            wavelet: None,
         }
+    }
+
+    /// This tracer with the area lights' grids for [`LightSampling::Wavelet`].
+    #[must_use]
+    pub fn with_wavelet(self, wavelet: Option<&'a WaveletLights>) -> Self {
+        Self { wavelet, ..self }
     }
 
     /// True when nothing blocks `o + t d`, `0 < t < len` (always without

@@ -62,7 +62,11 @@
 //!   importance sampling [`EnvSampler`]; uniform by area on the rectangle)
 //!   and one BSDF / phase sample, combined per light by multiple importance
 //!   sampling with the power heuristic (Veach & Guibas 1995, §4); point lights
-//!   by one deterministic connection each. A blended BRDF samples one lobe
+//!   by one deterministic connection each. With [`LightSampling::Wavelet`]
+//!   each area light also gets, at surface vertices, one sample of its
+//!   light × BRDF·cos product on the expanded top face
+//!   ([`wavelet_sampling`], sun-thesis-2008 §4.6.1), the three weighted by
+//!   the power heuristic. A blended BRDF samples one lobe
 //!   chosen by weight and reports the mixture's density (an unbiased
 //!   one-sample mixture).
 //! * **Light scattered into a segment** ([`medium`]): per point light, one
@@ -103,6 +107,8 @@ pub mod medium;
 mod relighter;
 mod render;
 pub mod surface;
+pub mod wavelet_sampling;
+pub mod wavelet_verify;
 
 #[cfg(test)]
 pub(crate) use bench::floor_quad;
@@ -112,6 +118,8 @@ pub use lights::EnvLight;
 pub use relighter::ReferenceRenderer;
 pub use render::{ReferenceImage, render_reference, render_reference_with};
 pub use surface::{RadianceEstimate, reference_radiance_at, reference_radiance_in_frame};
+pub use wavelet_sampling::{WaveletLights, WaveletSamplingOptions};
+pub use wavelet_verify::{WaveletVerifyOptions, WaveletVerifyRow, verify_wavelet_sampling};
 
 use crate::sampling::EnvFilter;
 use crate::{Cancelled, Scene};
@@ -134,6 +142,12 @@ pub enum ReferenceError {
     /// A scene value the renderer cannot integrate (named, with the problem).
     #[error("scene {parameter}: {problem}")]
     InvalidScene { parameter: String, problem: String },
+    /// A renderer option out of range (named, with the problem).
+    #[error("reference option {parameter}: {problem}")]
+    InvalidOption {
+        parameter: &'static str,
+        problem: String,
+    },
 }
 
 impl From<Cancelled> for ReferenceError {
@@ -182,7 +196,8 @@ impl std::str::FromStr for MediumMode {
 /// Which strategies estimate the light of the environment and the area
 /// lights at a vertex. [`LightSampling::Mis`] is the renderer; the two
 /// single strategies exist to check it (each alone is unbiased too, with
-/// more variance).
+/// more variance); [`LightSampling::Wavelet`] adds product sampling of the
+/// area lights (sun-thesis-2008 §4.6.1).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum LightSampling {
@@ -193,6 +208,41 @@ pub enum LightSampling {
     LightOnly,
     /// BSDF/phase samples only (weight 1); no light samples.
     BsdfOnly,
+    /// [`LightSampling::Mis`], plus at surface vertices one wavelet
+    /// importance sample per area light (light × BRDF·cos on the expanded
+    /// top face, [`wavelet_sampling`]), the three strategies combined per
+    /// area light by the power heuristic. Medium vertices and the GI
+    /// reference's tracer ([`render_gi_reference`]) use plain MIS.
+    Wavelet,
+}
+
+impl LightSampling {
+    /// Every strategy, in the order of [`LightSampling::name`]'s list.
+    pub const ALL: [Self; 4] = [Self::Mis, Self::LightOnly, Self::BsdfOnly, Self::Wavelet];
+
+    /// The name used on the command line (`mis`, `light`, `bsdf`,
+    /// `wavelet`).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Mis => "mis",
+            Self::LightOnly => "light",
+            Self::BsdfOnly => "bsdf",
+            Self::Wavelet => "wavelet",
+        }
+    }
+}
+
+impl std::str::FromStr for LightSampling {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| {
+                format!("unknown light sampling {s:?} (expected mis, light, bsdf or wavelet)")
+            })
+    }
 }
 
 impl LightSampling {
@@ -202,7 +252,7 @@ impl LightSampling {
     #[must_use]
     pub fn light_weight(self, pdf_light: f32, pdf_bsdf: f32) -> f32 {
         match self {
-            Self::Mis => crate::sampling::power_heuristic(pdf_light, pdf_bsdf),
+            Self::Mis | Self::Wavelet => crate::sampling::power_heuristic(pdf_light, pdf_bsdf),
             Self::LightOnly => 1.0,
             Self::BsdfOnly => 0.0,
         }
@@ -214,7 +264,7 @@ impl LightSampling {
     #[must_use]
     pub fn bsdf_weight(self, pdf_bsdf: f32, pdf_light: f32) -> f32 {
         match self {
-            Self::Mis => crate::sampling::power_heuristic(pdf_bsdf, pdf_light),
+            Self::Mis | Self::Wavelet => crate::sampling::power_heuristic(pdf_bsdf, pdf_light),
             Self::LightOnly => 0.0,
             Self::BsdfOnly => 1.0,
         }
@@ -236,8 +286,10 @@ pub struct ReferenceOptions {
     /// How shading reads the environment (see [`EnvFilter`]); camera rays
     /// that miss always read it bilinearly ([`Scene::env_radiance`]).
     pub env_filter: EnvFilter,
-    /// Strategies for the environment and area lights (checks only).
+    /// Strategies for the environment and area lights.
     pub light_sampling: LightSampling,
+    /// Settings of [`LightSampling::Wavelet`] (ignored by the others).
+    pub wavelet: WaveletSamplingOptions,
 }
 
 impl Default for ReferenceOptions {
@@ -249,6 +301,7 @@ impl Default for ReferenceOptions {
             medium_mode: MediumMode::MultipleScattering,
             env_filter: EnvFilter::Nearest,
             light_sampling: LightSampling::Mis,
+            wavelet: WaveletSamplingOptions::default(),
         }
     }
 }

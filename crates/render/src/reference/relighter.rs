@@ -127,6 +127,11 @@ fn method_error(e: ReferenceError) -> MethodError {
             option: "size",
             message: e.to_string(),
         },
+        ReferenceError::InvalidOption { parameter, .. } => MethodError::InvalidOption {
+            method: "reference",
+            option: parameter,
+            message: e.to_string(),
+        },
         ReferenceError::InvalidScene { .. } => MethodError::failed("reference", e),
     }
 }
@@ -183,7 +188,9 @@ impl Relighter for ReferenceRenderer {
         if until > acc.spp {
             let bvh = SceneBvh::from_scene(scene);
             let light = EnvLight::new(&scene.env, opts.env_filter);
-            let tracer = Tracer::new(scene, &bvh, Lights::new(scene, &light), &opts);
+            let wavelet = super::render::wavelet_lights(scene, &opts);
+            let tracer = Tracer::new(scene, &bvh, Lights::new(scene, &light), &opts)
+                .with_wavelet(wavelet.as_ref());
             acc.add_samples(&tracer, scene, &camera, &opts, until, progress)
                 .map_err(method_error)?;
         }

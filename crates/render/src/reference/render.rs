@@ -8,7 +8,7 @@
 
 use super::integrator::Tracer;
 use super::lights::{EnvLight, Lights};
-use super::{ReferenceError, ReferenceOptions, validate_scene};
+use super::{LightSampling, ReferenceError, ReferenceOptions, WaveletLights, validate_scene};
 use crate::bvh::SceneBvh;
 use crate::sampling::{Rng, luminance};
 use crate::{Camera, Image, Progress, Scene};
@@ -219,7 +219,19 @@ pub(crate) fn validate(
             height: camera.height,
         });
     }
+    if opts.light_sampling == LightSampling::Wavelet
+        && let Err((parameter, problem)) = opts.wavelet.check()
+    {
+        return Err(ReferenceError::InvalidOption { parameter, problem });
+    }
     validate_scene(scene)
+}
+
+/// The area lights' grids when `opts` asks for [`LightSampling::Wavelet`]
+/// and the scene has area lights.
+pub(crate) fn wavelet_lights(scene: &Scene, opts: &ReferenceOptions) -> Option<WaveletLights> {
+    (opts.light_sampling == LightSampling::Wavelet && !scene.area_lights.is_empty())
+        .then(|| WaveletLights::new(&scene.area_lights, opts.wavelet))
 }
 
 /// Renders `scene` with the reference renderer (builds the BVH and the
@@ -253,7 +265,9 @@ pub fn render_reference_with(
     progress: &dyn Progress,
 ) -> Result<ReferenceImage, ReferenceError> {
     validate(scene, &scene.camera, opts)?;
-    let tracer = Tracer::new(scene, bvh, Lights::new(scene, light), opts);
+    let wavelet = wavelet_lights(scene, opts);
+    let tracer =
+        Tracer::new(scene, bvh, Lights::new(scene, light), opts).with_wavelet(wavelet.as_ref());
     let mut acc = Accumulator::new(scene.camera.width, scene.camera.height);
     acc.add_samples(&tracer, scene, &scene.camera, opts, opts.spp, progress)?;
     Ok(acc.image())

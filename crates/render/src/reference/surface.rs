@@ -26,6 +26,12 @@
 //!   BSDF/phase sample, each weighted by the power heuristic against the
 //!   other's density for that light (Veach 1997, §9.2.4); the weights of the
 //!   two strategies sum to one per light, so the sum is unbiased;
+//! * with [`LightSampling::Wavelet`] at a surface vertex, each area light
+//!   also gets one sample of its light × BRDF·cos product on the expanded
+//!   top face ([`super::wavelet_sampling`]); its light, BSDF and wavelet
+//!   samples are weighted by the three-strategy power heuristic, and the
+//!   wavelet density is 0 outside the face, where the other two carry the
+//!   light;
 //! * each point light: one connection (a delta: no MIS);
 //! * the BSDF/phase sample collects every area light it crosses (front side)
 //!   before the first occluder, and the environment when nothing occludes.
@@ -36,12 +42,14 @@
 use super::LightSampling;
 use super::integrator::Tracer;
 use super::lights::{Lights, area_light_pdf, area_light_sample, point_light_sample};
+use super::wavelet_sampling::{FaceProduct, FaceSet, power3};
 use crate::bvh::{Hit, SceneBvh, ShadingPoint, offset_ray_origin};
 use crate::sampling::{Rng, sample_uniform_sphere, uniform_sphere_pdf};
 use crate::{BrdfBlend, Object};
 use glam::{Mat3, Vec2, Vec3};
 use relight_brdf::{Brdf, BrdfSample};
 use relight_sphere::Frame;
+use std::cell::RefCell;
 
 #[cfg(doc)]
 use crate::NormalMap;
@@ -305,15 +313,57 @@ pub(crate) fn above_horizon(wo: Vec3) -> Vec3 {
     Vec3::new(h.x, h.y, MIN_COS_VIEW)
 }
 
+thread_local! {
+    /// Per-thread face products of [`LightSampling::Wavelet`], rebuilt at
+    /// each surface vertex (no allocation after a thread's first).
+    static FACES: RefCell<FaceSet> = RefCell::new(FaceSet::default());
+}
+
 /// Direct light at `sc` from every light (point lights only when
 /// `with_points`; the medium's segment estimator samples those itself).
-/// Adds the rays traced to `rays`.
+/// Adds the rays traced to `rays`. With [`LightSampling::Wavelet`] at a
+/// surface vertex, builds each area light's face product first
+/// ([`super::wavelet_sampling`]).
 pub(crate) fn direct_light(
     tr: &Tracer,
     sc: &Scatter,
     with_points: bool,
     rng: &mut Rng,
     rays: &mut u64,
+) -> Vec3 {
+    if tr.light_sampling == LightSampling::Wavelet
+        && let Some(wl) = tr.wavelet
+        && let Scatter::Surface {
+            p, frame, wo, bsdf, ..
+        } = sc
+        && !tr.lights.areas.is_empty()
+    {
+        let (frame, wo, bsdf) = (*frame, *wo, *bsdf);
+        let rho = move |d: Vec3| {
+            let l = frame.to_local(d);
+            if l.z <= 0.0 {
+                Vec3::ZERO
+            } else {
+                bsdf.eval(wo, l) * l.z
+            }
+        };
+        return FACES.with_borrow_mut(|set| {
+            set.build(wl, tr.lights.areas, *p, rho);
+            direct_light_with(tr, sc, with_points, rng, rays, Some(&set.faces))
+        });
+    }
+    direct_light_with(tr, sc, with_points, rng, rays, None)
+}
+
+/// [`direct_light`] with the area lights' face products (`faces[i]` for
+/// light `i`) when the wavelet strategy runs at this vertex.
+fn direct_light_with(
+    tr: &Tracer,
+    sc: &Scatter,
+    with_points: bool,
+    rng: &mut Rng,
+    rays: &mut u64,
+    faces: Option<&[FaceProduct]>,
 ) -> Vec3 {
     let x = sc.position();
     let lights = &tr.lights;
@@ -337,7 +387,7 @@ pub(crate) fn direct_light(
         }
     }
     // Area lights: one light sample each.
-    for a in lights.areas.iter().filter(|_| light_samples) {
+    for (i, a) in lights.areas.iter().enumerate().filter(|_| light_samples) {
         let u = rng.next_2d();
         if let Some(s) = area_light_sample(a, x, u) {
             let (rho, pdf_sc) = sc.eval(s.wi);
@@ -346,8 +396,32 @@ pub(crate) fn direct_light(
                 let len = (a.point_at(u) - o).length();
                 if tr.unoccluded(o, s.wi, len * (1.0 - 1e-4), rays) {
                     let t = tr.transmittance(o, s.wi, len);
-                    l += rho * s.value * (t * strategy.light_weight(s.pdf, pdf_sc) / s.pdf);
+                    let w = match faces {
+                        Some(f) => power3(s.pdf, pdf_sc, f[i].pdf(s.wi)),
+                        None => strategy.light_weight(s.pdf, pdf_sc),
+                    };
+                    l += rho * s.value * (t * w / s.pdf);
                 }
+            }
+        }
+    }
+    // Area lights, wavelet strategy: one product sample each.
+    for (a, f) in lights.areas.iter().zip(faces.unwrap_or_default()) {
+        let u = rng.next_2d();
+        let Some((wi, pdf_w)) = f.sample(u) else {
+            continue;
+        };
+        let (rho, pdf_sc) = sc.eval(wi);
+        if rho == Vec3::ZERO {
+            continue;
+        }
+        let o = sc.origin_towards(wi);
+        // A sample in a cell the light only partly covers may miss it.
+        if let Some((t, uv)) = a.intersect(o, wi, 0.0) {
+            let pdf_l = area_light_pdf(a, wi, t);
+            let le = a.radiance_at(uv);
+            if pdf_l > 0.0 && le != Vec3::ZERO && tr.unoccluded(o, wi, t * (1.0 - 1e-4), rays) {
+                l += rho * le * (tr.transmittance(o, wi, t) * power3(pdf_w, pdf_l, pdf_sc) / pdf_w);
             }
         }
     }
@@ -385,16 +459,18 @@ pub(crate) fn direct_light(
                 return if l.is_finite() { l } else { Vec3::ZERO };
             }
             let t_occ = tr.secondary_hit(o, wi, rays).map_or(f32::INFINITY, |h| h.t);
-            for a in lights.areas {
+            for (i, a) in lights.areas.iter().enumerate() {
                 if let Some((t, uv)) = a.intersect(o, wi, 0.0)
                     && t < t_occ
                 {
                     let pdf_l = area_light_pdf(a, wi, t);
                     if pdf_l > 0.0 {
                         let le = a.radiance_at(uv);
-                        l += rho
-                            * le
-                            * (tr.transmittance(o, wi, t) * strategy.bsdf_weight(pdf, pdf_l) / pdf);
+                        let w = match faces {
+                            Some(f) => power3(pdf, pdf_l, f[i].pdf(wi)),
+                            None => strategy.bsdf_weight(pdf, pdf_l),
+                        };
+                        l += rho * le * (tr.transmittance(o, wi, t) * w / pdf);
                     }
                 }
             }
@@ -473,6 +549,7 @@ pub fn reference_radiance_in_frame(
         medium: None,
         mode: super::MediumMode::default(),
         light_sampling: LightSampling::Mis,
+        wavelet: None,
     };
     let sc = Scatter::Surface {
         p,

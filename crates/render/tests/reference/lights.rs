@@ -14,7 +14,7 @@ use std::sync::Arc;
 /// unit radiance with vertices `v` (Lambert's edge sum, as in Baum, Rushmeier
 /// & Winget 1989): `E = ½ |Σ_i Θ_i n·û_i|`, `Θ_i` the angle subtended by edge
 /// i and `û_i` the unit normal of the plane through x and the edge.
-fn polygon_irradiance(x: Vec3, n: Vec3, v: &[Vec3]) -> f64 {
+pub(super) fn polygon_irradiance(x: Vec3, n: Vec3, v: &[Vec3]) -> f64 {
     let mut sum = 0.0f64;
     for i in 0..v.len() {
         let a = (v[i] - x).as_dvec3().normalize();

@@ -11,3 +11,4 @@ mod common;
 mod gi;
 mod lights;
 mod medium;
+mod wavelet;
