@@ -11,8 +11,9 @@
 //!    densely (`ntess² × M` RGB, `Vec3A`) so that step 2 gathers by index.
 //!    The products are formed on demand ([`LocalLighting`]): a lighting
 //!    change marks every `L̃_k` stale, and a frame forms only those of the
-//!    normals its vertices blend (on the default scene about half of them: a
-//!    camera sees the surfaces that face it).
+//!    normals its vertices blend (on the default scene's first view 627 of
+//!    the 1024: a camera sees the surfaces that face it, and each vertex
+//!    blends four neighbours).
 //! 2. **View change** ([`WaveletRenderer::shade_vertices`]): per vertex, the
 //!    four sampled normals around the vertex normal get bilinear weights
 //!    `w_c`; a view direction picks the nearest baked BRDF slice `𝐅` (paper:
