@@ -373,6 +373,9 @@ pub enum Method {
     Triple,
     /// Near-field textured area light by affine wavelet products (per vertex).
     Nearfield,
+    /// Rectangular area lights by linearly transformed cosines (per pixel;
+    /// shadows need --approximate and are ignored; a texture is its mean).
+    Ltc,
 }
 
 #[derive(Args, Debug)]
@@ -665,6 +668,8 @@ pub enum VerifySuite {
     Nearfield,
     /// Near-field relighting: only the face-coverage and per-vertex rows (no reference render).
     NearfieldVertex,
+    /// The LTC baseline: its fitted table, and LTC and nearfield against the reference.
+    Ltc,
 }
 
 #[derive(Args, Debug)]

@@ -12,7 +12,7 @@
 //! polygon `M⁻¹P` (eq. 5): [`Ltc::polygon_integral`]. Frames: the local
 //! shading frame, normal on +Z, the view in the xz-plane with `x ≥ 0`.
 
-use crate::polygon::clamped_cosine_integral;
+use crate::polygon::{MAX_VERTICES, clamped_cosine_integral, clip_to_horizon};
 use glam::{DMat3, DVec2, DVec3};
 use std::f64::consts::PI;
 
@@ -81,18 +81,24 @@ impl Ltc {
         (self.m * wo).normalize()
     }
 
-    /// `∫_P D(ω) dω` over the polygon `poly` (vertices relative to the
-    /// shading point, local frame), clipped at the horizon after the
-    /// transform by `M⁻¹` (eq. 5; [`clamped_cosine_integral`]). Signed by the
-    /// winding.
+    /// `∫_P D(ω) dω` over the convex polygon `poly` (≤ 4 vertices, relative
+    /// to the shading point, local frame): the polygon is clipped to the
+    /// shading horizon `z ≥ 0` first (the BRDF·cos the LTC stands for is 0
+    /// below it, while `D` need not be), then transformed by `M⁻¹` and
+    /// integrated against the clamped cosine, which clips it again at the
+    /// cosine's own horizon (eq. 5; [`clamped_cosine_integral`]). Signed by
+    /// the winding.
     #[must_use]
     pub fn polygon_integral(&self, poly: &[DVec3]) -> f64 {
-        let mut t = [DVec3::ZERO; 4];
-        let n = poly.len().min(4);
-        for (o, p) in t.iter_mut().zip(&poly[..n]) {
-            *o = self.m_inv * *p;
+        let mut above = [DVec3::ZERO; MAX_VERTICES];
+        let k = clip_to_horizon(&poly[..poly.len().min(4)], &mut above);
+        if k < 3 {
+            return 0.0;
         }
-        clamped_cosine_integral(&t[..n])
+        for p in &mut above[..k] {
+            *p = self.m_inv * *p;
+        }
+        clamped_cosine_integral(&above[..k])
     }
 }
 
@@ -130,32 +136,56 @@ mod tests {
     }
 
     /// The polygon integral equals the fraction of `D`'s samples that fall
-    /// in the polygon (seeded stratified Monte Carlo, 4σ).
+    /// in the polygon and above the shading horizon (seeded stratified
+    /// Monte Carlo, 4σ): one polygon above the horizon, one crossing it (a
+    /// wall at x = 0.6, where the sheared `D` has mass below z = 0).
     #[test]
     fn polygon_integral_matches_sampling() {
         let ltc = sheared();
-        let poly = [
-            DVec3::new(-0.2, -0.5, 1.0),
-            DVec3::new(0.9, -0.5, 1.0),
-            DVec3::new(0.9, 0.4, 1.0),
-            DVec3::new(-0.2, 0.4, 1.0),
-        ];
-        let exact = ltc.polygon_integral(&poly).abs();
-        let n = 400;
-        let mut hits = 0usize;
-        for j in 0..n {
-            for i in 0..n {
-                let w = ltc.sample(DVec2::new((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64));
-                if w.z > 0.0 {
+        // (polygon, inside test for a unit direction).
+        type Inside = fn(DVec3) -> bool;
+        let cases: [([DVec3; 4], Inside); 2] = [
+            (
+                [
+                    DVec3::new(-0.2, -0.5, 1.0),
+                    DVec3::new(0.9, -0.5, 1.0),
+                    DVec3::new(0.9, 0.4, 1.0),
+                    DVec3::new(-0.2, 0.4, 1.0),
+                ],
+                |w| {
                     let p = w / w.z;
-                    if (-0.2..=0.9).contains(&p.x) && (-0.5..=0.4).contains(&p.y) {
+                    w.z > 0.0 && (-0.2..=0.9).contains(&p.x) && (-0.5..=0.4).contains(&p.y)
+                },
+            ),
+            (
+                [
+                    DVec3::new(-0.6, -0.7, -0.5),
+                    DVec3::new(-0.6, 0.7, -0.5),
+                    DVec3::new(-0.6, 0.7, 0.8),
+                    DVec3::new(-0.6, -0.7, 0.8),
+                ],
+                |w| {
+                    let p = w * (-0.6 / w.x);
+                    w.x < 0.0 && w.z > 0.0 && (-0.7..=0.7).contains(&p.y) && p.z <= 0.8
+                },
+            ),
+        ];
+        for (poly, inside) in cases {
+            let exact = ltc.polygon_integral(&poly).abs();
+            let n = 400;
+            let mut hits = 0usize;
+            for j in 0..n {
+                for i in 0..n {
+                    let u = DVec2::new((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                    if inside(ltc.sample(u)) {
                         hits += 1;
                     }
                 }
             }
+            let f = hits as f64 / (n * n) as f64;
+            let sigma = (f * (1.0 - f) / (n * n) as f64).sqrt();
+            assert!(exact > 0.01, "{exact}");
+            assert!((f - exact).abs() < 4.0 * sigma + 1e-4, "{f} vs {exact}");
         }
-        let f = hits as f64 / (n * n) as f64;
-        let sigma = (f * (1.0 - f) / (n * n) as f64).sqrt();
-        assert!((f - exact).abs() < 4.0 * sigma + 1e-4, "{f} vs {exact}");
     }
 }

@@ -208,9 +208,11 @@ pub fn fit_error(ltc: &Ltc, n: f64, lobe: &Lobe, s: usize) -> f64 {
     sum / (s * s) as f64
 }
 
-/// The relative L1 distance `∫ |ρ − n D| dω / n` by the same two-sided
-/// sampling (`s²` from each, balance-heuristic weights): how well a cell
-/// fits, for `verify ltc`.
+/// The relative L1 distance `∫_{z>0} |ρ − n D| dω / n` over the upper
+/// hemisphere (the part a horizon-clipped polygon sees) by the same
+/// two-sided sampling (`s²` from each, balance-heuristic weights): how well
+/// a cell fits, for `verify ltc`. It bounds the error of any polygon's
+/// integral: `|∫_P (ρ − n D)| ≤ n · L1`.
 #[must_use]
 pub fn l1_error(ltc: &Ltc, n: f64, lobe: &Lobe, s: usize) -> f64 {
     let mut sum = 0.0;
@@ -218,7 +220,7 @@ pub fn l1_error(ltc: &Ltc, n: f64, lobe: &Lobe, s: usize) -> f64 {
         let (rho, p_rho) = lobe.eval(wi);
         let d = ltc.eval(wi);
         let den = p_rho + d;
-        if den <= 0.0 {
+        if den <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
         (rho - n * d).abs() / den
@@ -322,7 +324,11 @@ pub fn table_source(cells: &[Cell], opts: &FitOptions) -> String {
         "//! The fitted LTC table ({0}×{0} cells over (√α, θ_o), {1}² samples per distribution, {2}² for the moments, ≤ {3} Nelder–Mead iterations per cell): `[a, b, d, e, n, f]` per cell (`crate::fit`).\n",
         opts.size, opts.samples, opts.moment_samples, opts.iterations
     );
-    let _ = writeln!(s, "/// Cells per side.\npub const SIZE: usize = {};\n", opts.size);
+    let _ = writeln!(
+        s,
+        "/// Cells per side.\npub const SIZE: usize = {};\n",
+        opts.size
+    );
     let _ = writeln!(
         s,
         "/// Row-major cells (row = roughness, column = view angle).\n#[rustfmt::skip]\npub static CELLS: [[f32; 6]; {}] = [",

@@ -30,5 +30,6 @@ pub mod table;
 mod table_data;
 pub mod verify;
 
-pub use distribution::Ltc;
+pub use method::{LTC_METHOD_NAME, LtcMethod, LtcOptions};
 
+pub use distribution::Ltc;

@@ -13,8 +13,8 @@
 //! model (anisotropic, Phong, Ward, measured …) is refused.
 
 use glam::Vec3;
-use relight_brdf::microfacet::{MIN_ALPHA, ggx_d, smith_g2_height_correlated};
 use relight_brdf::Brdf;
+use relight_brdf::microfacet::{MIN_ALPHA, ggx_d, smith_g2_height_correlated};
 
 /// Largest relative difference (of the largest channel, against the
 /// probe's value plus 10⁻³ of the largest probed value) between the BRDF
@@ -131,8 +131,9 @@ fn least_squares(rows: &[([f64; 3], f64, f64)], cols: usize) -> ([f64; 3], f64) 
         }
         for i in k + 1..cols {
             let f = a[i][k] / a[k][k];
-            for c in k..cols {
-                a[i][c] -= f * a[k][c];
+            let pivot_row = a[k];
+            for (v, p) in a[i][k..cols].iter_mut().zip(&pivot_row[k..cols]) {
+                *v -= f * p;
             }
             x[i] -= f * x[k];
         }
@@ -143,7 +144,11 @@ fn least_squares(rows: &[([f64; 3], f64, f64)], cols: usize) -> ([f64; 3], f64) 
         for c in k + 1..cols {
             s -= a[k][c] * sol[c];
         }
-        sol[k] = if a[k][k].abs() < 1e-300 { 0.0 } else { s / a[k][k] };
+        sol[k] = if a[k][k].abs() < 1e-300 {
+            0.0
+        } else {
+            s / a[k][k]
+        };
     }
     let res = rows
         .iter()
@@ -232,7 +237,10 @@ pub fn identify(brdf: &dyn Brdf) -> Result<Lobes, String> {
         .min_by(|&i, &j| grid[i].total_cmp(&grid[j]))
         .unwrap_or(0);
     let h = (hi - lo) / steps as f32;
-    let (mut x0, mut x1) = ((lo + h * (k as f32 - 1.0)).max(lo), (lo + h * (k as f32 + 1.0)).min(hi));
+    let (mut x0, mut x1) = (
+        (lo + h * (k as f32 - 1.0)).max(lo),
+        (lo + h * (k as f32 + 1.0)).min(hi),
+    );
     let g = 0.618_034f32;
     for _ in 0..40 {
         let (c, d) = (x1 - g * (x1 - x0), x0 + g * (x1 - x0));
@@ -272,14 +280,27 @@ mod tests {
         for alpha in [0.02f32, 0.2, 0.6, 1.0] {
             let g = identify(brdf(&format!("ggx:{alpha}@1,0.78,0.34")).as_ref()).unwrap();
             let s = g.specular.unwrap();
-            assert!((s.alpha / alpha - 1.0).abs() < 1e-2, "{} vs {alpha}", s.alpha);
-            assert!((s.a - Vec3::new(1.0, 0.78, 0.34)).abs().max_element() < 1e-2, "{s:?}");
+            assert!(
+                (s.alpha / alpha - 1.0).abs() < 1e-2,
+                "{} vs {alpha}",
+                s.alpha
+            );
+            assert!(
+                (s.a - Vec3::new(1.0, 0.78, 0.34)).abs().max_element() < 1e-2,
+                "{s:?}"
+            );
             assert!(g.diffuse.max_element() < 1e-3, "{g:?}");
         }
         let m = identify(brdf("0.6*lambert:0.8+0.4*ggx:0.3@0.9,0.9,0.9").as_ref()).unwrap();
         let s = m.specular.unwrap();
-        assert!((m.diffuse - Vec3::splat(0.48)).abs().max_element() < 1e-2, "{m:?}");
-        assert!((s.alpha - 0.3).abs() < 3e-3 && (s.a - Vec3::splat(0.36)).abs().max_element() < 1e-2, "{s:?}");
+        assert!(
+            (m.diffuse - Vec3::splat(0.48)).abs().max_element() < 1e-2,
+            "{m:?}"
+        );
+        assert!(
+            (s.alpha - 0.3).abs() < 3e-3 && (s.a - Vec3::splat(0.36)).abs().max_element() < 1e-2,
+            "{s:?}"
+        );
     }
 
     #[test]

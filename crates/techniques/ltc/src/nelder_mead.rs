@@ -75,16 +75,19 @@ pub fn minimize<const N: usize>(
                 (x[N], fx[N]) = (xc, fc);
             } else {
                 // Shrink towards the best.
+                let best = x[0];
                 for i in 1..=N {
-                    for k in 0..N {
-                        x[i][k] = x[0][k] + 0.5 * (x[i][k] - x[0][k]);
+                    for (v, b) in x[i].iter_mut().zip(&best) {
+                        *v = b + 0.5 * (*v - b);
                     }
                     fx[i] = f(&x[i]);
                 }
             }
         }
     }
-    let best = (0..=N).min_by(|&a, &b| fx[a].total_cmp(&fx[b])).unwrap_or(0);
+    let best = (0..=N)
+        .min_by(|&a, &b| fx[a].total_cmp(&fx[b]))
+        .unwrap_or(0);
     (x[best], fx[best])
 }
 
@@ -94,7 +97,10 @@ mod tests {
     fn finds_the_minimum_of_rosenbrock() {
         let rosen = |p: &[f64; 2]| (1.0 - p[0]).powi(2) + 100.0 * (p[1] - p[0] * p[0]).powi(2);
         let (x, fx) = super::minimize(rosen, [-1.2, 1.0], 0.1, 1e-14, 5000);
-        assert!((x[0] - 1.0).abs() < 1e-3 && (x[1] - 1.0).abs() < 1e-3, "{x:?}");
+        assert!(
+            (x[0] - 1.0).abs() < 1e-3 && (x[1] - 1.0).abs() < 1e-3,
+            "{x:?}"
+        );
         assert!(fx < 1e-6);
     }
 }

@@ -15,15 +15,15 @@
 
 use glam::DVec3;
 
-/// Most vertices a clipped quadrilateral can have (a quad cut by a plane
-/// gains at most one).
-pub const MAX_CLIPPED: usize = 5;
+/// Most vertices a polygon may have here: a quadrilateral clipped by two
+/// planes (each cut of a convex polygon adds at most one vertex).
+pub const MAX_VERTICES: usize = 6;
 
-/// Clips the convex polygon `poly` (≤ 4 vertices) to `z ≥ 0`
-/// (Sutherland–Hodgman against one plane) into `out`; returns the vertex
-/// count (0 when nothing is above the horizon). No allocation.
+/// Clips the convex polygon `poly` (≤ [`MAX_VERTICES`] − 1 vertices) to
+/// `z ≥ 0` (Sutherland–Hodgman against one plane) into `out`; returns the
+/// vertex count (0 when nothing is above the horizon). No allocation.
 #[must_use]
-pub fn clip_to_horizon(poly: &[DVec3], out: &mut [DVec3; MAX_CLIPPED + 1]) -> usize {
+pub fn clip_to_horizon(poly: &[DVec3], out: &mut [DVec3; MAX_VERTICES]) -> usize {
     let n = poly.len();
     let mut k = 0;
     for i in 0..n {
@@ -63,12 +63,12 @@ pub fn edge_integral(a: DVec3, b: DVec3) -> f64 {
     c.z * (theta / s)
 }
 
-/// `E(P) = ∫_P max(0, ω_z)/π dω` of the polygon `poly` (≤ 4 vertices,
+/// `E(P) = ∫_P max(0, ω_z)/π dω` of the convex polygon `poly` (≤ 5 vertices,
 /// relative to the shading point, local frame: normal +Z), signed by the
 /// winding (module docs). Clipped at the horizon; 0 when it lies below.
 #[must_use]
 pub fn clamped_cosine_integral(poly: &[DVec3]) -> f64 {
-    let mut clipped = [DVec3::ZERO; MAX_CLIPPED + 1];
+    let mut clipped = [DVec3::ZERO; MAX_VERTICES];
     let k = clip_to_horizon(poly, &mut clipped);
     if k < 3 {
         return 0.0;
@@ -107,16 +107,35 @@ mod tests {
     fn matches_area_quadrature_with_and_without_the_horizon() {
         let cases = [
             // Above, tilted, straddling the horizon, below.
-            (DVec3::new(-0.5, -0.4, 1.0), DVec3::new(1.0, 0.0, 0.2), DVec3::new(0.0, 0.8, 0.1)),
-            (DVec3::new(0.3, -1.0, 0.5), DVec3::new(0.0, 2.0, 0.0), DVec3::new(0.4, 0.0, 0.9)),
-            (DVec3::new(1.0, -0.5, -0.6), DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, 0.0, 1.2)),
-            (DVec3::new(-0.5, -0.5, -1.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)),
+            (
+                DVec3::new(-0.5, -0.4, 1.0),
+                DVec3::new(1.0, 0.0, 0.2),
+                DVec3::new(0.0, 0.8, 0.1),
+            ),
+            (
+                DVec3::new(0.3, -1.0, 0.5),
+                DVec3::new(0.0, 2.0, 0.0),
+                DVec3::new(0.4, 0.0, 0.9),
+            ),
+            (
+                DVec3::new(1.0, -0.5, -0.6),
+                DVec3::new(0.0, 1.0, 0.0),
+                DVec3::new(0.0, 0.0, 1.2),
+            ),
+            (
+                DVec3::new(-0.5, -0.5, -1.0),
+                DVec3::new(1.0, 0.0, 0.0),
+                DVec3::new(0.0, 1.0, 0.0),
+            ),
         ];
         for (c, u, v) in cases {
             let poly = [c, c + u, c + u + v, c + v];
             let e = clamped_cosine_integral(&poly).abs();
             let q = quadrature(c, u, v, 1200);
-            assert!((e - q).abs() <= 2e-5 * q.max(1e-3), "{e} vs {q} for {c} {u} {v}");
+            assert!(
+                (e - q).abs() <= 2e-5 * q.max(1e-3),
+                "{e} vs {q} for {c} {u} {v}"
+            );
             // Reversing the winding flips the sign only.
             let rev = [poly[3], poly[2], poly[1], poly[0]];
             assert!((clamped_cosine_integral(&rev) + clamped_cosine_integral(&poly)).abs() < 1e-12);

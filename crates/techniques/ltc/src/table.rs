@@ -48,7 +48,10 @@ pub fn lookup(alpha: f32, cos_theta_o: f32) -> Lookup {
     let theta = cos_theta_o.clamp(0.0, 1.0).acos();
     let y = theta / std::f32::consts::FRAC_PI_2 * last;
     let (i0, j0) = ((x as usize).min(SIZE - 2), (y as usize).min(SIZE - 2));
-    let (fx, fy) = ((x - i0 as f32).clamp(0.0, 1.0), (y - j0 as f32).clamp(0.0, 1.0));
+    let (fx, fy) = (
+        (x - i0 as f32).clamp(0.0, 1.0),
+        (y - j0 as f32).clamp(0.0, 1.0),
+    );
     let mut v = [0.0f32; 6];
     for (di, wx) in [(0, 1.0 - fx), (1, fx)] {
         for (dj, wy) in [(0, 1.0 - fy), (1, fy)] {

@@ -14,10 +14,18 @@ fn committed_table_matches_a_refit_of_two_rows() {
         let cells = fit_table(&opts);
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/table_data.rs");
         std::fs::write(path, table_source(&cells, &opts)).expect("write src/table_data.rs");
-        eprintln!("fitted {} cells in {:.1} s", cells.len(), t.elapsed().as_secs_f64());
+        eprintln!(
+            "fitted {} cells in {:.1} s",
+            cells.len(),
+            t.elapsed().as_secs_f64()
+        );
         return;
     }
-    assert_eq!(table::size(), opts.size, "table size differs from FitOptions::default()");
+    assert_eq!(
+        table::size(),
+        opts.size,
+        "table size differs from FitOptions::default()"
+    );
     // Rows are fitted independently (each from its own θ_o = 0 start), so a
     // row re-fits alone. A rough and a glossy row.
     for i in [opts.size / 4, 3 * opts.size / 4] {
