@@ -166,12 +166,9 @@ fn shade(
     ng: Vec3,
     to_eye: Vec3,
 ) -> Vec3 {
-    // Two-sided surfaces: both normals towards the viewer.
-    let (n, _ng) = if ng.dot(to_eye) < 0.0 {
-        (-n, -ng)
-    } else {
-        (n, ng)
-    };
+    // Two-sided surfaces: the shading normal turned with the geometric one
+    // towards the viewer (as the reference turns them).
+    let n = if ng.dot(to_eye) < 0.0 { -n } else { n };
     let (t1, t2, cos_o) = view_frame(n, to_eye);
     let spec = lobes.specular.filter(|_| specular).map(|s| {
         let l = lookup(s.alpha, cos_o);
