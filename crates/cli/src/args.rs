@@ -379,6 +379,9 @@ pub enum Method {
     Triple,
     /// Near-field textured area light by affine wavelet products (per vertex).
     Nearfield,
+    /// Rectangular area lights by linearly transformed cosines (per pixel;
+    /// shadows need --approximate and are ignored; a texture is its mean).
+    Ltc,
 }
 
 #[derive(Args, Debug)]
@@ -673,6 +676,8 @@ pub enum VerifySuite {
     NearfieldVertex,
     /// Wavelet importance sampling of area lights: density, unbiasedness, variance at 8 spp.
     Importance,
+    /// The LTC baseline: its fitted table, and LTC and nearfield against the reference.
+    Ltc,
 }
 
 #[derive(Args, Debug)]

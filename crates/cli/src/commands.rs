@@ -542,6 +542,7 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
         VerifySuite::Nearfield => crate::nearfield::verify(&a, &report, bar, false),
         VerifySuite::NearfieldVertex => crate::nearfield::verify(&a, &report, bar, true),
         VerifySuite::Importance => verify_importance(&a, &report),
+        VerifySuite::Ltc => crate::ltc::verify(&a, &report, bar),
         VerifySuite::Sh => {
             let opts = relight_shlight::VerifyOptions::new(a.quick);
             let default = relight_scene::default_scene(opts.width, opts.height);

@@ -12,6 +12,7 @@ mod cache;
 mod commands;
 mod compare;
 mod demo;
+mod ltc;
 mod method_args;
 mod ndf;
 mod ndf_bake;

@@ -22,6 +22,7 @@ pub fn kind_of(m: Method) -> MethodKind {
         Method::Ndf => MethodKind::Ndf,
         Method::Triple => MethodKind::Triple,
         Method::Nearfield => MethodKind::Nearfield,
+        Method::Ltc => MethodKind::Ltc,
     }
 }
 
@@ -297,6 +298,7 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
         }
         MethodOptions::Ndf(o) => crate::ndf::apply_flags(o, f)?,
         MethodOptions::Nearfield(o) => crate::nearfield::apply_flags(o, f),
+        MethodOptions::Ltc(_) => {}
     }
     Ok(o)
 }

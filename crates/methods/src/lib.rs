@@ -15,6 +15,7 @@
 pub mod verify;
 
 use relight_fog::{FogOptions, FogRelighter};
+use relight_ltc::{LtcMethod, LtcOptions};
 use relight_ndf::{NdfMethod, NdfOptions};
 use relight_nearfield::{NearfieldMethod, NearfieldOptions};
 use relight_radcache::{RadianceCacheOptions, RadianceCacheRelighter};
@@ -49,11 +50,13 @@ pub enum MethodKind {
     Triple,
     /// Near-field textured area light by affine wavelet products (per vertex).
     Nearfield,
+    /// Rectangular area lights by linearly transformed cosines (per pixel; no shadows, textures by their mean).
+    Ltc,
 }
 
 impl MethodKind {
     /// Every method, the reference first.
-    pub const ALL: [MethodKind; 9] = [
+    pub const ALL: [MethodKind; 10] = [
         Self::Reference,
         Self::Sh,
         Self::Wavelet,
@@ -63,6 +66,7 @@ impl MethodKind {
         Self::Ndf,
         Self::Triple,
         Self::Nearfield,
+        Self::Ltc,
     ];
 
     /// The name on the command line.
@@ -78,6 +82,7 @@ impl MethodKind {
             Self::Ndf => "ndf",
             Self::Triple => "triple",
             Self::Nearfield => "nearfield",
+            Self::Ltc => "ltc",
         }
     }
 }
@@ -113,6 +118,7 @@ pub enum MethodOptions {
     Ndf(NdfOptions),
     Triple(TripleOptions),
     Nearfield(NearfieldOptions),
+    Ltc(LtcOptions),
 }
 
 impl MethodOptions {
@@ -129,6 +135,7 @@ impl MethodOptions {
             MethodKind::Ndf => Self::Ndf(NdfOptions::default()),
             MethodKind::Triple => Self::Triple(TripleOptions::default()),
             MethodKind::Nearfield => Self::Nearfield(NearfieldOptions::default()),
+            MethodKind::Ltc => Self::Ltc(LtcOptions::default()),
         }
     }
 
@@ -145,6 +152,7 @@ impl MethodOptions {
             Self::Ndf(_) => MethodKind::Ndf,
             Self::Triple(_) => MethodKind::Triple,
             Self::Nearfield(_) => MethodKind::Nearfield,
+            Self::Ltc(_) => MethodKind::Ltc,
         }
     }
 }
@@ -164,6 +172,7 @@ pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError
         MethodOptions::Ndf(o) => Box::new(NdfMethod::new(*o)?),
         MethodOptions::Triple(o) => Box::new(TripleMethod::new(o.clone())?),
         MethodOptions::Nearfield(o) => Box::new(NearfieldMethod::new(*o)?),
+        MethodOptions::Ltc(o) => Box::new(LtcMethod::new(*o)?),
     })
 }
 

@@ -72,7 +72,8 @@ impl VerifyMethodsOptions {
                 // (`--ndf-brdf`) that the matrix's mixed materials do not
                 // share: `verify ndf` judges it on its own scenes. nearfield
                 // renders one area light alone (no environment): `verify
-                // nearfield` judges it.
+                // nearfield` judges it; so does ltc (area lights only, `verify
+                // ltc`).
                 .filter(|k| {
                     !matches!(
                         k,
@@ -81,6 +82,7 @@ impl VerifyMethodsOptions {
                             | MethodKind::RadianceCache
                             | MethodKind::Ndf
                             | MethodKind::Nearfield
+                            | MethodKind::Ltc
                     )
                 })
                 .map(MethodOptions::default_for)

@@ -333,7 +333,8 @@ mod tests {
                     | MethodOptions::RadianceCache(_)
                     | MethodOptions::Ndf(_)
                     | MethodOptions::Triple(_)
-                    | MethodOptions::Nearfield(_) => {}
+                    | MethodOptions::Nearfield(_)
+                    | MethodOptions::Ltc(_) => {}
                 }
                 o
             })

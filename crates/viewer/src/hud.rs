@@ -300,6 +300,14 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             n.source_terms * 100.0,
             n.target_terms * 100.0
         ),
+        MethodOptions::Ltc(l) => format!(
+            "{}{quality}",
+            if l.specular {
+                "diffuse + GGX"
+            } else {
+                "diffuse only"
+            }
+        ),
     }
 }
 

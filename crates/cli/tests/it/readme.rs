@@ -149,7 +149,7 @@ fn shrink(cmd: &str, clone: &Path, plots: &Path) -> Result<Vec<Plan>, String> {
                     set(&mut a, "--n", "16");
                     set(&mut a, "--ntess", "4");
                 }
-                "sh" | "fog" | "shexp" | "triple" | "ndf" => {}
+                "sh" | "fog" | "shexp" | "triple" | "ndf" | "ltc" => {}
                 "nearfield" => set(&mut a, "--order", "8"),
                 "radiance-cache" => set(&mut a, "--spp", "1"),
                 m => return Err(format!("render with method {m}")),
