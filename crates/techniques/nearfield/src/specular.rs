@@ -21,24 +21,27 @@
 //! Lambert's polygon formula makes the cosine's cell means exact; a BRDF
 //! lobe has no such closed form, so each cell is integrated by a nested
 //! midpoint rule: [`SPEC_SUBSAMPLES`]² = 3 × 3 midpoints per cell; a
-//! square whose samples spread (max − min of `Σ_c f_c cos / len³`) by more
-//! than [`SPEC_TOLERANCE`] × the vertex's largest sample is split into
-//! 3 × 3 sub-squares, each integrated the same way, down to
-//! [`SPEC_DEPTH`] splits (27 × 27 points per cell). The 3 × 3 cells about
-//! the mirror direction `2 (n·ω_o) n − ω_o` are always split once: a lobe
-//! narrower than the 3 × 3 sample spacing (≈ 2.4° at the face's centre at
-//! order 32, face 4) can fall between the samples and show no spread.
+//! square whose nine-point mean differs from its centre sample (channel
+//! sums of `f cos / len³`) by more than [`SPEC_TOLERANCE`] × the vertex's
+//! largest cell mean is split into 3 × 3 sub-squares, each integrated the
+//! same way, down to [`SPEC_DEPTH`] splits (27 × 27 points per cell). The
+//! 3 × 3 cells about the mirror direction `2 (n·ω_o) n − ω_o` are always
+//! split once: a lobe narrower than the 3 × 3 sample spacing (≈ 2.4° at
+//! the face's centre at order 32, face 4) can fall between the samples.
 //!
-//! *Why this rule.* The midpoint rule's error on a square of side `h` is
-//! `h²/24 · (∂²_x + ∂²_y) g` per unit area; `g`'s spread over the 3 × 3
-//! samples is about `(2h/3) |∇g|`, so a square whose spread is small
-//! relative to the peak is one where `g` is nearly linear at the scale of
-//! the square and the rule is accurate to second order; where the lobe
-//! bends (its peak, its flanks, the horizon's kink, a shadow edge) the
-//! spread is large and the square is refined. Three (odd) points per side
-//! nest: a sub-square's centre is its parent's sample. Checked against
-//! 48 × 48-point brute-force quadrature of every cell
-//! (`tests/it/specular.rs::cell_rule_matches_quadrature`).
+//! *Why this rule.* The midpoint rule integrates linear functions exactly;
+//! its error on a square of side `h` is `h²/24 · ∇²g` per unit area. The
+//! centre sample is the one-point rule on the square and the nine points
+//! the same rule on squares of side `h/3`, so `|mean₉ − centre|` is
+//! `(1 − 1/9)` of the one-point rule's error and 8× the nine-point
+//! rule's (Richardson): a square is split where the nine-point rule's own
+//! error would exceed `SPEC_TOLERANCE / 8` of the largest cell — where the
+//! lobe bends (its peak, the horizon's kink), not where it merely slopes
+//! (a criterion on the samples' spread refined every sloping cell: ~25 ms
+//! per vertex on `verify nearfield`'s glossy scene, against 1.3 ms). Three
+//! (odd) points per side nest: a sub-square's centre is its parent's
+//! sample. Checked against 48 × 48-point brute-force quadrature of every
+//! cell (`tests/it/specular.rs::cell_rule_matches_quadrature`).
 //!
 //! # Visibility
 //! As the Lambertian bake ([`crate::transport`]): one shadow ray per cell
@@ -73,9 +76,10 @@ pub const SPEC_SUBSAMPLES: usize = 3;
 /// Splits of a cell into 3 × 3 sub-squares, at most (module docs).
 pub const SPEC_DEPTH: usize = 2;
 
-/// A square whose samples spread by more than this fraction of the
-/// vertex's largest sample is split (module docs).
-pub const SPEC_TOLERANCE: f64 = 0.01;
+/// A square whose nine-point mean differs from its centre sample by more
+/// than this fraction of the vertex's largest cell mean is split (module
+/// docs).
+pub const SPEC_TOLERANCE: f64 = 0.002;
 
 /// How a BRDF's colour behaves ([`classify`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -207,7 +211,7 @@ pub fn local_view(shading: &Frame, p: Vec3, eye: Vec3) -> Vec3 {
 pub struct SpecularScratch {
     transport: TransportScratch,
     cosines: Vec<f64>,
-    spread: Vec<f64>,
+    change: Vec<f64>,
     forced: Vec<bool>,
 }
 
@@ -236,8 +240,8 @@ fn lobe_at(frame: &LightFrame, face: f64, v: &SpecularVertex, tx: f64, ty: f64) 
 
 /// Mean of the integrand over the square `[x0, x0 + h] × [y0, y0 + h]`
 /// (face units `t`) by the nested rule (module docs); `tol`: the split
-/// threshold on the spread, `split`: split at least once. Returns the
-/// mean, the spread and the largest of the square's own 3 × 3 samples.
+/// threshold on the change `|mean₉ − centre|` (channel sums), `split`:
+/// split at least once. Returns the mean and that change.
 #[allow(clippy::too_many_arguments)]
 fn square_mean(
     frame: &LightFrame,
@@ -249,11 +253,11 @@ fn square_mean(
     depth: usize,
     tol: f64,
     split: bool,
-) -> (DVec3, f64, f64) {
+) -> (DVec3, f64) {
     let q = SPEC_SUBSAMPLES;
     let step = h / q as f64;
     let mut sum = DVec3::ZERO;
-    let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+    let mut centre = 0.0;
     for j in 0..q {
         for i in 0..q {
             let g = lobe_at(
@@ -264,14 +268,16 @@ fn square_mean(
                 y0 + (j as f64 + 0.5) * step,
             )
             .as_dvec3();
-            let s = g.element_sum();
-            lo = lo.min(s);
-            hi = hi.max(s);
+            if 2 * i + 1 == q && 2 * j + 1 == q {
+                centre = g.element_sum();
+            }
             sum += g;
         }
     }
-    let spread = hi - lo;
-    if depth < SPEC_DEPTH && (split || spread > tol) {
+    let mean = sum / (q * q) as f64;
+    // The one-point rule's error, estimated against the nine-point one.
+    let change = (mean.element_sum() - centre).abs();
+    if depth < SPEC_DEPTH && (split || change > tol) {
         let mut sub = DVec3::ZERO;
         for j in 0..q {
             for i in 0..q {
@@ -289,9 +295,9 @@ fn square_mean(
                 .0;
             }
         }
-        return (sub / (q * q) as f64, spread, hi);
+        return (sub / (q * q) as f64, change);
     }
-    (sum / (q * q) as f64, spread, hi)
+    (mean, change)
 }
 
 /// The cell means `T̄_c` (RGB, module docs) of one vertex, row-major
@@ -313,15 +319,15 @@ pub fn specular_cells(
     }
     let nn = n * n;
     let h = 1.0 / n as f64;
-    scratch.spread.resize(nn, 0.0);
+    scratch.change.resize(nn, 0.0);
     scratch.forced.clear();
     scratch.forced.resize(nn, false);
-    // Pass 1: 3 × 3 midpoints per cell; the vertex's largest sample.
+    // Pass 1: 3 × 3 midpoints per cell; the vertex's largest cell mean.
     let mut peak = 0.0f64;
     for y in 0..n {
         for x in 0..n {
             let k = y * n + x;
-            let (m, s, top) = square_mean(
+            let (m, s) = square_mean(
                 frame,
                 face,
                 v,
@@ -333,8 +339,8 @@ pub fn specular_cells(
                 false,
             );
             out[k] = m;
-            scratch.spread[k] = s;
-            peak = peak.max(top);
+            scratch.change[k] = s;
+            peak = peak.max(m.element_sum());
         }
     }
     if peak <= 0.0 {
@@ -356,12 +362,13 @@ pub fn specular_cells(
             }
         }
     }
-    // Pass 2: refine where the samples spread (or about the mirror).
+    // Pass 2: refine where the rule's error estimate is large (or about
+    // the mirror).
     let tol = SPEC_TOLERANCE * peak;
     for y in 0..n {
         for x in 0..n {
             let k = y * n + x;
-            if scratch.forced[k] || scratch.spread[k] > tol {
+            if scratch.forced[k] || scratch.change[k] > tol {
                 out[k] = square_mean(
                     frame,
                     face,

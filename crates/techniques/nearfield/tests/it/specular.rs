@@ -56,11 +56,12 @@ fn brdfs_are_classified() {
     assert_eq!(classify(&mix), BrdfClass::Coloured);
 }
 
-/// The nested cell rule (3 × 3 midpoints, split where the samples spread
-/// by > 1 % of the peak, up to 27 × 27, the mirror's cells split) against
-/// 48 × 48 midpoints in every cell, order 32, face 4: worst cell within
-/// 0.5 % of the largest cell and the sum within 0.1 %, for sharp and broad
-/// lobes at normal and grazing views; the plain 3 × 3 rule is reported.
+/// The nested cell rule (3 × 3 midpoints, split where the nine-point mean
+/// and the centre differ by > 0.2 % of the largest cell, up to 27 × 27, the
+/// mirror's cells split) against 48 × 48 midpoints in every cell, order
+/// 32, face 4: worst cell within 0.1 % of the largest cell and the sum
+/// within 0.1 % (measured ≤ 2.5e-4 and ≤ 7.1e-4), for sharp and broad lobes
+/// at normal and grazing views; the plain 3 × 3 rule is printed.
 #[test]
 fn cell_rule_matches_quadrature() {
     let s = floor_and_sphere(8, 8, 32, 24, false);
@@ -159,7 +160,7 @@ fn cell_rule_matches_quadrature() {
             (sum_g - sum_w).abs() / sum_w
         );
         assert!(top > 0.0, "case {ci}: the lobe reaches the face");
-        assert!(worst < 5e-3, "case {ci}: worst cell {worst} of the largest");
+        assert!(worst < 1e-3, "case {ci}: worst cell {worst} of the largest");
         assert!(
             (sum_g - sum_w).abs() < 1e-3 * sum_w,
             "case {ci}: {sum_g} vs {sum_w}"
@@ -497,4 +498,23 @@ fn diffuse_bake_files_are_unchanged() {
     assert_eq!(&bytes[64..], &payload[..]);
     assert_eq!(&bytes[..8], b"RLNFTRN1");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The fixed-view bake of `verify nearfield`'s glossy scene (floor 65² Phong,
+/// sphere 48 segments GGX over diffuse, shadows, order 32). A timing, not a
+/// check: `cargo test --release -p relight-nearfield --test it -- --ignored
+/// --nocapture glossy_bake_time`.
+#[test]
+#[ignore = "a timing (seconds in release), not a check"]
+fn glossy_bake_time() {
+    let s = glossy_floor_and_sphere(64, 48, 64, 48, true);
+    let verts: usize = s.objects.iter().map(|o| o.mesh.positions.len()).sum();
+    let mut m = NearfieldMethod::new(NearfieldOptions::default()).unwrap();
+    m.prepare(&s, &NoProgress).unwrap();
+    println!(
+        "fixed-view bake, {verts} vertices with shadows: {:.1} s ({:.2} ms per vertex, wall)",
+        m.specular_bake_s,
+        m.specular_bake_s * 1e3 / verts as f64
+    );
+    assert!(m.specular_bake_s > 0.0);
 }
