@@ -11,7 +11,8 @@
 //! to the vertex folded into the transport (Fig. 4.9, "specular materials
 //! with precomputation done per vertex"), RGB where the BRDF's colour
 //! changes with direction. Environment, point lights, media and normal
-//! maps are refused.
+//! maps are refused; a lobe narrower than a face cell is shaded at the
+//! cell's width, with a warning.
 //!
 //! # The fixed view and the camera
 //! The fixed-view transport is for the eye it was baked with (the scene's
@@ -553,6 +554,23 @@ impl NearfieldMethod {
         self.baked_eye = specular.then_some(scene.camera.eye);
         self.view_is_baked = true;
         self.specular_bake_s = spec_s;
+        // A lobe narrower than a face cell is held at the cell's size.
+        let cell = crate::specular::central_cell_deg(n, face);
+        for (i, o) in scene.objects.iter().enumerate() {
+            if !kinds[i].is_specular() {
+                continue;
+            }
+            let brdfs =
+                std::iter::once(o.brdf.as_ref()).chain(o.blend.as_ref().map(|b| b.second.as_ref()));
+            let narrowest = brdfs
+                .filter_map(crate::specular::lobe_half_width_deg)
+                .fold(f32::MAX, f32::min);
+            if 2.0 * narrowest < cell {
+                self.warnings.push(format!(
+                    "method nearfield: object {i}'s BRDF lobe (half width {narrowest:.1}° at 30° incidence) is narrower than a face cell ({cell:.1}° at order {n}, face {face}): its fixed-view highlights are blurred to the cell's size (raise --order)"
+                ));
+            }
+        }
         if specular {
             let list: Vec<String> = kinds
                 .iter()

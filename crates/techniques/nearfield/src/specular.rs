@@ -580,3 +580,36 @@ pub fn object_kind(object: &relight_render::Object) -> ObjectKind {
         }
     }
 }
+
+/// Half width at half maximum of `brdf`'s lobe in degrees, seen at 30°
+/// incidence: the smallest offset `δ` from the mirror direction, in the
+/// plane of incidence, where `Σ_c f` falls to half its value at the mirror
+/// (0.1° steps up to 60°); `None` when it never does (a diffuse-like BRDF).
+#[must_use]
+pub fn lobe_half_width_deg(brdf: &dyn Brdf) -> Option<f32> {
+    let dir = |theta_deg: f32, phi: f32| {
+        let (st, ct) = theta_deg.to_radians().sin_cos();
+        Vec3::new(st * phi.cos(), st * phi.sin(), ct)
+    };
+    let wo = dir(30.0, 0.0);
+    let peak = brdf.eval(wo, dir(30.0, std::f32::consts::PI)).element_sum();
+    if peak <= 0.0 {
+        return None;
+    }
+    (1..=600).map(|i| i as f32 * 0.1).find(|&d| {
+        let a = brdf
+            .eval(wo, dir(30.0 + d, std::f32::consts::PI))
+            .element_sum();
+        let b = brdf
+            .eval(wo, dir(30.0 - d, std::f32::consts::PI))
+            .element_sum();
+        a.max(b) <= 0.5 * peak
+    })
+}
+
+/// Angular size (degrees) of the face's central cell at order `n`, face
+/// side `face`: `atan(face / n)`.
+#[must_use]
+pub fn central_cell_deg(n: usize, face: f64) -> f32 {
+    (face / n as f64).atan().to_degrees() as f32
+}

@@ -528,3 +528,38 @@ fn glossy_bake_time() {
         bake * 1e3 / verts as f64
     );
 }
+
+/// A lobe narrower than a face cell is named in a warning (the method, the
+/// object, the widths); a broad one is not.
+#[test]
+fn narrow_lobes_are_warned() {
+    use relight_nearfield::specular::lobe_half_width_deg;
+    let phong = |e: f32| Phong::new(e, Vec3::ONE).unwrap();
+    // cos^e α = ½ at α = acos(2^{−1/e}).
+    for e in [20.0f32, 400.0] {
+        let want = 0.5f32.powf(1.0 / e).acos().to_degrees();
+        let got = lobe_half_width_deg(&phong(e)).unwrap();
+        assert!((got - want).abs() < 0.15, "Phong {e}: {got}° vs {want}°");
+    }
+    assert_eq!(lobe_half_width_deg(&Lambert::new(Vec3::ONE).unwrap()), None);
+    let mut s = floor_and_sphere(4, 8, 32, 24, false);
+    s.objects[0].brdf = Arc::new(phong(3000.0));
+    s.objects[1].brdf = Arc::new(phong(20.0));
+    let mut m = NearfieldMethod::new(NearfieldOptions {
+        order: 16,
+        ..full()
+    })
+    .unwrap();
+    m.prepare(&s, &NoProgress).unwrap();
+    let w = m.warnings();
+    let narrow: Vec<&String> = w
+        .iter()
+        .filter(|x| x.contains("narrower than a face cell"))
+        .collect();
+    assert_eq!(narrow.len(), 1, "{w:?}");
+    assert!(
+        narrow[0].starts_with("method nearfield: object 0's"),
+        "{}",
+        narrow[0]
+    );
+}
