@@ -576,7 +576,16 @@ impl NearfieldMethod {
                 .iter()
                 .enumerate()
                 .filter(|(_, k)| k.is_specular())
-                .map(|(i, k)| format!("{i}{}", if k.channels() == 3 { " (RGB)" } else { "" }))
+                .map(|(i, k)| {
+                    format!(
+                        "{i} ({})",
+                        if k.channels() == 3 {
+                            "RGB"
+                        } else {
+                            "one channel"
+                        }
+                    )
+                })
                 .collect();
             let e = scene.camera.eye;
             self.warnings.push(format!(
