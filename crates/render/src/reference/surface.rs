@@ -282,7 +282,7 @@ pub(crate) fn surface_vertex<'s>(
 
 /// Least `cos θ_o` of the view direction in the shading frame
 /// ([`above_horizon`]): about 87°.
-pub(crate) const MIN_COS_VIEW: f32 = 0.05;
+pub const MIN_COS_VIEW: f32 = 0.05;
 
 /// The local view direction `wo` (unit), raised to at least
 /// [`MIN_COS_VIEW`] above the shading horizon, keeping its azimuth.
@@ -298,7 +298,7 @@ pub(crate) const MIN_COS_VIEW: f32 = 0.05;
 /// methods (which shade by the normal) do. Views above the horizon (almost
 /// every pixel) are unchanged.
 #[must_use]
-pub(crate) fn above_horizon(wo: Vec3) -> Vec3 {
+pub fn above_horizon(wo: Vec3) -> Vec3 {
     if wo.z >= MIN_COS_VIEW {
         return wo;
     }

@@ -6,8 +6,9 @@
 //! 64-byte header with magic, format version, eight u32 parameters and a
 //! CRC-32 over parameters and payload, written to a temporary sibling and
 //! renamed into place), magic [`MAGIC`], f32 values: every object's
-//! transport in scene order, `V_i · n²` values each (the standard-basis
-//! layout of [`Transport::values`]).
+//! transport in scene order, `V_i · c_i · n²` values each (the
+//! standard-basis layout of [`Transport::values`]; `c_i` = 1, or 3 for an
+//! RGB fixed-view transport, [`crate::specular`]).
 //!
 //! | parameter | meaning |
 //! |---|---|
@@ -17,12 +18,22 @@
 //! | 3 | shadows (scene visibility) 0/1 |
 //! | 4, 5 | key hash, low and high 32 bits |
 //! | 6 | vertices over all objects |
-//! | 7 | [`BAKE_VERSION`] |
+//! | 7 | [`BAKE_VERSION`], or [`DIFFUSE_BAKE_VERSION`] for a scene of Lambertian objects only |
 //!
-//! The key hash (FNV-1a 64) covers [`BAKE_VERSION`], `n`, the face's bits,
+//! The key hash (FNV-1a 64) covers the version, `n`, the face's bits,
 //! visibility, the light's axes and centre (the bake's plane and face
 //! directions; [`LightFrame`]) and every object's positions and normals —
-//! and, with shadows, every object's triangles (the occluders). The file
+//! and, with shadows, every object's triangles (the occluders). A scene
+//! with a fixed-view (specular) object ([`crate::specular::ObjectKind`])
+//! is version [`BAKE_VERSION`] and its hash goes on to cover, per object,
+//! how it is shaded (Lambertian, or fixed-view with its channel count and
+//! tint), and per fixed-view object its BRDFs (their `Debug` text and their
+//! values at [`crate::specular::probe_pairs`]), its blend weight per
+//! vertex and its tangents; and the camera's eye (the fixed view). A
+//! scene of Lambertian objects only keeps [`DIFFUSE_BAKE_VERSION`] and
+//! exactly the key, name and bytes it had before fixed-view transport
+//! existed: its bake did not change meaning, and older cache files stay
+//! valid (`tests/it/specular.rs::diffuse_bake_files_are_unchanged`). The file
 //! name carries the parameters and a hash of all eight
 //! ([`BakeKey::file_name`]), so another configuration is another file. A
 //! file that is truncated, foreign, of another version, fails its
@@ -30,15 +41,22 @@
 //! the method re-bakes it with a warning.
 
 use crate::face::LightFrame;
+use crate::specular::{ObjectKind, probe};
 use crate::transport::Transport;
+use glam::Vec3;
 use relight_render::Scene;
 use relight_wavelet::WaveletError;
 use relight_wavelet::format::{fnv1a64, read_file, write_file};
 use std::path::{Path, PathBuf};
 
 /// Version of the bake rules (parameter 7); bump when the transport bake
-/// changes meaning.
-pub const BAKE_VERSION: u32 = 1;
+/// changes meaning. 2: fixed-view specular transport (the camera's eye and
+/// the BRDFs in the key, RGB transports).
+pub const BAKE_VERSION: u32 = 2;
+
+/// Version of a bake of Lambertian objects only: the rules of version 1,
+/// unchanged (module docs).
+pub const DIFFUSE_BAKE_VERSION: u32 = 1;
 
 /// Magic of a nearfield transport bake.
 pub const MAGIC: [u8; 8] = *b"RLNFTRN1";
@@ -89,6 +107,8 @@ pub struct BakeKey {
     pub params: [u32; 8],
     /// Vertices per object.
     pub vertices: Vec<usize>,
+    /// Transports per vertex, per object (1 or 3).
+    pub channels: Vec<usize>,
 }
 
 impl BakeKey {
@@ -96,8 +116,31 @@ impl BakeKey {
     /// and face side `face`.
     #[must_use]
     pub fn of(scene: &Scene, frame: &LightFrame, n: usize, face: f64) -> Self {
+        let kinds: Vec<ObjectKind> = scene
+            .objects
+            .iter()
+            .map(crate::specular::object_kind)
+            .collect();
+        Self::of_kinds(scene, frame, n, face, &kinds)
+    }
+
+    /// [`Self::of`] with each object's [`ObjectKind`] already known.
+    #[must_use]
+    pub fn of_kinds(
+        scene: &Scene,
+        frame: &LightFrame,
+        n: usize,
+        face: f64,
+        kinds: &[ObjectKind],
+    ) -> Self {
+        let specular = kinds.iter().any(ObjectKind::is_specular);
+        let version = if specular {
+            BAKE_VERSION
+        } else {
+            DIFFUSE_BAKE_VERSION
+        };
         let mut h = Fnv(0xcbf2_9ce4_8422_2325);
-        h.bytes(&BAKE_VERSION.to_le_bytes());
+        h.bytes(&version.to_le_bytes());
         h.bytes(&(n as u64).to_le_bytes());
         h.bytes(&face.to_bits().to_le_bytes());
         h.bytes(&[u8::from(scene.visibility)]);
@@ -119,6 +162,28 @@ impl BakeKey {
                 }
             }
         }
+        if specular {
+            h.floats(scene.camera.eye.to_array());
+            for (o, k) in scene.objects.iter().zip(kinds) {
+                match *k {
+                    ObjectKind::Specular { tint } => {
+                        h.bytes(&[2, k.channels() as u8]);
+                        h.floats(tint.unwrap_or(Vec3::ZERO).to_array());
+                        let mut brdf = |b: &dyn relight_brdf::Brdf| {
+                            h.bytes(format!("{b:?}").as_bytes());
+                            h.floats(probe(b).iter().flat_map(|v| v.to_array()));
+                        };
+                        brdf(o.brdf.as_ref());
+                        if let Some(bl) = &o.blend {
+                            brdf(bl.second.as_ref());
+                            h.floats(o.mesh.uvs.iter().map(|&uv| bl.weight_at(uv)));
+                        }
+                        h.floats(o.mesh.tangents.iter().flat_map(|t| t.to_array()));
+                    }
+                    _ => h.bytes(&[1]),
+                }
+            }
+        }
         let key = h.0;
         let total: usize = vertices.iter().sum();
         Self {
@@ -130,17 +195,24 @@ impl BakeKey {
                 key as u32,
                 (key >> 32) as u32,
                 total.min(u32::MAX as usize) as u32,
-                BAKE_VERSION,
+                version,
             ],
             vertices,
+            channels: kinds.iter().map(ObjectKind::channels).collect(),
         }
     }
 
-    /// Values in the file: `Σ V_i · n²`.
+    /// Values in the file: `Σ V_i · c_i · n²`.
     #[must_use]
     pub fn values(&self) -> usize {
         let n = self.params[0] as usize;
-        self.vertices.iter().sum::<usize>() * n * n
+        self.vertices
+            .iter()
+            .zip(&self.channels)
+            .map(|(v, c)| v * c)
+            .sum::<usize>()
+            * n
+            * n
     }
 
     /// The cache file name: `nearfield-n{n}-f{face·1000}-o{objects}-s{0|1}-v{version}-{hash}.bin`.
@@ -174,8 +246,8 @@ pub fn save(path: &Path, key: &BakeKey, transports: &[&Transport]) -> Result<(),
     let sizes_ok = transports.len() == key.vertices.len()
         && transports
             .iter()
-            .zip(&key.vertices)
-            .all(|(t, &v)| t.n == n && t.values.len() == v * n * n);
+            .zip(key.vertices.iter().zip(&key.channels))
+            .all(|(t, (&v, &c))| t.n == n && t.channels == c && t.values.len() == v * c * n * n);
     if !sizes_ok {
         return Err(CacheError::Mismatch {
             path: path.to_path_buf(),
@@ -186,7 +258,7 @@ pub fn save(path: &Path, key: &BakeKey, transports: &[&Transport]) -> Result<(),
         .iter()
         .map(|t| bytemuck::cast_slice::<f32, u8>(&t.values))
         .collect();
-    // One section per object: `V n² · 4` bytes with n ≥ 4 is a multiple of
+    // One section per object: `V c n² · 4` bytes with n ≥ 4 is a multiple of
     // 8, so the container adds no padding and the payload is every
     // object's values back to back.
     write_file(path, MAGIC, key.params, &sections)?;
@@ -223,11 +295,16 @@ pub fn load(path: &Path, key: &BakeKey, face: f64) -> Result<Vec<Transport>, Cac
     let n = key.params[0] as usize;
     let mut out = Vec::with_capacity(key.vertices.len());
     let mut at = 0;
-    for &v in &key.vertices {
-        let len = v * n * n * 4;
+    for (&v, &channels) in key.vertices.iter().zip(&key.channels) {
+        let len = v * channels * n * n * 4;
         let values: Vec<f32> = bytemuck::pod_collect_to_vec(&payload[at..at + len]);
         at += len;
-        out.push(Transport { n, face, values });
+        out.push(Transport {
+            n,
+            face,
+            channels,
+            values,
+        });
     }
     Ok(out)
 }

@@ -20,11 +20,12 @@
 //! | [`face`] | the face parameterisation and the vertex → texture affine map |
 //! | [`light`] | the light's standard-basis coefficients, source compression |
 //! | [`transport`] | per-vertex Lambert × visibility transport bake |
+//! | [`specular`] | per-vertex fixed-view specular (BRDF × cosine × visibility) transport bake, BRDF classification |
 //! | [`cache`] | the transport bake on disk: versioned, checksummed, keyed |
 //! | [`propagate`] | per-vertex ACC matrices, target mask (eq. 4.38), fused kernel |
 //! | [`rotate`] | a light turned in its plane, re-rasterised into its bounding rectangle |
 //! | [`method`] | the `nearfield` [`relight_render::method::Relighter`] |
-//! | [`verify`], [`bench`] | `relight verify/bench nearfield` rows |
+//! | [`verify`], [`verify_specular`], [`bench`] | `relight verify/bench nearfield` rows (the glossy scene's in `verify_specular`) |
 //!
 //! Figures measured by `relight verify nearfield` and `relight bench
 //! nearfield` are in `docs/nearfield.md`.
@@ -37,7 +38,9 @@ pub mod method;
 pub mod propagate;
 pub mod rotate;
 pub mod scenes;
+pub mod specular;
 pub mod transport;
 pub mod verify;
+pub mod verify_specular;
 
 pub use method::{NEARFIELD_METHOD_NAME, NearfieldMethod, NearfieldOptions};

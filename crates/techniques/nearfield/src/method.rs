@@ -3,11 +3,27 @@
 //!
 //! # What it renders
 //! One textured rectangular area light ([`relight_render::AreaLight`]) on
-//! Lambertian surfaces, with or without shadows, per vertex (Gouraud). The
-//! BRDF of each object is read as a constant albedo `π f(n, n)`; a BRDF that
-//! is not constant is shaded as that Lambertian one, with a warning (the
-//! thesis' fixed-view specular transport is not built). Environment, point
-//! lights, media, normal maps and spatially varying BRDFs are refused.
+//! any BRDF, with or without shadows, per vertex (Gouraud). A Lambertian
+//! object (or a blend of two Lambertian BRDFs) is baked as `cos V` and
+//! shaded with its albedo; every other BRDF — glossy, coloured, measured,
+//! a blend by a texture — gets the thesis' fixed-view transport
+//! ([`crate::specular`]): the BRDF at the view from the scene camera's eye
+//! to the vertex folded into the transport (Fig. 4.9, "specular materials
+//! with precomputation done per vertex"), RGB where the BRDF's colour
+//! changes with direction. Environment, point lights, media and normal
+//! maps are refused; a lobe narrower than a face cell is shaded at the
+//! cell's width, with a warning.
+//!
+//! # The fixed view and the camera
+//! The fixed-view transport is for the eye it was baked with (the scene's
+//! camera at `prepare`; the cache key holds it). A later `set_lighting` or
+//! `prepare` with the scene's camera at another eye re-bakes the fixed-view
+//! objects only (the Lambertian transports are kept) and reports the
+//! cost in [`Relighter::warnings`]. A frame rendered from another camera
+//! (the viewer's orbit: `render` with `request.camera`) keeps the bake and
+//! shows the baked view's highlights; the warnings say so from `prepare`
+//! on (the viewer shows them on screen), and [`NearfieldMethod::view_is_baked`]
+//! tells whether the last frame's eye was the baked one.
 //!
 //! | call | work |
 //! |---|---|
@@ -25,9 +41,13 @@ use crate::cache::{BakeKey, CacheError};
 use crate::face::LightFrame;
 use crate::light::{LightCoeffs, SourceTerms, compress, count_of};
 use crate::propagate::{
-    MaskEntry, SelectScratch, ShadeScratch, acc_pair, select_targets, shade, shade_fma, sort_mask,
+    MaskEntry, MaskEntryRgb, SelectScratch, ShadeScratch, acc_pair, select_targets, shade,
+    shade_fma, shade_rgb, shade_rgb_fma, sort_mask,
 };
 use crate::rotate::InPlane;
+use crate::specular::{
+    ObjectBrdf, ObjectKind, SpecularMesh, bake_specular, blend_weights, object_kind,
+};
 use crate::transport::{Transport, bake_transport};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -91,13 +111,22 @@ impl Default for NearfieldOptions {
 /// One object's baked and per-light data.
 struct Prepared {
     mesh: Arc<Mesh>,
+    /// How it is shaded ([`crate::specular::object_kind`]).
+    kind: ObjectKind,
+    /// The factor × π of the transport dot product: the albedo (Lambertian;
+    /// a blend's first albedo), π · tint (one-channel fixed view) or π (RGB).
     albedo: Vec3,
+    /// Per vertex, a Lambertian blend's albedo (else empty).
+    albedos: Vec<Vec3>,
     transport: Transport,
     /// `V · n²` each: the 1D ACC matrices per vertex.
     dx: Vec<f32>,
     dy: Vec<f32>,
-    /// `V · m`: the target mask per vertex (unused entries have `t = 0`).
+    /// `V · m`: the target mask per vertex (unused entries have `t = 0`);
+    /// one-channel transports.
     mask: Vec<MaskEntry>,
+    /// `V · m`: the same for RGB transports.
+    mask_rgb: Vec<MaskEntryRgb>,
 }
 
 /// Near-field relighting as a [`Relighter`] (module docs).
@@ -122,6 +151,13 @@ pub struct NearfieldMethod {
     /// The key of the current bake.
     key: Option<BakeKey>,
     loads: usize,
+    /// The camera's eye the fixed-view transports were baked for (`None`:
+    /// no fixed-view object).
+    baked_eye: Option<Vec3>,
+    /// The last frame's eye was the baked one (or nothing is fixed-view).
+    view_is_baked: bool,
+    /// Seconds of the last fixed-view bake (0 when loaded or none).
+    pub specular_bake_s: f64,
 }
 
 impl std::fmt::Debug for NearfieldMethod {
@@ -203,6 +239,9 @@ impl NearfieldMethod {
             cache_dir: options.cache.then(crate::cache::default_cache_dir),
             key: None,
             loads: 0,
+            baked_eye: None,
+            view_is_baked: true,
+            specular_bake_s: 0.0,
         })
     }
 
@@ -285,10 +324,35 @@ impl NearfieldMethod {
         self.objects.iter().map(|p| &p.transport).collect()
     }
 
-    /// Each object's albedo as shaded.
+    /// Each object's albedo as shaded: the colour is `B ⊙ albedo / π` for
+    /// the transport dot product `B`. Lambertian objects: the albedo (a
+    /// Lambertian blend: its first BRDF's; the blend is per vertex);
+    /// fixed-view objects: π · tint (one channel) or π (RGB), the BRDF
+    /// being in the transport.
     #[must_use]
     pub fn albedos(&self) -> Vec<Vec3> {
         self.objects.iter().map(|p| p.albedo).collect()
+    }
+
+    /// How each object is shaded.
+    #[must_use]
+    pub fn kinds(&self) -> Vec<ObjectKind> {
+        self.objects.iter().map(|p| p.kind).collect()
+    }
+
+    /// The eye the fixed-view transports were baked for (`None`: no
+    /// fixed-view object).
+    #[must_use]
+    pub fn baked_eye(&self) -> Option<Vec3> {
+        self.baked_eye
+    }
+
+    /// Whether the last frame was rendered from the baked eye (always true
+    /// without fixed-view objects): false means its highlights are the
+    /// baked view's (module docs).
+    #[must_use]
+    pub fn view_is_baked(&self) -> bool {
+        self.view_is_baked
     }
 
     /// The per-vertex colours of the last lighting change.
@@ -323,10 +387,21 @@ impl NearfieldMethod {
     }
 
     fn bake(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
+        self.bake_with(scene, progress, false)
+    }
+
+    /// The bake of `scene`; `keep_lambertian`: the objects (the same meshes
+    /// and light plane) keep their Lambertian transports and only the
+    /// fixed-view ones are baked again (a camera change).
+    fn bake_with(
+        &mut self,
+        scene: &Scene,
+        progress: &dyn Progress,
+        keep_lambertian: bool,
+    ) -> Result<(), MethodError> {
         let light = the_light(scene)?;
         let frame = LightFrame::of(light);
         let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
-        let bvh = scene.visibility.then(|| SceneBvh::build(&meshes));
         let (n, face) = (self.options.order, self.options.face);
         self.warnings.clear();
         for (i, o) in scene.objects.iter().enumerate() {
@@ -337,8 +412,17 @@ impl NearfieldMethod {
                     format!("object {i} has no vertex normals (one per vertex is needed)"),
                 ));
             }
+            if o.blend.is_some() && m.uvs.len() != m.positions.len() {
+                return Err(invalid(
+                    "scene",
+                    format!("object {i} blends two BRDFs by a texture but has no uvs"),
+                ));
+            }
         }
-        let key = BakeKey::of(scene, &frame, n, face);
+        let kinds: Vec<ObjectKind> = scene.objects.iter().map(object_kind).collect();
+        let specular = kinds.iter().any(ObjectKind::is_specular);
+        let bvh = scene.visibility.then(|| SceneBvh::build(&meshes));
+        let key = BakeKey::of_kinds(scene, &frame, n, face, &kinds);
         let path = self.cache_dir.as_ref().map(|d| d.join(key.file_name()));
         let mut cached = None;
         if let Some(p) = path.as_deref().filter(|p| p.exists()) {
@@ -350,22 +434,76 @@ impl NearfieldMethod {
             }
         }
         let loaded = cached.is_some();
+        let mut kept: Vec<Option<Transport>> = if keep_lambertian {
+            std::mem::take(&mut self.objects)
+                .into_iter()
+                .map(|p| (!p.kind.is_specular()).then_some(p.transport))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        kept.resize_with(meshes.len(), || None);
+        let mut spec_s = 0.0;
         let transports = match cached {
             Some(t) => t,
             None => {
-                let total: u64 = meshes.iter().map(|m| m.positions.len() as u64).sum();
+                let total: u64 = meshes
+                    .iter()
+                    .zip(&kinds)
+                    .zip(&kept)
+                    .filter(|((_, k), kt)| k.is_specular() || kt.is_none())
+                    .map(|((m, _), _)| m.positions.len() as u64)
+                    .sum();
                 progress.start("nearfield transport", total);
                 let mut out = Vec::with_capacity(meshes.len());
-                for m in &meshes {
-                    out.push(bake_transport(
-                        &frame,
-                        &m.positions,
-                        &m.normals,
-                        n,
-                        face,
-                        bvh.as_ref(),
-                        progress,
-                    )?);
+                for (((m, o), kind), kt) in
+                    meshes.iter().zip(&scene.objects).zip(&kinds).zip(&mut kept)
+                {
+                    if let Some(t) = kt.take().filter(|_| !kind.is_specular()) {
+                        out.push(t);
+                        continue;
+                    }
+                    match kind {
+                        ObjectKind::Specular { tint } => {
+                            let t0 = Instant::now();
+                            let weights = o
+                                .blend
+                                .as_ref()
+                                .map(|b| blend_weights(b, &m.uvs))
+                                .unwrap_or_default();
+                            out.push(bake_specular(
+                                &frame,
+                                SpecularMesh {
+                                    positions: &m.positions,
+                                    normals: &m.normals,
+                                    tangents: &m.tangents,
+                                },
+                                ObjectBrdf {
+                                    first: o.brdf.as_ref(),
+                                    second: o
+                                        .blend
+                                        .as_ref()
+                                        .map(|b| (b.second.as_ref(), &weights[..])),
+                                    tint: *tint,
+                                },
+                                scene.camera.eye,
+                                n,
+                                face,
+                                bvh.as_ref(),
+                                progress,
+                            )?);
+                            spec_s += t0.elapsed().as_secs_f64();
+                        }
+                        _ => out.push(bake_transport(
+                            &frame,
+                            &m.positions,
+                            &m.normals,
+                            n,
+                            face,
+                            bvh.as_ref(),
+                            progress,
+                        )?),
+                    }
                 }
                 progress.finish();
                 out
@@ -380,27 +518,89 @@ impl NearfieldMethod {
             }
         }
         let mut objects = Vec::with_capacity(meshes.len());
-        for ((i, o), transport) in scene.objects.iter().enumerate().zip(transports) {
+        for ((o, kind), transport) in scene.objects.iter().zip(&kinds).zip(transports) {
             let m = &o.mesh;
-            let z = Vec3::Z;
-            let f = o.brdf.eval(z, z);
-            let g = o.brdf.eval(z, Vec3::new(0.6, 0.0, 0.8));
-            if (f - g).abs().max_element() > 1e-5 * f.max_element().max(1e-6) {
-                self.warnings.push(format!(
-                    "method nearfield shades object {i}'s BRDF as Lambertian with albedo π·f(n, n) (fixed-view specular is not built)"
-                ));
-            }
+            let pi = std::f32::consts::PI;
+            let (albedo, albedos) = match *kind {
+                ObjectKind::Diffuse { albedo } => (albedo, Vec::new()),
+                ObjectKind::DiffuseBlend { first, second } => {
+                    let b = o.blend.as_ref().expect("a blend");
+                    let per: Vec<Vec3> = m
+                        .uvs
+                        .iter()
+                        .map(|&uv| {
+                            let w = b.weight_at(uv);
+                            first * (1.0 - w) + second * w
+                        })
+                        .collect();
+                    (first, per)
+                }
+                ObjectKind::Specular { tint } => (tint.unwrap_or(Vec3::ONE) * pi, Vec::new()),
+            };
             objects.push(Prepared {
                 mesh: m.clone(),
-                albedo: f * std::f32::consts::PI,
+                kind: *kind,
+                albedo,
+                albedos,
                 transport,
                 dx: Vec::new(),
                 dy: Vec::new(),
                 mask: Vec::new(),
+                mask_rgb: Vec::new(),
             });
         }
         self.objects = objects;
         self.baked = Some((frame, scene.visibility));
+        self.baked_eye = specular.then_some(scene.camera.eye);
+        self.view_is_baked = true;
+        self.specular_bake_s = spec_s;
+        // A lobe narrower than a face cell is held at the cell's size.
+        let cell = crate::specular::central_cell_deg(n, face);
+        for (i, o) in scene.objects.iter().enumerate() {
+            if !kinds[i].is_specular() {
+                continue;
+            }
+            let brdfs =
+                std::iter::once(o.brdf.as_ref()).chain(o.blend.as_ref().map(|b| b.second.as_ref()));
+            let narrowest = brdfs
+                .filter_map(crate::specular::lobe_half_width_deg)
+                .fold(f32::MAX, f32::min);
+            if 2.0 * narrowest < cell {
+                self.warnings.push(format!(
+                    "method nearfield: object {i}'s BRDF lobe (half width {narrowest:.1}° at 30° incidence) is narrower than a face cell ({cell:.1}° at order {n}, face {face}): its fixed-view highlights are blurred to the cell's size (raise --order)"
+                ));
+            }
+        }
+        if specular {
+            let list: Vec<String> = kinds
+                .iter()
+                .enumerate()
+                .filter(|(_, k)| k.is_specular())
+                .map(|(i, k)| {
+                    format!(
+                        "{i} ({})",
+                        if k.channels() == 3 {
+                            "RGB"
+                        } else {
+                            "one channel"
+                        }
+                    )
+                })
+                .collect();
+            let e = scene.camera.eye;
+            self.warnings.push(format!(
+                "method nearfield: objects {} have a fixed-view specular transport baked for the camera's eye at ({:.3}, {:.3}, {:.3}){}; other views show that view's highlights until the scene's camera moves (which re-bakes them)",
+                list.join(", "),
+                e.x,
+                e.y,
+                e.z,
+                if loaded {
+                    " (loaded from the cache)".to_string()
+                } else {
+                    format!(" in {spec_s:.2} s")
+                }
+            ));
+        }
         self.geometry = None;
         self.key = Some(key);
         if loaded {
@@ -422,6 +622,12 @@ impl NearfieldMethod {
             let verts = p.mesh.positions.len();
             p.dx.resize(verts * nn, 0.0);
             p.dy.resize(verts * nn, 0.0);
+            if p.transport.channels == 3 {
+                p.mask = Vec::new();
+                p.mask_rgb.resize(verts * m, MaskEntryRgb::default());
+                geometry_rgb(p, frame, n, face, m);
+                continue;
+            }
             p.mask.resize(verts * m, MaskEntry::default());
             let positions = &p.mesh.positions;
             let tr = &p.transport.values;
@@ -493,14 +699,14 @@ impl NearfieldMethod {
                     .into_par_iter()
                     .with_min_len(256)
                     .map_init(ShadeScratch::default, |sc, v| {
-                        let b = shade(
-                            src,
-                            &p.dx[v * nn..(v + 1) * nn],
-                            &p.dy[v * nn..(v + 1) * nn],
-                            &p.mask[v * m..(v + 1) * m],
-                            sc,
-                        );
-                        Vec3::from(b).max(Vec3::ZERO) * p.albedo / std::f32::consts::PI
+                        let (dx, dy) = (&p.dx[v * nn..(v + 1) * nn], &p.dy[v * nn..(v + 1) * nn]);
+                        if p.transport.channels == 3 {
+                            let b = shade_rgb(src, dx, dy, &p.mask_rgb[v * m..(v + 1) * m], sc);
+                            return Vec3::from(b).max(Vec3::ZERO);
+                        }
+                        let b = shade(src, dx, dy, &p.mask[v * m..(v + 1) * m], sc);
+                        let albedo = p.albedos.get(v).unwrap_or(&p.albedo);
+                        Vec3::from(b).max(Vec3::ZERO) * *albedo / std::f32::consts::PI
                     })
                     .collect()
             })
@@ -511,8 +717,18 @@ impl NearfieldMethod {
     /// FMAs of one [`Self::propagate`].
     #[must_use]
     pub fn propagate_fma(&self) -> f64 {
-        let verts: usize = self.objects.iter().map(|p| p.mesh.positions.len()).sum();
-        (verts * shade_fma(&self.source, self.target_count())) as f64
+        let m = self.target_count();
+        self.objects
+            .iter()
+            .map(|p| {
+                let per = if p.transport.channels == 3 {
+                    shade_rgb_fma(&self.source, m)
+                } else {
+                    shade_fma(&self.source, m)
+                };
+                (p.mesh.positions.len() * per) as f64
+            })
+            .sum()
     }
 }
 
@@ -523,12 +739,13 @@ impl Relighter for NearfieldMethod {
 
     fn supports(&self, feature: SceneFeature) -> Support {
         match feature {
-            SceneFeature::AreaLights | SceneFeature::Visibility => Support::Full,
+            SceneFeature::AreaLights
+            | SceneFeature::Visibility
+            | SceneFeature::SpatiallyVaryingBrdf => Support::Full,
             SceneFeature::Environment
             | SceneFeature::PointLights
             | SceneFeature::Medium
             | SceneFeature::NormalMaps
-            | SceneFeature::SpatiallyVaryingBrdf
             | SceneFeature::Animation => Support::No,
         }
     }
@@ -560,6 +777,13 @@ impl Relighter for NearfieldMethod {
         };
         if rebake {
             self.bake(scene, progress)?;
+            turn = None;
+        } else if self.baked_eye.is_some_and(|e| e != scene.camera.eye) {
+            // The fixed view moved with the scene's camera (module docs):
+            // the Lambertian transports are kept when the light is where
+            // they were baked for, else everything is baked for it anew.
+            let keep = turn.is_none() && self.baked.is_some_and(|(b, _)| b == own);
+            self.bake_with(scene, progress, keep)?;
             turn = None;
         }
         let frame = turn.map_or(own, |t| t.frame);
@@ -593,6 +817,7 @@ impl Relighter for NearfieldMethod {
             ));
         }
         progress.check()?;
+        self.view_is_baked = self.baked_eye.is_none_or(|e| e == request.camera.eye);
         let k = request.aa;
         let (_, draws) =
             relight_render::method::rasterize_objects(&mut self.raster, scene, request)
@@ -632,7 +857,43 @@ impl Relighter for NearfieldMethod {
             .map(|p| {
                 4 * (p.transport.values.len() + p.dx.len() + p.dy.len()) as u64
                     + 8 * p.mask.len() as u64
+                    + 16 * p.mask_rgb.len() as u64
             })
             .sum()
     }
+}
+
+/// [`NearfieldMethod::update_geometry`] for an RGB transport: the same ACC
+/// matrices and mask, each entry carrying the three channels' coefficients.
+fn geometry_rgb(p: &mut Prepared, frame: &LightFrame, n: usize, face: f64, m: usize) {
+    let nn = n * n;
+    let positions = &p.mesh.positions;
+    let tr = &p.transport.values;
+    p.dx.par_chunks_mut(nn)
+        .zip(p.dy.par_chunks_mut(nn))
+        .zip(p.mask_rgb.par_chunks_mut(m))
+        .enumerate()
+        .for_each_init(
+            || (SelectScratch::default(), Vec::new(), Vec::new(), Vec::new()),
+            |(sel, picked, tmp, counts), (v, ((dx, dy), mask))| {
+                let Some((s, o)) = frame.affine(frame.local(positions[v]), face) else {
+                    dx.fill(0.0);
+                    dy.fill(0.0);
+                    mask.fill(MaskEntryRgb::default());
+                    return;
+                };
+                acc_pair(n, s, o, dx, dy);
+                select_targets(&dx[..n], &dy[..n], m, sel, picked);
+                let t = &tr[v * 3 * nn..(v + 1) * 3 * nn];
+                for (e, &(k1, k2)) in mask.iter_mut().zip(picked.iter()) {
+                    let i = k2 as usize * n + k1 as usize;
+                    *e = MaskEntryRgb {
+                        k1,
+                        k2,
+                        t: [t[i], t[nn + i], t[2 * nn + i]],
+                    };
+                }
+                sort_mask(mask, n, tmp, counts);
+            },
+        );
 }

@@ -38,6 +38,34 @@ pub struct MaskEntry {
     pub t: f32,
 }
 
+/// One kept target coefficient of an RGB transport ([`crate::specular`]):
+/// its 1D indices and the transport there, per channel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MaskEntryRgb {
+    pub k1: u16,
+    pub k2: u16,
+    pub t: [f32; 3],
+}
+
+/// A mask entry's first 1D index (what [`sort_mask`] groups by).
+pub trait MaskKey: Copy + Default {
+    fn k1(&self) -> u16;
+}
+
+impl MaskKey for MaskEntry {
+    #[inline]
+    fn k1(&self) -> u16 {
+        self.k1
+    }
+}
+
+impl MaskKey for MaskEntryRgb {
+    #[inline]
+    fn k1(&self) -> u16 {
+        self.k1
+    }
+}
+
 /// Fills `dx`, `dy` (`n²` each) for the affine map `(s, o)`.
 pub fn acc_pair(n: usize, s: [f64; 2], o: [f64; 2], dx: &mut [f32], dy: &mut [f32]) {
     acc_matrix_fast(n, s[0], o[0], dx);
@@ -153,6 +181,96 @@ pub struct ShadeScratch {
     acc: Vec<f32>,
 }
 
+/// Step 1 of the kernel (module docs) into `z` (`[r][c][k1]`), and
+/// `D^y`'s source rows transposed into `dyt` (`[k2][r]`).
+fn step_one(src: &SourceTerms, dx: &[f32], dy: &[f32], z: &mut [f32], dyt: &mut [f32]) {
+    let n = src.n;
+    let rows = src.rows.len();
+    for (r, &(i2, start, end)) in src.rows.iter().enumerate() {
+        let z = &mut z[r * 3 * n..(r + 1) * 3 * n];
+        z.fill(0.0);
+        let (z0, rest) = z.split_at_mut(n);
+        let (z1, z2) = rest.split_at_mut(n);
+        for t in &src.terms[start as usize..end as usize] {
+            let d = &dx[t.i1 as usize * n..(t.i1 as usize + 1) * n];
+            let [c0, c1, c2] = t.rgb;
+            for (((a, b), c), &dk) in z0.iter_mut().zip(z1.iter_mut()).zip(z2.iter_mut()).zip(d) {
+                *a += c0 * dk;
+                *b += c1 * dk;
+                *c += c2 * dk;
+            }
+        }
+        let dyr = &dy[i2 as usize * n..(i2 as usize + 1) * n];
+        for (k2, &d) in dyr.iter().enumerate() {
+            dyt[k2 * rows + r] = d;
+        }
+    }
+}
+
+/// [`shade`] for an RGB transport: `B[c] = Σ_{k ∈ mask} L_k[c] T_k[c]`.
+/// Step 1 is shared; the fuse runs per channel (`W_c`, `3 R m` FMA) and
+/// the dot pairs `Z[c]` with `W_c`. `mask` sorted by `k1` ([`sort_mask`]).
+#[must_use]
+pub fn shade_rgb(
+    src: &SourceTerms,
+    dx: &[f32],
+    dy: &[f32],
+    mask: &[MaskEntryRgb],
+    scratch: &mut ShadeScratch,
+) -> [f32; 3] {
+    let n = src.n;
+    let rows = src.rows.len();
+    if rows == 0 {
+        return [0.0; 3];
+    }
+    scratch.z.resize(rows * 3 * n, 0.0);
+    scratch.dyt.resize(n * rows, 0.0);
+    scratch.w.resize(3 * n * rows, 0.0);
+    scratch.acc.resize(3 * rows, 0.0);
+    step_one(src, dx, dy, &mut scratch.z, &mut scratch.dyt);
+    // Fuse: W_c[k1][r] = Σ_{(k1,k2) ∈ mask} D^y[i2_r][k2] T_c.
+    scratch.w.fill(0.0);
+    let acc = &mut scratch.acc;
+    let mut i = 0;
+    while i < mask.len() {
+        let k1 = mask[i].k1 as usize;
+        acc.fill(0.0);
+        while i < mask.len() && mask[i].k1 as usize == k1 {
+            let e = mask[i];
+            let k2 = (e.k2 as usize).min(n - 1);
+            let d = &scratch.dyt[k2 * rows..(k2 + 1) * rows];
+            let (a0, rest) = acc.split_at_mut(rows);
+            let (a1, a2) = rest.split_at_mut(rows);
+            for (((x0, x1), x2), &dv) in a0.iter_mut().zip(a1.iter_mut()).zip(a2.iter_mut()).zip(d)
+            {
+                *x0 += dv * e.t[0];
+                *x1 += dv * e.t[1];
+                *x2 += dv * e.t[2];
+            }
+            i += 1;
+        }
+        let k1 = k1.min(n - 1);
+        for c in 0..3 {
+            let at = (c * n + k1) * rows;
+            scratch.w[at..at + rows].copy_from_slice(&acc[c * rows..(c + 1) * rows]);
+        }
+    }
+    // Dot: B[c] = Σ_r Σ_k1 Z[r][c][k1] W_c[k1][r].
+    let mut out = [0.0f32; 3];
+    for r in 0..rows {
+        let z = &scratch.z[r * 3 * n..(r + 1) * 3 * n];
+        for (c, o) in out.iter_mut().enumerate() {
+            let w = &scratch.w[c * n * rows..(c + 1) * n * rows];
+            let mut b = 0.0f32;
+            for k1 in 0..n {
+                b += z[c * n + k1] * w[k1 * rows + r];
+            }
+            *o += b;
+        }
+    }
+    out
+}
+
 /// The fused kernel (module docs): `Σ_{k ∈ mask} L_k[c] T_k` for one vertex.
 /// `mask` is sorted by `k1` ([`sort_mask`]), so each `W_{·,k1}` is summed in
 /// registers over its group and stored once; the `R` source rows are the
@@ -175,25 +293,7 @@ pub fn shade(
     scratch.w.resize(n * rows, 0.0);
     scratch.acc.resize(rows, 0.0);
     // Step 1, and D^y's source rows transposed.
-    for (r, &(i2, start, end)) in src.rows.iter().enumerate() {
-        let z = &mut scratch.z[r * 3 * n..(r + 1) * 3 * n];
-        z.fill(0.0);
-        let (z0, rest) = z.split_at_mut(n);
-        let (z1, z2) = rest.split_at_mut(n);
-        for t in &src.terms[start as usize..end as usize] {
-            let d = &dx[t.i1 as usize * n..(t.i1 as usize + 1) * n];
-            let [c0, c1, c2] = t.rgb;
-            for (((a, b), c), &dk) in z0.iter_mut().zip(z1.iter_mut()).zip(z2.iter_mut()).zip(d) {
-                *a += c0 * dk;
-                *b += c1 * dk;
-                *c += c2 * dk;
-            }
-        }
-        let dyr = &dy[i2 as usize * n..(i2 as usize + 1) * n];
-        for (k2, &d) in dyr.iter().enumerate() {
-            scratch.dyt[k2 * rows + r] = d;
-        }
-    }
+    step_one(src, dx, dy, &mut scratch.z, &mut scratch.dyt);
     // Fuse: W[k1][r] = Σ_{(k1,k2) ∈ mask} D^y[i2_r][k2] T.
     scratch.w.fill(0.0);
     let acc = &mut scratch.acc;
@@ -233,24 +333,19 @@ pub fn shade(
 
 /// Sorts mask entries by `k1` (counting sort, stable in `k2` order of
 /// selection): the order [`shade`] needs.
-pub fn sort_mask(
-    mask: &mut [MaskEntry],
-    n: usize,
-    tmp: &mut Vec<MaskEntry>,
-    counts: &mut Vec<u32>,
-) {
+pub fn sort_mask<E: MaskKey>(mask: &mut [E], n: usize, tmp: &mut Vec<E>, counts: &mut Vec<u32>) {
     counts.clear();
     counts.resize(n + 1, 0);
     for e in mask.iter() {
-        counts[e.k1 as usize + 1] += 1;
+        counts[e.k1() as usize + 1] += 1;
     }
     for k in 0..n {
         counts[k + 1] += counts[k];
     }
     tmp.clear();
-    tmp.resize(mask.len(), MaskEntry::default());
+    tmp.resize(mask.len(), E::default());
     for e in mask.iter() {
-        let at = &mut counts[e.k1 as usize];
+        let at = &mut counts[e.k1() as usize];
         tmp[*at as usize] = *e;
         *at += 1;
     }
@@ -263,6 +358,12 @@ pub fn shade_fma(src: &SourceTerms, m: usize) -> usize {
     let n = src.n;
     let r = src.rows.len();
     src.len() * n * 3 + r * m + r * n * 3
+}
+
+/// FMAs of one [`shade_rgb`] call: the fuse three times.
+#[must_use]
+pub fn shade_rgb_fma(src: &SourceTerms, m: usize) -> usize {
+    shade_fma(src, m) + 2 * src.rows.len() * m
 }
 
 #[cfg(test)]

@@ -105,3 +105,37 @@ pub fn floor_and_sphere(
     ));
     s
 }
+
+/// The BRDFs of [`glossy_floor_and_sphere`]: the sphere a coloured diffuse
+/// base under a white GGX lobe (α 0.25; its colour changes with
+/// direction: an RGB fixed-view transport), the floor a grey normalised
+/// Phong lobe (exponent 20; one channel).
+#[must_use]
+pub fn glossy_brdfs() -> [Arc<dyn relight_brdf::Brdf>; 2] {
+    let base: Arc<dyn relight_brdf::Brdf> =
+        Arc::new(Lambert::new(Vec3::new(0.8, 0.45, 0.25)).expect("valid albedo"));
+    let lobe: Arc<dyn relight_brdf::Brdf> =
+        Arc::new(relight_brdf::Ggx::isotropic(0.25, Vec3::splat(0.9)).expect("valid GGX"));
+    let sphere: Arc<dyn relight_brdf::Brdf> =
+        Arc::new(relight_brdf::Mix::new(vec![(0.5, base), (0.5, lobe)]).expect("valid mix"));
+    let floor: Arc<dyn relight_brdf::Brdf> =
+        Arc::new(relight_brdf::Phong::new(20.0, Vec3::splat(0.7)).expect("valid Phong"));
+    [sphere, floor]
+}
+
+/// [`floor_and_sphere`] with the glossy BRDFs of [`glossy_brdfs`]: the
+/// fixed-view specular rows of `verify nearfield`.
+#[must_use]
+pub fn glossy_floor_and_sphere(
+    floor: usize,
+    segments: usize,
+    width: usize,
+    height: usize,
+    visibility: bool,
+) -> Scene {
+    let mut s = floor_and_sphere(floor, segments, width, height, visibility);
+    for (o, b) in s.objects.iter_mut().zip(glossy_brdfs()) {
+        o.brdf = b;
+    }
+    s
+}

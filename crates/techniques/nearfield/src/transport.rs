@@ -54,7 +54,11 @@ pub const SHADOW_SUBSAMPLES: usize = 4;
 pub struct Transport {
     pub n: usize,
     pub face: f64,
-    /// `values[v · n² + i2 · n + i1]`.
+    /// Transports per vertex: 1 (Lambert, or a specular BRDF whose colour
+    /// is one tint, [`crate::specular`]) or 3 (RGB: a BRDF whose colour
+    /// changes with direction).
+    pub channels: usize,
+    /// `values[(v · channels + c) · n² + i2 · n + i1]`.
     pub values: Vec<f32>,
 }
 
@@ -109,7 +113,9 @@ pub struct TransportScratch {
     v: Vec<f64>,
     /// Per cell: 0 unlit (no cosine), 1 centre visible, 2 centre blocked,
     /// 3 cut by the horizon.
-    state: Vec<u8>,
+    pub(crate) state: Vec<u8>,
+    /// Per cell: the visible fraction ([`visible_fractions`]).
+    pub(crate) vis: Vec<f64>,
 }
 
 /// The unshadowed cell integrals `∫_{Ω_c} max(0, n·ω) dω` of the `n × n`
@@ -232,6 +238,50 @@ fn shadow_cells(
     scratch: &mut TransportScratch,
     out: &mut [f64],
 ) {
+    // The midpoint weight of `T` (module docs): `cos / len³`.
+    let mut vis = std::mem::take(&mut scratch.vis);
+    visible_fractions(
+        frame,
+        p,
+        nrm,
+        n,
+        face,
+        bvh,
+        &mut scratch.state,
+        |_, c, len| c / (len * len * len),
+        &mut vis,
+    );
+    // `× 1` (a visible cell) and `× 0` (a blocked one, `out ≥ 0`) are exact:
+    // the same values as scaling only the cells that change.
+    for (o, v) in out.iter_mut().zip(&vis) {
+        *o *= *v;
+    }
+    scratch.vis = vis;
+}
+
+/// The visible fraction of each of the `n × n` cells into `vis` (module
+/// docs): 1 where the centre ray (or no ray: an unlit cell, `state` 0) sees
+/// the light and no neighbour's centre differs, 0 where it is blocked, and
+/// in a cell the shadow edge or the horizon crosses (`state` 3) the
+/// weighted visible fraction `Σ V_j w_j / Σ w_j` of
+/// [`SHADOW_SUBSAMPLES`]² stratified rays, `w_j = weight(ω_j, cos θ_j,
+/// |d_j|)` (`ω_j` unit, world; `|d_j| = √(1 + |v_j|²)`). `state` comes
+/// from [`cell_cosines`] (1 lit, 3 cut by the horizon, 0 unlit) and is
+/// overwritten (2: centre blocked).
+#[allow(clippy::too_many_arguments)]
+pub fn visible_fractions<W: Fn(Vec3, f32, f32) -> f32>(
+    frame: &LightFrame,
+    p: Vec3,
+    nrm: Vec3,
+    n: usize,
+    face: f64,
+    bvh: &SceneBvh,
+    state: &mut [u8],
+    weight: W,
+    vis: &mut Vec<f64>,
+) {
+    vis.clear();
+    vis.resize(n * n, 1.0);
     let local = frame.local(p);
     let origin = offset_ray_origin(p, nrm);
     let s = face as f32;
@@ -244,9 +294,8 @@ fn shadow_cells(
             return (0.0, false);
         }
         let blocked = bvh.occluded(origin, d / len, local.z * len * 0.9999);
-        (c / (len * len * len), !blocked)
+        (weight(d / len, c, len), !blocked)
     };
-    let state = &mut scratch.state;
     for y in 0..n {
         for x in 0..n {
             let k = y * n + x;
@@ -281,30 +330,29 @@ fn shadow_cells(
             }
             if !edge {
                 if st == 2 {
-                    out[k] = 0.0;
+                    vis[k] = 0.0;
                 }
                 continue;
             }
             let (mut wv, mut wt, mut nv) = (0.0f32, 0.0f32, 0usize);
             for j in 0..q {
                 for i in 0..q {
-                    let (w, vis) = ray(
+                    let (w, seen) = ray(
                         x as f32 + (i as f32 + 0.5) / q as f32,
                         y as f32 + (j as f32 + 0.5) / q as f32,
                     );
                     wt += w;
-                    if vis {
+                    if seen {
                         wv += w;
                         nv += 1;
                     }
                 }
             }
-            let frac = if wt > 0.0 {
+            vis[k] = if wt > 0.0 {
                 f64::from(wv / wt)
             } else {
                 nv as f64 / (q * q) as f64
             };
-            out[k] *= frac;
         }
     }
 }
@@ -350,5 +398,10 @@ pub fn bake_transport(
         );
         progress.inc((chunk.len() / nn) as u64);
     }
-    Ok(Transport { n, face, values })
+    Ok(Transport {
+        n,
+        face,
+        channels: 1,
+        values,
+    })
 }

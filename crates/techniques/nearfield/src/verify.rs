@@ -2,7 +2,8 @@
 //! against the Monte Carlo reference per image, with the image error broken
 //! into face truncation, discretisation, compression and Gouraud
 //! interpolation, the distant-environment baseline of Fig. 4.8C, and a
-//! light turned in its plane (§4.5.6) against its own reference.
+//! light turned in its plane (§4.5.6) against its own reference, and the
+//! fixed-view specular rows of [`crate::verify_specular`].
 //!
 //! Every row with a target says pass/fail and names its source.
 
@@ -388,6 +389,7 @@ pub fn verify_rows(
     if !opts.per_vertex_only {
         rows.extend(image_rows(&base, opts, progress)?);
     }
+    rows.extend(crate::verify_specular::specular_rows(opts, progress)?);
     Ok(rows)
 }
 

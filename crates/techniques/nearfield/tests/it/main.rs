@@ -4,3 +4,4 @@
 mod cache;
 mod method;
 mod rotation;
+mod specular;
