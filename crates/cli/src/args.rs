@@ -265,8 +265,9 @@ pub struct MethodFlags {
     /// Renders visibility approximately (needs --approximate with --visibility).
     #[arg(long)]
     pub ao: Option<u32>,
-    /// Bake cache folder (wavelet, triple) [default: $RELIGHT_CACHE/wavelet, else
-    /// ~/.cache/relight/wavelet; see `relight cache list`].
+    /// Bake cache folder (wavelet, triple, nearfield) [default: $RELIGHT_CACHE/wavelet,
+    /// else ~/.cache/relight/wavelet; nearfield: $RELIGHT_CACHE/nearfield, else
+    /// ~/.cache/relight/nearfield; see `relight cache list`].
     #[arg(long)]
     pub cache: Option<PathBuf>,
     /// Fog model (fog): `analytic` or `opengl` (classic exponential fog)
@@ -551,6 +552,10 @@ pub enum BakeCommand {
         /// Side of the expanded top face, 0.5…32 [default: 4].
         #[arg(long)]
         face: Option<f64>,
+        /// Cache folder [default: $RELIGHT_CACHE/nearfield, else
+        /// ~/.cache/relight/nearfield].
+        #[arg(long)]
+        cache: Option<PathBuf>,
         /// Also write the bake to this file (the cache's format: versioned,
         /// with a CRC).
         #[arg(long)]

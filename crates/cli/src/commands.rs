@@ -235,9 +235,10 @@ fn bake(c: BakeCommand, bar: &Bar) -> Result<()> {
             scene,
             order,
             face,
+            cache,
             out,
         } => {
-            crate::nearfield::bake(&scene, order, face, out.as_deref(), bar)?;
+            crate::nearfield::bake(&scene, order, face, cache.as_deref(), out.as_deref(), bar)?;
         }
         BakeCommand::Rotation {
             n,

@@ -53,7 +53,14 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 27] = [
     ("--ntess", &[MethodKind::Wavelet]),
     ("--terms", &[MethodKind::Wavelet, MethodKind::Triple]),
     ("--ao", &[MethodKind::Wavelet]),
-    ("--cache", &[MethodKind::Wavelet, MethodKind::Triple]),
+    (
+        "--cache",
+        &[
+            MethodKind::Wavelet,
+            MethodKind::Triple,
+            MethodKind::Nearfield,
+        ],
+    ),
     ("--fog", &[MethodKind::Fog]),
     ("--exp", &[MethodKind::ShExp]),
     ("--spheres", &[MethodKind::ShExp]),

@@ -12,11 +12,11 @@ use relight_nearfield::bench::{BenchOptions, bench_nearfield};
 use relight_nearfield::verify::{VerifyOptions, verify_rows};
 use relight_nearfield::{NearfieldMethod, NearfieldOptions};
 use relight_render::method::Relighter;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Applies `--order`, `--face`, `--source-terms`, `--target-terms` (ranges
-/// are checked by the method).
+/// are checked by the method) and `--cache`.
 pub fn apply_flags(o: &mut NearfieldOptions, f: &MethodFlags) {
     if let Some(n) = f.order {
         o.order = n;
@@ -30,8 +30,18 @@ pub fn apply_flags(o: &mut NearfieldOptions, f: &MethodFlags) {
     if let Some(t) = f.target_terms {
         o.target_terms = t;
     }
-    // The CLI keeps transport bakes ($RELIGHT_CACHE/nearfield, `relight cache list`).
-    o.cache = true;
+    // The CLI keeps transport bakes: `--cache DIR`, else $RELIGHT_CACHE/nearfield
+    // (`relight cache list`).
+    o.cache_dir = Some(cache_dir(f.cache.as_deref()));
+}
+
+/// The transport cache folder: `dir`, else
+/// [`relight_nearfield::cache::default_cache_dir`].
+fn cache_dir(dir: Option<&Path>) -> PathBuf {
+    dir.map_or_else(
+        relight_nearfield::cache::default_cache_dir,
+        Path::to_path_buf,
+    )
 }
 
 /// `relight bake nearfield SCENE [scene flags] [--order N] [--face S] [--out FILE]`:
@@ -42,6 +52,7 @@ pub fn bake(
     a: &SceneArgs,
     order: Option<usize>,
     face: Option<f64>,
+    cache: Option<&Path>,
     out: Option<&Path>,
     bar: &Bar,
 ) -> Result<()> {
@@ -52,7 +63,7 @@ pub fn bake(
     let built = build_scene(a, None)?;
     let scene = built.scene.at_time(built.time);
     let mut o = NearfieldOptions {
-        cache: true,
+        cache_dir: Some(cache_dir(cache)),
         ..NearfieldOptions::default()
     };
     if let Some(n) = order {
@@ -61,7 +72,7 @@ pub fn bake(
     if let Some(f) = face {
         o.face = f;
     }
-    let mut m = NearfieldMethod::new(o)?;
+    let mut m = NearfieldMethod::new(o.clone())?;
     m.bake_scene(&scene, bar)?;
     warn_all(&m.warnings());
     let vertices: usize =

@@ -171,7 +171,7 @@ pub fn create(options: &MethodOptions) -> Result<Box<dyn Relighter>, MethodError
         MethodOptions::RadianceCache(o) => Box::new(RadianceCacheRelighter::new(*o)?),
         MethodOptions::Ndf(o) => Box::new(NdfMethod::new(*o)?),
         MethodOptions::Triple(o) => Box::new(TripleMethod::new(o.clone())?),
-        MethodOptions::Nearfield(o) => Box::new(NearfieldMethod::new(*o)?),
+        MethodOptions::Nearfield(o) => Box::new(NearfieldMethod::new(o.clone())?),
         MethodOptions::Ltc(o) => Box::new(LtcMethod::new(*o)?),
     })
 }

@@ -113,3 +113,52 @@ fn bad_bake_flags_are_one_line() {
     a.extend(["--out", "/nonexistent-dir/x.bin"]);
     assert_one_line_error(&run(&cache, &a), &["--out"]);
 }
+
+/// `--cache DIR` puts the transport bake in DIR instead of
+/// `$RELIGHT_CACHE/nearfield`, for `bake nearfield` and for a render, and
+/// `cache list --cache DIR` lists it.
+#[test]
+fn cache_flag_picks_the_folder() {
+    let env_cache = tmp("nf-cache-env");
+    let _ = std::fs::remove_dir_all(&env_cache);
+    let dir = tmp("nf-cache-flag");
+    let _ = std::fs::remove_dir_all(&dir);
+    let entries = |d: &Path| -> usize {
+        std::fs::read_dir(d).map_or(0, |r| {
+            r.filter(|e| {
+                e.as_ref()
+                    .is_ok_and(|e| e.path().extension().is_some_and(|x| x == "bin"))
+            })
+            .count()
+        })
+    };
+    let flag = dir.to_str().unwrap();
+    let mut bake = vec!["bake", "nearfield"];
+    bake.extend(SCENE);
+    bake.extend(["--order", "8", "--cache", flag]);
+    let (text, _) = ok(&run(&env_cache, &bake));
+    assert!(text.contains(": baked in"), "{text}");
+    assert_eq!(entries(&dir), 1, "the bake is in --cache");
+    assert_eq!(
+        entries(&env_cache.join("nearfield")),
+        0,
+        "nothing in $RELIGHT_CACHE"
+    );
+    let png = tmp("nf-cache-flag.png");
+    let mut render = vec!["render", "--method", "nearfield", "--size", "32x20"];
+    render.extend(SCENE);
+    render.extend([
+        "--order",
+        "8",
+        "--cache",
+        flag,
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    let (_, err) = ok(&run(&env_cache, &render));
+    assert!(!err.contains("re-baked"), "{err}");
+    assert_eq!(entries(&dir), 1, "the render read the same entry");
+    assert_eq!(entries(&env_cache.join("nearfield")), 0);
+    let (list, _) = ok(&run(&env_cache, &["cache", "list", "--cache", flag]));
+    assert!(list.contains("n=8 face=4 objects=1 shadows"), "{list}");
+}

@@ -27,7 +27,7 @@
 //!
 //! | call | work |
 //! |---|---|
-//! | [`Relighter::prepare`] | the per-vertex transport on the light's face ([`crate::transport`]), shadows ray-cast when the scene has visibility, or loaded from the disk cache ([`crate::cache`], with [`NearfieldOptions::cache`]); then `set_lighting` |
+//! | [`Relighter::prepare`] | the per-vertex transport on the light's face ([`crate::transport`]), shadows ray-cast when the scene has visibility, or loaded from the disk cache ([`crate::cache`], with [`NearfieldOptions::cache_dir`]); then `set_lighting` |
 //! | [`Relighter::set_lighting`] | light moved, scaled or turned in its plane (or moved to another height): per-vertex ACC matrices and target masks ([`crate::propagate`]); always: the light's coefficients (a turned light re-rasterised into its bounding rectangle, [`crate::rotate`]), source compression, the fused propagation per vertex. A light whose normal changed re-bakes the transport. |
 //! | [`Relighter::render`] | rasterize and interpolate the vertex colours |
 //!
@@ -66,7 +66,7 @@ use std::time::Instant;
 pub const NEARFIELD_METHOD_NAME: &str = "nearfield";
 
 /// Settings of [`NearfieldMethod`]; `Default` holds the defaults.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct NearfieldOptions {
     /// Wavelet order `n` per axis of the face (the transport) and of the
     /// light's coefficients (a power of two, 4…64). Default 32 (the
@@ -87,12 +87,11 @@ pub struct NearfieldOptions {
     /// Fraction of each vertex's `n²` target coefficients kept by the
     /// constant-light heuristic (eq. 4.38). Default 0.20.
     pub target_terms: f64,
-    /// Keep transport bakes on disk in [`crate::cache::default_cache_dir`]
-    /// (`$RELIGHT_CACHE/nearfield`, …) and load them on a match
-    /// ([`crate::cache`]). Default `false` (the library touches no disk
-    /// unless asked; the CLI turns it on); [`NearfieldMethod::set_cache_dir`]
-    /// picks another folder.
-    pub cache: bool,
+    /// Folder to keep transport bakes in and load them from on a match
+    /// ([`crate::cache`]; `None`: no disk cache). Default `None` (the
+    /// library touches no disk unless asked; the CLI sets `--cache`, else
+    /// [`crate::cache::default_cache_dir`], `$RELIGHT_CACHE/nearfield`, …).
+    pub cache_dir: Option<PathBuf>,
 }
 
 impl Default for NearfieldOptions {
@@ -103,7 +102,7 @@ impl Default for NearfieldOptions {
             face: 4.0,
             source_terms: 0.01,
             target_terms: 0.20,
-            cache: false,
+            cache_dir: None,
         }
     }
 }
@@ -146,8 +145,6 @@ pub struct NearfieldMethod {
     /// Times of the last lighting change: geometry, coefficients, propagation (ms).
     pub last_times: [f64; 3],
     bakes: usize,
-    /// Where transport bakes are cached (`None`: not cached).
-    cache_dir: Option<PathBuf>,
     /// The key of the current bake.
     key: Option<BakeKey>,
     loads: usize,
@@ -236,7 +233,6 @@ impl NearfieldMethod {
             pending_lighting_ms: 0.0,
             last_times: [0.0; 3],
             bakes: 0,
-            cache_dir: options.cache.then(crate::cache::default_cache_dir),
             key: None,
             loads: 0,
             baked_eye: None,
@@ -263,16 +259,10 @@ impl NearfieldMethod {
         self.loads
     }
 
-    /// Caches transport bakes in `dir` (`None`: no disk cache), whatever
-    /// [`NearfieldOptions::cache`] says.
-    pub fn set_cache_dir(&mut self, dir: Option<PathBuf>) {
-        self.cache_dir = dir;
-    }
-
     /// The folder transport bakes are cached in, if any.
     #[must_use]
     pub fn cache_dir(&self) -> Option<&Path> {
-        self.cache_dir.as_deref()
+        self.options.cache_dir.as_deref()
     }
 
     /// The key of the current bake (after `prepare` or [`Self::bake_scene`]).
@@ -285,7 +275,8 @@ impl NearfieldMethod {
     #[must_use]
     pub fn cache_path(&self) -> Option<PathBuf> {
         Some(
-            self.cache_dir
+            self.options
+                .cache_dir
                 .as_ref()?
                 .join(self.key.as_ref()?.file_name()),
         )
@@ -423,7 +414,11 @@ impl NearfieldMethod {
         let specular = kinds.iter().any(ObjectKind::is_specular);
         let bvh = scene.visibility.then(|| SceneBvh::build(&meshes));
         let key = BakeKey::of_kinds(scene, &frame, n, face, &kinds);
-        let path = self.cache_dir.as_ref().map(|d| d.join(key.file_name()));
+        let path = self
+            .options
+            .cache_dir
+            .as_ref()
+            .map(|d| d.join(key.file_name()));
         let mut cached = None;
         if let Some(p) = path.as_deref().filter(|p| p.exists()) {
             match crate::cache::load(p, &key, face) {

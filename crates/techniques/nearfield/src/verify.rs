@@ -259,12 +259,12 @@ pub fn verify_rows(
     // light's order (reported: what the discretisation floor costs).
     let d = NearfieldOptions::default();
     for (nf, gated) in [
-        (d, true),
+        (d.clone(), true),
         (
             NearfieldOptions {
                 order: 2 * d.order,
                 light_order: Some(d.order),
-                ..d
+                ..d.clone()
             },
             false,
         ),
@@ -289,7 +289,7 @@ pub fn verify_rows(
             let mut m = NearfieldMethod::new(NearfieldOptions {
                 source_terms: 1.0,
                 target_terms: 1.0,
-                ..nf
+                ..nf.clone()
             })
             .map_err(fail)?;
             m.prepare(&scene, progress).map_err(fail)?;
@@ -614,7 +614,7 @@ fn turned_rows(
     }
     // The same light with a transport baked for its own axes (no bounding
     // rectangle): what the turn costs over a re-bake.
-    let mut native = NearfieldMethod::new(*m.options()).map_err(fail)?;
+    let mut native = NearfieldMethod::new(m.options().clone()).map_err(fail)?;
     native.prepare(&turned, progress).map_err(fail)?;
     let r = native.render(&turned, request, progress).map_err(fail)?;
     rows.push(row(

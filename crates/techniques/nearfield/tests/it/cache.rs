@@ -27,13 +27,12 @@ fn dir(name: &str) -> PathBuf {
 }
 
 fn cached(dir: &Path) -> NearfieldMethod {
-    let mut m = NearfieldMethod::new(NearfieldOptions {
+    NearfieldMethod::new(NearfieldOptions {
         order: 16,
+        cache_dir: Some(dir.to_path_buf()),
         ..NearfieldOptions::default()
     })
-    .unwrap();
-    m.set_cache_dir(Some(dir.to_path_buf()));
-    m
+    .unwrap()
 }
 
 #[test]

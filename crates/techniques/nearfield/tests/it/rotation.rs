@@ -129,7 +129,7 @@ fn turned_textured_light_matches_the_true_integral() {
         target_terms: 1.0,
         ..NearfieldOptions::default()
     };
-    let mut m = NearfieldMethod::new(opts).unwrap();
+    let mut m = NearfieldMethod::new(opts.clone()).unwrap();
     m.prepare(&s, &NoProgress).unwrap();
     let flat = errors(&m, &s, 96);
     assert!(flat.0 <= 0.03 && flat.1 <= 0.01, "unturned {flat:?}");
@@ -138,7 +138,7 @@ fn turned_textured_light_matches_the_true_integral() {
         m.set_lighting(&t, &NoProgress).unwrap();
         assert_eq!(m.bakes(), 1, "a turn in the plane keeps the bake");
         let e = errors(&m, &t, 96);
-        let mut native = NearfieldMethod::new(opts).unwrap();
+        let mut native = NearfieldMethod::new(opts.clone()).unwrap();
         native.prepare(&t, &NoProgress).unwrap();
         let r = errors(&native, &t, 96);
         eprintln!(
