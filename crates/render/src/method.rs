@@ -625,11 +625,12 @@ pub fn fill_background(scene: &Scene, camera: &Camera, coverage: &Coverage, imag
     let corners = |s: &mut Scratch, covs: &[f32], y0: usize, yy: usize, top: bool| {
         s.needed.clear();
         s.needed.resize(w + 1, false);
-        for y in [yy.wrapping_sub(1), yy] {
-            let Some(row) = y.checked_sub(y0).and_then(|r| covs.get(r * w..(r + 1) * w)) else {
+        let rows = covs.len() / w;
+        for y in [yy.checked_sub(1), Some(yy)].into_iter().flatten() {
+            let Some(r) = y.checked_sub(y0).filter(|&r| r < rows) else {
                 continue;
             };
-            for (x, &c) in row.iter().enumerate() {
+            for (x, &c) in covs[r * w..(r + 1) * w].iter().enumerate() {
                 if empty_coverage(c) {
                     s.needed[x] = true;
                     s.needed[x + 1] = true;
