@@ -27,7 +27,7 @@ pub(crate) const P: [f32; 8] = [
 
 /// `atan2(y, x)` in `[−π, π]`, with IEEE's signed-zero cases
 /// (`atan2(±0, +0) = ±0`, `atan2(±0, −0) = ±π`) and no NaN for finite input (the branches are selects; no division by zero).
-#[inline]
+#[inline(always)]
 #[must_use]
 pub fn atan2_f32(y: f32, x: f32) -> f32 {
     let (ax, ay) = (x.abs(), y.abs());

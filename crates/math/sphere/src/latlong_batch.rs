@@ -18,35 +18,22 @@
 //! never contracts a multiply and an add. Both paths are tested against
 //! [`EnvMap::eval`].
 
-use crate::atan::P;
+use crate::atan::atan2_f32;
+use crate::param::latlong_texel;
 use crate::{EnvMap, Param};
 use glam::{Mat3, Vec3};
-use std::f32::consts::{FRAC_PI_2, PI, TAU};
+use std::f32::consts::{PI, TAU};
 
 /// Directions per block.
 pub(crate) const LANES: usize = 16;
 
 type Lanes = [f32; LANES];
 
-/// `atan2(y, x)` per lane: [`crate::atan::atan2_f32`] without branches
-/// (the same operations, the same order).
+/// `atan2(y, x)` per lane ([`atan2_f32`], whose branches are selects: a
+/// loop of it alone vectorises).
 #[inline(always)]
 fn atan2_lanes(y: &Lanes, x: &Lanes) -> Lanes {
-    std::array::from_fn(|l| {
-        let (x, y) = (x[l], y[l]);
-        let (ax, ay) = (x.abs(), y.abs());
-        let (lo, hi) = (ax.min(ay), ax.max(ay));
-        let a = if hi > 0.0 { lo / hi } else { 0.0 };
-        let s = a * a;
-        let mut p = P[7];
-        for &c in P[..7].iter().rev() {
-            p = p * s + c;
-        }
-        let r = a * p;
-        let r = if ay > ax { FRAC_PI_2 - r } else { r };
-        let r = if x.is_sign_negative() { PI - r } else { r };
-        if y.is_sign_negative() { -r } else { r }
-    })
+    std::array::from_fn(|l| atan2_f32(y[l], x[l]))
 }
 
 /// One block: `out[l] = env.eval(m · d_l)` for the lat-long map `texels`
@@ -85,24 +72,7 @@ fn block(texels: &[Vec3], width: usize, height: usize, m: &Mat3, d: [&Lanes; 3],
         fx[l] = xx - c0[l] as f32;
         fy[l] = yy - r0[l] as f32;
     }
-    let half = if w % 2 == 0 { w / 2 } else { 0 };
-    let texel = |c: i32, r: i32| -> usize {
-        let (c, r) = if r < 0 {
-            (c + half, -1 - r)
-        } else if r >= h {
-            (c + half, 2 * h - 1 - r)
-        } else {
-            (c, r)
-        };
-        let c = if c < 0 {
-            c + w
-        } else if c >= w {
-            c - w
-        } else {
-            c
-        };
-        (i64::from(r.clamp(0, h - 1)) * i64::from(w) + i64::from(c)) as usize
-    };
+    let texel = |c: i32, r: i32| latlong_texel(w, h, c, r) as usize;
     for (l, o) in out.iter_mut().enumerate() {
         let (c, r) = (c0[l], r0[l]);
         let (a, b) = (fx[l], fy[l]);

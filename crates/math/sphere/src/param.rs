@@ -859,25 +859,7 @@ fn latlong_bilinear_f32(width: usize, height: usize, d: Vec3) -> Bilinear {
     };
     let (c0, r0) = (floor(x), floor(y));
     let (fx, fy) = (x - c0 as f32, y - r0 as f32);
-    let half = if w % 2 == 0 { w / 2 } else { 0 };
-    let texel = |c: i32, r: i32| {
-        let (c, r) = if r < 0 {
-            (c + half, -1 - r)
-        } else if r >= h {
-            (c + half, 2 * h - 1 - r)
-        } else {
-            (c, r)
-        };
-        // c ∈ [−1, w + w/2]: one wrap, not `rem_euclid` (an integer division).
-        let c = if c < 0 {
-            c + w
-        } else if c >= w {
-            c - w
-        } else {
-            c
-        };
-        (i64::from(r.clamp(0, h - 1)) * i64::from(w) + i64::from(c)) as u32
-    };
+    let texel = |c: i32, r: i32| latlong_texel(w, h, c, r);
     Bilinear {
         texels: [
             texel(c0, r0),
@@ -892,6 +874,31 @@ fn latlong_bilinear_f32(width: usize, height: usize, d: Vec3) -> Bilinear {
             fx * fy,
         ],
     }
+}
+
+/// Texel `(c, r)` of a `w × h` lat-long map, for a column `c ∈ [−1, w]` and
+/// a row `r ∈ [−1, h]` one step outside at most: across a pole the row
+/// reflects and the column turns half way round; across the seam the
+/// column wraps (the rules of [`Param::bilinear_f64`]).
+#[inline(always)]
+pub(crate) fn latlong_texel(w: i32, h: i32, c: i32, r: i32) -> u32 {
+    let half = if w % 2 == 0 { w / 2 } else { 0 };
+    let (c, r) = if r < 0 {
+        (c + half, -1 - r)
+    } else if r >= h {
+        (c + half, 2 * h - 1 - r)
+    } else {
+        (c, r)
+    };
+    // c ∈ [−1, w + w/2]: one wrap, not `rem_euclid` (an integer division).
+    let c = if c < 0 {
+        c + w
+    } else if c >= w {
+        c - w
+    } else {
+        c
+    };
+    (i64::from(r.clamp(0, h - 1)) * i64::from(w) + i64::from(c)) as u32
 }
 
 /// Cube-map bilinear footprint; crosses face edges, shares the missing weight
