@@ -68,6 +68,26 @@ pub fn face_quadrature(
     radiance: &(dyn Fn(Vec2) -> Vec3 + Sync),
     bvh: Option<&SceneBvh>,
 ) -> Vec3 {
+    face_quadrature_with(frame, face, p, nrm, samples, radiance, bvh, |w| {
+        Vec3::splat(nrm.dot(w).max(0.0))
+    })
+}
+
+/// `∫_face L ρ V dω` at a vertex: [`face_quadrature`] with the weight
+/// `ρ(ω)` of each unit world direction (reflectance × cosine, zero below
+/// the horizon, where a sample is skipped) in place of the cosine; `nrm`
+/// offsets the shadow rays' origin.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn face_quadrature_with(
+    frame: &LightFrame,
+    face: f64,
+    p: Vec3,
+    nrm: Vec3,
+    samples: usize,
+    radiance: &(dyn Fn(Vec2) -> Vec3 + Sync),
+    bvh: Option<&SceneBvh>,
+    weight: impl Fn(Vec3) -> Vec3,
+) -> Vec3 {
     let local = frame.local(p);
     let Some((s, o)) = frame.affine(local, face) else {
         return Vec3::ZERO;
@@ -91,8 +111,8 @@ pub fn face_quadrature(
             let (v1, v2) = (face * (t1 - 0.5), face * (t2 - 0.5));
             let d = frame.face_dir(v1 as f32, v2 as f32);
             let len = d.length();
-            let c = nrm.dot(d) / len;
-            if c <= 0.0 {
+            let rho = weight(d / len);
+            if rho == Vec3::ZERO {
                 continue;
             }
             if let Some(b) = bvh
@@ -100,7 +120,7 @@ pub fn face_quadrature(
             {
                 continue;
             }
-            sum += radiance(Vec2::new(u1 as f32, u2 as f32)) * (c / (len * len * len));
+            sum += radiance(Vec2::new(u1 as f32, u2 as f32)) * rho / (len * len * len);
         }
     }
     sum * (face * face * h1 * h2) as f32
@@ -116,6 +136,21 @@ pub fn area_quadrature(
     samples: usize,
     bvh: Option<&SceneBvh>,
 ) -> Vec3 {
+    area_quadrature_with(light, p, nrm, samples, bvh, |w| {
+        Vec3::splat(nrm.dot(w).max(0.0))
+    })
+}
+
+/// [`area_quadrature`] with the weight `ρ(ω)` of each unit world direction
+/// (as [`face_quadrature_with`]) in place of the cosine.
+pub(crate) fn area_quadrature_with(
+    light: &AreaLight,
+    p: Vec3,
+    nrm: Vec3,
+    samples: usize,
+    bvh: Option<&SceneBvh>,
+    weight: impl Fn(Vec3) -> Vec3,
+) -> Vec3 {
     let ln = light.normal();
     let origin = offset_ray_origin(p, nrm);
     let da = light.area() / (samples * samples) as f32;
@@ -130,8 +165,12 @@ pub fn area_quadrature(
             let r2 = d.length_squared();
             let r = r2.sqrt();
             let w = d / r;
-            let (cp, cl) = (nrm.dot(w), -ln.dot(w));
-            if cp <= 0.0 || cl <= 0.0 {
+            let cl = -ln.dot(w);
+            if cl <= 0.0 {
+                continue;
+            }
+            let rho = weight(w);
+            if rho == Vec3::ZERO {
                 continue;
             }
             if let Some(b) = bvh
@@ -139,7 +178,7 @@ pub fn area_quadrature(
             {
                 continue;
             }
-            sum += light.radiance_at(uv) * (cp * cl / r2);
+            sum += light.radiance_at(uv) * rho * (cl / r2);
         }
     }
     sum * da

@@ -17,7 +17,6 @@ use crate::specular::{ObjectKind, VertexBrdf, local_view, vertex_frame};
 use crate::verify::{VerifyOptions, VerifyRow};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use relight_render::bvh::offset_ray_origin;
 use relight_render::method::{FrameRequest, Relighter};
 use relight_render::reference::{ReferenceOptions, render_reference};
 use relight_render::{AreaLight, Object, Progress, Scene, SceneBvh};
@@ -39,40 +38,20 @@ pub fn face_quadrature_brdf(
     radiance: &(dyn Fn(Vec2) -> Vec3 + Sync),
     bvh: Option<&SceneBvh>,
 ) -> Vec3 {
-    let local = frame.local(p);
-    let Some((s, o)) = frame.affine(local, face) else {
-        return Vec3::ZERO;
-    };
-    let origin = offset_ray_origin(p, shading.z);
-    let foot = |i: usize| ((-o[i] / s[i]).max(0.0), ((1.0 - o[i]) / s[i]).min(1.0));
-    let ((a1, b1), (a2, b2)) = (foot(0), foot(1));
-    if b1 <= a1 || b2 <= a2 {
-        return Vec3::ZERO;
+    crate::verify::face_quadrature_with(frame, face, p, shading.z, samples, radiance, bvh, |w| {
+        brdf_weight(shading, wo, brdf, w)
+    })
+}
+
+/// `f(ω_o, ω) cos θ` for the unit world direction `w` (zero below the
+/// horizon of `shading`).
+fn brdf_weight(shading: &Frame, wo: Vec3, brdf: VertexBrdf, w: Vec3) -> Vec3 {
+    let wi = shading.to_local(w);
+    if wi.z <= 0.0 {
+        Vec3::ZERO
+    } else {
+        brdf.eval(wo, wi) * wi.z
     }
-    let (h1, h2) = ((b1 - a1) / samples as f64, (b2 - a2) / samples as f64);
-    let mut sum = Vec3::ZERO;
-    for j in 0..samples {
-        let t2 = a2 + (j as f64 + 0.5) * h2;
-        let u2 = (s[1] * t2 + o[1]).clamp(0.0, 1.0 - 1e-7);
-        for i in 0..samples {
-            let t1 = a1 + (i as f64 + 0.5) * h1;
-            let u1 = (s[0] * t1 + o[0]).clamp(0.0, 1.0 - 1e-7);
-            let d = frame.face_dir((face * (t1 - 0.5)) as f32, (face * (t2 - 0.5)) as f32);
-            let len = d.length();
-            let wi = shading.to_local(d / len);
-            if wi.z <= 0.0 {
-                continue;
-            }
-            if let Some(b) = bvh
-                && b.occluded(origin, d / len, local.z * len * 0.9999)
-            {
-                continue;
-            }
-            let f = brdf.eval(wo, wi);
-            sum += radiance(Vec2::new(u1 as f32, u2 as f32)) * f * (wi.z / (len * len * len));
-        }
-    }
-    sum * (face * face * h1 * h2) as f32
 }
 
 /// `∫_light L f(ω_o, ω) cos V dω` at a vertex by `samples²` midpoints over
@@ -87,34 +66,9 @@ pub fn area_quadrature_brdf(
     samples: usize,
     bvh: Option<&SceneBvh>,
 ) -> Vec3 {
-    let ln = light.normal();
-    let origin = offset_ray_origin(p, shading.z);
-    let da = light.area() / (samples * samples) as f32;
-    let mut sum = Vec3::ZERO;
-    for j in 0..samples {
-        for i in 0..samples {
-            let uv = Vec2::new(
-                (i as f32 + 0.5) / samples as f32,
-                (j as f32 + 0.5) / samples as f32,
-            );
-            let d = light.point_at(uv) - p;
-            let r2 = d.length_squared();
-            let r = r2.sqrt();
-            let w = d / r;
-            let wi = shading.to_local(w);
-            let cl = -ln.dot(w);
-            if wi.z <= 0.0 || cl <= 0.0 {
-                continue;
-            }
-            if let Some(b) = bvh
-                && b.occluded(origin, w, r * 0.9999)
-            {
-                continue;
-            }
-            sum += light.radiance_at(uv) * brdf.eval(wo, wi) * (wi.z * cl / r2);
-        }
-    }
-    sum * da
+    crate::verify::area_quadrature_with(light, p, shading.z, samples, bvh, |w| {
+        brdf_weight(shading, wo, brdf, w)
+    })
 }
 
 /// The BRDF of `object` at vertex `v` (its blend weight applied).
