@@ -766,49 +766,27 @@ impl WaveletRenderer {
             memo: use_memo,
         };
         cache.begin(camera.eye, key, &sizes, &view_dependent);
-        // Vertices of visible triangles not yet shaded for this eye and lighting.
-        let mut todo = {
-            let r = &*raster;
-            let g = r.gbuffer();
+        // The vertices of visible triangles, once per visibility buffer.
+        let generation = raster.generation();
+        if cache.visible.as_ref().is_none_or(|(g, _)| *g != generation) {
+            let list = cache.scan_visible(raster, &draws);
+            cache.visible = Some((generation, list));
+        }
+        // Those not yet shaded for this eye and lighting, in mesh order.
+        let todo: Vec<(u32, u32)> = {
             let stamps = &cache.stamps;
             let current = &cache.current;
-            g.triangle
-                .par_chunks(g.width.max(1))
-                .fold(Vec::new, |mut todo: Vec<(u32, u32)>, ids| {
-                    let mut last = NO_TRIANGLE;
-                    for &id in ids {
-                        if id == NO_TRIANGLE || id == last {
-                            continue;
-                        }
-                        last = id;
-                        let Some((d, t)) = r.locate(id) else { continue };
-                        let stamp = current[d];
-                        for &v in &draws[d].triangles[t] {
-                            // A vertex is seen from several triangles: test
-                            // before the (locked) swap that claims it.
-                            let s = &stamps[d][v as usize];
-                            if s.load(Ordering::Relaxed) != stamp
-                                && s.swap(stamp, Ordering::Relaxed) != stamp
-                            {
-                                todo.push((d as u32, v));
-                            }
-                        }
-                    }
-                    todo
+            let visible = cache.visible.as_ref().map_or(&[][..], |(_, v)| &v[..]);
+            visible
+                .par_iter()
+                .with_min_len(4096)
+                .filter(|&&(d, v)| {
+                    let stamp = current[d as usize];
+                    stamps[d as usize][v as usize].swap(stamp, Ordering::Relaxed) != stamp
                 })
-                .reduce(Vec::new, |mut a, mut b| {
-                    if a.len() < b.len() {
-                        std::mem::swap(&mut a, &mut b);
-                    }
-                    a.extend_from_slice(&b);
-                    a
-                })
+                .copied()
+                .collect()
         };
-        // In mesh order: neighbouring vertices have nearby normals and views,
-        // so consecutive ones read the same local-lighting rows, slices and
-        // memo pairs while they are in cache (the scan order above jumps
-        // across objects and rows).
-        todo.par_sort_unstable();
         // Step 1's products for the normals these vertices blend.
         let local = self.local_for(
             &self.normals_blended(
@@ -893,6 +871,14 @@ pub struct VertexColors {
     closed: Vec<(MeshId, bool)>,
     /// What the caller's rasterizer was last rasterized for here.
     rastered: Option<RasterKey>,
+    /// The vertices of the triangles a visibility buffer shows, `(object,
+    /// vertex)` in mesh order, and the buffer's [`Rasterizer::generation`]:
+    /// a lighting change under a still camera reuses them instead of
+    /// scanning the buffer again.
+    visible: Option<(u64, Vec<(u32, u32)>)>,
+    /// Per vertex: the scan that last listed it in `visible` (dedup).
+    seen: Vec<Vec<AtomicU32>>,
+    seen_counter: u32,
     /// Vertices step 2 shaded in the last frame.
     pub shaded_last: usize,
     /// Slice terms step 2 multiplied with local lighting in the last frame
@@ -967,6 +953,58 @@ impl VertexColors {
     /// Starts a frame for `eye` and `key` over meshes of `sizes` vertices,
     /// `view_dependent[i]` when object `i`'s colours change with the eye;
     /// afterwards `current[i]` is the stamp of object `i`'s valid colours.
+    /// The distinct vertices of the triangles `raster`'s visibility buffer
+    /// shows (draw `d` = object `d`), sorted: in mesh order, neighbouring
+    /// vertices have nearby normals and views, so consecutive ones read the
+    /// same local-lighting rows, slices and memo pairs while they are in
+    /// cache (the scan order jumps across objects and rows).
+    fn scan_visible(&mut self, raster: &Rasterizer, draws: &[DrawCall]) -> Vec<(u32, u32)> {
+        self.seen_counter = self.seen_counter.wrapping_add(1);
+        if self.seen_counter == 0 {
+            for s in self.seen.iter().flatten() {
+                s.store(0, Ordering::Relaxed);
+            }
+            self.seen_counter = 1;
+        }
+        let (mark, seen) = (self.seen_counter, &self.seen);
+        let g = raster.gbuffer();
+        let mut list = g
+            .triangle
+            .par_chunks(g.width.max(1))
+            .fold(Vec::new, |mut list: Vec<(u32, u32)>, ids| {
+                let mut last = NO_TRIANGLE;
+                for &id in ids {
+                    if id == NO_TRIANGLE || id == last {
+                        continue;
+                    }
+                    last = id;
+                    let Some((d, t)) = raster.locate(id) else {
+                        continue;
+                    };
+                    for &v in &draws[d].triangles[t] {
+                        // A vertex is seen from several triangles: test
+                        // before the (locked) swap that claims it.
+                        let s = &seen[d][v as usize];
+                        if s.load(Ordering::Relaxed) != mark
+                            && s.swap(mark, Ordering::Relaxed) != mark
+                        {
+                            list.push((d as u32, v));
+                        }
+                    }
+                }
+                list
+            })
+            .reduce(Vec::new, |mut a, mut b| {
+                if a.len() < b.len() {
+                    std::mem::swap(&mut a, &mut b);
+                }
+                a.extend_from_slice(&b);
+                a
+            });
+        list.par_sort_unstable();
+        list
+    }
+
     fn begin(&mut self, eye: Vec3, key: ColorKey, sizes: &[usize], view_dependent: &[bool]) {
         let same_sizes = self.colors.len() == sizes.len()
             && self.colors.iter().zip(sizes).all(|(c, &n)| c.len() == n);
@@ -976,6 +1014,12 @@ impl VertexColors {
                 .iter()
                 .map(|&n| (0..n).map(|_| AtomicU32::new(0)).collect())
                 .collect();
+            self.seen = sizes
+                .iter()
+                .map(|&n| (0..n).map(|_| AtomicU32::new(0)).collect())
+                .collect();
+            self.seen_counter = 0;
+            self.visible = None;
             self.current = vec![0; sizes.len()];
             self.counter = 0;
             self.key = None;
