@@ -347,6 +347,35 @@ impl Rendered {
         view_start: Instant,
     ) -> Self {
         let (w, h) = (samples.width / k, samples.height / k);
+        let coverage = coverage_of_raster(raster, w, h, k);
+        Self::from_samples_with(samples, coverage, k, lighting_ms, view_start)
+    }
+
+    /// [`Rendered::from_samples`] with the coverage taken from `cache`: a
+    /// frame whose rasterizer still holds the visibility buffer the cache
+    /// last reduced (a lighting change under a still camera) copies it
+    /// instead of reducing the buffer again.
+    #[must_use]
+    pub fn from_samples_cached(
+        samples: std::borrow::Cow<'_, Image>,
+        raster: &Rasterizer,
+        k: usize,
+        cache: &mut CoverageCache,
+        lighting_ms: f64,
+        view_start: Instant,
+    ) -> Self {
+        let (w, h) = (samples.width / k, samples.height / k);
+        let coverage = cache.get(raster, w, h, k);
+        Self::from_samples_with(samples, coverage, k, lighting_ms, view_start)
+    }
+
+    fn from_samples_with(
+        samples: std::borrow::Cow<'_, Image>,
+        coverage: Coverage,
+        k: usize,
+        lighting_ms: f64,
+        view_start: Instant,
+    ) -> Self {
         let image = if k == 1 {
             samples.into_owned()
         } else {
@@ -354,7 +383,7 @@ impl Rendered {
         };
         Self {
             image,
-            coverage: Some(coverage_of_raster(raster, w, h, k)),
+            coverage: Some(coverage),
             timings: FrameTimings {
                 lighting_ms,
                 view_ms: view_start.elapsed().as_secs_f64() * 1e3,
@@ -710,6 +739,32 @@ pub fn rasterize_coverage(
     Ok(coverage_of_raster(&r, camera.width, camera.height, k))
 }
 
+/// The last [`coverage_of_raster`] a method computed, with the
+/// [`Rasterizer::generation`] and sizes it was computed for
+/// ([`Rendered::from_samples_cached`]).
+#[derive(Debug, Default)]
+pub struct CoverageCache {
+    /// `(generation, width, height, k)` and the coverage.
+    last: Option<((u64, usize, usize, usize), Coverage)>,
+}
+
+impl CoverageCache {
+    /// [`coverage_of_raster`], from the cache when `r` holds the same
+    /// rasterization (generations are unique across the process, and 0 is
+    /// never cached) at the same sizes.
+    pub fn get(&mut self, r: &Rasterizer, width: usize, height: usize, k: usize) -> Coverage {
+        let key = (r.generation(), width, height, k);
+        match &self.last {
+            Some((held, c)) if *held == key && key.0 != 0 => c.clone(),
+            _ => {
+                let c = coverage_of_raster(r, width, height, k);
+                self.last = Some((key, c.clone()));
+                c
+            }
+        }
+    }
+}
+
 /// [`Coverage`] at `width × height` of a rasterizer's last visibility buffer,
 /// drawn at `k × k` samples per pixel with draw call `i` = object `i` (the
 /// layout every raster method uses).
@@ -899,5 +954,46 @@ mod tests {
             }
         }
         assert!(lit > 0, "the area light is in view");
+    }
+
+    /// [`CoverageCache`] gives [`coverage_of_raster`]'s coverage: again for
+    /// the same rasterization, and anew after another rasterization or at
+    /// other sizes.
+    #[test]
+    fn coverage_cache_follows_the_rasterization() {
+        use crate::raster::{DrawCall, RasterOptions, Rasterizer};
+        let positions = [
+            Vec3::new(-0.5, -0.5, 0.0),
+            Vec3::new(0.6, -0.4, 0.0),
+            Vec3::new(0.0, 0.7, 0.0),
+        ];
+        let indices = [[0u32, 1, 2]];
+        let draws = [DrawCall::new(&positions, &indices)];
+        let camera = |eye: Vec3| Camera {
+            eye,
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 60.0,
+            width: 24,
+            height: 16,
+            image_offset: Vec2::ZERO,
+        };
+        let mut r = Rasterizer::new();
+        let mut cache = CoverageCache::default();
+        let draw = |r: &mut Rasterizer, eye: Vec3| {
+            let cam = camera(eye);
+            let opts = RasterOptions::default().fit_depth(&cam, &draws);
+            r.rasterize(&cam, &draws, &opts).unwrap();
+        };
+        draw(&mut r, Vec3::new(0.0, 0.0, 2.0));
+        let first = cache.get(&r, 24, 16, 1);
+        assert_eq!(first, coverage_of_raster(&r, 24, 16, 1));
+        assert!(first.coverage.iter().any(|&c| c > 0.0));
+        assert_eq!(cache.get(&r, 24, 16, 1), first, "same rasterization");
+        assert_eq!(cache.get(&r, 12, 8, 2), coverage_of_raster(&r, 12, 8, 2));
+        draw(&mut r, Vec3::new(0.8, 0.3, 1.5));
+        let moved = cache.get(&r, 24, 16, 1);
+        assert_eq!(moved, coverage_of_raster(&r, 24, 16, 1));
+        assert_ne!(moved, first, "a new rasterization is reduced again");
     }
 }

@@ -33,7 +33,8 @@ use crate::study::{bake_or_load_brdf, bake_or_load_rotation, default_cache_dir};
 use glam::Mat3;
 use relight_geom::Mesh;
 use relight_render::method::{
-    FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
+    CoverageCache, FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support,
+    check_scene,
 };
 use relight_render::raster::Rasterizer;
 use relight_render::{Image, Progress, Scene, SceneBvh};
@@ -130,6 +131,8 @@ pub struct WaveletMethod {
     object_bakes: Vec<Arc<BrdfBake>>,
     ao: Option<AoCache>,
     raster: Rasterizer,
+    /// The coverage of `raster`'s last buffer (kept across lighting changes).
+    coverage: CoverageCache,
     /// Step 2's vertex colours, kept for the same eye and lighting.
     colors: VertexColors,
     /// The supersampled frame, kept between frames.
@@ -209,6 +212,7 @@ impl WaveletMethod {
             object_bakes: Vec::new(),
             ao: None,
             raster: Rasterizer::new(),
+            coverage: CoverageCache::default(),
             colors: VertexColors::default(),
             frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
@@ -419,10 +423,11 @@ impl Relighter for WaveletMethod {
                 &mut self.frame,
             )
             .map_err(fail)?;
-        Ok(Rendered::from_samples(
+        Ok(Rendered::from_samples_cached(
             Cow::Borrowed(&self.frame),
             &self.raster,
             k,
+            &mut self.coverage,
             std::mem::take(&mut self.pending_lighting_ms),
             t,
         ))
