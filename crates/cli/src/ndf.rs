@@ -115,12 +115,14 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
                 relight_render::NormalMap::bumps(256, 8, 0.8),
             )
         });
-    rows.extend(relight_ndf::verify::screen(
-        &screen_map.0,
-        &screen_map.1,
-        &opts,
-        bar,
-    )?);
+    let (screen_rows, panels) =
+        relight_ndf::verify::screen(&screen_map.0, &screen_map.1, &opts, bar)?;
+    rows.extend(screen_rows);
+    if let Some(dir) = &report.plot_dir {
+        for p in &panels {
+            write_screen_sheet(dir, &screen_map.0, p)?;
+        }
+    }
     report.table_plots(
         "relight verify ndf: normal-map filtering against exact shading",
         &rows,
@@ -136,6 +138,86 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
             "MIP level",
             "relative RMS error vs exact over the fine normals",
         )],
+    )?;
+    Ok(())
+}
+
+/// Writes one screen-level panel side by side as
+/// `verify-ndf-screen-<scene>-<brdf>.png` in `dir`: the reference first, then
+/// plain normal mapping 8 × 8 and every filter at 1 spp, each labelled with
+/// its error against the reference.
+fn write_screen_sheet(
+    dir: &std::path::Path,
+    map: &str,
+    p: &relight_ndf::verify::ScreenPanel,
+) -> Result<()> {
+    use relight_viewer::sheet::{Cell, compose, words_to_display_linear};
+    use relight_viewer::text::{GREEN, GREY, Line, RED};
+    let (w, h) = p
+        .tiles
+        .first()
+        .map_or((1, 1), |t| (t.image.width, t.image.height));
+    // Small tiles (`--quick`) are enlarged by whole pixels, so that the
+    // labels fit over them.
+    let k = 384usize.div_ceil(w.max(1)).max(1);
+    let enlarge = |img: &relight_render::Image| {
+        let mut out = relight_render::Image::new(w * k, h * k);
+        for (i, p) in out.pixels.iter_mut().enumerate() {
+            *p = img.pixels[(i / (w * k) / k) * w + (i % (w * k)) / k];
+        }
+        out
+    };
+    let cells: Vec<Cell> = p
+        .tiles
+        .iter()
+        .map(|t| {
+            let details = match t.error {
+                None => vec![Line::new(
+                    format!("the judge: noise σ_MC {:.1} %", 100.0 * p.sigma),
+                    GREEN,
+                )],
+                Some(e) => {
+                    let verdict = match t.target {
+                        Some(tgt) if e <= tgt => (format!(" ≤ {:.0} %: pass", 100.0 * tgt), GREEN),
+                        Some(tgt) => (format!(" > {:.0} %: FAIL", 100.0 * tgt), RED),
+                        None => (String::new(), GREY),
+                    };
+                    vec![Line::new(
+                        format!("error {:.1} % vs reference{}", 100.0 * e, verdict.0),
+                        verdict.1,
+                    )]
+                }
+            };
+            Cell {
+                title: t.label.clone(),
+                details: [
+                    vec![Line::new(
+                        format!("{} · {} · {map}", p.scene.name(), p.brdf.label()),
+                        GREY,
+                    )],
+                    details,
+                ]
+                .concat(),
+                image: Ok(enlarge(&t.image)),
+            }
+        })
+        .collect();
+    let sheet = compose(&cells, w * k, h * k);
+    std::fs::create_dir_all(dir).map_err(|e| anyhow!("--plot {}: {e}", dir.display()))?;
+    let name = format!(
+        "verify-ndf-screen-{}-{}.png",
+        p.scene.name().replace(' ', "-"),
+        p.brdf.label().replace(':', "")
+    );
+    relight_assets::write_png(
+        &dir.join(name),
+        sheet.width,
+        sheet.height,
+        &words_to_display_linear(&sheet.words),
+        relight_assets::ToneMap {
+            exposure_ev: 0.0,
+            operator: relight_assets::ToneOperator::Clamp,
+        },
     )?;
     Ok(())
 }
@@ -163,4 +245,47 @@ pub fn bench(a: &BenchArgs, report: &Report, _bar: &Bar) -> Result<()> {
     let rows = relight_ndf::bench::bench_ndf(&map, image, repeats)?;
     report.table("relight bench ndf", &rows, &[])?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use relight_ndf::verify::{ScreenPanel, ScreenScene, ScreenTile};
+
+    /// Small tiles are enlarged to a readable width and laid out two per
+    /// row: three 20 × 10 tiles make a 2 × 2 sheet of 400 × 200 tiles under
+    /// their headers, written where `--plot` points.
+    #[test]
+    fn screen_sheet_enlarges_small_tiles_and_writes_one_png_per_panel() {
+        let mut image = relight_render::Image::new(20, 10);
+        image.pixels[3] = glam::Vec3::ONE;
+        let tile = |label: &str, error| ScreenTile {
+            label: label.into(),
+            image: image.clone(),
+            error,
+            target: error.map(|_| 0.05),
+        };
+        let panel = ScreenPanel {
+            scene: ScreenScene::Sphere,
+            brdf: relight_ndf::NdfBrdf::Blinn { s: 64.0 },
+            sigma: 0.01,
+            tiles: vec![
+                tile("reference", None),
+                tile("sh", Some(0.04)),
+                tile("vmf", Some(0.2)),
+            ],
+        };
+        let dir = std::env::temp_dir().join(format!("relight-ndf-sheet-{}", std::process::id()));
+        write_screen_sheet(&dir, "test.png", &panel).unwrap();
+        let path = dir.join("verify-ndf-screen-sphere-blinn64.png");
+        let (img, _) =
+            relight_assets::read_image_with(&path, relight_assets::ColorEncoding::Srgb).unwrap();
+        let header = relight_viewer::sheet::header_height(400);
+        assert_eq!((img.width, img.height), (800, 2 * (header + 200)));
+        // The bright texel, enlarged 20× (the first tile's pixels 60..80 ×
+        // 0..20), tone mapped like the viewer (1.0 → about 0.8).
+        let at = |x: usize, y: usize| img.pixels[(header + y) * img.width + x];
+        assert!(at(65, 5).x > 0.5 && at(85, 5).x < 0.1 && at(65, 25).x < 0.1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -12,10 +12,9 @@
 //!   9-term form alone is shown beside), for Lambert under the 8 directional
 //!   lights the exact clamped cosine (shown beside: no target), for the glossy BRDFs the exact BRDF at each fine normal, 8 light × 8 view
 //!   directions (elevations 15°–75°, golden-angle azimuths).
-//! * **Screen level**: a plane receding to the horizon under a point light,
-//!   against plain normal mapping supersampled 8 × 8 per pixel (the
-//!   full-resolution map box-filtered over the pixel — what the Monte Carlo
-//!   reference integrates for this unshadowed scene, without its noise).
+//! * **Screen level** ([`screen`]): a plane receding to the horizon and a
+//!   sphere under a point light, against the reference renderer with the
+//!   full-resolution map (plain normal mapping 8 × 8 per pixel beside it).
 //!
 //! The error measure is relative RMS, `√(Σ (a − b)² / Σ b²)`.
 
@@ -26,7 +25,6 @@ use crate::effective::{
 };
 use crate::em::{EmOptions, fit_em, seed_lobes};
 use crate::lean::{LeanPyramid, LeanTexel, shade_lean};
-use crate::method::{NdfFilter, NdfMethod, NdfOptions};
 use crate::pyramid::{ShadeLobe, VmfBakeOptions, VmfPyramid, unpack};
 use crate::sh_ndf::level_size;
 use crate::vmf::{
@@ -34,12 +32,13 @@ use crate::vmf::{
     sh_attenuation_quadrature,
 };
 use crate::{MeanPyramid, NdfError, ShNdfPyramid};
-use glam::{DVec3, Vec2, Vec3};
+
+mod screen;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
-use relight_render::method::{FrameRequest, Relighter, render_frame};
-use relight_render::{Camera, NormalMap, Object, PointLight, Progress, Scene};
+use relight_render::{NormalMap, Progress};
+pub use screen::{ScreenPanel, ScreenScene, ScreenTile, horizon_plane_scene, screen, sphere_scene};
 use serde::Serialize;
-use std::sync::Arc;
 
 /// One row of `relight verify ndf`.
 #[derive(Clone, Debug, Serialize)]
@@ -97,6 +96,8 @@ pub struct NdfVerifyOptions {
     pub crop: Option<usize>,
     /// Screen-level image side.
     pub screen_size: usize,
+    /// Samples per pixel of the screen-level reference.
+    pub reference_spp: u32,
 }
 
 impl NdfVerifyOptions {
@@ -108,12 +109,14 @@ impl NdfVerifyOptions {
                 texels_per_level: 6,
                 crop: Some(64),
                 screen_size: 96,
+                reference_spp: 256,
             }
         } else {
             Self {
                 texels_per_level: 24,
                 crop: None,
                 screen_size: 512,
+                reference_spp: 1024,
             }
         }
     }
@@ -836,121 +839,5 @@ pub fn texel_levels(
         progress.inc(1);
     }
     progress.finish();
-    Ok(rows)
-}
-
-/// A plane receding to the horizon with `map` tiled `tiles` times, lit by
-/// one point light, a Lambert or Blinn material, `size²` pixels.
-///
-/// The light is high on the viewer's side (14 up, 3 behind the eye's
-/// plane point: 20°–80° above the plane points in view) and the view falls
-/// 9°–34° onto the plane (the far edge near the top of the image): not the
-/// grazing light from the far side the first version had, where most of the
-/// lit fine normals face away from the viewer and the view mask of plain
-/// normal mapping (a normal turned away shades zero), which no
-/// `f(n·ω)` convolution holds, decided the image.
-#[must_use]
-pub fn horizon_plane_scene(map: &NormalMap, brdf: NdfBrdf, size: usize, tiles: f32) -> Scene {
-    let mut mesh = relight_geom::shapes::plane(40.0, 8);
-    for uv in &mut mesh.uvs {
-        *uv *= tiles;
-    }
-    mesh.tangents = mesh.compute_tangents();
-    let b: Arc<dyn relight_brdf::Brdf> = match brdf {
-        NdfBrdf::Blinn { s } => {
-            Arc::new(relight_brdf::BlinnPhong::new(s, Vec3::splat(0.8)).expect("valid"))
-        }
-        _ => Arc::new(relight_brdf::Lambert::new(Vec3::splat(0.8)).expect("valid")),
-    };
-    let mut object = Object::new(Arc::new(mesh), b);
-    object.normal_map = Some(Arc::new(map.clone()));
-    let camera = Camera {
-        eye: Vec3::new(0.0, 5.0, 19.0),
-        target: Vec3::new(0.0, 0.0, -5.0),
-        up: Vec3::Y,
-        vfov_deg: 40.0,
-        width: size,
-        height: size,
-        image_offset: Vec2::ZERO,
-    };
-    let env = relight_sphere::EnvMap::from_fn(
-        relight_sphere::Param::LatLong {
-            width: 8,
-            height: 4,
-        },
-        |_| Vec3::ZERO,
-    );
-    let mut scene = Scene::new(vec![object], env, camera);
-    scene.point_lights.push(PointLight::new(
-        Vec3::new(0.0, 14.0, 16.0),
-        Vec3::splat(300.0),
-    ));
-    scene
-}
-
-/// Screen-level rows: every filter on the horizon plane against plain
-/// normal mapping supersampled 8 × 8.
-///
-/// # Errors
-/// Rendering failures, cancellation.
-pub fn screen(
-    name: &str,
-    map: &NormalMap,
-    opts: &NdfVerifyOptions,
-    progress: &dyn Progress,
-) -> Result<Vec<NdfVerifyRow>, relight_render::method::MethodError> {
-    let mut rows = Vec::new();
-    for brdf in [NdfBrdf::Lambert, NdfBrdf::Blinn { s: 64.0 }] {
-        // About one texel per pixel at mid distance, so that 8 × 8 samples
-        // resolve the footprints the comparison is about.
-        let scene =
-            horizon_plane_scene(map, brdf, opts.screen_size, opts.screen_size as f32 / 128.0);
-        let mut reference = NdfMethod::new(NdfOptions {
-            filter: NdfFilter::None,
-            brdf,
-            ..NdfOptions::default()
-        })?;
-        reference.prepare(&scene, progress)?;
-        let req = FrameRequest::new(scene.camera);
-        let truth = render_frame(&mut reference, &scene, &req.clone().with_aa(8), progress)?;
-        let mask = truth
-            .coverage
-            .as_ref()
-            .map(relight_render::method::Coverage::object_mask);
-        for filter in NdfFilter::ALL {
-            if filter == NdfFilter::Sh && brdf != NdfBrdf::Lambert {
-                continue;
-            }
-            let mut m = NdfMethod::new(NdfOptions {
-                filter,
-                brdf,
-                ..NdfOptions::default()
-            })?;
-            m.prepare(&scene, progress)?;
-            let img = render_frame(&mut m, &scene, &req, progress)?;
-            let e = img.image.relative_rms_error(&truth.image, mask.as_deref());
-            let ours = matches!(filter, NdfFilter::Sh | NdfFilter::Vmf);
-            let target = ours.then_some(0.05);
-            rows.push(NdfVerifyRow {
-                check: "screen".into(),
-                case: format!(
-                    "horizon plane {0}², 1 spp vs plain normal mapping 8×8 spp",
-                    opts.screen_size
-                ),
-                map: name.into(),
-                representation: filter.name().into(),
-                brdf: brdf.label(),
-                level: None,
-                error: e,
-                target,
-                target_source: if ours {
-                    "issue 14: screen ≤ 5 %".into()
-                } else {
-                    "- (shown beside)".into()
-                },
-                pass: target.map(|t| e <= t),
-            });
-        }
-    }
     Ok(rows)
 }
