@@ -298,6 +298,11 @@ pub struct MethodFlags {
     /// vMF lobes per texel J (ndf) [default: 6].
     #[arg(long)]
     pub lobes: Option<usize>,
+    /// Samples per texel side of the interpolated normal field the SH and
+    /// vMF pyramids are built from (ndf): 1 (the texel normals), 2 or 4
+    /// [default: 2].
+    #[arg(long)]
+    pub ndf_supersample: Option<usize>,
     /// Coefficient selection (triple): `top` (complete levels, per pixel)
     /// [default: top]; `adaptive` (each function's largest terms, per vertex:
     /// with `--shading vertex --twists 1`).

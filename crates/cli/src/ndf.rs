@@ -10,7 +10,8 @@ use crate::table::Report;
 use anyhow::{Result, anyhow, bail};
 use relight_ndf::{NdfBrdf, NdfFilter, NdfOptions};
 
-/// Applies the ndf flags (`--normal-filter`, `--ndf-brdf`, `--lobes`, `--order`).
+/// Applies the ndf flags (`--normal-filter`, `--ndf-brdf`, `--lobes`,
+/// `--ndf-supersample`, `--order`).
 ///
 /// # Errors
 /// A bad flag value, naming the flag.
@@ -26,6 +27,9 @@ pub fn apply_flags(o: &mut NdfOptions, f: &MethodFlags) -> Result<()> {
     }
     if let Some(j) = f.lobes {
         o.vmf.lobes = j;
+    }
+    if let Some(s) = f.ndf_supersample {
+        o.supersample = s;
     }
     if let Some(n) = f.order {
         o.order = n;

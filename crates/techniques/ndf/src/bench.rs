@@ -1,6 +1,7 @@
 //! `relight bench ndf`: bake and shading times, memory per representation.
 //!
-//! Bakes are timed on the map given (512² for the shared maps); frames on
+//! Bakes are what the method bakes per filter ([`Baked::bake`]), timed on
+//! the map given (512² for the shared maps); frames on
 //! the horizon plane ([`crate::verify::horizon_plane_scene`]) at the given
 //! size, best of `repeats` after one warm-up frame.
 //!
@@ -9,9 +10,8 @@
 //! is a report (`pass` null) and the source says why.
 
 use crate::effective::NdfBrdf;
-use crate::method::{NdfFilter, NdfMethod, NdfOptions};
-use crate::pyramid::{VmfBakeOptions, VmfPyramid};
-use crate::{MeanPyramid, ShNdfPyramid};
+use crate::method::{Baked, NdfFilter, NdfMethod, NdfOptions};
+use crate::{ShNdfPyramid, VmfPyramid};
 use relight_render::method::{FrameRequest, MethodError, Relighter, render_frame};
 use relight_render::{NoProgress, NormalMap};
 use serde::Serialize;
@@ -84,79 +84,53 @@ pub fn bench_ndf(
     image: usize,
     repeats: usize,
 ) -> Result<Vec<NdfBenchRow>, MethodError> {
-    let (w, h) = (map.width, map.height);
     let mut rows = Vec::new();
-    let mut sh = None;
-    let ms = best(repeats, || {
-        sh = Some(ShNdfPyramid::build(w, h, &map.texels, 3))
-    });
-    rows.push(
-        NdfBenchRow {
-            what: "bake".into(),
-            representation: "sh order 3".into(),
-            size: w,
-            ms,
-            fps: None,
-            bytes: sh.map(|s| s.bytes()),
-            pass: None,
-            target: None,
-            source: None,
-        }
-        .judged(Some((100.0, "SH bake ≤ 100 ms at 512²"))),
-    );
-    let mut vmf = None;
-    let ms = best(1, || {
-        vmf = Some(VmfPyramid::build(
-            w,
-            h,
-            &map.texels,
-            &VmfBakeOptions::default(),
-        ))
-    });
-    rows.push(
-        NdfBenchRow {
-            what: "bake".into(),
-            representation: "vmf J=6".into(),
-            size: w,
-            ms,
-            fps: None,
-            bytes: vmf.map(|v| v.bytes()),
-            pass: None,
-            target: None,
-            source: None,
-        }
-        .judged(Some((5000.0, "vMF bake ≤ 5 s at 512²"))),
-    );
-    let mut mean = None;
-    let ms = best(repeats, || {
-        mean = Some(MeanPyramid::build(w, h, &map.texels))
-    });
-    rows.push(NdfBenchRow {
-        what: "bake".into(),
-        representation: "mean normal (baselines)".into(),
-        size: w,
-        ms,
-        fps: None,
-        bytes: mean.map(|m| m.levels.iter().map(|l| l.2.len() as u64 * 12).sum()),
-        pass: None,
-        target: None,
-        source: None,
-    });
-    let mut lean = None;
-    let ms = best(repeats, || {
-        lean = Some(crate::LeanPyramid::build(w, h, &map.texels))
-    });
-    rows.push(NdfBenchRow {
-        what: "bake".into(),
-        representation: "lean (5 moments)".into(),
-        size: w,
-        ms,
-        fps: None,
-        bytes: lean.map(|l| l.bytes()),
-        pass: None,
-        target: None,
-        source: None,
-    });
+    // What the method bakes for each filter (`Baked::bake`: SH and vMF from
+    // the interpolated field at the default supersampling), the
+    // representation's bytes with its full MIP chain.
+    for (filter, name, reps, target) in [
+        (
+            NdfFilter::Sh,
+            "sh order 3",
+            repeats,
+            Some((100.0, "SH bake ≤ 100 ms at 512²")),
+        ),
+        (
+            NdfFilter::Vmf,
+            "vmf J=6",
+            1,
+            Some((5000.0, "vMF bake ≤ 5 s at 512²")),
+        ),
+        (NdfFilter::Toksvig, "mean normal (baselines)", repeats, None),
+        (NdfFilter::Lean, "lean (5 moments)", repeats, None),
+    ] {
+        let options = NdfOptions {
+            filter,
+            ..NdfOptions::default()
+        };
+        let mut baked = None;
+        let ms = best(reps, || baked = Some(Baked::bake(map, &options)));
+        let bytes = baked.map(|b| match filter {
+            NdfFilter::Sh => b.sh.as_ref().map_or(0, ShNdfPyramid::bytes),
+            NdfFilter::Vmf => b.vmf.as_ref().map_or(0, VmfPyramid::bytes),
+            NdfFilter::Lean => b.lean.as_ref().map_or(0, crate::LeanPyramid::bytes),
+            _ => b.mean.levels.iter().map(|l| l.2.len() as u64 * 12).sum(),
+        });
+        rows.push(
+            NdfBenchRow {
+                what: "bake".into(),
+                representation: name.into(),
+                size: map.width,
+                ms,
+                fps: None,
+                bytes,
+                pass: None,
+                target: None,
+                source: None,
+            }
+            .judged(target),
+        );
+    }
     for (filter, brdf, env, target) in [
         (
             NdfFilter::Sh,

@@ -19,6 +19,9 @@
 //!   (unnormalized / normalized MIP, Toksvig).
 //! * [`lean::LeanPyramid`]: LEAN mapping's 5 moments per texel (Olano &
 //!   Baker 2010), the fourth baseline.
+//! * [`field`]: the bilinearly interpolated, renormalised normal field that
+//!   plain normal mapping shades; the method builds its SH and vMF pyramids
+//!   from it (the builders take any normals).
 //! * [`vmf`]: the lobe, `A(κ)` and its inverse, `A_l(κ)` by backward recurrence.
 //! * [`effective`]: effective BRDFs (Lambert; Blinn–Phong `s′ = κs/(κ+s)`;
 //!   GGX/Beckmann `α′² = α² + 2/κ`) and the baselines.
@@ -36,6 +39,7 @@ pub mod bench;
 pub mod effective;
 pub mod em;
 pub mod export;
+pub mod field;
 pub mod lean;
 pub mod method;
 pub mod pyramid;
@@ -95,6 +99,17 @@ pub struct Footprint {
     pub count: usize,
     /// The level every probe reads.
     pub lod: f32,
+    /// The share of plain normal mapping in the pixel's NDF: the delta at
+    /// the bilinearly interpolated, renormalised normal (what the reference
+    /// shades). 1 when the footprint's major axis is within a texel
+    /// (magnified: the pixel sees one interpolated normal, where bilinear
+    /// filtering of level 0 would mix the four texels' deltas instead),
+    /// falling linearly to 0 at two texels, past which the probes alone
+    /// hold the NDF. The SH and vMF representations shade
+    /// `plain · f(n_interp) + (1 − plain) · f(probes)`: level 0 equals plain
+    /// normal mapping (issue 14) with no seam where the footprint crosses a
+    /// texel. 0 where the footprint is unknown ([`Self::point`]).
+    pub plain: f32,
 }
 
 impl Footprint {
@@ -107,6 +122,19 @@ impl Footprint {
             probes,
             count: 1,
             lod,
+            plain: 0.0,
+        }
+    }
+
+    /// [`Footprint::plain`] of a major axis `major2` texels² long.
+    #[inline(always)]
+    fn plain_of(major2: f32) -> f32 {
+        if major2 <= 1.0 {
+            1.0
+        } else if major2 < 4.0 {
+            2.0 - major2.sqrt()
+        } else {
+            0.0
         }
     }
 
@@ -133,7 +161,10 @@ impl Footprint {
             return Self::of_lengths(uv, duv_dx, duv_dy, width, height);
         }
         if major2 <= 1.0 {
-            return Self::point(uv, 0.0);
+            return Self {
+                plain: 1.0,
+                ..Self::point(uv, 0.0)
+            };
         }
         let q2 = major2 / minor2.max(1e-12);
         let n = 1 + usize::from(q2 > 1.0) + usize::from(q2 > 4.0) + usize::from(q2 > 9.0);
@@ -152,6 +183,7 @@ impl Footprint {
             probes,
             count: n,
             lod,
+            plain: Self::plain_of(major2),
         }
     }
 
@@ -172,8 +204,14 @@ impl Footprint {
                 0.0
             }
         };
-        if !(major.is_finite() && minor.is_finite()) || major <= 1.0 {
+        if !(major.is_finite() && minor.is_finite()) {
             return Self::point(uv, 0.0);
+        }
+        if major <= 1.0 {
+            return Self {
+                plain: 1.0,
+                ..Self::point(uv, 0.0)
+            };
         }
         let n = ceil_positive(major / minor.max(1e-6)).clamp(1, MAX_PROBES);
         let lod = level((major / n as f32).max(minor));
@@ -185,6 +223,7 @@ impl Footprint {
             probes,
             count: n,
             lod,
+            plain: (2.0 - major).clamp(0.0, 1.0),
         }
     }
 
@@ -648,7 +687,7 @@ mod tests {
     #[test]
     fn footprints_in_squares_are_the_footprints_in_lengths() {
         // Same probe count (away from a ratio at an integer, where rounding
-        // may tip it), same probes, level within 2e-6.
+        // may tip it), same probes, level and plain share within 2e-6.
         let mut rng = crate::vmf::Xorshift(0x005e_ed0f_f00f);
         let mut worst = 0.0f32;
         let mut tipped = 0;
@@ -670,7 +709,9 @@ mod tests {
                 continue;
             }
             assert_eq!(a.probes, b.probes);
-            worst = worst.max((a.lod - b.lod).abs());
+            worst = worst
+                .max((a.lod - b.lod).abs())
+                .max((a.plain - b.plain).abs());
         }
         assert!(worst <= 2e-6, "level differs by {worst}");
         assert!(tipped < 10, "{tipped} counts tipped");

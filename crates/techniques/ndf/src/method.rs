@@ -130,6 +130,12 @@ pub struct NdfOptions {
     pub order: usize,
     /// The vMF bake (lobes J, EM stopping rules).
     pub vmf: VmfBakeOptions,
+    /// Samples per texel side of the interpolated normal field the SH and
+    /// vMF pyramids are built from ([`crate::field`]): 1 builds them from
+    /// the texel normals (level 0 a delta per texel), 2 or 4 from the
+    /// bilinearly interpolated, renormalised normals that plain normal
+    /// mapping and the reference shade. Default 2.
+    pub supersample: usize,
 }
 
 impl Default for NdfOptions {
@@ -139,6 +145,7 @@ impl Default for NdfOptions {
             brdf: NdfBrdf::Lambert,
             order: 3,
             vmf: VmfBakeOptions::default(),
+            supersample: 2,
         }
     }
 }
@@ -146,6 +153,10 @@ impl Default for NdfOptions {
 /// The baked pyramids of one normal map.
 #[derive(Debug)]
 pub struct Baked {
+    /// Level 0's size of the active filter's pyramid, the texels the uv
+    /// footprint is measured in: the map's times
+    /// [`NdfOptions::supersample`] for SH and vMF, the map's for the
+    /// baselines.
     pub width: usize,
     pub height: usize,
     pub sh: Option<ShNdfPyramid>,
@@ -159,13 +170,21 @@ impl Baked {
     #[must_use]
     pub fn bake(map: &NormalMap, options: &NdfOptions) -> Self {
         let (w, h) = (map.width, map.height);
+        // Our representations are built from the interpolated field at s×
+        // the map's resolution ([`crate::field`]); the baselines from the
+        // texels, as engines filter them.
+        let s = match options.filter {
+            NdfFilter::Sh | NdfFilter::Vmf => options.supersample,
+            _ => 1,
+        };
+        let field = || crate::field::interpolated_field(map, s);
         Self {
-            width: w,
-            height: h,
+            width: w * s,
+            height: h * s,
             sh: (options.filter == NdfFilter::Sh)
-                .then(|| ShNdfPyramid::build(w, h, &map.texels, options.order)),
+                .then(|| ShNdfPyramid::build(w * s, h * s, &field(), options.order)),
             vmf: (options.filter == NdfFilter::Vmf)
-                .then(|| VmfPyramid::build(w, h, &map.texels, &options.vmf)),
+                .then(|| VmfPyramid::build(w * s, h * s, &field(), &options.vmf)),
             lean: (options.filter == NdfFilter::Lean)
                 .then(|| LeanPyramid::build(w, h, &map.texels)),
             mean: MeanPyramid::build(w, h, &map.texels),
@@ -288,6 +307,12 @@ impl NdfMethod {
                 format!("must be 1…{MAX_LOBES} (got {})", options.vmf.lobes),
             ));
         }
+        if ![1, 2, 4].contains(&options.supersample) {
+            return Err(invalid(
+                "supersample",
+                format!("must be 1, 2 or 4 (got {})", options.supersample),
+            ));
+        }
         if options.filter == NdfFilter::Sh && options.brdf != NdfBrdf::Lambert {
             return Err(invalid(
                 "normal-filter",
@@ -368,9 +393,20 @@ impl NdfMethod {
             Vmf,
             Lean(LeanTexel),
         }
+        // Plain normal mapping's share (`Footprint::plain`), for our
+        // representations; the baselines filter as engines do.
+        let plain = match (&o.map, self.options.filter) {
+            (Some((m, _)), NdfFilter::Sh | NdfFilter::Vmf) if fp.plain > 0.0 => {
+                Some((m.sample(uv), fp.plain))
+            }
+            _ => None,
+        };
         let rep = match (&o.map, self.options.filter) {
             (None, _) => Rep::Normal(Vec3::Z),
             (Some((m, _)), NdfFilter::None) => Rep::Normal(m.sample(uv)),
+            (Some(_), _) if plain.is_some_and(|(_, w)| w >= 1.0) => {
+                Rep::Normal(plain.map_or(Vec3::Z, |(n, _)| n))
+            }
             (Some((_, b)), NdfFilter::Sh) => {
                 if let Some(sh) = &b.sh {
                     // Linear: the probes' mean is the footprint's NDF.
@@ -410,90 +446,99 @@ impl NdfMethod {
             NdfFilter::Toksvig => Baseline::Toksvig,
             _ => Baseline::Normalized,
         };
-        let fcos = |wi: Vec3| -> f32 {
-            match &rep {
-                Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
-                Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
-                Rep::Sh => lambert_sh_dir_seen(&gamma, wo, wi),
-                Rep::Vmf => match brdf {
-                    NdfBrdf::Blinn { s } => {
-                        shade_mixture_blinn(s, self.blinn_norm, &lobes[..nl], wo, wi)
-                    }
-                    _ => shade_mixture(brdf, &lobes[..nl], wo, wi),
-                },
-                Rep::Lean(t) => shade_lean(brdf, t, wo, wi),
-            }
-        };
-        let mut out = Vec3::ZERO;
-        if has_env && brdf == NdfBrdf::Lambert {
-            // Bands 0–2: `Σ_i c_i lit_i` per channel, `c` the representation's
-            // SH (γ, or the SH of its normal), `lit` the lighting with `Λ_l/π`
-            // folded in ([`PixelEnv`]).
-            let mut y = [0.0f32; 9];
-            let c9: &[f32] = match &rep {
-                Rep::Normal(n) => {
-                    relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                    &y
-                }
-                Rep::Mean(m) => {
-                    let n = match baseline {
-                        Baseline::Unnormalized => *m,
-                        _ => m.normalize_or(Vec3::Z),
-                    };
-                    relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                    &y
-                }
-                Rep::Sh => &gamma,
-                Rep::Vmf => {
-                    y = mixture_sh9(&lobes[..nl]);
-                    &y
-                }
-                Rep::Lean(t) => {
-                    relight_sh::eval_sh_into(3, t.normal().to_array(), &mut y);
-                    &y
+        let shade_rep = |rep: &Rep| -> Vec3 {
+            let fcos = |wi: Vec3| -> f32 {
+                match rep {
+                    Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
+                    Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
+                    Rep::Sh => lambert_sh_dir_seen(&gamma, wo, wi),
+                    Rep::Vmf => match brdf {
+                        NdfBrdf::Blinn { s } => {
+                            shade_mixture_blinn(s, self.blinn_norm, &lobes[..nl], wo, wi)
+                        }
+                        _ => shade_mixture(brdf, &lobes[..nl], wo, wi),
+                    },
+                    Rep::Lean(t) => shade_lean(brdf, t, wo, wi),
                 }
             };
-            for c in 0..3 {
-                out[c] += dot9(c9, &env.lit[c * 9..c * 9 + 9]);
-            }
-            // Bands 4–8 (effective::lambert_tail_env) in the environment's
-            // frame, from each representation's (mean) normal.
-            let tail = |t: Vec3| self.env_tail.eval(env.env_from_tangent * t);
-            out += match &rep {
-                Rep::Normal(n) => tail(*n),
-                Rep::Mean(m) => {
-                    let n = m.normalize_or(Vec3::Z);
-                    match baseline {
-                        Baseline::Unnormalized => m.length() * tail(n),
-                        _ => tail(n),
+            let mut out = Vec3::ZERO;
+            if has_env && brdf == NdfBrdf::Lambert {
+                // Bands 0–2: `Σ_i c_i lit_i` per channel, `c` the representation's
+                // SH (γ, or the SH of its normal), `lit` the lighting with `Λ_l/π`
+                // folded in ([`PixelEnv`]).
+                let mut y = [0.0f32; 9];
+                let c9: &[f32] = match rep {
+                    Rep::Normal(n) => {
+                        relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+                        &y
                     }
-                }
-                // `mean_normal_of_sh` and the rotation as one matrix.
-                Rep::Sh => self
-                    .env_tail
-                    .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3])),
-                Rep::Vmf => lobes[..nl]
-                    .iter()
-                    .map(|l| {
-                        let r = if l.inv_kappa <= 0.0 {
-                            1.0
-                        } else {
-                            crate::vmf::mean_resultant(f64::from(1.0 / l.inv_kappa)) as f32
+                    Rep::Mean(m) => {
+                        let n = match baseline {
+                            Baseline::Unnormalized => *m,
+                            _ => m.normalize_or(Vec3::Z),
                         };
-                        l.alpha * tail(l.mu * r)
-                    })
-                    .sum(),
-                Rep::Lean(t) => tail(t.normal()),
-            };
-        }
-        for pl in &scene.point_lights {
-            let d = pl.position - position;
-            let r2 = d.length_squared();
-            if r2 <= 0.0 {
-                continue;
+                        relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+                        &y
+                    }
+                    Rep::Sh => &gamma,
+                    Rep::Vmf => {
+                        y = mixture_sh9(&lobes[..nl]);
+                        &y
+                    }
+                    Rep::Lean(t) => {
+                        relight_sh::eval_sh_into(3, t.normal().to_array(), &mut y);
+                        &y
+                    }
+                };
+                for c in 0..3 {
+                    out[c] += dot9(c9, &env.lit[c * 9..c * 9 + 9]);
+                }
+                // Bands 4–8 (effective::lambert_tail_env) in the environment's
+                // frame, from each representation's (mean) normal.
+                let tail = |t: Vec3| self.env_tail.eval(env.env_from_tangent * t);
+                out += match rep {
+                    Rep::Normal(n) => tail(*n),
+                    Rep::Mean(m) => {
+                        let n = m.normalize_or(Vec3::Z);
+                        match baseline {
+                            Baseline::Unnormalized => m.length() * tail(n),
+                            _ => tail(n),
+                        }
+                    }
+                    // `mean_normal_of_sh` and the rotation as one matrix.
+                    Rep::Sh => self
+                        .env_tail
+                        .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3])),
+                    Rep::Vmf => lobes[..nl]
+                        .iter()
+                        .map(|l| {
+                            let r = if l.inv_kappa <= 0.0 {
+                                1.0
+                            } else {
+                                crate::vmf::mean_resultant(f64::from(1.0 / l.inv_kappa)) as f32
+                            };
+                            l.alpha * tail(l.mu * r)
+                        })
+                        .sum(),
+                    Rep::Lean(t) => tail(t.normal()),
+                };
             }
-            let wi = to_t(d / r2.sqrt());
-            out += pl.intensity / r2 * fcos(wi);
+            for pl in &scene.point_lights {
+                let d = pl.position - position;
+                let r2 = d.length_squared();
+                if r2 <= 0.0 {
+                    continue;
+                }
+                let wi = to_t(d / r2.sqrt());
+                out += pl.intensity / r2 * fcos(wi);
+            }
+            out
+        };
+        let mut out = shade_rep(&rep);
+        if let Some((n, w)) = plain
+            && w < 1.0
+        {
+            out = out * (1.0 - w) + shade_rep(&Rep::Normal(n)) * w;
         }
         out * o.colour
     }

@@ -42,6 +42,11 @@ pub struct VmfBakeOptions {
     /// EM stopping rule below it (started from the parent, so it converges
     /// in few iterations). Default 20 iterations, 1e-5 nats.
     pub child: EmOptions,
+    /// Most normals one texel's fit reads: a larger footprint is sampled
+    /// one normal per block of a square grid (stratified, at hashed places),
+    /// so that every level past `√max_samples` texels a side costs a
+    /// fraction of the one below. Default 256 (a 16 × 16 grid).
+    pub max_samples: usize,
 }
 
 impl Default for VmfBakeOptions {
@@ -53,6 +58,7 @@ impl Default for VmfBakeOptions {
                 max_iter: 20,
                 tol: 1e-5,
             },
+            max_samples: 1024,
         }
     }
 }
@@ -225,6 +231,15 @@ fn footprint(w: usize, h: usize, k: usize, x: usize, y: usize) -> (usize, usize,
     (x * s, (x * s + s).min(w), y * s, (y * s + s).min(h))
 }
 
+/// A 64-bit hash of a texel position (splitmix64 of `x`, `y`), placing the
+/// stratified samples of [`VmfBakeOptions::max_samples`].
+fn stratum_hash(x: usize, y: usize) -> u64 {
+    let mut z = (x as u64) << 32 ^ (y as u64) ^ 0x9e37_79b9_7f4a_7c15;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
 /// Per-thread buffers: unique normals and weights of one footprint.
 #[derive(Default)]
 struct Scratch {
@@ -268,9 +283,24 @@ impl VmfPyramid {
                     let (x, y) = (t % lw, t / lw);
                     let (x0, x1, y0, y1) = footprint(width, height, k, x, y);
                     s.ids.clear();
-                    for yy in y0..y1 {
-                        s.ids
-                            .extend_from_slice(&id[yy * width + x0..yy * width + x1]);
+                    let area = (x1 - x0) * (y1 - y0);
+                    if area <= opts.max_samples.max(1) {
+                        for yy in y0..y1 {
+                            s.ids
+                                .extend_from_slice(&id[yy * width + x0..yy * width + x1]);
+                        }
+                    } else {
+                        // One normal per b × b block, at a hashed place in it
+                        // (stratified, deterministic).
+                        let b = (area as f64 / opts.max_samples as f64).sqrt().ceil() as usize;
+                        for by in (y0..y1).step_by(b) {
+                            for bx in (x0..x1).step_by(b) {
+                                let h = stratum_hash(bx, by);
+                                let ox = (h as usize) % b.min(x1 - bx);
+                                let oy = ((h >> 32) as usize) % b.min(y1 - by);
+                                s.ids.push(id[(by + oy) * width + bx + ox]);
+                            }
+                        }
                     }
                     s.ids.sort_unstable();
                     s.samples.clear();

@@ -601,7 +601,13 @@ pub fn texel_levels(
     let (w, h) = (map.width, map.height);
     progress.start("ndf verify: bakes", 1);
     let sh = ShNdfPyramid::build(w, h, &map.texels, 3);
-    let vmf = VmfPyramid::build(w, h, &map.texels, &VmfBakeOptions::default());
+    // Every fine normal under a texel (no sampling cap): the representation
+    // against the exact shading over those same normals.
+    let vmf_opts = VmfBakeOptions {
+        max_samples: usize::MAX,
+        ..VmfBakeOptions::default()
+    };
+    let vmf = VmfPyramid::build(w, h, &map.texels, &vmf_opts);
     let mean = MeanPyramid::build(w, h, &map.texels);
     let lean = LeanPyramid::build(w, h, &map.texels);
     progress.finish();
