@@ -238,6 +238,19 @@ fn material(brdf: NdfBrdf) -> Arc<dyn relight_brdf::Brdf> {
     }
 }
 
+/// A `size²` camera at `eye` looking at `target`, +Y up.
+fn square_camera(eye: Vec3, target: Vec3, vfov_deg: f32, size: usize) -> Camera {
+    Camera {
+        eye,
+        target,
+        up: Vec3::Y,
+        vfov_deg,
+        width: size,
+        height: size,
+        image_offset: Vec2::ZERO,
+    }
+}
+
 /// `mesh` normal-mapped with `map` under one point light and a black sky.
 fn lit_scene(
     mut mesh: relight_geom::Mesh,
@@ -277,15 +290,12 @@ pub fn horizon_plane_scene(map: &NormalMap, brdf: NdfBrdf, size: usize, tiles: f
     for uv in &mut mesh.uvs {
         *uv *= tiles;
     }
-    let camera = Camera {
-        eye: Vec3::new(0.0, 5.0, 19.0),
-        target: Vec3::new(0.0, 0.0, -5.0),
-        up: Vec3::Y,
-        vfov_deg: 40.0,
-        width: size,
-        height: size,
-        image_offset: Vec2::ZERO,
-    };
+    let camera = square_camera(
+        Vec3::new(0.0, 5.0, 19.0),
+        Vec3::new(0.0, 0.0, -5.0),
+        40.0,
+        size,
+    );
     lit_scene(
         mesh,
         map,
@@ -308,15 +318,7 @@ pub fn sphere_scene(map: &NormalMap, brdf: NdfBrdf, size: usize) -> Scene {
     for uv in &mut mesh.uvs {
         *uv *= Vec2::new(t, 0.5 * t);
     }
-    let camera = Camera {
-        eye: Vec3::new(4.2, 0.9, 0.0),
-        target: Vec3::ZERO,
-        up: Vec3::Y,
-        vfov_deg: 32.0,
-        width: size,
-        height: size,
-        image_offset: Vec2::ZERO,
-    };
+    let camera = square_camera(Vec3::new(4.2, 0.9, 0.0), Vec3::ZERO, 32.0, size);
     lit_scene(
         mesh,
         map,
