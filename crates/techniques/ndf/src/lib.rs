@@ -105,10 +105,11 @@ pub struct Footprint {
     /// (magnified: the pixel sees one interpolated normal, where bilinear
     /// filtering of level 0 would mix the four texels' deltas instead),
     /// falling linearly to 0 at two texels, past which the probes alone
-    /// hold the NDF. The SH and vMF representations shade
-    /// `plain · f(n_interp) + (1 − plain) · f(probes)`: level 0 equals plain
-    /// normal mapping (issue 14) with no seam where the footprint crosses a
-    /// texel. 0 where the footprint is unknown ([`Self::point`]).
+    /// hold the NDF. The SH and vMF representations shade the mixture
+    /// `plain · δ(n_interp) + (1 − plain) · NDF(probes)` (SH coefficients
+    /// blended, or one more vMF lobe, a delta): level 0 equals plain normal
+    /// mapping (issue 14) with no seam where the footprint crosses a texel.
+    /// 0 where the footprint is unknown ([`Self::point`]).
     pub plain: f32,
 }
 

@@ -377,11 +377,12 @@ impl NdfMethod {
             return Vec3::ZERO;
         }
         let brdf = self.options.brdf;
+        // J lobes and a delta for plain normal mapping's share.
         let mut lobes = [ShadeLobe {
             alpha: 0.0,
             mu: Vec3::Z,
             inv_kappa: 0.0,
-        }; MAX_LOBES];
+        }; MAX_LOBES + 1];
         let mut nl = 0;
         // Lambert reads bands 0–2 of the SH NDF, whatever its order.
         let mut gamma = [0.0f32; 9];
@@ -394,7 +395,9 @@ impl NdfMethod {
             Lean(LeanTexel),
         }
         // Plain normal mapping's share (`Footprint::plain`), for our
-        // representations; the baselines filter as engines do.
+        // representations (the baselines filter as engines do), mixed into
+        // the pixel's NDF: `(1 − w)·NDF_pyramid + w·δ(n)` — SH coefficients
+        // blend linearly, and the vMF mixture gains a delta lobe.
         let plain = match (&o.map, self.options.filter) {
             (Some((m, _)), NdfFilter::Sh | NdfFilter::Vmf) if fp.plain > 0.0 => {
                 Some((m.sample(uv), fp.plain))
@@ -418,6 +421,13 @@ impl NdfMethod {
                         gamma.copy_from_slice(&all[..9]);
                     }
                 }
+                if let Some((n, w)) = plain {
+                    let mut y = [0.0f32; 9];
+                    relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+                    for (g, y) in gamma.iter_mut().zip(y) {
+                        *g = *g * (1.0 - w) + y * w;
+                    }
+                }
                 Rep::Sh
             }
             (Some((_, b)), NdfFilter::Vmf) => {
@@ -431,6 +441,17 @@ impl NdfMethod {
                             nl += 1;
                         }
                     }
+                }
+                if let Some((n, w)) = plain {
+                    for l in &mut lobes[..nl] {
+                        l.alpha *= 1.0 - w;
+                    }
+                    lobes[nl] = ShadeLobe {
+                        alpha: w,
+                        mu: n,
+                        inv_kappa: 0.0,
+                    };
+                    nl += 1;
                 }
                 Rep::Vmf
             }
@@ -446,99 +467,90 @@ impl NdfMethod {
             NdfFilter::Toksvig => Baseline::Toksvig,
             _ => Baseline::Normalized,
         };
-        let shade_rep = |rep: &Rep| -> Vec3 {
-            let fcos = |wi: Vec3| -> f32 {
-                match rep {
-                    Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
-                    Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
-                    Rep::Sh => lambert_sh_dir_seen(&gamma, wo, wi),
-                    Rep::Vmf => match brdf {
-                        NdfBrdf::Blinn { s } => {
-                            shade_mixture_blinn(s, self.blinn_norm, &lobes[..nl], wo, wi)
-                        }
-                        _ => shade_mixture(brdf, &lobes[..nl], wo, wi),
-                    },
-                    Rep::Lean(t) => shade_lean(brdf, t, wo, wi),
+        let fcos = |wi: Vec3| -> f32 {
+            match &rep {
+                Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
+                Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
+                Rep::Sh => lambert_sh_dir_seen(&gamma, wo, wi),
+                Rep::Vmf => match brdf {
+                    NdfBrdf::Blinn { s } => {
+                        shade_mixture_blinn(s, self.blinn_norm, &lobes[..nl], wo, wi)
+                    }
+                    _ => shade_mixture(brdf, &lobes[..nl], wo, wi),
+                },
+                Rep::Lean(t) => shade_lean(brdf, t, wo, wi),
+            }
+        };
+        let mut out = Vec3::ZERO;
+        if has_env && brdf == NdfBrdf::Lambert {
+            // Bands 0–2: `Σ_i c_i lit_i` per channel, `c` the representation's
+            // SH (γ, or the SH of its normal), `lit` the lighting with `Λ_l/π`
+            // folded in ([`PixelEnv`]).
+            let mut y = [0.0f32; 9];
+            let c9: &[f32] = match &rep {
+                Rep::Normal(n) => {
+                    relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+                    &y
+                }
+                Rep::Mean(m) => {
+                    let n = match baseline {
+                        Baseline::Unnormalized => *m,
+                        _ => m.normalize_or(Vec3::Z),
+                    };
+                    relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+                    &y
+                }
+                Rep::Sh => &gamma,
+                Rep::Vmf => {
+                    y = mixture_sh9(&lobes[..nl]);
+                    &y
+                }
+                Rep::Lean(t) => {
+                    relight_sh::eval_sh_into(3, t.normal().to_array(), &mut y);
+                    &y
                 }
             };
-            let mut out = Vec3::ZERO;
-            if has_env && brdf == NdfBrdf::Lambert {
-                // Bands 0–2: `Σ_i c_i lit_i` per channel, `c` the representation's
-                // SH (γ, or the SH of its normal), `lit` the lighting with `Λ_l/π`
-                // folded in ([`PixelEnv`]).
-                let mut y = [0.0f32; 9];
-                let c9: &[f32] = match rep {
-                    Rep::Normal(n) => {
-                        relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                        &y
+            for c in 0..3 {
+                out[c] += dot9(c9, &env.lit[c * 9..c * 9 + 9]);
+            }
+            // Bands 4–8 (effective::lambert_tail_env) in the environment's
+            // frame, from each representation's (mean) normal.
+            let tail = |t: Vec3| self.env_tail.eval(env.env_from_tangent * t);
+            out += match &rep {
+                Rep::Normal(n) => tail(*n),
+                Rep::Mean(m) => {
+                    let n = m.normalize_or(Vec3::Z);
+                    match baseline {
+                        Baseline::Unnormalized => m.length() * tail(n),
+                        _ => tail(n),
                     }
-                    Rep::Mean(m) => {
-                        let n = match baseline {
-                            Baseline::Unnormalized => *m,
-                            _ => m.normalize_or(Vec3::Z),
+                }
+                // `mean_normal_of_sh` and the rotation as one matrix.
+                Rep::Sh => self
+                    .env_tail
+                    .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3])),
+                Rep::Vmf => lobes[..nl]
+                    .iter()
+                    .map(|l| {
+                        let r = if l.inv_kappa <= 0.0 {
+                            1.0
+                        } else {
+                            crate::vmf::mean_resultant(f64::from(1.0 / l.inv_kappa)) as f32
                         };
-                        relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                        &y
-                    }
-                    Rep::Sh => &gamma,
-                    Rep::Vmf => {
-                        y = mixture_sh9(&lobes[..nl]);
-                        &y
-                    }
-                    Rep::Lean(t) => {
-                        relight_sh::eval_sh_into(3, t.normal().to_array(), &mut y);
-                        &y
-                    }
-                };
-                for c in 0..3 {
-                    out[c] += dot9(c9, &env.lit[c * 9..c * 9 + 9]);
-                }
-                // Bands 4–8 (effective::lambert_tail_env) in the environment's
-                // frame, from each representation's (mean) normal.
-                let tail = |t: Vec3| self.env_tail.eval(env.env_from_tangent * t);
-                out += match rep {
-                    Rep::Normal(n) => tail(*n),
-                    Rep::Mean(m) => {
-                        let n = m.normalize_or(Vec3::Z);
-                        match baseline {
-                            Baseline::Unnormalized => m.length() * tail(n),
-                            _ => tail(n),
-                        }
-                    }
-                    // `mean_normal_of_sh` and the rotation as one matrix.
-                    Rep::Sh => self
-                        .env_tail
-                        .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3])),
-                    Rep::Vmf => lobes[..nl]
-                        .iter()
-                        .map(|l| {
-                            let r = if l.inv_kappa <= 0.0 {
-                                1.0
-                            } else {
-                                crate::vmf::mean_resultant(f64::from(1.0 / l.inv_kappa)) as f32
-                            };
-                            l.alpha * tail(l.mu * r)
-                        })
-                        .sum(),
-                    Rep::Lean(t) => tail(t.normal()),
-                };
+                        l.alpha * tail(l.mu * r)
+                    })
+                    .sum(),
+                Rep::Lean(t) => tail(t.normal()),
+            };
+        }
+        for pl in &scene.point_lights {
+            let d = pl.position - position;
+            let r2 = d.length_squared();
+            if r2 <= 0.0 {
+                continue;
             }
-            for pl in &scene.point_lights {
-                let d = pl.position - position;
-                let r2 = d.length_squared();
-                if r2 <= 0.0 {
-                    continue;
-                }
-                let wi = to_t(d / r2.sqrt());
-                out += pl.intensity / r2 * fcos(wi);
-            }
-            out
-        };
-        let mut out = shade_rep(&rep);
-        if let Some((n, w)) = plain
-            && w < 1.0
-        {
-            out = out * (1.0 - w) + shade_rep(&Rep::Normal(n)) * w;
+            let wi = to_t(d / r2.sqrt());
+            out += pl.intensity / r2 * fcos(wi);
         }
         out * o.colour
     }
