@@ -1,6 +1,7 @@
 //! The vMF-mixture MIP pyramid (Han et al. 2007 §4): `J` lobes per texel,
-//! every level fitted by spherical EM ([`crate::em`]) to all the fine
-//! normals under the texel.
+//! every level fitted by spherical EM ([`crate::em`]) to the fine normals
+//! under the texel (all of them, or a stratified sample past
+//! [`VmfBakeOptions::max_samples`]).
 //!
 //! # Coherent slots
 //! The fit runs top-down: the 1 × 1 level starts from k-means++
@@ -45,7 +46,8 @@ pub struct VmfBakeOptions {
     /// Most normals one texel's fit reads: a larger footprint is sampled
     /// one normal per block of a square grid (stratified, at hashed places),
     /// so that every level past `√max_samples` texels a side costs a
-    /// fraction of the one below. Default 256 (a 16 × 16 grid).
+    /// fraction of the one below. Default 1024 (a 32 × 32 grid);
+    /// `usize::MAX` reads every normal.
     pub max_samples: usize,
 }
 
