@@ -16,6 +16,7 @@ pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod texture;
+pub mod verify_row;
 
 pub use camera::{Camera, CameraRays};
 pub use image::Image;
@@ -30,6 +31,7 @@ pub use raster::{
 };
 pub use scene::{Animation, AreaLight, BrdfBlend, Keyframe, Medium, Object, PointLight, Scene};
 pub use texture::{NormalMap, Texture, TextureError};
+pub use verify_row::VerifyRow;
 
 pub use bvh::{Hit, SceneBvh, ShadingPoint, ambient_occlusion, vertex_ambient_occlusion};
 pub use reference::{

@@ -119,7 +119,7 @@ pub use relighter::ReferenceRenderer;
 pub use render::{ReferenceImage, render_reference, render_reference_with};
 pub use surface::{RadianceEstimate, reference_radiance_at, reference_radiance_in_frame};
 pub use wavelet_sampling::{WaveletLights, WaveletSamplingOptions};
-pub use wavelet_verify::{WaveletVerifyOptions, WaveletVerifyRow, verify_wavelet_sampling};
+pub use wavelet_verify::{WaveletVerifyOptions, verify_wavelet_sampling};
 
 use crate::sampling::EnvFilter;
 use crate::{Cancelled, Scene};

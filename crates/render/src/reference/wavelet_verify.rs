@@ -10,6 +10,7 @@ use super::wavelet_sampling::{FaceProduct, LightGrid, WaveletSamplingOptions};
 use super::{LightSampling, ReferenceError, ReferenceOptions, render_reference_with};
 use crate::sampling::luminance;
 use crate::texture::Texture;
+use crate::verify_row::{VerifyRow, row};
 use crate::{AreaLight, Camera, EnvLight, NoProgress, Object, Scene, SceneBvh};
 use glam::{Mat3, Vec2, Vec3};
 use relight_brdf::{Brdf, Ggx};
@@ -238,41 +239,6 @@ pub fn glossy_face_product(
     f
 }
 
-/// One `verify importance` row.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct WaveletVerifyRow {
-    pub check: String,
-    /// The measured figure (see `what`).
-    pub value: f64,
-    pub what: String,
-    pub target: Option<String>,
-    pub pass: Option<bool>,
-    pub source: String,
-}
-
-fn row(
-    check: impl Into<String>,
-    value: f64,
-    what: &str,
-    target: Option<(f64, bool)>,
-    source: &str,
-) -> WaveletVerifyRow {
-    // `target = (t, upper)`: pass when value ≤ t (upper) or ≥ t.
-    let (target, pass) = match target {
-        Some((t, true)) => (Some(format!("≤ {t}")), Some(value <= t)),
-        Some((t, false)) => (Some(format!("≥ {t}")), Some(value >= t)),
-        None => (None, None),
-    };
-    WaveletVerifyRow {
-        check: check.into(),
-        value,
-        what: what.into(),
-        target,
-        pass,
-        source: source.into(),
-    }
-}
-
 /// Sizes of the `verify importance` runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WaveletVerifyOptions {
@@ -306,9 +272,7 @@ impl WaveletVerifyOptions {
 ///
 /// # Errors
 /// A render that fails (bad options).
-pub fn verify_wavelet_sampling(
-    o: &WaveletVerifyOptions,
-) -> Result<Vec<WaveletVerifyRow>, ReferenceError> {
+pub fn verify_wavelet_sampling(o: &WaveletVerifyOptions) -> Result<Vec<VerifyRow>, ReferenceError> {
     const ISSUE: &str = "issue 13 (verify: importance sampling)";
     let scene = glossy_scene(o.size, o.size);
     let mask = covered_pixels(&scene, 0);

@@ -13,37 +13,14 @@ use crate::table;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use relight_nearfield::scenes::floor_and_sphere;
-use relight_nearfield::verify::VerifyRow;
 use relight_nearfield::{NearfieldMethod, NearfieldOptions};
 use relight_render::method::{FrameRequest, Relighter};
 use relight_render::reference::{ReferenceOptions, render_reference};
+use relight_render::verify_row::{VerifyRow, row};
 use relight_render::{Image, Progress, Scene};
 use std::sync::Arc;
 
 const ISSUE: &str = "issue 13 (LTC baseline)";
-
-fn row(
-    check: impl Into<String>,
-    value: f64,
-    what: &str,
-    target: Option<(f64, bool)>,
-    source: &str,
-) -> VerifyRow {
-    // `target = (t, upper)`: pass when value ≤ t (upper) or ≥ t.
-    let (target, pass) = match target {
-        Some((t, true)) => (Some(format!("≤ {t}")), Some(value <= t)),
-        Some((t, false)) => (Some(format!("≥ {t}")), Some(value >= t)),
-        None => (None, None),
-    };
-    VerifyRow {
-        check: check.into(),
-        value,
-        what: what.into(),
-        target,
-        pass,
-        source: source.into(),
-    }
-}
 
 /// Settings of [`verify_rows`].
 #[derive(Clone, Copy, Debug)]

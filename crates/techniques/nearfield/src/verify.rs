@@ -14,46 +14,12 @@ use crate::scenes::floor_and_sphere;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use relight_affine::standard::{forward_2d, propagate_two_step};
+pub use relight_render::VerifyRow;
 use relight_render::bvh::offset_ray_origin;
 use relight_render::method::{FrameRequest, MethodError, Relighter};
 use relight_render::reference::{ReferenceOptions, render_reference};
+use relight_render::verify_row::row;
 use relight_render::{AreaLight, NoProgress, Progress, Scene, SceneBvh};
-use serde::Serialize;
-
-/// One verify row.
-#[derive(Clone, Debug, Serialize)]
-pub struct VerifyRow {
-    pub check: String,
-    /// The measured figure (see `what`).
-    pub value: f64,
-    pub what: String,
-    pub target: Option<String>,
-    pub pass: Option<bool>,
-    pub source: String,
-}
-
-fn row(
-    check: impl Into<String>,
-    value: f64,
-    what: &str,
-    target: Option<(f64, bool)>,
-    source: &str,
-) -> VerifyRow {
-    // `target = (t, upper)`: pass when value ≤ t (upper) or ≥ t.
-    let (target, pass) = match target {
-        Some((t, true)) => (Some(format!("≤ {t}")), Some(value <= t)),
-        Some((t, false)) => (Some(format!("≥ {t}")), Some(value >= t)),
-        None => (None, None),
-    };
-    VerifyRow {
-        check: check.into(),
-        value,
-        what: what.into(),
-        target,
-        pass,
-        source: source.into(),
-    }
-}
 
 /// `∫_face L cos V dω` at a vertex by `samples²` midpoints over the
 /// light's footprint on the face, with `radiance(uv)`; `bvh`: shadows

@@ -19,6 +19,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use relight_render::method::{FrameRequest, Relighter};
 use relight_render::reference::{ReferenceOptions, render_reference};
+use relight_render::verify_row::row;
 use relight_render::{AreaLight, Object, Progress, Scene, SceneBvh};
 use relight_sphere::Frame;
 
@@ -118,28 +119,6 @@ fn quadrature_colors(
                 .collect()
         })
         .collect()
-}
-
-fn row(
-    check: String,
-    value: f64,
-    what: &str,
-    target: Option<(f64, bool)>,
-    source: &str,
-) -> VerifyRow {
-    let (target, pass) = match target {
-        Some((t, true)) => (Some(format!("≤ {t}")), Some(value <= t)),
-        Some((t, false)) => (Some(format!("≥ {t}")), Some(value >= t)),
-        None => (None, None),
-    };
-    VerifyRow {
-        check,
-        value,
-        what: what.into(),
-        target,
-        pass,
-        source: source.into(),
-    }
 }
 
 /// Relative error figures per vertex: (max over vertices whose value is
