@@ -362,7 +362,7 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
                 "3 channels, one rotation; generated kernel".into(),
             ));
         }
-        if n <= crate::fast::BATCH_MAX_ORDER {
+        if n <= crate::fast::ROTATE_BATCH_MAX_ORDER {
             let src: Vec<f32> = vs.concat();
             let mut out = vec![0.0f32; src.len()];
             let br = (reps / 16).max(1);
@@ -381,6 +381,10 @@ pub fn bench_sh(quick: bool) -> Vec<ShBenchRow> {
                     crate::fast::batch_path()
                 ),
             ));
+        }
+        if n <= crate::fast::BATCH_MAX_ORDER {
+            let mut out = vec![0.0f32; SET * n * n];
+            let br = (reps / 16).max(1);
             let t = time_ns(br, batches, |_| {
                 crate::fast::eval_batch(n, black_box(&dirs), &mut out).ok();
                 black_box(&out);

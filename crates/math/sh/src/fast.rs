@@ -55,10 +55,15 @@ use crate::lanes::V;
 use crate::rotation::{EulerZyz, Rot3};
 use crate::{MAX_ORDER, ShError, check_order};
 
-/// Largest order of the batch kernels (`eval_batch`, `shade_batch`,
-/// `shade_rgb_batch`, `rotate_batch`): kept low because each batch order is
+/// Largest order of the evaluation batch kernels (`eval_batch`,
+/// `shade_batch`, `shade_rgb_batch`): kept low because each batch order is
 /// one more eight-lane instantiation of a generated kernel (compile time).
 pub const BATCH_MAX_ORDER: usize = 4;
+
+/// Largest order of [`rotate_batch`]: every generated rotation kernel
+/// ([`KERNEL_ROTATE_MAX_ORDER`]), as the per-pixel SH shading rotates order-6
+/// transfer vectors eight pixels at a time.
+pub const ROTATE_BATCH_MAX_ORDER: usize = KERNEL_ROTATE_MAX_ORDER;
 
 pub use crate::kernels_gen::{
     KERNEL_EVAL_MAX_ORDER, KERNEL_PRODUCT_MAX_ORDER, KERNEL_ROTATE_MAX_ORDER,
@@ -933,6 +938,7 @@ type V8 = crate::lanes::F8;
 use crate::lanes::Lane;
 
 const BATCH_NN: usize = BATCH_MAX_ORDER * BATCH_MAX_ORDER;
+const ROTATE_BATCH_NN: usize = ROTATE_BATCH_MAX_ORDER * ROTATE_BATCH_MAX_ORDER;
 
 /// Runs `f` with the order-`n` evaluation kernel on eight directions as a
 /// closure over a fixed-size output (`n ≤` [`BATCH_MAX_ORDER`]): one loop per
@@ -967,7 +973,7 @@ macro_rules! with_eval8 {
     };
 }
 
-/// The order-`n` rotation kernel on eight vectors (`n ≤` [`BATCH_MAX_ORDER`]):
+/// The order-`n` rotation kernel on eight vectors (`n ≤` [`ROTATE_BATCH_MAX_ORDER`]):
 /// matrices `m`, their ZYZ angles `e` (read from order 4 on).
 ///
 /// # Safety
@@ -979,8 +985,8 @@ unsafe fn rotate8(
     n: usize,
     m: &[[V8; 3]; 3],
     e: &[V8; 6],
-    v: &[V8; BATCH_NN],
-    d: &mut [V8; BATCH_NN],
+    v: &[V8; ROTATE_BATCH_NN],
+    d: &mut [V8; ROTATE_BATCH_NN],
 ) {
     match n {
         1 => kernels::rotate_n1(
@@ -1007,7 +1013,19 @@ unsafe fn rotate8(
             (&v[..16]).try_into().expect("length"),
             (&mut d[..16]).try_into().expect("length"),
         ),
-        _ => unreachable!("batch order checked against BATCH_MAX_ORDER"),
+        5 => kernels::rotate_n5(
+            m,
+            e,
+            (&v[..25]).try_into().expect("length"),
+            (&mut d[..25]).try_into().expect("length"),
+        ),
+        6 => kernels::rotate_n6(
+            m,
+            e,
+            (&v[..36]).try_into().expect("length"),
+            (&mut d[..36]).try_into().expect("length"),
+        ),
+        _ => unreachable!("rotation batch order checked against ROTATE_BATCH_MAX_ORDER"),
     }
 }
 
@@ -1173,7 +1191,15 @@ macro_rules! with_nn {
                 const $nn: usize = 16;
                 $body
             }
-            _ => unreachable!("batch order checked against BATCH_MAX_ORDER"),
+            5 => {
+                const $nn: usize = 25;
+                $body
+            }
+            6 => {
+                const $nn: usize = 36;
+                $body
+            }
+            _ => unreachable!("rotation batch order checked against ROTATE_BATCH_MAX_ORDER"),
         }
     };
 }
@@ -1266,9 +1292,9 @@ pub(crate) unsafe fn rotate_batch_avx2(
                 [V8::splat(0.0); 6]
             };
             let mut b = [V8::splat(0.0); NN];
-            let mut pa = [V8::splat(0.0); BATCH_NN];
+            let mut pa = [V8::splat(0.0); ROTATE_BATCH_NN];
             pa[..NN].copy_from_slice(&a);
-            let mut pb = [V8::splat(0.0); BATCH_NN];
+            let mut pb = [V8::splat(0.0); ROTATE_BATCH_NN];
             // SAFETY: the caller checked the features.
             unsafe { rotate8(order, &m, &e, &pa, &mut pb) };
             b.copy_from_slice(&pb[..NN]);
@@ -1446,7 +1472,7 @@ pub fn shade_rgb_batch(
 
 /// Rotates vector `i` (item-major in `src`) by `rots[i]` into `dst`, exactly
 /// (ZYZ with fixed X matrices, Euler angles per item, no inverse trigonometry).
-/// Orders `1 ..=` [`BATCH_MAX_ORDER`].
+/// Orders `1 ..=` [`ROTATE_BATCH_MAX_ORDER`].
 ///
 /// # Errors
 /// [`ShError::OrderOutOfRange`]; [`ShError::LengthMismatch`] unless
@@ -1457,7 +1483,7 @@ pub fn rotate_batch(
     src: &[f32],
     dst: &mut [f32],
 ) -> Result<(), ShError> {
-    check_order("order (fast::rotate_batch)", order, BATCH_MAX_ORDER)?;
+    check_order("order (fast::rotate_batch)", order, ROTATE_BATCH_MAX_ORDER)?;
     let want = rots.len() * order * order;
     check_len("rotate_batch src", order, src.len(), want)?;
     check_len("rotate_batch dst", order, dst.len(), want)?;

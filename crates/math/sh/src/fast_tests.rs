@@ -352,7 +352,7 @@ fn rotate_kernels_match_portable_zyz() {
     let avx = avx2_or_skip();
     for n in 1..=KERNEL_ROTATE_MAX_ORDER {
         let nn = n * n;
-        let batched = n <= BATCH_MAX_ORDER;
+        let batched = n <= ROTATE_BATCH_MAX_ORDER;
         let vs = vecs(n, rs.len(), 5);
         let src: Vec<f32> = vs.concat();
         let mut batch = vec![0.0f32; src.len()];

@@ -20,6 +20,16 @@
 //! per sample, of which the 324-FMA dot product is the largest part; the
 //! counts per rotation are in `relight bench sh`.
 //!
+//! # Chunks
+//! A row's covered samples are shaded in chunks of [`CHUNK`]: each is
+//! prepared (interpolation, frames, transfer lookup), then the chunk's
+//! rotations run, then the dot products. On a CPU with AVX2 and FMA the exact
+//! rotations (ZYZ, Ivanic–Ruedenberg) of a normal-mapped chunk at order ≤ 6
+//! run eight vectors at a time, lanes across samples
+//! ([`relight_sh::fast::rotate_batch`]: ≈ 18 ns per order-6 vector against
+//! ≈ 50 one at a time); the Z-only turns of samples without a normal map stay
+//! one by one (a cheap O(N) step).
+//!
 //! # Background
 //! Empty samples get the background only where asked: every empty sample
 //! ([`Bg::All`]), only those of pixels that an object partly covers
@@ -34,7 +44,8 @@ use rayon::prelude::*;
 use relight_render::camera::CameraRays;
 use relight_render::raster::{GBuffer, NO_TRIANGLE, Rasterizer};
 use relight_render::{Camera, Image};
-use relight_sh::rotation::{ShRotation, rotate_z};
+use relight_sh::fast::ROTATE_BATCH_MAX_ORDER;
+use relight_sh::rotation::{Rot3, ShRotation, rotate_z};
 use relight_sphere::Frame;
 use std::sync::Arc;
 
@@ -126,22 +137,74 @@ pub(crate) struct Pass<'a> {
     pub flip: &'a [f32],
 }
 
+/// Samples [`Pass::row`] prepares before rotating them together: 32 samples
+/// of three channels at order 6 are 14 KB per buffer, inside L1 and L2.
+const CHUNK: usize = 32;
+
+/// A covered sample between its preparation and its dot product.
+#[derive(Clone, Copy, Default)]
+struct Pending {
+    /// Column in the row.
+    x: usize,
+    /// Draw and the triangle's three vertices.
+    d: usize,
+    verts: [usize; 3],
+    lam: Vec3,
+    /// Seen from behind: the coefficients take the back-face flip.
+    back: bool,
+    /// Transfer vectors (1 for a rank-1 table, else 3) from vector `first`
+    /// of the chunk's `dst` buffer, or of its batch buffers where `in_batch`.
+    channels: usize,
+    first: usize,
+    in_batch: bool,
+}
+
 /// Per-thread buffers of the pass.
 struct Scratch {
-    b: [f32; 3 * MAXN],
-    bz: [f32; 3 * MAXN],
     tmp: [f32; MAXN],
     exact: Option<ShRotation<f32>>,
+    /// The chunk's samples and, per sample, `channels` transfer vectors of
+    /// `order²`: rotated one by one (`src` before, `dst` after) or, for the
+    /// batch rotation, noted with one rotation per vector (`batch_src`,
+    /// `batch_dst`, `rots`).
+    pending: [Pending; CHUNK],
+    src: Vec<f32>,
+    dst: Vec<f32>,
+    batch_src: Vec<f32>,
+    batch_dst: Vec<f32>,
+    rots: Vec<Rot3<f32>>,
 }
 
 impl Scratch {
     fn new() -> Box<Self> {
         Box::new(Self {
-            b: [0.0; 3 * MAXN],
-            bz: [0.0; 3 * MAXN],
             tmp: [0.0; MAXN],
             exact: None,
+            pending: [Pending::default(); CHUNK],
+            src: Vec::new(),
+            dst: Vec::new(),
+            batch_src: Vec::new(),
+            batch_dst: Vec::new(),
+            rots: Vec::new(),
         })
+    }
+
+    /// Sizes the chunk buffers for `channels × k` coefficients per sample.
+    fn size_for(&mut self, per_sample: usize) {
+        if self.src.len() != CHUNK * per_sample {
+            for b in [
+                &mut self.src,
+                &mut self.dst,
+                &mut self.batch_src,
+                &mut self.batch_dst,
+            ] {
+                b.resize(CHUNK * per_sample, 0.0);
+            }
+        }
+        if self.rots.len() != CHUNK * 3 {
+            self.rots
+                .resize(CHUNK * 3, Rot3::from_mat3_unchecked(Mat3::IDENTITY));
+        }
     }
 }
 
@@ -174,37 +237,53 @@ fn madd<const F: bool>(a: f32, b: f32, c: f32) -> f32 {
     if F { a.mul_add(b, c) } else { a * b + c }
 }
 
-/// `Σ_j λ_j ⟨l_j, b⟩` over the first `b.len()` coefficients: three dot
-/// products in 8-lane sums that the compiler vectorises (3 FMA per
-/// coefficient), then one blend by `λ`.
+/// `Σ_j λ_j ⟨l_j, b⟩ = ⟨Σ_j λ_j l_j, b⟩` over the first `b.len()`
+/// coefficients: the lighting blended by `λ` and multiplied into 8-lane
+/// sums (3 FMA per coefficient, as three dot products would take), then one
+/// horizontal sum instead of three. Tails of 4 (orders 2, 6, 10, …) in a
+/// 4-lane sum, the rest in scalars.
 #[inline(always)]
 fn dot3<const F: bool>(l0: &[f32], l1: &[f32], l2: &[f32], lam: Vec3, b: &[f32]) -> f32 {
     let k = b.len();
     let (l0, l1, l2) = (&l0[..k], &l1[..k], &l2[..k]);
-    let (mut s0, mut s1, mut s2) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
-    let chunks = l0
+    let mut s = [0.0f32; 8];
+    let full = k / 8 * 8;
+    let chunks = l0[..full]
         .chunks_exact(8)
-        .zip(l1.chunks_exact(8))
-        .zip(l2.chunks_exact(8))
-        .zip(b.chunks_exact(8));
+        .zip(l1[..full].chunks_exact(8))
+        .zip(l2[..full].chunks_exact(8))
+        .zip(b[..full].chunks_exact(8));
     for (((a0, a1), a2), bb) in chunks {
         for j in 0..8 {
-            s0[j] = madd::<F>(a0[j], bb[j], s0[j]);
-            s1[j] = madd::<F>(a1[j], bb[j], s1[j]);
-            s2[j] = madd::<F>(a2[j], bb[j], s2[j]);
+            let l = madd::<F>(lam.x, a0[j], madd::<F>(lam.y, a1[j], lam.z * a2[j]));
+            s[j] = madd::<F>(l, bb[j], s[j]);
         }
     }
-    // The tail in scalar sums of its own (folding it into the lanes made the
-    // compiler shuffle lanes in and out: a fifth of the pass).
-    let (mut t0, mut t1, mut t2) = (0.0f32, 0.0f32, 0.0f32);
-    for i in k / 8 * 8..k {
-        t0 = madd::<F>(l0[i], b[i], t0);
-        t1 = madd::<F>(l1[i], b[i], t1);
-        t2 = madd::<F>(l2[i], b[i], t2);
+    let mut q = [0.0f32; 4];
+    let mut i = full;
+    if k - i >= 4 {
+        for j in 0..4 {
+            let l = madd::<F>(
+                lam.x,
+                l0[i + j],
+                madd::<F>(lam.y, l1[i + j], lam.z * l2[i + j]),
+            );
+            q[j] = madd::<F>(l, b[i + j], q[j]);
+        }
+        i += 4;
     }
-    let hsum = |v: [f32; 8]| ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7]));
-    let (d0, d1, d2) = (hsum(s0) + t0, hsum(s1) + t1, hsum(s2) + t2);
-    madd::<F>(lam.x, d0, madd::<F>(lam.y, d1, lam.z * d2))
+    let mut t = 0.0f32;
+    for i in i..k {
+        let l = madd::<F>(lam.x, l0[i], madd::<F>(lam.y, l1[i], lam.z * l2[i]));
+        t = madd::<F>(l, b[i], t);
+    }
+    let q = [
+        s[0] + s[4] + q[0],
+        s[1] + s[5] + q[1],
+        s[2] + s[6] + q[2],
+        s[3] + s[7] + q[3],
+    ];
+    ((q[0] + q[2]) + (q[1] + q[3])) + t
 }
 
 /// The frame of `n` and `t` by Gram–Schmidt: the arithmetic of
@@ -242,6 +321,9 @@ struct Rows<'a> {
     eye: Vec3,
     offsets: &'a [u32],
     bg: Bg<'a>,
+    /// Rotate each chunk's transfer vectors eight at a time
+    /// ([`relight_sh::fast::rotate_batch`]) instead of one by one.
+    batched: bool,
 }
 
 impl Pass<'_> {
@@ -274,14 +356,21 @@ impl Pass<'_> {
         } else {
             &triangle_offsets(self.draws)
         };
+        let fma = !portable && fma_path();
+        let batched = fma
+            && self.order <= ROTATE_BATCH_MAX_ORDER
+            && matches!(
+                self.method,
+                ShRotationMethod::Zyz | ShRotationMethod::Exact | ShRotationMethod::None
+            );
         let rows = Rows {
             g,
             rays: camera.ray_frame(),
             eye: camera.eye,
             offsets,
             bg,
+            batched,
         };
-        let fma = !portable && fma_path();
         out.pixels
             .par_chunks_mut(w.max(1))
             .enumerate()
@@ -318,10 +407,13 @@ impl Pass<'_> {
         };
         let ids = &g.triangle[y * w..(y + 1) * w];
         let bary = &g.barycentrics[y * w..(y + 1) * w];
-        for (x, px) in row.iter_mut().enumerate() {
+        let k = self.order * self.order;
+        s.size_for(3 * k);
+        let (mut count, mut vectors, mut batched) = (0usize, 0usize, 0usize);
+        for x in 0..row.len() {
             let id = ids[x];
             if id == NO_TRIANGLE {
-                *px = match rows.bg {
+                row[x] = match rows.bg {
                     Bg::Black => Vec3::ZERO,
                     Bg::All(f) => f(rows.rays.dir(x as f32 + 0.5, y as f32 + 0.5)),
                     Bg::Partial(k, f) => {
@@ -340,35 +432,68 @@ impl Pass<'_> {
                 };
                 continue;
             }
-            *px = match loc.locate(id) {
-                Some((d, t)) => self.sample::<F>(s, rows.eye, d, t, bary[x]),
-                None => Vec3::ZERO,
+            let Some((d, t)) = loc.locate(id) else {
+                row[x] = Vec3::ZERO;
+                continue;
             };
+            match self.prepare::<F>(s, rows, d, t, bary[x], x, [vectors, batched]) {
+                Some(p) => {
+                    s.pending[count] = p;
+                    count += 1;
+                    if p.in_batch {
+                        batched += p.channels;
+                    } else {
+                        vectors += p.channels;
+                    }
+                    if count == CHUNK {
+                        self.finish::<F>(s, count, batched, row);
+                        (count, vectors, batched) = (0, 0, 0);
+                    }
+                }
+                None => row[x] = Vec3::ZERO,
+            }
+        }
+        if count > 0 {
+            self.finish::<F>(s, count, batched, row);
         }
     }
 
-    /// One covered sample of draw `d`, triangle `t` (module docs).
+    /// The first half of covered sample `x` of draw `d`, triangle `t`
+    /// (module docs): its transfer vectors into the chunk buffers from vector
+    /// `first[0]` (windowed, turned to the view's azimuth and rotated to the
+    /// vertex frame now), or from vector `first[1]` of the batch buffers with
+    /// their rotations noted (a full rotation where [`Rows::batched`]);
+    /// `None` when the view is below the shading frame's horizon (black).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn sample<const F: bool>(
+    fn prepare<const F: bool>(
         &self,
         s: &mut Scratch,
-        eye: Vec3,
+        rows: &Rows,
         d: usize,
         t: usize,
         bary: [f32; 2],
-    ) -> Vec3 {
+        x: usize,
+        first: [usize; 2],
+    ) -> Option<Pending> {
         let draw = &self.draws[d];
-        let [i0, i1, i2] = draw.triangles[t].map(|i| i as usize);
+        let verts = draw.triangles[t].map(|i| i as usize);
+        let [i0, i1, i2] = verts;
         let lam = Vec3::new(1.0 - bary[0] - bary[1], bary[0], bary[1]);
         let (v0, v1, v2) = (&draw.verts[i0], &draw.verts[i1], &draw.verts[i2]);
-        let mix = |k: usize| madd::<F>(lam.x, v0[k], madd::<F>(lam.y, v1[k], lam.z * v2[k]));
+        // No closures here: one was left out of line, outside the caller's
+        // `avx2,fma` features (its `mul_add` a libm call).
+        let mut mix = [0.0f32; 9];
+        for (k, m) in mix.iter_mut().enumerate() {
+            *m = madd::<F>(lam.x, v0[k], madd::<F>(lam.y, v1[k], lam.z * v2[k]));
+        }
         let (p0, p1, p2) = (draw.positions[i0], draw.positions[i1], draw.positions[i2]);
         let position = p0 * lam.x + p1 * lam.y + p2 * lam.z;
         let geo = (p1 - p0).cross(p2 - p0);
-        let wo_world = (eye - position).normalize_or_zero();
-        let n_i = Vec3::new(mix(0), mix(1), mix(2)).normalize_or(geo.normalize_or(Vec3::Z));
-        let t_i = Vec4::new(mix(3), mix(4), mix(5), mix(6));
-        let uv = Vec2::new(mix(7), mix(8));
+        let wo_world = (rows.eye - position).normalize_or_zero();
+        let n_i = Vec3::new(mix[0], mix[1], mix[2]).normalize_or(geo.normalize_or(Vec3::Z));
+        let t_i = Vec4::new(mix[3], mix[4], mix[5], mix[6]);
+        let uv = Vec2::new(mix[7], mix[8]);
         let back = wo_world.dot(geo) < 0.0;
         let sgn = if back { -1.0 } else { 1.0 };
         let normal_map = self.normal_maps[d];
@@ -379,16 +504,24 @@ impl Pass<'_> {
         };
         let wo = fp.to_local(wo_world);
         if wo.z <= 0.0 {
-            return Vec3::ZERO;
+            return None;
         }
         let order = self.order;
         let k = order * order;
         let table = &self.tables[d];
         let h = &self.windows[d][..k];
-        let mono = table.mono_colour();
-        let channels = if mono.is_some() { 1 } else { 3 };
-        let b = &mut s.b[..channels * k];
-        if mono.is_some() {
+        let mono = table.mono_colour().is_some();
+        let channels = if mono { 1 } else { 3 };
+        let turned_only = self.method == ShRotationMethod::None || normal_map.is_none();
+        let in_batch = rows.batched && !turned_only;
+        let first = first[usize::from(in_batch)];
+        let span = first * k..(first + channels) * k;
+        let b = if in_batch {
+            &mut s.batch_src[span.clone()]
+        } else {
+            &mut s.src[span.clone()]
+        };
+        if mono {
             table.lookup_mono_windowed::<F>(wo.z, order, h, b);
         } else {
             table.lookup(wo.z, order, b);
@@ -404,63 +537,108 @@ impl Pass<'_> {
         } else {
             (1.0, 0.0)
         };
-        let bz = &mut s.bz[..channels * k];
-        if self.method == ShRotationMethod::None || normal_map.is_none() {
-            for c in 0..channels {
-                rotate_z(
-                    order,
-                    cphi,
-                    sphi,
-                    &b[c * k..(c + 1) * k],
-                    &mut bz[c * k..(c + 1) * k],
-                );
-            }
+        let rz = Mat3::from_cols(
+            Vec3::new(cphi, sphi, 0.0),
+            Vec3::new(-sphi, cphi, 0.0),
+            Vec3::Z,
+        );
+        // T = F_vᵀ F_p R_z(φ_o): canonical → perturbed frame → vertex frame.
+        let vertex_from_canonical = if turned_only {
+            rz
         } else {
-            // T = F_vᵀ F_p R_z(φ_o): canonical → perturbed frame → vertex frame.
             let fv_m = Mat3::from_cols(fv.x, fv.y, fv.z);
             let fp_m = Mat3::from_cols(fp.x, fp.y, fp.z);
-            let rz = Mat3::from_cols(
-                Vec3::new(cphi, sphi, 0.0),
-                Vec3::new(-sphi, cphi, 0.0),
-                Vec3::Z,
-            );
+            fv_m.transpose() * fp_m * rz
+        };
+        if in_batch {
+            let rot = Rot3::from_mat3_unchecked(vertex_from_canonical);
+            s.rots[first..first + channels].fill(rot);
+        } else if turned_only {
+            for c in 0..channels {
+                let r = (first + c) * k..(first + c + 1) * k;
+                rotate_z(order, cphi, sphi, &s.src[r.clone()], &mut s.dst[r]);
+            }
+        } else {
             self.rotator.rotate(
-                fv_m.transpose() * fp_m * rz,
+                vertex_from_canonical,
                 channels,
-                b,
-                bz,
+                &s.src[span.clone()],
+                &mut s.dst[span],
                 &mut s.tmp,
                 &mut s.exact,
             );
         }
-        if back {
-            for c in 0..channels {
-                for (v, f) in bz[c * k..(c + 1) * k].iter_mut().zip(self.flip) {
-                    *v *= f;
-                }
-            }
+        Some(Pending {
+            x,
+            d,
+            verts,
+            lam,
+            back,
+            channels,
+            first,
+            in_batch,
+        })
+    }
+
+    /// The second half of the chunk's `count` samples: the batch rotation of
+    /// its `batched` vectors, the back-face flip and the dot product with the
+    /// three vertices' lighting, into `row`.
+    #[inline(always)]
+    fn finish<const F: bool>(
+        &self,
+        s: &mut Scratch,
+        count: usize,
+        batched: usize,
+        row: &mut [Vec3],
+    ) {
+        let k = self.order * self.order;
+        if batched > 0 {
+            relight_sh::fast::rotate_batch(
+                self.order,
+                &s.rots[..batched],
+                &s.batch_src[..batched * k],
+                &mut s.batch_dst[..batched * k],
+            )
+            .expect("order and lengths checked by Pass::run and Scratch::size_for");
         }
         let nn = self.nn_max;
         let stride = 3 * nn;
-        let (l0, l1, l2) = (
-            &draw.light[i0 * stride..(i0 + 1) * stride],
-            &draw.light[i1 * stride..(i1 + 1) * stride],
-            &draw.light[i2 * stride..(i2 + 1) * stride],
-        );
-        let mut out = [0.0f32; 3];
-        for (c, o) in out.iter_mut().enumerate() {
-            let bc = if channels == 1 {
-                &bz[..k]
+        for p in &s.pending[..count] {
+            let draw = &self.draws[p.d];
+            let span = p.first * k..(p.first + p.channels) * k;
+            let bz = if p.in_batch {
+                &mut s.batch_dst[span]
             } else {
-                &bz[c * k..(c + 1) * k]
+                &mut s.dst[span]
             };
-            let r = c * nn..c * nn + k;
-            *o = dot3::<F>(&l0[r.clone()], &l1[r.clone()], &l2[r], lam, bc);
-        }
-        let v = Vec3::from_array(out);
-        match mono {
-            Some(rho) => v * Vec3::from_array(rho),
-            None => v,
+            if p.back {
+                for c in 0..p.channels {
+                    for (v, f) in bz[c * k..(c + 1) * k].iter_mut().zip(self.flip) {
+                        *v *= f;
+                    }
+                }
+            }
+            let [i0, i1, i2] = p.verts;
+            let (l0, l1, l2) = (
+                &draw.light[i0 * stride..(i0 + 1) * stride],
+                &draw.light[i1 * stride..(i1 + 1) * stride],
+                &draw.light[i2 * stride..(i2 + 1) * stride],
+            );
+            let mut out = [0.0f32; 3];
+            for (c, o) in out.iter_mut().enumerate() {
+                let bc = if p.channels == 1 {
+                    &bz[..k]
+                } else {
+                    &bz[c * k..(c + 1) * k]
+                };
+                let r = c * nn..c * nn + k;
+                *o = dot3::<F>(&l0[r.clone()], &l1[r.clone()], &l2[r], p.lam, bc);
+            }
+            let v = Vec3::from_array(out);
+            row[p.x] = match self.tables[p.d].mono_colour() {
+                Some(rho) => v * Vec3::from_array(rho),
+                None => v,
+            };
         }
     }
 }
