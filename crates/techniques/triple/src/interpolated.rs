@@ -91,18 +91,23 @@ impl TriangleTables {
         let any_second = objects.iter().flatten().any(|o| o.second.is_some());
         self.built = list.len();
         self.second_base = if any_second { list.len() } else { 0 };
-        self.terms.clear();
-        self.terms
-            .resize(list.len() * if any_second { 2 } else { 1 }, [0.0; 81]);
-        let (first, second) = self.terms.split_at_mut(list.len());
+        // Every tensor of the frame is written whole below: the buffer only
+        // grows (zeroing 324 bytes per triangle each frame was ≈ 8 MB of
+        // `memset` at 512 × 384), and entries past this frame's are unread.
+        let needed = list.len() * if any_second { 2 } else { 1 };
+        if self.terms.len() < needed {
+            self.terms.resize(needed, [0.0; 81]);
+        }
+        let (first, second) = self.terms[..needed].split_at_mut(list.len());
         let row = 3 * padded;
+        let fma = fma_path();
         first
             .par_iter_mut()
             .zip(&list)
             .with_min_len(16)
             .for_each(|(t, &(d, tri))| {
                 let o = objects[d].as_ref().expect("listed objects have functions");
-                tensor(o, o.brdf, o.indices[tri], padded, row, t);
+                tensor(o, o.brdf, o.indices[tri], padded, row, t, fma);
             });
         if any_second {
             second
@@ -111,8 +116,9 @@ impl TriangleTables {
                 .with_min_len(16)
                 .for_each(|(t, &(d, tri))| {
                     let o = objects[d].as_ref().expect("listed objects have functions");
-                    if let Some(b2) = o.second {
-                        tensor(o, b2, o.indices[tri], padded, row, t);
+                    match o.second {
+                        Some(b2) => tensor(o, b2, o.indices[tri], padded, row, t, fma),
+                        None => *t = [0.0; 81],
                     }
                 });
         }
@@ -164,8 +170,71 @@ impl TriangleTables {
     }
 }
 
-/// `T[ch][a][b][v] = Σ_c L_a ρ_b V_v` of triangle `tri` (module docs).
+/// Whether this CPU runs [`tensor`]'s AVX2 + FMA copy (cached by the
+/// standard library).
+#[inline]
+fn fma_path() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// `T[ch][a][b][v] = Σ_c L_a ρ_b V_v` of triangle `tri` (module docs),
+/// through the AVX2 + FMA copy where `fma` ([`fma_path`]): the default
+/// x86-64 target has only 4-lane SSE and no fused multiply-add, and this loop
+/// was half of a 512 × 384 interpolated frame.
 fn tensor(
+    o: &ObjectFunctions<'_>,
+    brdf: &[f32],
+    tri: [u32; 3],
+    padded: usize,
+    row: usize,
+    t: &mut [f32; 81],
+    fma: bool,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if fma {
+        // SAFETY: AVX2 and FMA were detected at run time (`fma_path`).
+        unsafe { tensor_fma(o, brdf, tri, padded, row, t) };
+        return;
+    }
+    let _ = fma;
+    tensor_body::<false>(o, brdf, tri, padded, row, t);
+}
+
+/// [`tensor_body`] compiled for AVX2 and FMA.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn tensor_fma(
+    o: &ObjectFunctions<'_>,
+    brdf: &[f32],
+    tri: [u32; 3],
+    padded: usize,
+    row: usize,
+    t: &mut [f32; 81],
+) {
+    tensor_body::<true>(o, brdf, tri, padded, row, t);
+}
+
+/// `a · b + c`, fused where `F`.
+#[inline(always)]
+fn madd<const F: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if F { a.mul_add(b, c) } else { a * b + c }
+}
+
+/// The tensor in 8-cell chunks: per channel and pair `(a, b)` the product
+/// `L_a ρ_b` once, then its dot products with the three visibilities
+/// (the [`FMA_PER_TRIANGLE_CELL`] count).
+#[inline(always)]
+fn tensor_body<const F: bool>(
     o: &ObjectFunctions<'_>,
     brdf: &[f32],
     tri: [u32; 3],
@@ -185,13 +254,18 @@ fn tensor(
                 match &vis {
                     Some(v) => {
                         let mut acc = [[0.0f32; 8]; 3];
-                        for (j, (l8, r8)) in la.chunks_exact(8).zip(rb.chunks_exact(8)).enumerate()
-                        {
-                            for (k, acc) in acc.iter_mut().enumerate() {
-                                let v8 = &v[k][8 * j..8 * j + 8];
-                                for i in 0..8 {
-                                    acc[i] += l8[i] * r8[i] * v8[i];
-                                }
+                        let chunks = la
+                            .chunks_exact(8)
+                            .zip(rb.chunks_exact(8))
+                            .zip(v[0].chunks_exact(8))
+                            .zip(v[1].chunks_exact(8))
+                            .zip(v[2].chunks_exact(8));
+                        for ((((l8, r8), v0), v1), v2) in chunks {
+                            for i in 0..8 {
+                                let lr = l8[i] * r8[i];
+                                acc[0][i] = madd::<F>(lr, v0[i], acc[0][i]);
+                                acc[1][i] = madd::<F>(lr, v1[i], acc[1][i]);
+                                acc[2][i] = madd::<F>(lr, v2[i], acc[2][i]);
                             }
                         }
                         for k in 0..3 {
@@ -202,7 +276,7 @@ fn tensor(
                         let mut acc = [0.0f32; 8];
                         for (l8, r8) in la.chunks_exact(8).zip(rb.chunks_exact(8)) {
                             for i in 0..8 {
-                                acc[i] += l8[i] * r8[i];
+                                acc[i] = madd::<F>(l8[i], r8[i], acc[i]);
                             }
                         }
                         out.fill(acc.iter().sum());
@@ -280,6 +354,45 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// The AVX2 + FMA tensor equals the portable one to rounding (under CI
+    /// a CPU without them fails rather than compare the portable copy with
+    /// itself).
+    #[test]
+    fn fma_tensor_matches_the_portable_tensor() {
+        if !fma_path() {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI: no AVX2 + FMA on this CPU, so the fast tensor is not tested"
+            );
+            return;
+        }
+        let padded = 24;
+        let row = 3 * padded;
+        let f = |k: usize, n: usize| -> Vec<f32> {
+            (0..n)
+                .map(|i| ((i * 7919 + k * 104_729) % 1000) as f32 / 1000.0 - 0.2)
+                .collect()
+        };
+        let (light, brdf, vis) = (f(1, 3 * row), f(2, 3 * row), f(3, 3 * padded));
+        let indices = [[0u32, 2, 1]];
+        for with_vis in [false, true] {
+            let o = ObjectFunctions {
+                indices: &indices,
+                light: &light,
+                brdf: &brdf,
+                second: None,
+                vis: with_vis.then_some(&vis[..]),
+            };
+            let (mut fast, mut slow) = ([0.0f32; 81], [0.0f32; 81]);
+            tensor(&o, &brdf, indices[0], padded, row, &mut fast, true);
+            tensor(&o, &brdf, indices[0], padded, row, &mut slow, false);
+            for (i, (a, b)) in fast.iter().zip(&slow).enumerate() {
+                assert!((a - b).abs() <= 1e-5 * b.abs().max(1.0), "{i}: {a} vs {b}");
+            }
+            assert!(slow.iter().any(|v| v.abs() > 0.1), "a vacuous tensor");
         }
     }
 }
