@@ -54,6 +54,7 @@ use crate::kernels;
 use crate::lanes::V;
 use crate::rotation::{EulerZyz, Rot3};
 use crate::{MAX_ORDER, ShError, check_order};
+use std::sync::OnceLock;
 
 /// Largest order of the evaluation batch kernels (`eval_batch`,
 /// `shade_batch`, `shade_rgb_batch`): kept low because each batch order is
@@ -1498,6 +1499,201 @@ pub fn rotate_batch(
     }
     rotate_batch_portable(order, rots, src, dst);
     Ok(())
+}
+
+/// Applies `taylor` (Křivánek et al.'s approximate rotation) to every vector:
+/// vector `i` (item-major in `src`) by `rots[i]` into `dst`, the same result
+/// as [`crate::taylor::TaylorRotation::apply`] item by item, to rounding.
+///
+/// On a CPU with AVX2 and FMA, at orders `2 ..=` [`ROTATE_BATCH_MAX_ORDER`]
+/// and the 1st or 1.5th order, eight items run at a time with lanes across
+/// items: the fused step `R_z(α+γ) [I + β cos γ R_y'(0) + β sin γ G_x (+ the
+/// conjugated ½β²R'' diagonal)]` of [`crate::taylor`]'s module docs, every
+/// angle a polynomial in the matrix entries (no inverse trigonometry). A group
+/// of eight with any rotation beyond `min(β_lim, SMALL_BETA_MAX)` (where those
+/// polynomials stop) goes item by item. Elsewhere every item goes through
+/// `apply`.
+///
+/// # Errors
+/// [`ShError::LengthMismatch`] unless `src.len() == dst.len() == rots.len() · order²`.
+pub fn taylor_batch(
+    taylor: &crate::taylor::TaylorRotation<f32>,
+    rots: &[Rot3<f32>],
+    src: &[f32],
+    dst: &mut [f32],
+) -> Result<(), ShError> {
+    let order = taylor.taylor_y().order();
+    let want = rots.len() * order * order;
+    check_len("taylor_batch src", order, src.len(), want)?;
+    check_len("taylor_batch dst", order, dst.len(), want)?;
+    if rots.is_empty() {
+        return Ok(());
+    }
+    #[cfg(target_arch = "x86_64")]
+    if batch_path() == BatchPath::Avx2Fma
+        && (2..=ROTATE_BATCH_MAX_ORDER).contains(&order)
+        && taylor.kind != crate::taylor::TaylorOrder::Second
+    {
+        static COEFFICIENTS: [OnceLock<crate::simd::TaylorCoefficients>;
+            ROTATE_BATCH_MAX_ORDER + 1] = [const { OnceLock::new() }; ROTATE_BATCH_MAX_ORDER + 1];
+        let co = COEFFICIENTS[order].get_or_init(|| crate::simd::taylor_coefficients(order));
+        // SAFETY: AVX2 and FMA were detected.
+        unsafe { taylor_batch_avx2(taylor, co, order, rots, src, dst) };
+        return Ok(());
+    }
+    taylor_batch_portable(taylor, order, rots, src, dst);
+    Ok(())
+}
+
+/// [`taylor_batch`] item by item.
+fn taylor_batch_portable(
+    taylor: &crate::taylor::TaylorRotation<f32>,
+    order: usize,
+    rots: &[Rot3<f32>],
+    src: &[f32],
+    dst: &mut [f32],
+) {
+    let nn = order * order;
+    let mut scratch = [0.0f32; MAX_ORDER * MAX_ORDER];
+    for (i, r) in rots.iter().enumerate() {
+        taylor.apply(
+            r,
+            &src[i * nn..(i + 1) * nn],
+            &mut dst[i * nn..(i + 1) * nn],
+            &mut scratch,
+        );
+    }
+}
+
+/// `Σ_k c_k u^k` by Horner's rule on lanes.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn poly_lanes(c: &[f64], u: V8) -> V8 {
+    let mut acc = V8::splat(c[c.len() - 1] as f32);
+    for &ck in c[..c.len() - 1].iter().rev() {
+        acc = acc.mul_add(u, V8::splat(ck as f32));
+    }
+    acc
+}
+
+/// # Safety
+/// The CPU must support AVX2 and FMA; lengths as [`taylor_batch`];
+/// `2 ≤ order ≤` [`ROTATE_BATCH_MAX_ORDER`], first or 1.5th order.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn taylor_batch_avx2(
+    taylor: &crate::taylor::TaylorRotation<f32>,
+    co: &crate::simd::TaylorCoefficients,
+    order: usize,
+    rots: &[Rot3<f32>],
+    src: &[f32],
+    dst: &mut [f32],
+) {
+    use crate::taylor::{BETA_OVER_SIN, INV_ONE_PLUS_COS, SMALL_BETA_MAX, TaylorOrder};
+    let count = rots.len();
+    let half = taylor.kind == TaylorOrder::OneAndHalf;
+    let cos_lim = taylor.beta_lim.min(SMALL_BETA_MAX as f32).cos();
+    let mut scratch = [0.0f32; ROTATE_BATCH_NN];
+    with_nn!(order, |NN| {
+        let mut spill = [0.0f32; 8 * NN];
+        for i0 in (0..count).step_by(8) {
+            let cnt = 8.min(count - i0);
+            // A NaN entry goes item by item too.
+            if rots[i0..i0 + cnt]
+                .iter()
+                .any(|r| r.m[2][2].is_nan() || r.m[2][2] < cos_lim)
+            {
+                for i in i0..i0 + cnt {
+                    let span = i * NN..(i + 1) * NN;
+                    taylor.apply(&rots[i], &src[span.clone()], &mut dst[span], &mut scratch);
+                }
+                continue;
+            }
+            let item = |j: usize| (i0 + j).min(count - 1);
+            let mrows: [*const f32; 8] =
+                std::array::from_fn(|j| rots[item(j)].m.as_flattened().as_ptr());
+            let vrows: [*const f32; 8] = std::array::from_fn(|j| src[item(j) * NN..].as_ptr());
+            // SAFETY (loads): every row pointer is a whole matrix (9 f32) or
+            // vector (NN f32) of an item ≤ count − 1.
+            let mf: [V8; 9] = unsafe { load_rows(mrows) };
+            let x: [V8; NN] = unsafe { load_rows(vrows) };
+            let (r20, r21, r22) = (mf[6], mf[7], mf[8]);
+            let s2 = r20.mul_add(r20, r21 * r21);
+            let k = poly_lanes(&BETA_OVER_SIN, s2);
+            // β cos γ = −k R₂₀, β sin γ = k R₂₁ (crate::taylor, `apply`).
+            let (bc, bs) = (-(k * r20), k * r21);
+            let ip = poly_lanes(&INV_ONE_PLUS_COS, V8::splat(1.0) - r22);
+            let (ca, sa) = ((mf[0] + mf[4]) * ip, (mf[3] - mf[1]) * ip);
+            let k2 = k * k;
+            let c2 = r20.mul_add(r20, -(r21 * r21));
+            let n2 = (r20 + r20) * r21;
+            let mut y = [V8::splat(0.0); NN];
+            for l in 0..order {
+                let b = l * (l + 1);
+                let li = l as isize;
+                for m in -li..=li {
+                    let i = (b as isize + m) as usize;
+                    let r = (b as isize - m) as usize;
+                    let (mut gy, mut gx) = (V8::splat(0.0), V8::splat(0.0));
+                    if m > -li {
+                        gy = V8::splat(co.sub[i]) * x[i - 1];
+                        gx = V8::splat(co.g_prev[i]) * x[r + 1];
+                    }
+                    if m < li {
+                        gy = V8::splat(-co.sub[i + 1]).mul_add(x[i + 1], gy);
+                        gx = V8::splat(co.g_next[i]).mul_add(x[r - 1], gx);
+                    }
+                    let mut v = bs.mul_add(gx, bc.mul_add(gy, x[i]));
+                    if half {
+                        let q = (s2 * V8::splat(co.dbar[i])).mul_add(
+                            x[i],
+                            (c2 * V8::splat(co.dsig[i]))
+                                .mul_add(x[i], (n2 * V8::splat(co.dhalf[i])) * x[r]),
+                        );
+                        v = k2.mul_add(q, v);
+                    }
+                    y[i] = v;
+                }
+            }
+            // R_z(α+γ): cos mθ, sin mθ by the Chebyshev recurrence.
+            let mut out = [V8::splat(0.0); NN];
+            let two_c = ca + ca;
+            let (mut cm1, mut sm1) = (V8::splat(1.0), V8::splat(0.0));
+            let (mut cm, mut sm) = (ca, sa);
+            for m in 0..order {
+                if m > 0 {
+                    for l in m..order {
+                        let b = l * (l + 1);
+                        let (p, q) = (y[b + m], y[b - m]);
+                        out[b + m] = p.mul_add(cm, -(q * sm));
+                        out[b - m] = q.mul_add(cm, p * sm);
+                    }
+                    let (cn, sn) = (two_c.mul_add(cm, -cm1), two_c.mul_add(sm, -sm1));
+                    (cm1, sm1, cm, sm) = (cm, sm, cn, sn);
+                } else {
+                    for l in 0..order {
+                        out[l * (l + 1)] = y[l * (l + 1)];
+                    }
+                }
+            }
+            let base = dst.as_mut_ptr();
+            let sp = spill.as_mut_ptr();
+            // Items past the end write into `spill`.
+            let drows: [*mut f32; 8] = std::array::from_fn(|j| {
+                // SAFETY: `(i0 + j)·NN + NN ≤ dst.len()` for j < cnt; `spill`
+                // holds 8 rows of NN.
+                unsafe {
+                    if j < cnt {
+                        base.add((i0 + j) * NN)
+                    } else {
+                        sp.add(j * NN)
+                    }
+                }
+            });
+            // SAFETY: disjoint rows of NN f32 each (above).
+            unsafe { store_rows(&out, drows) };
+        }
+    });
 }
 
 const _: () = assert!(KERNEL_EVAL_MAX_ORDER <= MAX_ORDER);

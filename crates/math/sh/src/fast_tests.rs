@@ -603,3 +603,52 @@ fn direct_euler_reproduces_the_matrix() {
         }
     }
 }
+
+/// The batched Taylor rotation equals `TaylorRotation::apply` item by item
+/// (orders 2–7, every Taylor order, small tilts and groups with a tilt past
+/// the polynomials' range, counts that leave partial groups).
+#[test]
+fn taylor_batch_matches_apply_per_item() {
+    use crate::taylor::{TaylorOrder, TaylorRotation};
+    let avx = avx2_or_skip();
+    let mut r = rng(11);
+    // Small tilts (the per-pixel normal-map case) about any axis, then a
+    // turn about z; every 13th rotation tilted by 1.2 rad (β past 0.75).
+    let rots: Vec<Rot3<f32>> = (0..45)
+        .map(|i| {
+            let tilt = if i % 13 == 5 { 1.2 } else { 0.6 * r() };
+            let phi = 6.0 * r();
+            let axis = [phi.cos() as f32, phi.sin() as f32, 0.0];
+            let t = Rot3::from_axis_angle(axis, tilt as f32).unwrap();
+            let z = Rot3::from_axis_angle([0.0, 0.0, 1.0], (6.0 * r()) as f32).unwrap();
+            t.mul(&z)
+        })
+        .collect();
+    for n in 2..=7 {
+        let nn = n * n;
+        for kind in [
+            TaylorOrder::First,
+            TaylorOrder::OneAndHalf,
+            TaylorOrder::Second,
+        ] {
+            for count in [45, 8, 3] {
+                let plan = TaylorRotation::<f32>::new(n, kind, f32::INFINITY).unwrap();
+                let rs = &rots[..count];
+                let src: Vec<f32> = vecs(n, count, 7).concat();
+                let mut got = vec![f32::NAN; src.len()];
+                taylor_batch(&plan, rs, &src, &mut got).unwrap();
+                let mut scratch = vec![0.0f32; nn];
+                for (i, rot) in rs.iter().enumerate() {
+                    let mut want = vec![0.0f32; nn];
+                    plan.apply(rot, &src[i * nn..(i + 1) * nn], &mut want, &mut scratch);
+                    let want: Vec<f64> = want.iter().map(|&v| f64::from(v)).collect();
+                    let d = max_diff(&got[i * nn..(i + 1) * nn], &want);
+                    assert!(
+                        d < 2e-5 * n as f64,
+                        "n={n} {kind:?} count={count} item {i}: {d} (avx2 {avx})"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -315,11 +315,54 @@ impl Plan {
 }
 
 /// The cached plan of `order` (`1 ..= SIMD_MAX_ORDER`), built regardless of the CPU.
-#[cfg(test)]
 pub(crate) fn plan(order: usize) -> &'static Plan {
     static PLANS: [OnceLock<Plan>; SIMD_MAX_ORDER + 1] =
         [const { OnceLock::new() }; SIMD_MAX_ORDER + 1];
     PLANS[order].get_or_init(|| Plan::new(order))
+}
+
+/// The fused first- and 1.5th-order Taylor step's constants of one order,
+/// one value per coefficient index (the [`Plan`]'s 16-lane tables
+/// flattened), for kernels with lanes across vectors
+/// ([`crate::fast::taylor_batch`]).
+#[derive(Clone, Debug)]
+pub(crate) struct TaylorCoefficients {
+    /// `R'[i][i−1]` (`sub[i]`), `nn + 1` entries (`R'[i][i+1] = −sub[i+1]`).
+    pub(crate) sub: Vec<f32>,
+    /// `G_x[i][rev(i)+1]`, `G_x[i][rev(i)−1]`.
+    pub(crate) g_prev: Vec<f32>,
+    pub(crate) g_next: Vec<f32>,
+    /// The conjugated `½R''` diagonal: mean, signed and unsigned half-difference.
+    pub(crate) dbar: Vec<f32>,
+    pub(crate) dsig: Vec<f32>,
+    pub(crate) dhalf: Vec<f32>,
+}
+
+/// [`TaylorCoefficients`] of `order` (`1 ..= SIMD_MAX_ORDER`).
+pub(crate) fn taylor_coefficients(order: usize) -> TaylorCoefficients {
+    let p = plan(order);
+    let nn = order * order;
+    let flat = |t: &[F16; MAXV], len: usize| -> Vec<f32> {
+        (0..len)
+            .map(|i| {
+                if i < MAXV * LANES {
+                    t[i / LANES].0[i % LANES]
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    };
+    let mut sub = flat(&p.t_sub, nn);
+    sub.push(0.0);
+    TaylorCoefficients {
+        sub,
+        g_prev: flat(&p.g_prev, nn),
+        g_next: flat(&p.g_next, nn),
+        dbar: flat(&p.t_dbar, nn),
+        dsig: flat(&p.t_dsig, nn),
+        dhalf: flat(&p.t_dhalf, nn),
+    }
 }
 
 /// Whether the vectorised kernels can run on this CPU (std caches the answer).

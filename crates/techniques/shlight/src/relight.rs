@@ -835,6 +835,11 @@ impl Rotator {
         })
     }
 
+    /// The Taylor plan of the Taylor methods.
+    pub(crate) fn taylor(&self) -> Option<&TaylorRotation<f32>> {
+        self.taylor.as_ref()
+    }
+
     /// `dst_c = T src_c` for `channels` vectors (`order²` each, packed).
     #[inline]
     pub(crate) fn rotate(

@@ -23,12 +23,13 @@
 //! # Chunks
 //! A row's covered samples are shaded in chunks of [`CHUNK`]: each is
 //! prepared (interpolation, frames, transfer lookup), then the chunk's
-//! rotations run, then the dot products. On a CPU with AVX2 and FMA the exact
-//! rotations (ZYZ, Ivanic–Ruedenberg) of a normal-mapped chunk at order ≤ 6
-//! run eight vectors at a time, lanes across samples
-//! ([`relight_sh::fast::rotate_batch`]: ≈ 18 ns per order-6 vector against
-//! ≈ 50 one at a time); the Z-only turns of samples without a normal map stay
-//! one by one (a cheap O(N) step).
+//! rotations run, then the dot products. On a CPU with AVX2 and FMA the
+//! rotations of a normal-mapped chunk at order ≤ 6 run eight vectors at a
+//! time, lanes across samples: the exact ones (ZYZ, Ivanic–Ruedenberg) by
+//! [`relight_sh::fast::rotate_batch`] (≈ 18 ns per order-6 vector against
+//! ≈ 50 one at a time), the Taylor ones by [`relight_sh::fast::taylor_batch`];
+//! the Z-only turns of samples without a normal map stay one by one (a cheap
+//! O(N) step).
 //!
 //! # Background
 //! Empty samples get the background only where asked: every empty sample
@@ -357,12 +358,8 @@ impl Pass<'_> {
             &triangle_offsets(self.draws)
         };
         let fma = !portable && fma_path();
-        let batched = fma
-            && self.order <= ROTATE_BATCH_MAX_ORDER
-            && matches!(
-                self.method,
-                ShRotationMethod::Zyz | ShRotationMethod::Exact | ShRotationMethod::None
-            );
+        let batched =
+            fma && self.order <= ROTATE_BATCH_MAX_ORDER && self.method != ShRotationMethod::None;
         let rows = Rows {
             g,
             rays: camera.ray_frame(),
@@ -593,12 +590,15 @@ impl Pass<'_> {
     ) {
         let k = self.order * self.order;
         if batched > 0 {
-            relight_sh::fast::rotate_batch(
-                self.order,
+            let (rots, src, dst) = (
                 &s.rots[..batched],
                 &s.batch_src[..batched * k],
                 &mut s.batch_dst[..batched * k],
-            )
+            );
+            match self.rotator.taylor() {
+                Some(taylor) => relight_sh::fast::taylor_batch(taylor, rots, src, dst),
+                None => relight_sh::fast::rotate_batch(self.order, rots, src, dst),
+            }
             .expect("order and lengths checked by Pass::run and Scratch::size_for");
         }
         let nn = self.nn_max;
