@@ -1254,6 +1254,61 @@ unsafe fn store_rows<const N: usize>(v: &[V8; N], rows: [*mut f32; 8]) {
     }
 }
 
+/// Items `i0 .. i0 + 8` of a rotation batch as lanes: the matrices (nine
+/// lane vectors, row-major) and the vectors (`NN`); past the end the last
+/// item repeats.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA; `src.len() ≥ rots.len() · NN`, `i0 < rots.len()`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn load_group<const NN: usize>(
+    rots: &[Rot3<f32>],
+    src: &[f32],
+    i0: usize,
+) -> ([V8; 9], [V8; NN]) {
+    let item = |j: usize| (i0 + j).min(rots.len() - 1);
+    let mrows: [*const f32; 8] = std::array::from_fn(|j| rots[item(j)].m.as_flattened().as_ptr());
+    let vrows: [*const f32; 8] = std::array::from_fn(|j| src[item(j) * NN..].as_ptr());
+    // SAFETY: every row pointer is a whole matrix (9 f32) or vector (NN f32)
+    // of an item ≤ rots.len() − 1.
+    unsafe { (load_rows(mrows), load_rows(vrows)) }
+}
+
+/// Stores lanes `v` as items `i0 .. i0 + 8` of `dst`; lanes past `count`
+/// go to `spill` (8 rows of `NN`).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA; `dst.len() ≥ count · NN`, `i0 < count`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn store_group<const NN: usize>(
+    v: &[V8; NN],
+    dst: &mut [f32],
+    i0: usize,
+    count: usize,
+    spill: &mut [f32],
+) {
+    let cnt = 8.min(count - i0);
+    let base = dst.as_mut_ptr();
+    let sp = spill.as_mut_ptr();
+    let drows: [*mut f32; 8] = std::array::from_fn(|j| {
+        // SAFETY: `(i0 + j)·NN + NN ≤ dst.len()` for j < cnt; `spill` holds
+        // 8 rows of NN.
+        unsafe {
+            if j < cnt {
+                base.add((i0 + j) * NN)
+            } else {
+                sp.add(j * NN)
+            }
+        }
+    });
+    // SAFETY: disjoint rows of NN f32 each (above).
+    unsafe { store_rows(v, drows) };
+}
+
 /// # Safety
 /// The CPU must support AVX2 and FMA; lengths as [`rotate_batch`].
 #[cfg(target_arch = "x86_64")]
@@ -1270,22 +1325,15 @@ pub(crate) unsafe fn rotate_batch_avx2(
         "rotate_batch_avx2 lengths"
     );
     with_nn!(order, |NN| {
-        let last = count - 1;
         let mut spill = [0.0f32; 8 * NN];
         for i0 in (0..count).step_by(8) {
-            let item = |j: usize| (i0 + j).min(last);
-            let mrows: [*const f32; 8] =
-                std::array::from_fn(|j| rots[item(j)].m.as_flattened().as_ptr());
-            let vrows: [*const f32; 8] = std::array::from_fn(|j| src[item(j) * NN..].as_ptr());
-            // SAFETY (loads): every row pointer is a whole matrix (9 f32) or
-            // vector (NN f32) of an item ≤ last.
-            let mf: [V8; 9] = unsafe { load_rows(mrows) };
+            // SAFETY: the caller checked the features and lengths.
+            let (mf, a) = unsafe { load_group::<NN>(rots, src, i0) };
             let m = [
                 [mf[0], mf[1], mf[2]],
                 [mf[3], mf[4], mf[5]],
                 [mf[6], mf[7], mf[8]],
             ];
-            let a: [V8; NN] = unsafe { load_rows(vrows) };
             let e = if order >= 4 {
                 // SAFETY: the caller checked the features.
                 unsafe { euler_of_lanes(&m) }
@@ -1299,23 +1347,8 @@ pub(crate) unsafe fn rotate_batch_avx2(
             // SAFETY: the caller checked the features.
             unsafe { rotate8(order, &m, &e, &pa, &mut pb) };
             b.copy_from_slice(&pb[..NN]);
-            let cnt = 8.min(count - i0);
-            let base = dst.as_mut_ptr();
-            let sp = spill.as_mut_ptr();
-            // Items past the end write into `spill`.
-            let drows: [*mut f32; 8] = std::array::from_fn(|j| {
-                // SAFETY: `(i0 + j)·NN + NN ≤ dst.len()` for j < cnt; `spill`
-                // holds 8 rows of NN.
-                unsafe {
-                    if j < cnt {
-                        base.add((i0 + j) * NN)
-                    } else {
-                        sp.add(j * NN)
-                    }
-                }
-            });
-            // SAFETY: disjoint rows of NN f32 each (above).
-            unsafe { store_rows(&b, drows) };
+            // SAFETY: as the load.
+            unsafe { store_group(&b, dst, i0, count, &mut spill) };
         }
     });
 }
@@ -1609,14 +1642,8 @@ unsafe fn taylor_batch_avx2(
                 }
                 continue;
             }
-            let item = |j: usize| (i0 + j).min(count - 1);
-            let mrows: [*const f32; 8] =
-                std::array::from_fn(|j| rots[item(j)].m.as_flattened().as_ptr());
-            let vrows: [*const f32; 8] = std::array::from_fn(|j| src[item(j) * NN..].as_ptr());
-            // SAFETY (loads): every row pointer is a whole matrix (9 f32) or
-            // vector (NN f32) of an item ≤ count − 1.
-            let mf: [V8; 9] = unsafe { load_rows(mrows) };
-            let x: [V8; NN] = unsafe { load_rows(vrows) };
+            // SAFETY: the caller checked the features and lengths.
+            let (mf, x) = unsafe { load_group::<NN>(rots, src, i0) };
             let (r20, r21, r22) = (mf[6], mf[7], mf[8]);
             let s2 = r20.mul_add(r20, r21 * r21);
             let k = poly_lanes(&BETA_OVER_SIN, s2);
@@ -1676,22 +1703,8 @@ unsafe fn taylor_batch_avx2(
                     }
                 }
             }
-            let base = dst.as_mut_ptr();
-            let sp = spill.as_mut_ptr();
-            // Items past the end write into `spill`.
-            let drows: [*mut f32; 8] = std::array::from_fn(|j| {
-                // SAFETY: `(i0 + j)·NN + NN ≤ dst.len()` for j < cnt; `spill`
-                // holds 8 rows of NN.
-                unsafe {
-                    if j < cnt {
-                        base.add((i0 + j) * NN)
-                    } else {
-                        sp.add(j * NN)
-                    }
-                }
-            });
-            // SAFETY: disjoint rows of NN f32 each (above).
-            unsafe { store_rows(&out, drows) };
+            // SAFETY: as the load.
+            unsafe { store_group(&out, dst, i0, count, &mut spill) };
         }
     });
 }
