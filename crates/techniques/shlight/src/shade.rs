@@ -322,8 +322,9 @@ struct Rows<'a> {
     eye: Vec3,
     offsets: &'a [u32],
     bg: Bg<'a>,
-    /// Rotate each chunk's transfer vectors eight at a time
-    /// ([`relight_sh::fast::rotate_batch`]) instead of one by one.
+    /// Rotate each chunk's normal-mapped transfer vectors eight at a time
+    /// ([`relight_sh::fast::rotate_batch`], [`relight_sh::fast::taylor_batch`])
+    /// instead of one by one.
     batched: bool,
 }
 
@@ -512,6 +513,16 @@ impl Pass<'_> {
         let turned_only = self.method == ShRotationMethod::None || normal_map.is_none();
         let in_batch = rows.batched && !turned_only;
         let first = first[usize::from(in_batch)];
+        let pending = Pending {
+            x,
+            d,
+            verts,
+            lam,
+            back,
+            channels,
+            first,
+            in_batch,
+        };
         let span = first * k..(first + channels) * k;
         let b = if in_batch {
             &mut s.batch_src[span.clone()]
@@ -534,27 +545,25 @@ impl Pass<'_> {
         } else {
             (1.0, 0.0)
         };
+        if turned_only {
+            for c in 0..channels {
+                let r = (first + c) * k..(first + c + 1) * k;
+                rotate_z(order, cphi, sphi, &s.src[r.clone()], &mut s.dst[r]);
+            }
+            return Some(pending);
+        }
+        // T = F_vᵀ F_p R_z(φ_o): canonical → perturbed frame → vertex frame.
         let rz = Mat3::from_cols(
             Vec3::new(cphi, sphi, 0.0),
             Vec3::new(-sphi, cphi, 0.0),
             Vec3::Z,
         );
-        // T = F_vᵀ F_p R_z(φ_o): canonical → perturbed frame → vertex frame.
-        let vertex_from_canonical = if turned_only {
-            rz
-        } else {
-            let fv_m = Mat3::from_cols(fv.x, fv.y, fv.z);
-            let fp_m = Mat3::from_cols(fp.x, fp.y, fp.z);
-            fv_m.transpose() * fp_m * rz
-        };
+        let fv_m = Mat3::from_cols(fv.x, fv.y, fv.z);
+        let fp_m = Mat3::from_cols(fp.x, fp.y, fp.z);
+        let vertex_from_canonical = fv_m.transpose() * fp_m * rz;
         if in_batch {
             let rot = Rot3::from_mat3_unchecked(vertex_from_canonical);
             s.rots[first..first + channels].fill(rot);
-        } else if turned_only {
-            for c in 0..channels {
-                let r = (first + c) * k..(first + c + 1) * k;
-                rotate_z(order, cphi, sphi, &s.src[r.clone()], &mut s.dst[r]);
-            }
         } else {
             self.rotator.rotate(
                 vertex_from_canonical,
@@ -565,16 +574,7 @@ impl Pass<'_> {
                 &mut s.exact,
             );
         }
-        Some(Pending {
-            x,
-            d,
-            verts,
-            lam,
-            back,
-            channels,
-            first,
-            in_batch,
-        })
+        Some(pending)
     }
 
     /// The second half of the chunk's `count` samples: the batch rotation of
