@@ -22,7 +22,7 @@
 //! | [`transport`] | per-vertex Lambert × visibility transport bake |
 //! | [`specular`] | per-vertex fixed-view specular (BRDF × cosine × visibility) transport bake, BRDF classification |
 //! | [`cache`] | the transport bake on disk: versioned, checksummed, keyed |
-//! | [`propagate`] | per-vertex ACC matrices, target mask (eq. 4.38), fused kernel |
+//! | [`propagate`] | the fused per-vertex kernel: ACC rows from shared primitives, target mask (eq. 4.38), propagation and dot product |
 //! | [`rotate`] | a light turned in its plane, re-rasterised into its bounding rectangle |
 //! | [`method`] | the `nearfield` [`relight_render::method::Relighter`] |
 //! | [`verify`], [`verify_specular`], [`bench`] | `relight verify/bench nearfield` rows (the glossy scene's in `verify_specular`) |

@@ -28,7 +28,7 @@
 //! | call | work |
 //! |---|---|
 //! | [`Relighter::prepare`] | the per-vertex transport on the light's face ([`crate::transport`]), shadows ray-cast when the scene has visibility, or loaded from the disk cache ([`crate::cache`], with [`NearfieldOptions::cache_dir`]); then `set_lighting` |
-//! | [`Relighter::set_lighting`] | light moved, scaled or turned in its plane (or moved to another height): per-vertex ACC matrices and target masks ([`crate::propagate`]); always: the light's coefficients (a turned light re-rasterised into its bounding rectangle, [`crate::rotate`]), source compression, the fused propagation per vertex. A light whose normal changed re-bakes the transport. |
+//! | [`Relighter::set_lighting`] | light moved, scaled or turned in its plane (or moved to another height): the light frame the vertices are mapped through; always: the light's coefficients (a turned light re-rasterised into its bounding rectangle, [`crate::rotate`]), source compression, the fused propagation per vertex (affine map, ACC rows, target mask and dot product, [`crate::propagate`]: a move costs what a texture edit costs). A light whose normal changed re-bakes the transport. |
 //! | [`Relighter::render`] | rasterize and interpolate the vertex colours |
 //!
 //! Moving along the normal keeps the baked shadows, cast towards the old
@@ -41,8 +41,7 @@ use crate::cache::{BakeKey, CacheError};
 use crate::face::LightFrame;
 use crate::light::{LightCoeffs, SourceTerms, compress, count_of};
 use crate::propagate::{
-    MaskEntry, MaskEntryRgb, SelectScratch, ShadeScratch, acc_pair, select_targets, shade,
-    shade_fma, shade_rgb, shade_rgb_fma, sort_mask,
+    Primitives, VertexScratch, prefetch, shade_fma, shade_rgb_fma, shade_vertex,
 };
 use crate::rotate::InPlane;
 use crate::specular::{
@@ -118,14 +117,6 @@ struct Prepared {
     /// Per vertex, a Lambertian blend's albedo (else empty).
     albedos: Vec<Vec3>,
     transport: Transport,
-    /// `V · n²` each: the 1D ACC matrices per vertex.
-    dx: Vec<f32>,
-    dy: Vec<f32>,
-    /// `V · m`: the target mask per vertex (unused entries have `t = 0`);
-    /// one-channel transports.
-    mask: Vec<MaskEntry>,
-    /// `V · m`: the same for RGB transports.
-    mask_rgb: Vec<MaskEntryRgb>,
 }
 
 /// Near-field relighting as a [`Relighter`] (module docs).
@@ -134,16 +125,17 @@ pub struct NearfieldMethod {
     objects: Vec<Prepared>,
     /// The light frame the transport was baked for, and with visibility.
     baked: Option<(LightFrame, bool)>,
-    /// The light frame and target count the geometry was built for.
-    geometry: Option<(LightFrame, usize)>,
+    /// The light frame the propagation maps vertices through (the light's
+    /// own, or a turned light's bounding rectangle).
+    light_frame: Option<LightFrame>,
     source: SourceTerms,
     colors: Vec<Vec<Vec3>>,
     warnings: Vec<String>,
     raster: Rasterizer,
     frame: Image,
     pending_lighting_ms: f64,
-    /// Times of the last lighting change: geometry, coefficients, propagation (ms).
-    pub last_times: [f64; 3],
+    /// Times of the last lighting change: coefficients, propagation (ms).
+    pub last_times: [f64; 2],
     bakes: usize,
     /// The key of the current bake.
     key: Option<BakeKey>,
@@ -224,14 +216,14 @@ impl NearfieldMethod {
             options,
             objects: Vec::new(),
             baked: None,
-            geometry: None,
+            light_frame: None,
             source: SourceTerms::default(),
             colors: Vec::new(),
             warnings: Vec::new(),
             raster: Rasterizer::new(),
             frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
-            last_times: [0.0; 3],
+            last_times: [0.0; 2],
             bakes: 0,
             key: None,
             loads: 0,
@@ -538,10 +530,6 @@ impl NearfieldMethod {
                 albedo,
                 albedos,
                 transport,
-                dx: Vec::new(),
-                dy: Vec::new(),
-                mask: Vec::new(),
-                mask_rgb: Vec::new(),
             });
         }
         self.objects = objects;
@@ -596,7 +584,6 @@ impl NearfieldMethod {
                 }
             ));
         }
-        self.geometry = None;
         self.key = Some(key);
         if loaded {
             self.loads += 1;
@@ -606,55 +593,11 @@ impl NearfieldMethod {
         Ok(())
     }
 
-    /// Per-vertex ACC matrices and masks for `frame` (a light move or
-    /// scale). Returns ms.
-    pub fn update_geometry(&mut self, frame: &LightFrame) -> f64 {
-        let t = Instant::now();
-        let (n, face) = (self.options.order, self.options.face);
-        let m = self.target_count();
-        let nn = n * n;
-        for p in &mut self.objects {
-            let verts = p.mesh.positions.len();
-            p.dx.resize(verts * nn, 0.0);
-            p.dy.resize(verts * nn, 0.0);
-            if p.transport.channels == 3 {
-                p.mask = Vec::new();
-                p.mask_rgb.resize(verts * m, MaskEntryRgb::default());
-                geometry_rgb(p, frame, n, face, m);
-                continue;
-            }
-            p.mask.resize(verts * m, MaskEntry::default());
-            let positions = &p.mesh.positions;
-            let tr = &p.transport.values;
-            p.dx.par_chunks_mut(nn)
-                .zip(p.dy.par_chunks_mut(nn))
-                .zip(p.mask.par_chunks_mut(m))
-                .enumerate()
-                .for_each_init(
-                    || (SelectScratch::default(), Vec::new(), Vec::new(), Vec::new()),
-                    |(sel, picked, tmp, counts), (v, ((dx, dy), mask))| {
-                        let Some((s, o)) = frame.affine(frame.local(positions[v]), face) else {
-                            dx.fill(0.0);
-                            dy.fill(0.0);
-                            mask.fill(MaskEntry::default());
-                            return;
-                        };
-                        acc_pair(n, s, o, dx, dy);
-                        select_targets(&dx[..n], &dy[..n], m, sel, picked);
-                        let t = &tr[v * nn..(v + 1) * nn];
-                        for (e, &(k1, k2)) in mask.iter_mut().zip(picked.iter()) {
-                            *e = MaskEntry {
-                                k1,
-                                k2,
-                                t: t[k2 as usize * n + k1 as usize],
-                            };
-                        }
-                        sort_mask(mask, n, tmp, counts);
-                    },
-                );
-        }
-        self.geometry = Some((*frame, m));
-        t.elapsed().as_secs_f64() * 1e3
+    /// Maps the vertices through `frame` from the next [`Self::propagate`]
+    /// on (a light move or scale: the ACC rows and masks are the kernel's,
+    /// [`crate::propagate`]).
+    pub fn set_light_frame(&mut self, frame: &LightFrame) {
+        self.light_frame = Some(*frame);
     }
 
     /// The light's coefficients and source compression. Returns ms.
@@ -678,30 +621,44 @@ impl NearfieldMethod {
     }
 
     /// The fused propagation of every vertex (the per-frame relighting
-    /// work). Returns ms.
+    /// work: affine maps, ACC rows, masks and the kernel,
+    /// [`crate::propagate`]). Vertices are black before a light frame is
+    /// set. Returns ms.
     pub fn propagate(&mut self) -> f64 {
         let t = Instant::now();
-        let n = self.options.order;
+        let (n, face) = (self.options.order, self.options.face);
         let m = self.target_count();
         let nn = n * n;
         let src = &self.source;
+        let prims = Primitives::new(n);
+        let frame = self.light_frame;
         self.colors = self
             .objects
             .iter()
             .map(|p| {
                 let verts = p.mesh.positions.len();
+                let channels = p.transport.channels;
                 (0..verts)
                     .into_par_iter()
                     .with_min_len(256)
-                    .map_init(ShadeScratch::default, |sc, v| {
-                        let (dx, dy) = (&p.dx[v * nn..(v + 1) * nn], &p.dy[v * nn..(v + 1) * nn]);
-                        if p.transport.channels == 3 {
-                            let b = shade_rgb(src, dx, dy, &p.mask_rgb[v * m..(v + 1) * m], sc);
-                            return Vec3::from(b).max(Vec3::ZERO);
+                    .map_init(VertexScratch::default, |sc, v| {
+                        let Some((s, o)) =
+                            frame.and_then(|f| f.affine(f.local(p.mesh.positions[v]), face))
+                        else {
+                            return Vec3::ZERO;
+                        };
+                        let per = channels * nn;
+                        let t = &p.transport.values[v * per..(v + 1) * per];
+                        if let Some(next) = p.transport.values.get((v + 1) * per..(v + 2) * per) {
+                            prefetch(next);
                         }
-                        let b = shade(src, dx, dy, &p.mask[v * m..(v + 1) * m], sc);
+                        let b =
+                            Vec3::from(shade_vertex(&prims, src, s, o, t, m, sc)).max(Vec3::ZERO);
+                        if channels == 3 {
+                            return b;
+                        }
                         let albedo = p.albedos.get(v).unwrap_or(&p.albedo);
-                        Vec3::from(b).max(Vec3::ZERO) * *albedo / std::f32::consts::PI
+                        b * *albedo / std::f32::consts::PI
                     })
                     .collect()
             })
@@ -783,14 +740,10 @@ impl Relighter for NearfieldMethod {
         }
         let frame = turn.map_or(own, |t| t.frame);
         progress.check()?;
-        let g = if self.geometry != Some((frame, self.target_count())) {
-            self.update_geometry(&frame)
-        } else {
-            0.0
-        };
+        self.set_light_frame(&frame);
         let c = self.update_source_turned(light, turn.as_ref());
         let p = self.propagate();
-        self.last_times = [g, c, p];
+        self.last_times = [c, p];
         let ms = t.elapsed().as_secs_f64() * 1e3;
         self.pending_lighting_ms = ms;
         Ok(ms)
@@ -849,46 +802,7 @@ impl Relighter for NearfieldMethod {
     fn data_bytes(&self) -> u64 {
         self.objects
             .iter()
-            .map(|p| {
-                4 * (p.transport.values.len() + p.dx.len() + p.dy.len()) as u64
-                    + 8 * p.mask.len() as u64
-                    + 16 * p.mask_rgb.len() as u64
-            })
+            .map(|p| 4 * p.transport.values.len() as u64)
             .sum()
     }
-}
-
-/// [`NearfieldMethod::update_geometry`] for an RGB transport: the same ACC
-/// matrices and mask, each entry carrying the three channels' coefficients.
-fn geometry_rgb(p: &mut Prepared, frame: &LightFrame, n: usize, face: f64, m: usize) {
-    let nn = n * n;
-    let positions = &p.mesh.positions;
-    let tr = &p.transport.values;
-    p.dx.par_chunks_mut(nn)
-        .zip(p.dy.par_chunks_mut(nn))
-        .zip(p.mask_rgb.par_chunks_mut(m))
-        .enumerate()
-        .for_each_init(
-            || (SelectScratch::default(), Vec::new(), Vec::new(), Vec::new()),
-            |(sel, picked, tmp, counts), (v, ((dx, dy), mask))| {
-                let Some((s, o)) = frame.affine(frame.local(positions[v]), face) else {
-                    dx.fill(0.0);
-                    dy.fill(0.0);
-                    mask.fill(MaskEntryRgb::default());
-                    return;
-                };
-                acc_pair(n, s, o, dx, dy);
-                select_targets(&dx[..n], &dy[..n], m, sel, picked);
-                let t = &tr[v * 3 * nn..(v + 1) * 3 * nn];
-                for (e, &(k1, k2)) in mask.iter_mut().zip(picked.iter()) {
-                    let i = k2 as usize * n + k1 as usize;
-                    *e = MaskEntryRgb {
-                        k1,
-                        k2,
-                        t: [t[i], t[nn + i], t[2 * nn + i]],
-                    };
-                }
-                sort_mask(mask, n, tmp, counts);
-            },
-        );
 }

@@ -1,19 +1,48 @@
 //! Per-vertex light propagation fused with the transport dot product
 //! (thesis §4.5.5): two-step separable propagation (eq. 4.35 in 2D) of the
 //! compressed source terms, evaluated only at the target terms the
-//! constant-light heuristic (eq. 4.38) keeps.
+//! constant-light heuristic (eq. 4.38) keeps. Everything a light position
+//! decides — the 1D ACC rows, the target mask — is computed per vertex in
+//! the kernel itself ([`shade_vertex`]), so a light move, a scale and a
+//! texture edit cost the same one pass and nothing per vertex is stored but
+//! the transport (the thesis' frame rates are for a light being edited).
 //!
-//! # Geometry (a light move or scale)
-//! Per vertex, the dense 1D ACC matrices `D^x = D(s₁, o₁)`, `D^y = D(s₂,
-//! o₂)` of [`relight_affine::standard::acc_matrix_fast`] (the primitive
-//! form of `M`, the computational approach), and the target mask. The heuristic
-//! light `F̃ = [1, 0, 0, …]` propagates to `L̃_{k1k2} = D^x_{0k1} D^y_{0k2}`
-//! (row 0 of each matrix); the mask keeps the `m` largest `|L̃|`, ties
-//! **coarse first** ([`crate::light::coarse_key`]), found by a k-way merge of
-//! the two sorted factors (`O(m log n)`, no sort of all `n²`). Each mask
-//! entry carries the transport coefficient it multiplies.
+//! # ACC rows from primitives (the computational approach, eq. 4.21)
+//! On one axis the face point `v ∈ [0, 1]` sees the light at `x = s v + o`
+//! ([`crate::face`]). Every source atom of the order-`n` basis ([`relight_affine::atom`])
+//! is constant between the dyadic points `x_j = j/n`, `j = 0 … n`. With
+//! `v_j = (x_j − o)/s` and `Q_j[k] = P_k(v_j)`, `P_k` the primitive of the
+//! target `Φ_k` (`clamp(v, 0, 1)` for φ, `2^{−l/2} tent(2^l v − t)` for
+//! ψ_{l,t}, `tent(x) = max(0, ½ − |x − ½|)`), row `i` of `D(s, o)` is
 //!
-//! # Lighting (every frame, e.g. a texture edit)
+//! ```text
+//!   D_0k = Q_n[k] − Q_0[k]
+//!   D_ik = 2^{l/2} (2 Q_{j_m}[k] − Q_{j_a}[k] − Q_{j_b}[k])   i = 2^l + t (ψ_{l,t}),
+//!          j_a = t n/2^l,  j_b = j_a + n/2^l,  j_m = (j_a + j_b)/2
+//! ```
+//!
+//! ([`relight_affine::standard::acc_matrix_fast`]'s primitive form, with the
+//! breakpoints shared between rows). A target whose support misses the
+//! source's pieces, or lies inside one piece, gets exact zeros. The `Q_j`
+//! are evaluated lazily in f32 (`n` lanes each), so a vertex pays for the
+//! source rows the compression kept and the heuristic's row 0 only.
+//!
+//! # Target mask (eq. 4.38)
+//! The heuristic light `F̃ = [1, 0, 0, …]` propagates to `L̃_{k1k2} = a_{k1}
+//! b_{k2}`, `a`, `b` row 0 of `D^x`, `D^y`; the mask keeps the `m` largest
+//! `|L̃|`, ties **coarse first** ([`crate::light::coarse_key`]). With `|a|`
+//! and `|b|` sorted (magnitude down, index up) the products fall along
+//! each row, so the kept set is a prefix of `b`'s order in every row of
+//! `a`'s: the mask is one count per row ([`MaskCounts`]). The `m`-th largest
+//! product `τ` is found by bisection on its f32 bit pattern (products are
+//! ≥ 0, so bit order is value order), each count a two-pointer walk
+//! (`O(n)`). Products equal to `τ` are ties, taken in coarse order; within
+//! a row coarse order is `k2` order, the order its equal products already
+//! sit in, so the counts stay prefixes. A row whose factor is zero is all
+//! ties and runs in index order. (Products are compared as computed in
+//! f32; ACC values are far from underflow.)
+//!
+//! # Lighting (per vertex)
 //! With `R` distinct source rows `i₂`, `n_s` source terms and `m` targets:
 //!
 //! ```text
@@ -23,247 +52,638 @@
 //! ```
 //!
 //! `B[c] = Σ_{k ∈ mask} L_k[c] T_k`; step 2 of the thesis is folded into the
-//! colour-independent `W` (the transport does not depend on the colour).
+//! colour-independent `W` (a one-channel transport does not depend on the
+//! colour; an RGB one runs the fuse per channel).
 
-use crate::light::{SourceTerms, coarse_key};
-use relight_affine::standard::acc_matrix_fast;
-use std::cmp::Ordering;
-use std::collections::BinaryHeap;
+use crate::light::SourceTerms;
 
-/// One kept target coefficient: its 1D indices and the transport there.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct MaskEntry {
-    pub k1: u16,
-    pub k2: u16,
-    pub t: f32,
+/// The order-`n` basis' primitive constants (module docs): per target
+/// `k ≥ 1` (ψ_{l,t}) the scale `2^l`, the shift `t + ½` and the amplitude
+/// `2^{−l/2}`; index 0 (φ) is unused.
+#[derive(Clone, Debug)]
+pub struct Primitives {
+    n: usize,
+    /// Run [`shade_vertex`] compiled for AVX2 (detected at run time).
+    avx2: bool,
+    scale: Vec<f32>,
+    shift: Vec<f32>,
+    amp: Vec<f32>,
 }
 
-/// One kept target coefficient of an RGB transport ([`crate::specular`]):
-/// its 1D indices and the transport there, per channel.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct MaskEntryRgb {
-    pub k1: u16,
-    pub k2: u16,
-    pub t: [f32; 3],
-}
+impl Primitives {
+    /// The constants of the order-`n` basis (`n` a power of two, ≤ 64).
+    #[must_use]
+    pub fn new(n: usize) -> Self {
+        assert!(n.is_power_of_two() && n <= 64, "order {n}");
+        let (mut scale, mut shift, mut amp) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        for k in 1..n {
+            let l = k.ilog2();
+            let level = (1usize << l) as f32;
+            scale[k] = level;
+            shift[k] = (k - (1 << l)) as f32 + 0.5;
+            amp[k] = 1.0 / level.sqrt();
+        }
+        Self {
+            n,
+            avx2: avx2_detected(),
+            scale,
+            shift,
+            amp,
+        }
+    }
 
-/// A mask entry's first 1D index (what [`sort_mask`] groups by).
-pub trait MaskKey: Copy + Default {
-    fn k1(&self) -> u16;
-}
+    /// [`Self::new`] on the portable path only (tests compare the two).
+    #[must_use]
+    pub fn portable(n: usize) -> Self {
+        Self {
+            avx2: false,
+            ..Self::new(n)
+        }
+    }
 
-impl MaskKey for MaskEntry {
-    #[inline]
-    fn k1(&self) -> u16 {
-        self.k1
+    /// The basis order `n`.
+    #[must_use]
+    pub fn order(&self) -> usize {
+        self.n
+    }
+
+    /// `out[k] = P_k(v)` for every target `k`.
+    #[inline(always)]
+    fn eval(&self, v: f32, out: &mut [f32]) {
+        out[0] = v.clamp(0.0, 1.0);
+        for (((o, &sc), &sh), &a) in out[1..]
+            .iter_mut()
+            .zip(&self.scale[1..])
+            .zip(&self.shift[1..])
+            .zip(&self.amp[1..])
+        {
+            *o = a * (0.5 - (sc * v - sh).abs()).max(0.0);
+        }
     }
 }
 
-impl MaskKey for MaskEntryRgb {
-    #[inline]
-    fn k1(&self) -> u16 {
-        self.k1
+fn avx2_detected() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
-/// Fills `dx`, `dy` (`n²` each) for the affine map `(s, o)`.
-pub fn acc_pair(n: usize, s: [f64; 2], o: [f64; 2], dx: &mut [f32], dy: &mut [f32]) {
-    acc_matrix_fast(n, s[0], o[0], dx);
-    acc_matrix_fast(n, s[1], o[1], dy);
+/// One axis of a vertex's affine map and its lazily evaluated primitives
+/// `Q_j` (module docs).
+#[derive(Clone, Debug, Default)]
+struct Axis {
+    o: f64,
+    inv_s: f64,
+    /// `(n + 1) · n`: `Q_j` at `j · n`.
+    q: Vec<f32>,
+    /// Bit `j`: `Q_j` evaluated.
+    done: u128,
 }
 
-#[derive(PartialEq)]
-struct Cursor {
-    value: f32,
-    key: (u32, usize, usize),
-    row: usize,
-    pos: usize,
-}
+impl Axis {
+    fn reset(&mut self, n: usize, s: f64, o: f64) {
+        self.q.resize((n + 1) * n, 0.0);
+        self.done = 0;
+        self.o = o;
+        self.inv_s = 1.0 / s;
+    }
 
-impl Eq for Cursor {}
+    /// The offset of `Q_j` in `q`, evaluating it first if needed.
+    #[inline(always)]
+    fn q(&mut self, p: &Primitives, j: usize) -> usize {
+        let n = p.n;
+        if self.done >> j & 1 == 0 {
+            let v = ((j as f64 / n as f64 - self.o) * self.inv_s) as f32;
+            p.eval(v, &mut self.q[j * n..(j + 1) * n]);
+            self.done |= 1 << j;
+        }
+        j * n
+    }
 
-impl Ord for Cursor {
-    fn cmp(&self, other: &Self) -> Ordering {
-        // Max-heap: larger value first, then the smaller (coarser) key.
-        self.value
-            .total_cmp(&other.value)
-            .then_with(|| other.key.cmp(&self.key))
+    /// Row `i` of `D(s, o)` into `out` (`n` values).
+    #[inline(always)]
+    fn acc_row(&mut self, p: &Primitives, i: usize, out: &mut [f32]) {
+        let n = p.n;
+        if i == 0 {
+            let (a, b) = (self.q(p, 0), self.q(p, n));
+            for ((o, &qa), &qb) in out.iter_mut().zip(&self.q[a..a + n]).zip(&self.q[b..b + n]) {
+                *o = qb - qa;
+            }
+            return;
+        }
+        let l = i.ilog2();
+        let step = n >> l;
+        let ja = (i - (1 << l)) * step;
+        let (a, m, b) = (
+            self.q(p, ja),
+            self.q(p, ja + step / 2),
+            self.q(p, ja + step),
+        );
+        let amp = ((1usize << l) as f32).sqrt();
+        let q = &self.q;
+        for (((o, &qa), &qm), &qb) in out
+            .iter_mut()
+            .zip(&q[a..a + n])
+            .zip(&q[m..m + n])
+            .zip(&q[b..b + n])
+        {
+            *o = amp * (2.0 * qm - qa - qb);
+        }
     }
 }
 
-impl PartialOrd for Cursor {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
+/// Row `i` of the 1D ACC matrix `D(s, o)` of the order-`p.order()` basis
+/// (module docs), for tests and tools; [`shade_vertex`] builds its rows
+/// the same way.
+pub fn acc_row(p: &Primitives, s: f64, o: f64, i: usize, out: &mut [f32]) {
+    let mut axis = Axis::default();
+    axis.reset(p.n, s, o);
+    axis.acc_row(p, i, out);
+}
+
+/// The target mask of one vertex (module docs): row `i` of `a`'s order
+/// keeps the first `counts[i]` entries of `b`'s order (of index order when
+/// `a`'s factor there is zero).
+#[derive(Clone, Debug, Default)]
+pub struct MaskCounts {
+    /// `a`'s indices `k1`, magnitude down, index up; `va` their `|a|`.
+    sa: Vec<u8>,
+    va: Vec<f32>,
+    /// The same for `b` (`k2`).
+    sb: Vec<u8>,
+    vb: Vec<f32>,
+    /// Per row of `sa`: the kept prefix length.
+    counts: Vec<u8>,
+    /// Row counts at a bisection step.
+    walk: Vec<u8>,
+    /// Inverse of `sa`: `k1` → row.
+    ra: Vec<u8>,
+}
+
+impl MaskCounts {
+    /// The kept `(k1, k2)`, grouped by `k1` in `a`'s order.
+    pub fn pairs(&self) -> impl Iterator<Item = (u16, u16)> + '_ {
+        self.sa.iter().enumerate().flat_map(move |(i, &k1)| {
+            let zero = self.va[i] == 0.0;
+            (0..usize::from(self.counts[i])).map(move |j| {
+                let k2 = if zero { j } else { usize::from(self.sb[j]) };
+                (u16::from(k1), k2 as u16)
+            })
+        })
+    }
+
+    /// The number of kept entries.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.counts.iter().map(|&c| usize::from(c)).sum()
+    }
+
+    /// True when nothing is kept.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
     }
 }
 
-/// Scratch of [`select_targets`].
-#[derive(Default)]
-pub struct SelectScratch {
-    a: Vec<(f32, usize)>,
-    b: Vec<(f32, usize)>,
-    heap: Vec<Cursor>,
+/// Indices of `x` by `|x|` down, index up, into `order`, the magnitudes
+/// into `vals`; returns the number of non-zero entries (the zeros come
+/// last, in index order). A row of `D(s, o)` is mostly exact zeros (about
+/// two targets per level meet the footprint's edges), so only the few
+/// non-zeros are sorted (insertion sort).
+#[inline(always)]
+fn sort_magnitudes(x: &[f32], order: &mut Vec<u8>, vals: &mut Vec<f32>) -> usize {
+    let mut keys = [0u64; 64];
+    let mut nz = 0;
+    for (i, v) in x.iter().enumerate() {
+        if *v != 0.0 {
+            // Non-negative floats order as their bits; `!bits` puts large first.
+            let key = (u64::from(!v.abs().to_bits()) << 32) | i as u64;
+            let mut at = nz;
+            while at > 0 && keys[at - 1] > key {
+                keys[at] = keys[at - 1];
+                at -= 1;
+            }
+            keys[at] = key;
+            nz += 1;
+        }
+    }
+    order.resize(x.len(), 0);
+    vals.resize(x.len(), 0.0);
+    for (slot, &k) in keys[..nz].iter().enumerate() {
+        let i = (k & 0xff) as usize;
+        order[slot] = i as u8;
+        vals[slot] = x[i].abs();
+    }
+    let mut slot = nz;
+    for (i, v) in x.iter().enumerate() {
+        if *v == 0.0 {
+            order[slot] = i as u8;
+            vals[slot] = 0.0;
+            slot += 1;
+        }
+    }
+    nz
 }
 
-/// The `m` target indices `(k1, k2)` of largest `|a_{k1} b_{k2}|`, ties
-/// coarse first (module docs), appended to `out` (cleared). `a`, `b` are
-/// the heuristic's 1D predictions (row 0 of `D^x`, `D^y`).
+/// Entries with `va[i] · vb[j] ≥ v` per row into `rows`; their total.
+#[inline(always)]
+fn count_at_least(va: &[f32], vb: &[f32], v: f32, rows: &mut [u8]) -> usize {
+    let mut total = 0;
+    for (&x, r) in va.iter().zip(rows.iter_mut()) {
+        let c = vb.iter().filter(|&&y| x * y >= v).count();
+        *r = c as u8;
+        total += c;
+    }
+    total
+}
+
+/// Coarse-first rank of a 1D index, as [`relight_affine::standard::level_rank`].
+fn rank(i: usize) -> u32 {
+    if i == 0 { 0 } else { i.ilog2() + 1 }
+}
+
+/// [`crate::light::coarse_key`] packed into 32 bits (indices < 64).
+fn packed_coarse_key(k1: usize, k2: usize) -> u32 {
+    (rank(k1).max(rank(k2)) << 12) | ((k2 as u32) << 6) | k1 as u32
+}
+
+/// Entries between two bisection bounds at most that many are ranked
+/// directly (sorted) rather than bisected further; below it a small `m`
+/// ranks the candidates `(i + 1)(j + 1) ≤ m` directly (an entry outside
+/// has at least `m` entries at least as large and coarser on ties).
+const BRACKET: usize = 24;
+
+/// The mask of the `m` largest `|a_{k1} b_{k2}|`, ties coarse first
+/// (module docs), into `mask`.
+#[inline(always)]
+pub fn select_mask(a: &[f32], b: &[f32], m: usize, mask: &mut MaskCounts) {
+    let n = a.len();
+    debug_assert!(n <= 64 && b.len() == n);
+    let za = sort_magnitudes(a, &mut mask.sa, &mut mask.va);
+    let zb = sort_magnitudes(b, &mut mask.sb, &mut mask.vb);
+    mask.counts.clear();
+    mask.counts.resize(n, 0);
+    if m >= n * n {
+        mask.counts.fill(n as u8);
+        return;
+    }
+    if m == 0 {
+        return;
+    }
+    // The `za × zb` block of positive products comes first.
+    let block = za * zb;
+    if m >= block {
+        mask.counts[..za].fill(zb as u8);
+        ties_in_coarse_order(a, b, 0.0, m - block, mask);
+        return;
+    }
+    let (va, vb) = (&mask.va[..za], &mask.vb[..zb]);
+    let mut cand = [0u64; BRACKET];
+    let mut len = 0;
+    if m <= BRACKET / 2 {
+        for (i, &x) in va.iter().enumerate() {
+            let k1 = usize::from(mask.sa[i]);
+            for (j, &y) in vb.iter().enumerate().take(m / (i + 1)) {
+                if len == BRACKET {
+                    break;
+                }
+                let k2 = usize::from(mask.sb[j]);
+                cand[len] = candidate(x * y, k1, k2, i);
+                len += 1;
+            }
+        }
+        // Σ_i ⌊m/(i+1)⌋ ≤ m (1 + ln m) fits for m ≤ BRACKET/2 = 12 (≤ 37
+        // would not: the bound is checked, not assumed).
+        if len < BRACKET {
+            rank_candidates(&mut cand[..len], m, &mut mask.counts);
+            return;
+        }
+        len = 0;
+    }
+    // Bisection on the bit pattern of the threshold, with the row counts
+    // at both bounds: `counts` at `hi` (< m entries), `walk` at `lo` (≥ m).
+    mask.walk.clear();
+    mask.walk.resize(n, 0);
+    mask.walk[..za].fill(zb as u8);
+    let (mut lo, mut hi) = (0u32, (va[0] * vb[0]).to_bits() + 1);
+    let (mut at_lo, mut at_hi) = (block, 0usize);
+    let mut mid_rows = [0u8; 64];
+    let mid_rows = &mut mid_rows[..za];
+    while hi - lo > 1 && at_lo - at_hi > BRACKET {
+        let mid = lo + (hi - lo) / 2;
+        let c = count_at_least(va, vb, f32::from_bits(mid), mid_rows);
+        if c == m {
+            mask.counts[..za].copy_from_slice(mid_rows);
+            return;
+        }
+        if c > m {
+            (lo, at_lo) = (mid, c);
+            mask.walk[..za].copy_from_slice(mid_rows);
+        } else {
+            (hi, at_hi) = (mid, c);
+            mask.counts[..za].copy_from_slice(mid_rows);
+        }
+    }
+    // Everything at or above `hi` is kept; `need` more of the entries in
+    // [lo, hi), by value, then coarse first.
+    let need = m - at_hi;
+    if at_lo - at_hi <= BRACKET {
+        for (i, &x) in va.iter().enumerate() {
+            let k1 = usize::from(mask.sa[i]);
+            let (from, to) = (usize::from(mask.counts[i]), usize::from(mask.walk[i]));
+            for (&y, &k2) in vb[from..to].iter().zip(&mask.sb[from..to]) {
+                cand[len] = candidate(x * y, k1, usize::from(k2), i);
+                len += 1;
+            }
+        }
+        rank_candidates(&mut cand[..len], need, &mut mask.counts);
+        return;
+    }
+    // Many exact ties at τ = lo (equal magnitudes): the coarse-order walk.
+    ties_in_coarse_order(a, b, f32::from_bits(lo), need, mask);
+}
+
+/// A candidate's sort key: value down (inverted bits), then the coarse key
+/// up ([`packed_coarse_key`], 15 bits), then its row (8 bits).
+fn candidate(value: f32, k1: usize, k2: usize, row: usize) -> u64 {
+    (u64::from(!value.to_bits()) << 32) | (u64::from(packed_coarse_key(k1, k2)) << 8) | row as u64
+}
+
+/// Sorts candidates ([`candidate`], insertion sort: at most [`BRACKET`])
+/// and adds the first `need` to their rows' counts.
+fn rank_candidates(cand: &mut [u64], need: usize, counts: &mut [u8]) {
+    for i in 1..cand.len() {
+        let key = cand[i];
+        let mut at = i;
+        while at > 0 && cand[at - 1] > key {
+            cand[at] = cand[at - 1];
+            at -= 1;
+        }
+        cand[at] = key;
+    }
+    for &c in &cand[..need] {
+        counts[(c & 0xff) as usize] += 1;
+    }
+}
+
+/// Adds `need` entries with `|a_{k1} b_{k2}| = tau` to `mask.counts`, the
+/// 2D indices walked in coarse order (within a row, `k2` order: the order
+/// the row's equal products sit in, so counts stay prefixes).
+fn ties_in_coarse_order(a: &[f32], b: &[f32], tau: f32, mut need: usize, mask: &mut MaskCounts) {
+    if need == 0 {
+        return;
+    }
+    let n = a.len();
+    mask.ra.clear();
+    mask.ra.resize(n, 0);
+    for (row, &k1) in mask.sa.iter().enumerate() {
+        mask.ra[usize::from(k1)] = row as u8;
+    }
+    // Bit k set: |a_k| · x = tau can hold for k with a_k = 0 only, when
+    // tau = 0 (the common case: the targets no heuristic product reaches).
+    let zero_a: u64 = a
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| **v == 0.0)
+        .fold(0, |m, (k, _)| m | 1 << k);
+    for level in 0..=n.ilog2() {
+        let hi_k = 1usize << level;
+        let lo_k = hi_k / 2;
+        for (k2, bk) in b.iter().enumerate().take(hi_k) {
+            let from = if rank(k2) == level { 0 } else { lo_k };
+            let bk = bk.abs();
+            if tau == 0.0 && bk != 0.0 {
+                // Only the zeros of `a` in [from, hi_k).
+                let range = (u64::MAX >> (64 - hi_k)) & !((1u64 << from) - 1);
+                let mut bits = zero_a & range;
+                while bits != 0 {
+                    let k1 = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    mask.counts[usize::from(mask.ra[k1])] += 1;
+                    need -= 1;
+                    if need == 0 {
+                        return;
+                    }
+                }
+                continue;
+            }
+            for (k1, ak) in a.iter().enumerate().take(hi_k).skip(from) {
+                if ak.abs() * bk == tau {
+                    mask.counts[usize::from(mask.ra[k1])] += 1;
+                    need -= 1;
+                    if need == 0 {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The `m` target indices `(k1, k2)` of [`select_mask`], into `out`
+/// (cleared), grouped by `k1` in `a`'s order.
 pub fn select_targets(
     a: &[f32],
     b: &[f32],
     m: usize,
-    scratch: &mut SelectScratch,
+    mask: &mut MaskCounts,
     out: &mut Vec<(u16, u16)>,
 ) {
-    let n = a.len();
+    select_mask(a, b, m, mask);
     out.clear();
-    if m >= n * n {
-        for k2 in 0..n {
-            for k1 in 0..n {
-                out.push((k1 as u16, k2 as u16));
-            }
-        }
-        return;
-    }
-    // Each factor sorted by |value| desc, then index asc (= coarse first).
-    let sort = |v: &[f32], s: &mut Vec<(f32, usize)>| {
-        s.clear();
-        s.extend(v.iter().enumerate().map(|(i, x)| (x.abs(), i)));
-        s.sort_by(|p, q| q.0.total_cmp(&p.0).then(p.1.cmp(&q.1)));
-    };
-    sort(a, &mut scratch.a);
-    sort(b, &mut scratch.b);
-    let (sa, sb) = (&scratch.a, &scratch.b);
-    let mut heap = BinaryHeap::from(std::mem::take(&mut scratch.heap));
-    heap.clear();
-    for (row, &(av, k1)) in sa.iter().enumerate() {
-        let (bv, k2) = if av == 0.0 { (0.0, 0) } else { sb[0] };
-        heap.push(Cursor {
-            value: av * bv,
-            key: coarse_key(k1, k2),
-            row,
-            pos: 0,
-        });
-    }
-    // A row whose factor is zero is all ties: it runs in index order (=
-    // coarse first), not in the order of `b`.
-    let col = |row: usize, pos: usize| -> (f32, usize) {
-        if sa[row].0 == 0.0 {
-            (0.0, pos)
-        } else {
-            sb[pos]
-        }
-    };
-    while out.len() < m {
-        let Some(c) = heap.pop() else { break };
-        let k1 = sa[c.row].1;
-        let k2 = col(c.row, c.pos).1;
-        out.push((k1 as u16, k2 as u16));
-        if c.pos + 1 < n {
-            let (bv, k2) = col(c.row, c.pos + 1);
-            heap.push(Cursor {
-                value: sa[c.row].0 * bv,
-                key: coarse_key(k1, k2),
-                row: c.row,
-                pos: c.pos + 1,
-            });
-        }
-    }
-    scratch.heap = heap.into_vec();
+    out.extend(mask.pairs());
 }
 
-/// Per-thread scratch of [`shade`].
+/// Per-thread scratch of [`shade_vertex`].
 #[derive(Clone, Debug, Default)]
-pub struct ShadeScratch {
+pub struct VertexScratch {
+    x: Axis,
+    y: Axis,
+    a: Vec<f32>,
+    b: Vec<f32>,
+    mask: MaskCounts,
+    /// Rows of `D^x` by `i1`, built on first use (bit `i1` of `dx_done`).
+    dx: Vec<f32>,
+    dx_done: u64,
+    row: Vec<f32>,
     z: Vec<f32>,
     dyt: Vec<f32>,
     w: Vec<f32>,
     acc: Vec<f32>,
 }
 
-/// Step 1 of the kernel (module docs) into `z` (`[r][c][k1]`), and
-/// `D^y`'s source rows transposed into `dyt` (`[k2][r]`).
-fn step_one(src: &SourceTerms, dx: &[f32], dy: &[f32], z: &mut [f32], dyt: &mut [f32]) {
-    let n = src.n;
+/// The fused kernel (module docs) for one vertex seen through the affine
+/// map `(s, o)` (per axis, [`crate::face::LightFrame::affine`]):
+/// `B[c] = Σ_{k ∈ mask} L_k[c] T_k[c]` with `m` targets. `transport` is the
+/// vertex's `n²` coefficients (one channel, the same for every colour) or
+/// `3 n²` (one block per channel), layout `k2 · n + k1`.
+#[must_use]
+pub fn shade_vertex(
+    p: &Primitives,
+    src: &SourceTerms,
+    s: [f64; 2],
+    o: [f64; 2],
+    transport: &[f32],
+    m: usize,
+    sc: &mut VertexScratch,
+) -> [f32; 3] {
+    #[cfg(target_arch = "x86_64")]
+    if p.avx2 {
+        // SAFETY: AVX2 was detected at run time (`Primitives::new`).
+        return unsafe { shade_vertex_avx2(p, src, s, o, transport, m, sc) };
+    }
+    shade_vertex_body(p, src, s, o, transport, m, sc)
+}
+
+/// [`shade_vertex`] compiled for AVX2 (its loops run over `n` targets or
+/// `R` source rows: 8 lanes instead of 4).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn shade_vertex_avx2(
+    p: &Primitives,
+    src: &SourceTerms,
+    s: [f64; 2],
+    o: [f64; 2],
+    transport: &[f32],
+    m: usize,
+    sc: &mut VertexScratch,
+) -> [f32; 3] {
+    shade_vertex_body(p, src, s, o, transport, m, sc)
+}
+
+#[inline(always)]
+fn shade_vertex_body(
+    p: &Primitives,
+    src: &SourceTerms,
+    s: [f64; 2],
+    o: [f64; 2],
+    transport: &[f32],
+    m: usize,
+    sc: &mut VertexScratch,
+) -> [f32; 3] {
+    let n = p.n;
     let rows = src.rows.len();
+    if rows == 0 {
+        return [0.0; 3];
+    }
+    debug_assert_eq!(src.n, n);
+    sc.x.reset(n, s[0], o[0]);
+    sc.y.reset(n, s[1], o[1]);
+    sc.a.resize(n, 0.0);
+    sc.b.resize(n, 0.0);
+    sc.x.acc_row(p, 0, &mut sc.a);
+    sc.y.acc_row(p, 0, &mut sc.b);
+    select_mask(&sc.a, &sc.b, m, &mut sc.mask);
+    sc.dx.resize(n * n, 0.0);
+    sc.dx_done = 0;
+    sc.row.resize(n, 0.0);
+    sc.z.resize(rows * 3 * n, 0.0);
+    // D^y's rows transposed, each k2's `R` values padded with zeros to
+    // whole vectors of LANES (the fuse's lanes).
+    let stride = rows.div_ceil(LANES) * LANES;
+    sc.dyt.clear();
+    sc.dyt.resize(n * stride, 0.0);
+    // Step 1, and D^y's source rows transposed to [k2][r].
     for (r, &(i2, start, end)) in src.rows.iter().enumerate() {
-        let z = &mut z[r * 3 * n..(r + 1) * 3 * n];
+        let z = &mut sc.z[r * 3 * n..(r + 1) * 3 * n];
         z.fill(0.0);
         let (z0, rest) = z.split_at_mut(n);
         let (z1, z2) = rest.split_at_mut(n);
         for t in &src.terms[start as usize..end as usize] {
-            let d = &dx[t.i1 as usize * n..(t.i1 as usize + 1) * n];
+            let i1 = usize::from(t.i1);
+            let d = &mut sc.dx[i1 * n..(i1 + 1) * n];
+            if sc.dx_done >> i1 & 1 == 0 {
+                sc.x.acc_row(p, i1, d);
+                sc.dx_done |= 1 << i1;
+            }
             let [c0, c1, c2] = t.rgb;
-            for (((a, b), c), &dk) in z0.iter_mut().zip(z1.iter_mut()).zip(z2.iter_mut()).zip(d) {
+            for (((a, b), c), &dk) in z0.iter_mut().zip(z1.iter_mut()).zip(z2.iter_mut()).zip(&*d) {
                 *a += c0 * dk;
                 *b += c1 * dk;
                 *c += c2 * dk;
             }
         }
-        let dyr = &dy[i2 as usize * n..(i2 as usize + 1) * n];
-        for (k2, &d) in dyr.iter().enumerate() {
-            dyt[k2 * rows + r] = d;
+        sc.y.acc_row(p, usize::from(i2), &mut sc.row);
+        for (k2, &d) in sc.row.iter().enumerate() {
+            sc.dyt[k2 * stride + r] = d;
         }
+    }
+    if transport.len() == 3 * n * n {
+        fuse_dot::<3>(n, rows, stride, transport, sc)
+    } else {
+        fuse_dot::<1>(n, rows, stride, transport, sc)
     }
 }
 
-/// [`shade`] for an RGB transport: `B[c] = Σ_{k ∈ mask} L_k[c] T_k[c]`.
-/// Step 1 is shared; the fuse runs per channel (`W_c`, `3 R m` FMA) and
-/// the dot pairs `Z[c]` with `W_c`. `mask` sorted by `k1` ([`sort_mask`]).
-#[must_use]
-pub fn shade_rgb(
-    src: &SourceTerms,
-    dx: &[f32],
-    dy: &[f32],
-    mask: &[MaskEntryRgb],
-    scratch: &mut ShadeScratch,
+/// Lanes of the fuse's vectors (`R` source rows padded to a multiple).
+const LANES: usize = 8;
+
+/// The fuse and the dot of [`shade_vertex`] for a `C`-channel transport;
+/// `D^y` transposed in `sc.dyt` with `stride` (≥ `rows`, a multiple of
+/// [`LANES`]) values per `k2`.
+#[inline(always)]
+fn fuse_dot<const C: usize>(
+    n: usize,
+    rows: usize,
+    stride: usize,
+    transport: &[f32],
+    sc: &mut VertexScratch,
 ) -> [f32; 3] {
-    let n = src.n;
-    let rows = src.rows.len();
-    if rows == 0 {
-        return [0.0; 3];
-    }
-    scratch.z.resize(rows * 3 * n, 0.0);
-    scratch.dyt.resize(n * rows, 0.0);
-    scratch.w.resize(3 * n * rows, 0.0);
-    scratch.acc.resize(3 * rows, 0.0);
-    step_one(src, dx, dy, &mut scratch.z, &mut scratch.dyt);
-    // Fuse: W_c[k1][r] = Σ_{(k1,k2) ∈ mask} D^y[i2_r][k2] T_c.
-    scratch.w.fill(0.0);
-    let acc = &mut scratch.acc;
-    let mut i = 0;
-    while i < mask.len() {
-        let k1 = mask[i].k1 as usize;
-        acc.fill(0.0);
-        while i < mask.len() && mask[i].k1 as usize == k1 {
-            let e = mask[i];
-            let k2 = (e.k2 as usize).min(n - 1);
-            let d = &scratch.dyt[k2 * rows..(k2 + 1) * rows];
-            let (a0, rest) = acc.split_at_mut(rows);
-            let (a1, a2) = rest.split_at_mut(rows);
-            for (((x0, x1), x2), &dv) in a0.iter_mut().zip(a1.iter_mut()).zip(a2.iter_mut()).zip(d)
-            {
-                *x0 += dv * e.t[0];
-                *x1 += dv * e.t[1];
-                *x2 += dv * e.t[2];
-            }
-            i += 1;
+    let nn = n * n;
+    sc.w.clear();
+    sc.w.resize(C * n * stride, 0.0);
+    sc.acc.resize(C * stride, 0.0);
+    let mask = &sc.mask;
+    // W_c[k1][r] = Σ_{(k1,k2) ∈ mask} D^y[i2_r][k2] T_c[k2][k1], summed in
+    // `acc` per k1 (one row of the mask) and stored once.
+    for (i, &count) in mask.counts.iter().enumerate() {
+        if count == 0 {
+            continue;
         }
-        let k1 = k1.min(n - 1);
-        for c in 0..3 {
-            let at = (c * n + k1) * rows;
-            scratch.w[at..at + rows].copy_from_slice(&acc[c * rows..(c + 1) * rows]);
+        let k1 = usize::from(mask.sa[i]);
+        let zero = mask.va[i] == 0.0;
+        sc.acc.fill(0.0);
+        for j in 0..usize::from(count) {
+            let k2 = if zero { j } else { usize::from(mask.sb[j]) };
+            let d = &sc.dyt[k2 * stride..(k2 + 1) * stride];
+            for (ch, acc) in sc.acc.chunks_exact_mut(stride).enumerate() {
+                let t = transport[ch * nn + k2 * n + k1];
+                for (x, dv) in acc
+                    .as_chunks_mut::<LANES>()
+                    .0
+                    .iter_mut()
+                    .zip(d.as_chunks::<LANES>().0)
+                {
+                    // Loads before stores (whole vectors: `acc` and `dyt`
+                    // are not known apart here).
+                    let (mut xv, dv) = (*x, *dv);
+                    for (x, dv) in xv.iter_mut().zip(dv) {
+                        *x += dv * t;
+                    }
+                    *x = xv;
+                }
+            }
+        }
+        for (ch, acc) in sc.acc.chunks_exact(stride).enumerate() {
+            let at = (ch * n + k1) * stride;
+            sc.w[at..at + stride].copy_from_slice(acc);
         }
     }
     // Dot: B[c] = Σ_r Σ_k1 Z[r][c][k1] W_c[k1][r].
     let mut out = [0.0f32; 3];
     for r in 0..rows {
-        let z = &scratch.z[r * 3 * n..(r + 1) * 3 * n];
+        let z = &sc.z[r * 3 * n..(r + 1) * 3 * n];
         for (c, o) in out.iter_mut().enumerate() {
-            let w = &scratch.w[c * n * rows..(c + 1) * n * rows];
+            let w = &sc.w[(c % C) * n * stride..];
+            let zc = &z[c * n..(c + 1) * n];
             let mut b = 0.0f32;
-            for k1 in 0..n {
-                b += z[c * n + k1] * w[k1 * rows + r];
+            for (k1, &zv) in zc.iter().enumerate() {
+                b += zv * w[k1 * stride + r];
             }
             *o += b;
         }
@@ -271,88 +691,25 @@ pub fn shade_rgb(
     out
 }
 
-/// The fused kernel (module docs): `Σ_{k ∈ mask} L_k[c] T_k` for one vertex.
-/// `mask` is sorted by `k1` ([`sort_mask`]), so each `W_{·,k1}` is summed in
-/// registers over its group and stored once; the `R` source rows are the
-/// vector lanes of that sum (`D^y` transposed to `[k2][r]`).
-#[must_use]
-pub fn shade(
-    src: &SourceTerms,
-    dx: &[f32],
-    dy: &[f32],
-    mask: &[MaskEntry],
-    scratch: &mut ShadeScratch,
-) -> [f32; 3] {
-    let n = src.n;
-    let rows = src.rows.len();
-    if rows == 0 {
-        return [0.0; 3];
-    }
-    scratch.z.resize(rows * 3 * n, 0.0);
-    scratch.dyt.resize(n * rows, 0.0);
-    scratch.w.resize(n * rows, 0.0);
-    scratch.acc.resize(rows, 0.0);
-    // Step 1, and D^y's source rows transposed.
-    step_one(src, dx, dy, &mut scratch.z, &mut scratch.dyt);
-    // Fuse: W[k1][r] = Σ_{(k1,k2) ∈ mask} D^y[i2_r][k2] T.
-    scratch.w.fill(0.0);
-    let acc = &mut scratch.acc;
-    let mut i = 0;
-    while i < mask.len() {
-        let k1 = mask[i].k1 as usize;
-        acc.fill(0.0);
-        while i < mask.len() && mask[i].k1 as usize == k1 {
-            let e = mask[i];
-            let k2 = (e.k2 as usize).min(n - 1);
-            let d = &scratch.dyt[k2 * rows..(k2 + 1) * rows];
-            for (a, &dv) in acc.iter_mut().zip(d) {
-                *a += dv * e.t;
-            }
-            i += 1;
+/// Asks for `data`'s cache lines ahead of use: the next vertex's
+/// transport, whose coefficients the mask reads scattered (x86-64: one
+/// prefetch per line; elsewhere nothing).
+pub fn prefetch(data: &[f32]) {
+    #[cfg(target_arch = "x86_64")]
+    for p in (0..data.len()).step_by(16) {
+        // SAFETY: `p < data.len()`: the address is inside `data`; a
+        // prefetch has no architectural effect.
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                data.as_ptr().add(p).cast(),
+            );
         }
-        let k1 = k1.min(n - 1);
-        scratch.w[k1 * rows..(k1 + 1) * rows].copy_from_slice(acc);
     }
-    // Dot: B[c] = Σ_r Σ_k1 Z[r][c][k1] W[k1][r].
-    let mut out = [0.0f32; 3];
-    for r in 0..rows {
-        let z = &scratch.z[r * 3 * n..(r + 1) * 3 * n];
-        let (mut b0, mut b1, mut b2) = (0.0f32, 0.0f32, 0.0f32);
-        for k1 in 0..n {
-            let wk = scratch.w[k1 * rows + r];
-            b0 += z[k1] * wk;
-            b1 += z[n + k1] * wk;
-            b2 += z[2 * n + k1] * wk;
-        }
-        out[0] += b0;
-        out[1] += b1;
-        out[2] += b2;
-    }
-    out
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = data;
 }
 
-/// Sorts mask entries by `k1` (counting sort, stable in `k2` order of
-/// selection): the order [`shade`] needs.
-pub fn sort_mask<E: MaskKey>(mask: &mut [E], n: usize, tmp: &mut Vec<E>, counts: &mut Vec<u32>) {
-    counts.clear();
-    counts.resize(n + 1, 0);
-    for e in mask.iter() {
-        counts[e.k1() as usize + 1] += 1;
-    }
-    for k in 0..n {
-        counts[k + 1] += counts[k];
-    }
-    tmp.clear();
-    tmp.resize(mask.len(), E::default());
-    for e in mask.iter() {
-        let at = &mut counts[e.k1() as usize];
-        tmp[*at as usize] = *e;
-        *at += 1;
-    }
-    mask.copy_from_slice(tmp);
-}
-
-/// FMAs of one [`shade`] call (module docs' counts).
+/// FMAs of one one-channel [`shade_vertex`] call (module docs' counts).
 #[must_use]
 pub fn shade_fma(src: &SourceTerms, m: usize) -> usize {
     let n = src.n;
@@ -360,7 +717,7 @@ pub fn shade_fma(src: &SourceTerms, m: usize) -> usize {
     src.len() * n * 3 + r * m + r * n * 3
 }
 
-/// FMAs of one [`shade_rgb`] call: the fuse three times.
+/// FMAs of one RGB [`shade_vertex`] call: the fuse three times.
 #[must_use]
 pub fn shade_rgb_fma(src: &SourceTerms, m: usize) -> usize {
     shade_fma(src, m) + 2 * src.rows.len() * m
@@ -369,19 +726,133 @@ pub fn shade_rgb_fma(src: &SourceTerms, m: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use relight_affine::standard::acc_matrix_fast;
 
     #[test]
-    fn sort_mask_groups_by_k1_keeping_order() {
-        let mut m: Vec<MaskEntry> = [(3, 1), (0, 2), (3, 0), (1, 1), (0, 0)]
-            .iter()
-            .map(|&(k1, k2)| MaskEntry {
-                k1,
-                k2,
-                t: f32::from(k2),
-            })
-            .collect();
-        sort_mask(&mut m, 4, &mut Vec::new(), &mut Vec::new());
-        let got: Vec<(u16, u16)> = m.iter().map(|e| (e.k1, e.k2)).collect();
-        assert_eq!(got, vec![(0, 2), (0, 0), (1, 1), (3, 1), (3, 0)]);
+    fn rows_from_shared_primitives_match_the_primitive_form() {
+        for n in [4, 8, 32, 64] {
+            let p = Primitives::new(n);
+            let mut want = vec![0.0f32; n * n];
+            let mut got = vec![0.0f32; n];
+            for (s, o) in [
+                (1.0, 0.0),
+                (0.37, 0.21),
+                (2.5, -0.8),
+                (7.3, -3.1),
+                (0.9, 0.6),
+            ] {
+                acc_matrix_fast(n, s, o, &mut want);
+                for i in 0..n {
+                    acc_row(&p, s, o, i, &mut got);
+                    // The source's support in v.
+                    let (l, t) = if i == 0 {
+                        (0, 0)
+                    } else {
+                        (i.ilog2(), i - (1 << i.ilog2()))
+                    };
+                    let w = 1.0 / f64::from(1u32 << l);
+                    let (va, vb) = ((t as f64 * w - o) / s, ((t + 1) as f64 * w - o) / s);
+                    for k in 0..n {
+                        let (g, w) = (got[k], want[i * n + k]);
+                        assert!(
+                            (g - w).abs() <= 1e-5,
+                            "n {n} s {s} o {o} D[{i}][{k}] {g} vs {w}"
+                        );
+                        // A target whose support misses the source's is an exact zero.
+                        let (kl, kt) = if k == 0 {
+                            (0, 0)
+                        } else {
+                            (k.ilog2(), k - (1 << k.ilog2()))
+                        };
+                        let kw = 1.0 / f64::from(1u32 << kl);
+                        if vb <= kt as f64 * kw || va >= (kt + 1) as f64 * kw {
+                            assert_eq!(g, 0.0, "n {n} s {s} o {o} D[{i}][{k}] not an exact zero");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// A tiny deterministic generator for the kernel test's data.
+    fn noise(seed: &mut u64) -> f32 {
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*seed >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    }
+
+    /// The fused kernel, on both compiled paths, equals the masked sum
+    /// `Σ_{k ∈ mask} L_k[c] T_k[c]` computed the long way: dense ACC
+    /// matrices (`acc_matrix_fast`), the propagated light of every target,
+    /// the mask from `select_targets`.
+    #[test]
+    fn fused_kernel_equals_the_masked_dense_sum() {
+        use crate::light::SourceTerm;
+        let n = 16;
+        let nn = n * n;
+        let mut seed = 7u64;
+        // Source terms on a few rows, some rows with several terms.
+        let mut src = SourceTerms {
+            n,
+            ..SourceTerms::default()
+        };
+        for (i2, i1s) in [
+            (0u16, vec![0u16, 1, 5]),
+            (3, vec![2]),
+            (9, vec![0, 7, 8, 15]),
+        ] {
+            let at = src.terms.len() as u32;
+            for i1 in i1s {
+                src.terms.push(SourceTerm {
+                    i1,
+                    rgb: [noise(&mut seed), noise(&mut seed), noise(&mut seed)],
+                });
+            }
+            src.rows.push((i2, at, src.terms.len() as u32));
+        }
+        let transport: Vec<f32> = (0..3 * nn).map(|_| noise(&mut seed)).collect();
+        let mut dx = vec![0.0f32; nn];
+        let mut dy = vec![0.0f32; nn];
+        let mut mask = MaskCounts::default();
+        let mut pairs = Vec::new();
+        for (s, o) in [([0.6, 1.7], [0.1, -0.4]), ([3.2, 2.4], [-1.1, -0.9])] {
+            acc_matrix_fast(n, s[0], o[0], &mut dx);
+            acc_matrix_fast(n, s[1], o[1], &mut dy);
+            for m in [3, 40, 130, nn] {
+                select_targets(&dx[..n], &dy[..n], m, &mut mask, &mut pairs);
+                for channels in [1, 3] {
+                    let t = &transport[..channels * nn];
+                    let mut want = [0.0f64; 3];
+                    for &(k1, k2) in &pairs {
+                        let (k1, k2) = (usize::from(k1), usize::from(k2));
+                        for (c, w) in want.iter_mut().enumerate() {
+                            // L_k[c] = Σ_terms F[c] D^x[i1][k1] D^y[i2][k2].
+                            let mut l = 0.0f64;
+                            for &(i2, a, b) in &src.rows {
+                                for term in &src.terms[a as usize..b as usize] {
+                                    l += f64::from(term.rgb[c])
+                                        * f64::from(dx[usize::from(term.i1) * n + k1])
+                                        * f64::from(dy[usize::from(i2) * n + k2]);
+                                }
+                            }
+                            let tc = if channels == 3 { c } else { 0 };
+                            *w += l * f64::from(t[tc * nn + k2 * n + k1]);
+                        }
+                    }
+                    for p in [Primitives::new(n), Primitives::portable(n)] {
+                        let mut sc = VertexScratch::default();
+                        let got = shade_vertex(&p, &src, s, o, t, m, &mut sc);
+                        for c in 0..3 {
+                            assert!(
+                                (f64::from(got[c]) - want[c]).abs() <= 1e-4 * (1.0 + want[c].abs()),
+                                "s {s:?} m {m} channels {channels} avx2 {}: {got:?} vs {want:?}",
+                                p.avx2
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 }

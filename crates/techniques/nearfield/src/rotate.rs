@@ -9,7 +9,7 @@
 //! bounds it: that rectangle's radiance is the light's texture where the
 //! turned rectangle covers it and zero elsewhere, and the method proceeds
 //! as for an unturned light of the bounding rectangle's size (the same
-//! affine map, eq. 4.34; the same ACC matrices and masks, eq. 4.38).
+//! affine map, eq. 4.34; the same ACC rows and masks, eq. 4.38).
 //! For a square light this is the bounding square.
 //!
 //! With the light's `x̂ = c x̂_b + s ŷ_b` in the baked axes `(x̂_b, ŷ_b)`

@@ -6,7 +6,7 @@ use glam::{Vec2, Vec3};
 use relight_affine::standard::propagate_two_step;
 use relight_nearfield::face::LightFrame;
 use relight_nearfield::light::{LightCoeffs, coarse_key};
-use relight_nearfield::propagate::{SelectScratch, select_targets};
+use relight_nearfield::propagate::{MaskCounts, Primitives, acc_row, select_targets};
 use relight_nearfield::scenes::floor_and_sphere;
 use relight_nearfield::transport::{TransportScratch, cell_cosines};
 use relight_nearfield::verify::{face_quadrature, one_vertex_error};
@@ -48,14 +48,9 @@ fn affine_map_matches_ray_plane_intersection() {
     }
 }
 
-/// The k-way merge keeps exactly the m largest |a b|, ties coarse first.
-#[test]
-fn target_mask_is_the_top_m_with_coarse_ties() {
-    let n = 16;
-    let a: Vec<f32> = (0..n)
-        .map(|i| [0.0, 0.5, -0.5, 0.25][i % 4] * (1.0 + (i / 4) as f32))
-        .collect();
-    let b: Vec<f32> = (0..n).map(|i| [1.0, 0.0, -0.3, 0.3][(i * 3) % 4]).collect();
+/// The m largest |a_k1 b_k2|, ties coarse first, by brute force: every
+/// product sorted by value (down), then the coarse key.
+fn top_m_by_brute_force(a: &[f32], b: &[f32], m: usize) -> Vec<(u16, u16)> {
     type Keyed = (f32, (u32, usize, usize), (u16, u16));
     let mut all: Vec<Keyed> = Vec::new();
     for (k2, bv) in b.iter().enumerate() {
@@ -64,12 +59,47 @@ fn target_mask_is_the_top_m_with_coarse_ties() {
         }
     }
     all.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
-    let mut sc = SelectScratch::default();
+    let mut want: Vec<(u16, u16)> = all[..m].iter().map(|x| x.2).collect();
+    want.sort_unstable();
+    want
+}
+
+/// The mask keeps exactly the m largest |a b|, ties coarse first: on
+/// factors with many equal magnitudes and zeros, and on the heuristic's
+/// real factors (row 0 of D^x, D^y) over a range of affine maps, for every
+/// path of the selection (all kept, small m, bisection, ties at zero).
+#[test]
+fn target_mask_is_the_top_m_with_coarse_ties() {
+    let mut sc = MaskCounts::default();
     let mut out = Vec::new();
-    for m in [1, 7, 40, 120, 255] {
-        select_targets(&a, &b, m, &mut sc, &mut out);
-        let want: Vec<(u16, u16)> = all[..m].iter().map(|x| x.2).collect();
-        assert_eq!(out, want, "m = {m}");
+    let mut check = |a: &[f32], b: &[f32], m: usize, what: &str| {
+        select_targets(a, b, m, &mut sc, &mut out);
+        out.sort_unstable();
+        assert_eq!(out, top_m_by_brute_force(a, b, m), "{what}, m = {m}");
+    };
+    let n = 16;
+    let a: Vec<f32> = (0..n)
+        .map(|i| [0.0, 0.5, -0.5, 0.25][i % 4] * (1.0 + (i / 4) as f32))
+        .collect();
+    let b: Vec<f32> = (0..n).map(|i| [1.0, 0.0, -0.3, 0.3][(i * 3) % 4]).collect();
+    for m in [1, 7, 12, 13, 40, 120, 255, 256] {
+        check(&a, &b, m, "equal magnitudes");
+    }
+    let n = 32;
+    let p = Primitives::new(n);
+    let (mut ra, mut rb) = (vec![0.0f32; n], vec![0.0f32; n]);
+    for (s, o) in [
+        ([0.4, 0.7], [0.3, 0.1]),
+        ([1.3, 2.2], [-0.2, -0.6]),
+        ([3.7, 5.1], [-1.4, -2.0]),
+        ([9.0, 0.9], [-4.1, 0.05]),
+        ([1.0, 1.0], [0.0, 0.0]),
+    ] {
+        acc_row(&p, s[0], o[0], 0, &mut ra);
+        acc_row(&p, s[1], o[1], 0, &mut rb);
+        for m in [1, 5, 10, 12, 20, 51, 102, 205, 410, 717, 1023] {
+            check(&ra, &rb, m, &format!("D row 0 at s {s:?} o {o:?}"));
+        }
     }
 }
 
