@@ -41,7 +41,7 @@ use crate::cache::{BakeKey, CacheError};
 use crate::face::LightFrame;
 use crate::light::{LightCoeffs, SourceTerms, compress, count_of};
 use crate::propagate::{
-    Primitives, VertexScratch, prefetch, shade_fma, shade_rgb_fma, shade_vertex,
+    Kernel, Primitives, VertexMap, VertexScratch, prefetch, shade_fma, shade_rgb_fma, shade_vertex,
 };
 use crate::rotate::InPlane;
 use crate::specular::{
@@ -629,8 +629,12 @@ impl NearfieldMethod {
         let (n, face) = (self.options.order, self.options.face);
         let m = self.target_count();
         let nn = n * n;
-        let src = &self.source;
         let prims = Primitives::new(n);
+        let kernel = Kernel {
+            primitives: &prims,
+            source: &self.source,
+            targets: m,
+        };
         let frame = self.light_frame;
         self.colors = self
             .objects
@@ -652,8 +656,8 @@ impl NearfieldMethod {
                         if let Some(next) = p.transport.values.get((v + 1) * per..(v + 2) * per) {
                             prefetch(next);
                         }
-                        let b =
-                            Vec3::from(shade_vertex(&prims, src, s, o, t, m, sc)).max(Vec3::ZERO);
+                        let vertex = VertexMap { s, o, transport: t };
+                        let b = Vec3::from(shade_vertex(&kernel, &vertex, sc)).max(Vec3::ZERO);
                         if channels == 3 {
                             return b;
                         }

@@ -517,55 +517,50 @@ pub struct VertexScratch {
     acc: Vec<f32>,
 }
 
-/// The fused kernel (module docs) for one vertex seen through the affine
-/// map `(s, o)` (per axis, [`crate::face::LightFrame::affine`]):
-/// `B[c] = Σ_{k ∈ mask} L_k[c] T_k[c]` with `m` targets. `transport` is the
-/// vertex's `n²` coefficients (one channel, the same for every colour) or
-/// `3 n²` (one block per channel), layout `k2 · n + k1`.
+/// What every vertex of one propagation shares: the basis' primitives,
+/// the compressed source terms and the target count `m`.
+#[derive(Clone, Copy, Debug)]
+pub struct Kernel<'a> {
+    pub primitives: &'a Primitives,
+    pub source: &'a SourceTerms,
+    pub targets: usize,
+}
+
+/// One vertex: its affine map `(s, o)` per axis
+/// ([`crate::face::LightFrame::affine`]) and its transport, `n²`
+/// coefficients (one channel, the same for every colour) or `3 n²` (one
+/// block per channel), layout `k2 · n + k1`.
+#[derive(Clone, Copy, Debug)]
+pub struct VertexMap<'a> {
+    pub s: [f64; 2],
+    pub o: [f64; 2],
+    pub transport: &'a [f32],
+}
+
+/// The fused kernel (module docs) for one vertex:
+/// `B[c] = Σ_{k ∈ mask} L_k[c] T_k[c]`.
 #[must_use]
-pub fn shade_vertex(
-    p: &Primitives,
-    src: &SourceTerms,
-    s: [f64; 2],
-    o: [f64; 2],
-    transport: &[f32],
-    m: usize,
-    sc: &mut VertexScratch,
-) -> [f32; 3] {
+pub fn shade_vertex(k: &Kernel, v: &VertexMap, sc: &mut VertexScratch) -> [f32; 3] {
     #[cfg(target_arch = "x86_64")]
-    if p.avx2 {
+    if k.primitives.avx2 {
         // SAFETY: AVX2 was detected at run time (`Primitives::new`).
-        return unsafe { shade_vertex_avx2(p, src, s, o, transport, m, sc) };
+        return unsafe { shade_vertex_avx2(k, v, sc) };
     }
-    shade_vertex_body(p, src, s, o, transport, m, sc)
+    shade_vertex_body(k, v, sc)
 }
 
 /// [`shade_vertex`] compiled for AVX2 (its loops run over `n` targets or
 /// `R` source rows: 8 lanes instead of 4).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn shade_vertex_avx2(
-    p: &Primitives,
-    src: &SourceTerms,
-    s: [f64; 2],
-    o: [f64; 2],
-    transport: &[f32],
-    m: usize,
-    sc: &mut VertexScratch,
-) -> [f32; 3] {
-    shade_vertex_body(p, src, s, o, transport, m, sc)
+unsafe fn shade_vertex_avx2(k: &Kernel, v: &VertexMap, sc: &mut VertexScratch) -> [f32; 3] {
+    shade_vertex_body(k, v, sc)
 }
 
 #[inline(always)]
-fn shade_vertex_body(
-    p: &Primitives,
-    src: &SourceTerms,
-    s: [f64; 2],
-    o: [f64; 2],
-    transport: &[f32],
-    m: usize,
-    sc: &mut VertexScratch,
-) -> [f32; 3] {
+fn shade_vertex_body(k: &Kernel, v: &VertexMap, sc: &mut VertexScratch) -> [f32; 3] {
+    let (p, src, m) = (k.primitives, k.source, k.targets);
+    let (s, o, transport) = (v.s, v.o, v.transport);
     let n = p.n;
     let rows = src.rows.len();
     if rows == 0 {
@@ -842,7 +837,13 @@ mod tests {
                     }
                     for p in [Primitives::new(n), Primitives::portable(n)] {
                         let mut sc = VertexScratch::default();
-                        let got = shade_vertex(&p, &src, s, o, t, m, &mut sc);
+                        let kernel = Kernel {
+                            primitives: &p,
+                            source: &src,
+                            targets: m,
+                        };
+                        let vertex = VertexMap { s, o, transport: t };
+                        let got = shade_vertex(&kernel, &vertex, &mut sc);
                         for c in 0..3 {
                             assert!(
                                 (f64::from(got[c]) - want[c]).abs() <= 1e-4 * (1.0 + want[c].abs()),
