@@ -263,12 +263,8 @@ fn object(
             let p = resolve(m);
             let (mesh, report) = relight_assets::load_mesh(&p)
                 .map_err(|source| cx.file_err(&format!("{key}.mesh"), source))?;
-            warnings.extend(
-                report
-                    .warnings
-                    .into_iter()
-                    .map(|w| format!("{}: {w}", p.display())),
-            );
+            // The asset layer's warnings name the file already.
+            warnings.extend(report.warnings);
             (mesh, m.clone())
         }
         (None, Some(b)) => {

@@ -24,13 +24,9 @@ pub enum TextureFileError {
 }
 
 fn read(path: &Path, enc: ColorEncoding) -> Result<(RgbImage, Vec<String>), TextureFileError> {
+    // The asset layer's warnings name the file already.
     let (img, report) = read_image_with(path, enc)?;
-    let warnings = report
-        .warnings
-        .into_iter()
-        .map(|w| format!("{}: {w}", path.display()))
-        .collect();
-    Ok((img, warnings))
+    Ok((img, report.warnings))
 }
 
 fn texels_err(path: &Path) -> impl FnOnce(TextureError) -> TextureFileError + '_ {

@@ -395,3 +395,34 @@ fn texture_files() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A soft problem in a texture or a mesh is a warning that names its file
+/// once (the asset layer names it; the scene loader passes it on).
+#[test]
+fn file_warnings_name_the_file_once() {
+    let dir = common::temp_dir("file-warnings");
+    let mut px = vec![Vec3::splat(0.5); 4];
+    px[0] = Vec3::new(-1.0, 0.5, 0.5);
+    relight_assets::write_exr(&dir.join("neg.exr"), 2, 2, &px).unwrap();
+    // A degenerate (zero-area) triangle beside a good one: repaired, warned.
+    std::fs::write(
+        dir.join("two.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n",
+    )
+    .unwrap();
+    let text = "[[object]]\nmesh = \"two.obj\"\n\
+                [[area_light]]\ncenter = [0, 2, 0]\nsize = [1, 1]\nnormal = [0, -1, 0]\nintensity = 2\ntexture = \"neg.exr\"\n";
+    let l =
+        load_scene_text(text, &dir.join("ok.toml"), Some((8, 8))).unwrap_or_else(|e| panic!("{e}"));
+    for file in ["neg.exr", "two.obj"] {
+        let hits: Vec<&String> = l.warnings.iter().filter(|w| w.contains(file)).collect();
+        assert!(
+            !hits.is_empty(),
+            "no warning names {file}: {:?}",
+            l.warnings
+        );
+        for w in hits {
+            assert_eq!(w.matches(file).count(), 1, "{file} named twice: {w}");
+        }
+    }
+}
