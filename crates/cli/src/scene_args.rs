@@ -40,9 +40,12 @@ pub fn load_normal_map(path: &Path) -> Result<relight_render::NormalMap> {
             format,
             relight_assets::ImageFormat::Exr | relight_assets::ImageFormat::Hdr
         ),
-        "--normal-map {}: a {} image is linear radiance, not a normal map (give a tangent-space PNG or JPEG)",
+        "--normal-map {}: {} is linear radiance, not a normal map (give a tangent-space PNG or JPEG)",
         path.display(),
-        format.name()
+        match format {
+            relight_assets::ImageFormat::Exr => "an OpenEXR image",
+            _ => "a Radiance HDR image",
+        }
     );
     let (img, report) =
         relight_assets::read_image_with(path, relight_assets::ColorEncoding::Linear)?;

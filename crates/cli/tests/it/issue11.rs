@@ -166,7 +166,14 @@ fn r11_messages_name_the_problem_once() {
         "--out",
         tmp("n.png").to_str().unwrap(),
     ]);
-    assert_one_line_error(&out, &["--normal-map", "env.hdr", "not a normal map"]);
+    assert_one_line_error(
+        &out,
+        &[
+            "--normal-map",
+            "env.hdr",
+            "a Radiance HDR image is linear radiance, not a normal map",
+        ],
+    );
 
     // One triangle is "1 triangle".
     let obj = tmp("one.obj");
