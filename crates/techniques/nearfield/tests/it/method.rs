@@ -85,20 +85,40 @@ fn target_mask_is_the_top_m_with_coarse_ties() {
     for m in [1, 7, 12, 13, 40, 120, 255, 256] {
         check(&a, &b, m, "equal magnitudes");
     }
-    let n = 32;
-    let p = Primitives::new(n);
-    let (mut ra, mut rb) = (vec![0.0f32; n], vec![0.0f32; n]);
-    for (s, o) in [
-        ([0.4, 0.7], [0.3, 0.1]),
-        ([1.3, 2.2], [-0.2, -0.6]),
-        ([3.7, 5.1], [-1.4, -2.0]),
-        ([9.0, 0.9], [-4.1, 0.05]),
-        ([1.0, 1.0], [0.0, 0.0]),
-    ] {
-        acc_row(&p, s[0], o[0], 0, &mut ra);
-        acc_row(&p, s[1], o[1], 0, &mut rb);
-        for m in [1, 5, 10, 12, 20, 51, 102, 205, 410, 717, 1023] {
-            check(&ra, &rb, m, &format!("D row 0 at s {s:?} o {o:?}"));
+    for n in [8, 32, 64] {
+        let p = Primitives::new(n);
+        let (mut ra, mut rb) = (vec![0.0f32; n], vec![0.0f32; n]);
+        for (s, o) in [
+            ([0.4, 0.7], [0.3, 0.1]),
+            ([1.3, 2.2], [-0.2, -0.6]),
+            ([3.7, 5.1], [-1.4, -2.0]),
+            ([9.0, 0.9], [-4.1, 0.05]),
+            ([1.0, 1.0], [0.0, 0.0]),
+            ([2.0, 4.0], [-0.5, -1.5]),
+        ] {
+            acc_row(&p, s[0], o[0], 0, &mut ra);
+            acc_row(&p, s[1], o[1], 0, &mut rb);
+            let nn = n * n;
+            for m in [
+                1,
+                5,
+                10,
+                12,
+                20,
+                nn / 20,
+                nn / 10,
+                nn / 5,
+                2 * nn / 5,
+                7 * nn / 10,
+                nn - 1,
+            ] {
+                check(
+                    &ra,
+                    &rb,
+                    m.max(1),
+                    &format!("n {n}, D row 0 at s {s:?} o {o:?}"),
+                );
+            }
         }
     }
 }
