@@ -290,12 +290,14 @@ fn sort_magnitudes(x: &[f32], order: &mut Vec<u8>, vals: &mut Vec<f32>) -> usize
     nz
 }
 
-/// Entries with `va[i] · vb[j] ≥ v` per row into `rows`; their total.
+/// Entries with `va[i] · vb[j] ≥ v` per row into `rows` (`vb` sorted
+/// down); their total.
 #[inline(always)]
 fn count_at_least(va: &[f32], vb: &[f32], v: f32, rows: &mut [u8]) -> usize {
     let mut total = 0;
     for (&x, r) in va.iter().zip(rows.iter_mut()) {
-        let c = vb.iter().filter(|&&y| x * y >= v).count();
+        // Products fall along the row: a binary search finds the count.
+        let c = vb.partition_point(|&y| x * y >= v);
         *r = c as u8;
         total += c;
     }
@@ -313,10 +315,16 @@ fn packed_coarse_key(k1: usize, k2: usize) -> u32 {
 }
 
 /// Entries between two bisection bounds at most that many are ranked
-/// directly (sorted) rather than bisected further; below it a small `m`
-/// ranks the candidates `(i + 1)(j + 1) ≤ m` directly (an entry outside
-/// has at least `m` entries at least as large and coarser on ties).
+/// directly (sorted) rather than bisected further.
 const BRACKET: usize = 24;
+
+/// A target count `m` at most this ranks the candidates `(i + 1)(j + 1) ≤
+/// m` directly (an entry outside has at least `m` entries at least as
+/// large and coarser on ties): `Σ_i ⌊m/(i+1)⌋ ≤ 50` of them for `m ≤ 16`.
+const SMALL_M: usize = 16;
+
+/// Room for the candidates of [`SMALL_M`] (and of a [`BRACKET`]).
+const CANDIDATES: usize = 64;
 
 /// The mask of the `m` largest `|a_{k1} b_{k2}|`, ties coarse first
 /// (module docs), into `mask`.
@@ -343,27 +351,19 @@ pub fn select_mask(a: &[f32], b: &[f32], m: usize, mask: &mut MaskCounts) {
         return;
     }
     let (va, vb) = (&mask.va[..za], &mask.vb[..zb]);
-    let mut cand = [0u64; BRACKET];
+    let mut cand = [0u64; CANDIDATES];
     let mut len = 0;
-    if m <= BRACKET / 2 {
+    if m <= SMALL_M {
         for (i, &x) in va.iter().enumerate() {
             let k1 = usize::from(mask.sa[i]);
             for (j, &y) in vb.iter().enumerate().take(m / (i + 1)) {
-                if len == BRACKET {
-                    break;
-                }
                 let k2 = usize::from(mask.sb[j]);
                 cand[len] = candidate(x * y, k1, k2, i);
                 len += 1;
             }
         }
-        // Σ_i ⌊m/(i+1)⌋ ≤ m (1 + ln m) fits for m ≤ BRACKET/2 = 12 (≤ 37
-        // would not: the bound is checked, not assumed).
-        if len < BRACKET {
-            rank_candidates(&mut cand[..len], m, &mut mask.counts);
-            return;
-        }
-        len = 0;
+        rank_candidates(&mut cand[..len], m, &mut mask.counts);
+        return;
     }
     // Bisection on the bit pattern of the threshold, with the row counts
     // at both bounds: `counts` at `hi` (< m entries), `walk` at `lo` (≥ m).
@@ -414,7 +414,7 @@ fn candidate(value: f32, k1: usize, k2: usize, row: usize) -> u64 {
     (u64::from(!value.to_bits()) << 32) | (u64::from(packed_coarse_key(k1, k2)) << 8) | row as u64
 }
 
-/// Sorts candidates ([`candidate`], insertion sort: at most [`BRACKET`])
+/// Sorts candidates ([`candidate`], insertion sort: at most [`CANDIDATES`])
 /// and adds the first `need` to their rows' counts.
 fn rank_candidates(cand: &mut [u64], need: usize, counts: &mut [u8]) {
     for i in 1..cand.len() {
@@ -630,12 +630,13 @@ fn fuse_dot<const C: usize>(
     sc: &mut VertexScratch,
 ) -> [f32; 3] {
     let nn = n * n;
+    // W stored transposed, `[c][r][k1]`, so the dot runs along k1 in lanes.
     sc.w.clear();
-    sc.w.resize(C * n * stride, 0.0);
+    sc.w.resize(C * rows * n, 0.0);
     sc.acc.resize(C * stride, 0.0);
     let mask = &sc.mask;
     // W_c[k1][r] = Σ_{(k1,k2) ∈ mask} D^y[i2_r][k2] T_c[k2][k1], summed in
-    // `acc` per k1 (one row of the mask) and stored once.
+    // `acc` (lanes over r) per k1 (one row of the mask) and stored once.
     for (i, &count) in mask.counts.iter().enumerate() {
         if count == 0 {
             continue;
@@ -665,22 +666,29 @@ fn fuse_dot<const C: usize>(
             }
         }
         for (ch, acc) in sc.acc.chunks_exact(stride).enumerate() {
-            let at = (ch * n + k1) * stride;
-            sc.w[at..at + stride].copy_from_slice(acc);
+            for (r, &a) in acc[..rows].iter().enumerate() {
+                sc.w[(ch * rows + r) * n + k1] = a;
+            }
         }
     }
-    // Dot: B[c] = Σ_r Σ_k1 Z[r][c][k1] W_c[k1][r].
+    // Dot: B[c] = Σ_r Σ_k1 Z[r][c][k1] W_c[r][k1], along k1 in LANES
+    // independent sums (one dependent chain per lane, not per product).
     let mut out = [0.0f32; 3];
     for r in 0..rows {
         let z = &sc.z[r * 3 * n..(r + 1) * 3 * n];
         for (c, o) in out.iter_mut().enumerate() {
-            let w = &sc.w[(c % C) * n * stride..];
-            let zc = &z[c * n..(c + 1) * n];
-            let mut b = 0.0f32;
-            for (k1, &zv) in zc.iter().enumerate() {
-                b += zv * w[k1 * stride + r];
+            let at = ((c % C) * rows + r) * n;
+            let (w, zc) = (&sc.w[at..at + n], &z[c * n..(c + 1) * n]);
+            let (zv, ztail) = zc.as_chunks::<LANES>();
+            let (wv, wtail) = w.as_chunks::<LANES>();
+            let mut lanes = [0.0f32; LANES];
+            for (zz, ww) in zv.iter().zip(wv) {
+                for ((l, &a), &b) in lanes.iter_mut().zip(zz).zip(ww) {
+                    *l += a * b;
+                }
             }
-            *o += b;
+            let tail: f32 = ztail.iter().zip(wtail).map(|(a, b)| a * b).sum();
+            *o += lanes.iter().sum::<f32>() + tail;
         }
     }
     out
