@@ -514,7 +514,6 @@ pub struct VertexScratch {
     z: Vec<f32>,
     dyt: Vec<f32>,
     w: Vec<f32>,
-    acc: Vec<f32>,
 }
 
 /// What every vertex of one propagation shares: the basis' primitives,
@@ -633,7 +632,6 @@ fn fuse_dot<const C: usize>(
     // W stored transposed, `[c][r][k1]`, so the dot runs along k1 in lanes.
     sc.w.clear();
     sc.w.resize(C * rows * n, 0.0);
-    sc.acc.resize(C * stride, 0.0);
     let mask = &sc.mask;
     // W_c[k1][r] = Σ_{(k1,k2) ∈ mask} D^y[i2_r][k2] T_c[k2][k1], summed in
     // `acc` (lanes over r) per k1 (one row of the mask) and stored once.
@@ -643,31 +641,42 @@ fn fuse_dot<const C: usize>(
         }
         let k1 = usize::from(mask.sa[i]);
         let zero = mask.va[i] == 0.0;
-        sc.acc.fill(0.0);
-        for j in 0..usize::from(count) {
-            let k2 = if zero { j } else { usize::from(mask.sb[j]) };
-            let d = &sc.dyt[k2 * stride..(k2 + 1) * stride];
-            for (ch, acc) in sc.acc.chunks_exact_mut(stride).enumerate() {
-                let t = transport[ch * nn + k2 * n + k1];
-                for (x, dv) in acc
-                    .as_chunks_mut::<LANES>()
-                    .0
-                    .iter_mut()
-                    .zip(d.as_chunks::<LANES>().0)
-                {
-                    // Loads before stores (whole vectors: `acc` and `dyt`
-                    // are not known apart here).
-                    let (mut xv, dv) = (*x, *dv);
-                    for (x, dv) in xv.iter_mut().zip(dv) {
-                        *x += dv * t;
+        let k2_of = |j: usize| if zero { j } else { usize::from(mask.sb[j]) };
+        for ch in 0..C {
+            let t_of = |k2: usize| transport[ch * nn + k2 * n + k1];
+            for blk in 0..stride / LANES {
+                // Two register sums (even and odd entries), no store per
+                // entry: the entries' scattered transport reads overlap.
+                let (mut even, mut odd) = ([0.0f32; LANES], [0.0f32; LANES]);
+                let lanes = |k2: usize| -> &[f32; LANES] {
+                    let at = k2 * stride + blk * LANES;
+                    sc.dyt[at..at + LANES].try_into().expect("LANES values")
+                };
+                let count = usize::from(count);
+                let mut j = 0;
+                while j + 1 < count {
+                    let (ka, kb) = (k2_of(j), k2_of(j + 1));
+                    let (ta, tb) = (t_of(ka), t_of(kb));
+                    let (da, db) = (lanes(ka), lanes(kb));
+                    for l in 0..LANES {
+                        even[l] += da[l] * ta;
+                        odd[l] += db[l] * tb;
                     }
-                    *x = xv;
+                    j += 2;
                 }
-            }
-        }
-        for (ch, acc) in sc.acc.chunks_exact(stride).enumerate() {
-            for (r, &a) in acc[..rows].iter().enumerate() {
-                sc.w[(ch * rows + r) * n + k1] = a;
+                if j < count {
+                    let k2 = k2_of(j);
+                    let (t, d) = (t_of(k2), lanes(k2));
+                    for l in 0..LANES {
+                        even[l] += d[l] * t;
+                    }
+                }
+                for l in 0..LANES {
+                    let r = blk * LANES + l;
+                    if r < rows {
+                        sc.w[(ch * rows + r) * n + k1] = even[l] + odd[l];
+                    }
+                }
             }
         }
     }
