@@ -3,7 +3,9 @@
 //! rest of the bench: `cargo run --release -p relight-nearfield --example
 //! nearfield_frames -- [source] [target] [steps]` (fractions, e.g. 0.01 0.2).
 //! Prints wall ms per move (a new light position: affine maps, masks and
-//! propagation) and per propagation (the light's texture edited in place).
+//! propagation) and per propagation (the light's texture edited in place);
+//! with `RASTER` set in the environment also per rendered frame (the
+//! Gouraud raster at 1200 × 900).
 
 use relight_nearfield::face::LightFrame;
 use relight_nearfield::method::{NearfieldMethod, NearfieldOptions};
@@ -35,6 +37,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         m.propagate();
         best_move = best_move.min(t.elapsed().as_secs_f64() * 1e3);
         best_prop = best_prop.min(m.propagate());
+    }
+    if std::env::var_os("RASTER").is_some() {
+        let request = relight_render::method::FrameRequest::new(scene.camera);
+        let mut best = f64::INFINITY;
+        for _ in 0..steps * 10 {
+            let t = Instant::now();
+            m.render(&scene, &request, &NoProgress)?;
+            best = best.min(t.elapsed().as_secs_f64() * 1e3);
+        }
+        println!("raster {best:.1} ms");
     }
     println!(
         "{} %/{} %: move {best_move:.1} ms, propagate {best_prop:.1} ms (best of {steps})",
