@@ -451,7 +451,48 @@ fn ties_in_coarse_order(a: &[f32], b: &[f32], tau: f32, mut need: usize, mask: &
         .enumerate()
         .filter(|(_, v)| **v == 0.0)
         .fold(0, |m, (k, _)| m | 1 << k);
-    for level in 0..=n.ilog2() {
+    let mut first_level = 0;
+    if tau == 0.0 {
+        // Whole squares [0, h)² first: their zero products are
+        // h² − nzA(h)·nzB(h), and a row's share is h (a zero row, in index
+        // order) or its zero b's below h (after its non-zero b's in its
+        // order), so the counts stay prefixes. The walk resumes at the
+        // first square not taken whole.
+        let zero_b: u64 = b
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| **v == 0.0)
+            .fold(0, |m, (k, _)| m | 1 << k);
+        let below = |h: usize| if h >= 64 { u64::MAX } else { (1u64 << h) - 1 };
+        let zeros_in = |h: usize| {
+            let (nza, nzb) = (
+                h - (zero_a & below(h)).count_ones() as usize,
+                h - (zero_b & below(h)).count_ones() as usize,
+            );
+            h * h - nza * nzb
+        };
+        let mut whole = 0;
+        while whole < n && zeros_in((whole * 2).max(1)) <= need {
+            whole = (whole * 2).max(1);
+        }
+        if whole > 0 {
+            let zb_below = (zero_b & below(whole)).count_ones() as u8;
+            for k1 in 0..whole {
+                let row = usize::from(mask.ra[k1]);
+                mask.counts[row] += if zero_a >> k1 & 1 == 1 {
+                    whole as u8
+                } else {
+                    zb_below
+                };
+            }
+            need -= zeros_in(whole);
+            if need == 0 {
+                return;
+            }
+            first_level = whole.ilog2() + 1;
+        }
+    }
+    for level in first_level..=n.ilog2() {
         let hi_k = 1usize << level;
         let lo_k = hi_k / 2;
         for (k2, bk) in b.iter().enumerate().take(hi_k) {
@@ -469,6 +510,18 @@ fn ties_in_coarse_order(a: &[f32], b: &[f32], tau: f32, mut need: usize, mask: &
                     if need == 0 {
                         return;
                     }
+                }
+                continue;
+            }
+            if tau == 0.0 {
+                // b_k2 = 0: every k1 of the range is a tie, in k1 order.
+                let take = (hi_k - from).min(need);
+                for &row in &mask.ra[from..from + take] {
+                    mask.counts[usize::from(row)] += 1;
+                }
+                need -= take;
+                if need == 0 {
+                    return;
                 }
                 continue;
             }

@@ -400,3 +400,39 @@ fn bake_39k_vertices_with_shadows() {
     println!("bake {verts} vertices with shadows: {bake:.1} s (prepare {total:.1} s)");
     assert!(bake <= 120.0, "bake {bake:.1} s > 120 s");
 }
+
+/// The same against brute force on random footprints and target counts
+/// (every path of the selection, orders 4 to 64).
+#[test]
+fn target_mask_matches_brute_force_on_random_footprints() {
+    let mut seed = 4242u64;
+    let mut rnd = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut sc = MaskCounts::default();
+    let mut out = Vec::new();
+    for n in [4usize, 8, 32, 64] {
+        let p = Primitives::new(n);
+        let (mut ra, mut rb) = (vec![0.0f32; n], vec![0.0f32; n]);
+        for _ in 0..60 {
+            let s = [0.2 + 10.0 * rnd(), 0.2 + 10.0 * rnd()];
+            let o = [
+                0.5 - 0.5 * s[0] + (rnd() - 0.5) * 2.0,
+                0.5 - 0.5 * s[1] + (rnd() - 0.5) * 2.0,
+            ];
+            acc_row(&p, s[0], o[0], 0, &mut ra);
+            acc_row(&p, s[1], o[1], 0, &mut rb);
+            let m = 1 + (rnd() * (n * n - 1) as f64) as usize;
+            select_targets(&ra, &rb, m, &mut sc, &mut out);
+            out.sort_unstable();
+            assert_eq!(
+                out,
+                top_m_by_brute_force(&ra, &rb, m),
+                "n {n} s {s:?} o {o:?} m {m}"
+            );
+        }
+    }
+}
