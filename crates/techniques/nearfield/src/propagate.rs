@@ -33,14 +33,24 @@
 //! `|L̃|`, ties **coarse first** ([`crate::light::coarse_key`]). With `|a|`
 //! and `|b|` sorted (magnitude down, index up) the products fall along
 //! each row, so the kept set is a prefix of `b`'s order in every row of
-//! `a`'s: the mask is one count per row ([`MaskCounts`]). The `m`-th largest
-//! product `τ` is found by bisection on its f32 bit pattern (products are
-//! ≥ 0, so bit order is value order), each count a two-pointer walk
-//! (`O(n)`). Products equal to `τ` are ties, taken in coarse order; within
-//! a row coarse order is `k2` order, the order its equal products already
-//! sit in, so the counts stay prefixes. A row whose factor is zero is all
-//! ties and runs in index order. (Products are compared as computed in
-//! f32; ACC values are far from underflow.)
+//! `a`'s: the mask is one count per row ([`MaskCounts`]). Only the few
+//! non-zero factors are sorted (a row of `D` is mostly exact zeros), and
+//! their `za × zb` block of positive products comes first:
+//! - `m ≥ za·zb`: the whole block, then `m − za·zb` zero products in
+//!   coarse order — whole squares `[0, h)²` in closed form (`h² −
+//!   nzA(h)·nzB(h)` of them), then a walk of the first level not taken whole;
+//! - `m ≤ 16`: the candidates `(i+1)(j+1) ≤ m` ranked directly (an entry
+//!   outside has `m` entries at least as large and coarser on ties);
+//! - else the `m`-th largest product `τ` by bisection on its f32 bit
+//!   pattern (products are ≥ 0, so bit order is value order; each count a
+//!   binary search along every sorted row), until at most 24 candidates
+//!   remain to rank directly, or only exact ties at `τ`, walked in coarse
+//!   order.
+//!
+//! Within a row coarse order is `k2` order, the order its equal products
+//! already sit in, so the counts stay prefixes; a row whose factor is zero
+//! is all ties and runs in index order. (Products are compared as computed
+//! in f32; ACC values are far from underflow.)
 //!
 //! # Lighting (per vertex)
 //! With `R` distinct source rows `i₂`, `n_s` source terms and `m` targets:
@@ -54,6 +64,11 @@
 //! `B[c] = Σ_{k ∈ mask} L_k[c] T_k`; step 2 of the thesis is folded into the
 //! colour-independent `W` (a one-channel transport does not depend on the
 //! colour; an RGB one runs the fuse per channel).
+//!
+//! The fuse sums one mask row (one `k1`) in registers, lanes over the `R`
+//! source rows (padded to 8), reading the transport scattered; `W` is kept
+//! `[c][r][k1]` so the dot runs along `k1` in independent lanes. Measured
+//! figures: `docs/nearfield.md` (`relight bench nearfield`).
 
 use crate::light::SourceTerms;
 
