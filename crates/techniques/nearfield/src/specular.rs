@@ -1,5 +1,5 @@
 //! Fixed-view specular transport (thesis §4.5.1 and Fig. 4.9: "specular
-//! materials with precomputation done per vertex [75]"; "Specular rendering
+//! materials with precomputation done per vertex \[75\]"; "Specular rendering
 //! from a different view point requires a separate precomputation").
 //!
 //! # The transport
