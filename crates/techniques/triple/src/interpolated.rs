@@ -291,6 +291,22 @@ fn tensor_body<const F: bool>(
 mod tests {
     use super::*;
 
+    /// One object's functions without a blend.
+    fn functions<'a>(
+        indices: &'a [[u32; 3]],
+        light: &'a [f32],
+        brdf: &'a [f32],
+        vis: Option<&'a [f32]>,
+    ) -> ObjectFunctions<'a> {
+        ObjectFunctions {
+            indices,
+            light,
+            brdf,
+            second: None,
+            vis,
+        }
+    }
+
     /// The cubic form equals Eq. 7 with the three functions interpolated
     /// first (random functions, random barycentrics, with and without
     /// visibility).
@@ -310,13 +326,7 @@ mod tests {
         let vis: Vec<f32> = (0..4 * padded).map(|_| rnd()).collect();
         let indices = [[0u32, 1, 2], [1, 3, 2]];
         for with_vis in [false, true] {
-            let o = ObjectFunctions {
-                indices: &indices,
-                light: &light,
-                brdf: &brdf,
-                second: None,
-                vis: with_vis.then_some(&vis[..]),
-            };
+            let o = functions(&indices, &light, &brdf, with_vis.then_some(&vis[..]));
             let mut tables = TriangleTables::default();
             // Triangle 1 covered, triangle 0 not.
             tables.build(&[NO_TRIANGLE, 1, 1], &[Some(o)], padded);
@@ -379,13 +389,7 @@ mod tests {
         let (light, brdf, vis) = (f(1, 3 * row), f(2, 3 * row), f(3, 3 * padded));
         let indices = [[0u32, 2, 1]];
         for with_vis in [false, true] {
-            let o = ObjectFunctions {
-                indices: &indices,
-                light: &light,
-                brdf: &brdf,
-                second: None,
-                vis: with_vis.then_some(&vis[..]),
-            };
+            let o = functions(&indices, &light, &brdf, with_vis.then_some(&vis[..]));
             let (mut fast, mut slow) = ([0.0f32; 81], [0.0f32; 81]);
             tensor(&o, &brdf, indices[0], padded, row, &mut fast, true);
             tensor(&o, &brdf, indices[0], padded, row, &mut slow, false);
