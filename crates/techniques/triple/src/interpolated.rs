@@ -99,7 +99,6 @@ impl TriangleTables {
             self.terms.resize(needed, [0.0; 81]);
         }
         let (first, second) = self.terms[..needed].split_at_mut(list.len());
-        let row = 3 * padded;
         let fma = fma_path();
         first
             .par_iter_mut()
@@ -107,7 +106,13 @@ impl TriangleTables {
             .with_min_len(16)
             .for_each(|(t, &(d, tri))| {
                 let o = objects[d].as_ref().expect("listed objects have functions");
-                tensor(o, o.brdf, o.indices[tri], padded, row, t, fma);
+                let x = TensorInput {
+                    o,
+                    brdf: o.brdf,
+                    tri: o.indices[tri],
+                    padded,
+                };
+                tensor(&x, t, fma);
             });
         if any_second {
             second
@@ -117,7 +122,15 @@ impl TriangleTables {
                 .for_each(|(t, &(d, tri))| {
                     let o = objects[d].as_ref().expect("listed objects have functions");
                     match o.second {
-                        Some(b2) => tensor(o, b2, o.indices[tri], padded, row, t, fma),
+                        Some(brdf) => {
+                            let x = TensorInput {
+                                o,
+                                brdf,
+                                tri: o.indices[tri],
+                                padded,
+                            };
+                            tensor(&x, t, fma);
+                        }
                         None => *t = [0.0; 81],
                     }
                 });
@@ -188,23 +201,25 @@ fn fma_path() -> bool {
 /// through the AVX2 + FMA copy where `fma` ([`fma_path`]): the default
 /// x86-64 target has only 4-lane SSE and no fused multiply-add, and this loop
 /// was half of a 512 × 384 interpolated frame.
-fn tensor(
-    o: &ObjectFunctions<'_>,
-    brdf: &[f32],
-    tri: [u32; 3],
-    padded: usize,
-    row: usize,
-    t: &mut [f32; 81],
-    fma: bool,
-) {
+fn tensor(x: &TensorInput<'_>, t: &mut [f32; 81], fma: bool) {
     #[cfg(target_arch = "x86_64")]
     if fma {
         // SAFETY: AVX2 and FMA were detected at run time (`fma_path`).
-        unsafe { tensor_fma(o, brdf, tri, padded, row, t) };
+        unsafe { tensor_fma(x, t) };
         return;
     }
     let _ = fma;
-    tensor_body::<false>(o, brdf, tri, padded, row, t);
+    tensor_body::<false>(x, t);
+}
+
+/// What [`tensor`] reads for one triangle: the object's functions, the
+/// BRDF's rows (its first or its blend's second), the triangle's vertices
+/// and the padded cells per channel (rows are `3 · padded` long).
+struct TensorInput<'a> {
+    o: &'a ObjectFunctions<'a>,
+    brdf: &'a [f32],
+    tri: [u32; 3],
+    padded: usize,
 }
 
 /// [`tensor_body`] compiled for AVX2 and FMA.
@@ -213,15 +228,8 @@ fn tensor(
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn tensor_fma(
-    o: &ObjectFunctions<'_>,
-    brdf: &[f32],
-    tri: [u32; 3],
-    padded: usize,
-    row: usize,
-    t: &mut [f32; 81],
-) {
-    tensor_body::<true>(o, brdf, tri, padded, row, t);
+unsafe fn tensor_fma(x: &TensorInput<'_>, t: &mut [f32; 81]) {
+    tensor_body::<true>(x, t);
 }
 
 /// `a · b + c`, fused where `F`.
@@ -234,14 +242,14 @@ fn madd<const F: bool>(a: f32, b: f32, c: f32) -> f32 {
 /// `L_a ρ_b` once, then its dot products with the three visibilities
 /// (the [`FMA_PER_TRIANGLE_CELL`] count).
 #[inline(always)]
-fn tensor_body<const F: bool>(
-    o: &ObjectFunctions<'_>,
-    brdf: &[f32],
-    tri: [u32; 3],
-    padded: usize,
-    row: usize,
-    t: &mut [f32; 81],
-) {
+fn tensor_body<const F: bool>(x: &TensorInput<'_>, t: &mut [f32; 81]) {
+    let &TensorInput {
+        o,
+        brdf,
+        tri,
+        padded,
+    } = x;
+    let row = 3 * padded;
     let vis = o
         .vis
         .map(|v| tri.map(|i| &v[i as usize * padded..(i as usize + 1) * padded]));
@@ -391,8 +399,14 @@ mod tests {
         for with_vis in [false, true] {
             let o = functions(&indices, &light, &brdf, with_vis.then_some(&vis[..]));
             let (mut fast, mut slow) = ([0.0f32; 81], [0.0f32; 81]);
-            tensor(&o, &brdf, indices[0], padded, row, &mut fast, true);
-            tensor(&o, &brdf, indices[0], padded, row, &mut slow, false);
+            let x = TensorInput {
+                o: &o,
+                brdf: &brdf,
+                tri: indices[0],
+                padded,
+            };
+            tensor(&x, &mut fast, true);
+            tensor(&x, &mut slow, false);
             for (i, (a, b)) in fast.iter().zip(&slow).enumerate() {
                 assert!((a - b).abs() <= 1e-5 * b.abs().max(1.0), "{i}: {a} vs {b}");
             }
