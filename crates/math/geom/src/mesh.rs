@@ -138,6 +138,11 @@ impl Aabb {
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }
+    /// Whether `p` lies in the box (boundary included).
+    #[must_use]
+    pub fn contains(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
 }
 
 /// Error of [`Mesh::try_validate`]: the first invalid item found.
@@ -565,20 +570,32 @@ impl Mesh {
             return false;
         }
         let (weld, _) = self.weld_map();
-        let mut edges: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.indices.len() * 3);
+        // Directed edges `a → b` as `a·2³² + b`, and their reverses: the mesh
+        // is closed and consistent iff no edge repeats, none is a loop, and
+        // the sorted edges equal the sorted reverses (two sorts instead of a
+        // hash map: several times faster on meshes of 10⁵–10⁶ triangles).
+        let mut edges = Vec::with_capacity(self.indices.len() * 3);
+        let mut reverses = Vec::with_capacity(self.indices.len() * 3);
         let mut volume = 0.0f64;
         for tri in &self.indices {
-            let w = tri.map(|i| weld[i as usize]);
+            let w = tri.map(|i| u64::from(weld[i as usize]));
             for k in 0..3 {
-                *edges.entry((w[k], w[(k + 1) % 3])).or_insert(0) += 1;
+                let (a, b) = (w[k], w[(k + 1) % 3]);
+                if a == b {
+                    return false;
+                }
+                edges.push(a << 32 | b);
+                reverses.push(b << 32 | a);
             }
             let [a, b, c] = tri.map(|i| self.positions[i as usize].as_dvec3());
             volume += a.dot(b.cross(c));
         }
-        volume > 0.0
-            && edges
-                .iter()
-                .all(|(&(a, b), &n)| n == 1 && a != b && edges.get(&(b, a)) == Some(&1))
+        if volume <= 0.0 {
+            return false;
+        }
+        edges.sort_unstable();
+        reverses.sort_unstable();
+        edges.windows(2).all(|w| w[0] != w[1]) && edges == reverses
     }
 
     /// Euler characteristic V − E + F of the position-welded mesh
@@ -810,6 +827,30 @@ mod tests {
         assert!(!open.is_closed_outward(), "a hole");
         assert!(!Mesh::default().is_closed_outward());
         assert!(!crate::shapes::plane(1.0, 4).is_closed_outward());
+        // Two closed tetrahedra sharing the edge 0–1: each directed edge of
+        // it is used twice (non-manifold), although every edge has a reverse.
+        let mut glued = tetra();
+        glued
+            .positions
+            .extend([Vec3::new(0.5, -1.0, -1.0), Vec3::new(0.4, -1.0, 1.0)]);
+        glued
+            .indices
+            .extend([[0, 1, 4], [0, 5, 1], [0, 4, 5], [1, 5, 4]]);
+        let mut second = Mesh {
+            positions: glued.positions.clone(),
+            indices: glued.indices[4..].to_vec(),
+            ..Default::default()
+        };
+        second.positions.truncate(6);
+        assert!(
+            second.is_closed_outward(),
+            "the second tetrahedron alone is closed"
+        );
+        assert!(!glued.is_closed_outward(), "two solids sharing an edge");
+        // Two copies of a face.
+        let mut doubled = tetra();
+        doubled.indices.push(doubled.indices[0]);
+        assert!(!doubled.is_closed_outward(), "a repeated face");
         // Seams welded by position: the builtin solids are closed.
         assert!(crate::shapes::uv_sphere_at(Vec3::ZERO, 1.0, 24, 12).is_closed_outward());
         assert!(crate::shapes::torus(1.0, 0.3, 24, 12).is_closed_outward());
