@@ -8,6 +8,7 @@
 
 pub mod bvh;
 pub mod camera;
+pub mod cull;
 pub mod image;
 pub mod method;
 pub mod progress;

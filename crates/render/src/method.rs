@@ -523,13 +523,16 @@ pub fn same_meshes<'a>(
 
 /// Rasterizes every object of `scene` (object id = its index) into `raster`
 /// for `request`'s camera at `request.aa`² samples per pixel, with the depth
-/// range fitted to the draws: the visibility buffer a rasterizing method
-/// then shades. Returns the supersampled camera and the draws.
+/// range fitted to the draws and the back faces of closed meshes culled
+/// from outside them ([`crate::cull`]; `closed` is the caller's cache): the
+/// visibility buffer a rasterizing method then shades. Returns the
+/// supersampled camera and the draws.
 ///
 /// # Errors
 /// The rasterizer's (image size, depth range).
 pub fn rasterize_objects<'a>(
     raster: &mut Rasterizer,
+    closed: &mut crate::cull::ClosedMeshes,
     scene: &'a Scene,
     request: &FrameRequest,
 ) -> Result<(crate::Camera, Vec<DrawCall<'a>>), crate::RasterError> {
@@ -539,8 +542,13 @@ pub fn rasterize_objects<'a>(
     let draws: Vec<DrawCall> = scene
         .objects
         .iter()
+        .zip(closed.of(scene))
         .enumerate()
-        .map(|(i, o)| DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32))
+        .map(|(i, (o, closed))| {
+            DrawCall::new(&o.mesh.positions, &o.mesh.indices)
+                .with_object_id(i as u32)
+                .with_cull(crate::cull::cull_for_closed(closed.as_ref(), camera.eye))
+        })
         .collect();
     let opts = RasterOptions::default().fit_depth(&camera, &draws);
     raster.rasterize(&camera, &draws, &opts)?;

@@ -210,6 +210,8 @@ pub struct FogRelighter {
     env_lighting: Option<EnvLighting>,
     lighting: Option<Lighting>,
     rasterizer: Rasterizer,
+    /// Which meshes are closed (their back faces culled from outside).
+    closed: relight_render::cull::ClosedMeshes,
     /// What `rasterizer` holds: the (supersampled) camera and the meshes
     /// drawn, so a lighting change under a still camera draws no triangles.
     rasterized: Option<(Camera, Vec<Arc<Mesh>>)>,
@@ -269,6 +271,7 @@ impl FogRelighter {
             env_lighting: None,
             lighting: None,
             rasterizer: Rasterizer::new(),
+            closed: relight_render::cull::ClosedMeshes::default(),
             rasterized: None,
             phase: Phase::isotropic(),
             env_mean: None,
@@ -424,7 +427,9 @@ impl FogRelighter {
                 reused = same;
                 if !same {
                     self.rasterized = None;
-                    rasterize_objects(&mut self.rasterizer, &objects, &big).map_err(fog_err)?;
+                    let closed = self.closed.of(scene);
+                    rasterize_objects(&mut self.rasterizer, &objects, &closed, &big)
+                        .map_err(fog_err)?;
                     self.rasterized =
                         Some((big, scene.objects.iter().map(|o| o.mesh.clone()).collect()));
                 }

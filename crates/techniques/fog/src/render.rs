@@ -247,7 +247,7 @@ pub fn render_fog_into(
     match settings.mode {
         FogMode::Analytic => {
             check_frame(objects, camera, lights, settings)?;
-            rasterize_objects(rasterizer, objects, camera)?;
+            rasterize_objects(rasterizer, objects, &[], camera)?;
             shade_fog_raster(rasterizer, objects, camera, lights, settings, out)
         }
         FogMode::OpenGl { fog_color } => {
@@ -262,19 +262,28 @@ pub fn render_fog_into(
 
 /// Rasterizes `objects` (draw i = object i, positions and indices) for
 /// `camera` into `rasterizer`: the visibility buffer [`shade_fog_raster`]
-/// shades.
+/// shades. `closed[i]` are object i's bounds where its mesh is closed and
+/// outward ([`relight_render::cull::ClosedMeshes`]): its back faces are
+/// culled from outside them, the same buffer with fewer triangles; objects
+/// past the end of `closed` (all, for `&[]`) draw both sides.
 ///
 /// # Errors
 /// Rasterizer errors (image size, camera, indices).
 pub fn rasterize_objects(
     rasterizer: &mut Rasterizer,
     objects: &[FogObject],
+    closed: &[Option<relight_geom::Aabb>],
     camera: &Camera,
 ) -> Result<(), FogError> {
     let draws: Vec<DrawCall> = objects
         .iter()
         .enumerate()
-        .map(|(i, o)| DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32))
+        .map(|(i, o)| {
+            let closed = closed.get(i).and_then(Option::as_ref);
+            DrawCall::new(&o.mesh.positions, &o.mesh.indices)
+                .with_object_id(i as u32)
+                .with_cull(relight_render::cull::cull_for_closed(closed, camera.eye))
+        })
         .collect();
     let options = RasterOptions::default().fit_depth(camera, &draws);
     rasterizer.rasterize(camera, &draws, &options)?;

@@ -81,6 +81,8 @@ pub struct LtcMethod {
     lights: Vec<Rect>,
     warnings: Vec<String>,
     raster: Rasterizer,
+    /// Which meshes are closed (their back faces culled from outside).
+    closed: relight_render::cull::ClosedMeshes,
     frame: Image,
     pending_lighting_ms: f64,
 }
@@ -114,6 +116,7 @@ impl LtcMethod {
             lights: Vec::new(),
             warnings: Vec::new(),
             raster: Rasterizer::new(),
+            closed: relight_render::cull::ClosedMeshes::default(),
             frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
         })
@@ -298,9 +301,13 @@ impl Relighter for LtcMethod {
         }
         progress.check()?;
         let k = request.aa;
-        let (_, draws) =
-            relight_render::method::rasterize_objects(&mut self.raster, scene, request)
-                .map_err(|e| invalid("raster", e))?;
+        let (_, draws) = relight_render::method::rasterize_objects(
+            &mut self.raster,
+            &mut self.closed,
+            scene,
+            request,
+        )
+        .map_err(|e| invalid("raster", e))?;
         let (objects, lights, specular) = (&self.objects, &self.lights, self.options.specular);
         let shader = |f: &Fragment| -> Vec3 {
             let o = &objects[f.draw as usize];

@@ -132,6 +132,8 @@ pub struct NearfieldMethod {
     colors: Vec<Vec<Vec3>>,
     warnings: Vec<String>,
     raster: Rasterizer,
+    /// Which meshes are closed (their back faces culled from outside).
+    closed: relight_render::cull::ClosedMeshes,
     frame: Image,
     pending_lighting_ms: f64,
     /// Times of the last lighting change: coefficients, propagation (ms).
@@ -221,6 +223,7 @@ impl NearfieldMethod {
             colors: Vec::new(),
             warnings: Vec::new(),
             raster: Rasterizer::new(),
+            closed: relight_render::cull::ClosedMeshes::default(),
             frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
             last_times: [0.0; 2],
@@ -771,9 +774,13 @@ impl Relighter for NearfieldMethod {
         progress.check()?;
         self.view_is_baked = self.baked_eye.is_none_or(|e| e == request.camera.eye);
         let k = request.aa;
-        let (_, draws) =
-            relight_render::method::rasterize_objects(&mut self.raster, scene, request)
-                .map_err(|e| invalid("raster", e))?;
+        let (_, draws) = relight_render::method::rasterize_objects(
+            &mut self.raster,
+            &mut self.closed,
+            scene,
+            request,
+        )
+        .map_err(|e| invalid("raster", e))?;
         let refs: Vec<&[Vec3]> = self.colors.iter().map(|c| &c[..]).collect();
         self.raster
             .shade_gouraud(

@@ -210,6 +210,8 @@ pub struct TripleMethod {
     table: Option<LightTable>,
     world_from_env: Mat3,
     raster: Rasterizer,
+    /// Which meshes are closed (their back faces culled from outside).
+    closed: relight_render::cull::ClosedMeshes,
     frame: Image,
     colors: Vec<Vec<Vec3>>,
     /// Per object, the vertices' functions of [`Shading::Interpolated`].
@@ -331,6 +333,7 @@ impl TripleMethod {
             table: None,
             world_from_env: Mat3::IDENTITY,
             raster: Rasterizer::new(),
+            closed: relight_render::cull::ClosedMeshes::default(),
             frame: Image::new(0, 0),
             colors: Vec::new(),
             vertex_fns: Vec::new(),
@@ -1036,9 +1039,13 @@ impl Relighter for TripleMethod {
             .ok_or_else(|| stale("call prepare before render"))?;
         progress.check()?;
         let k = request.aa;
-        let (camera, draws) =
-            relight_render::method::rasterize_objects(&mut self.raster, scene, request)
-                .map_err(|e| invalid("raster", e))?;
+        let (camera, draws) = relight_render::method::rasterize_objects(
+            &mut self.raster,
+            &mut self.closed,
+            scene,
+            request,
+        )
+        .map_err(|e| invalid("raster", e))?;
         let env = &scene.env;
         let env_from_world = scene.world_from_env.transpose();
         let fog = self.fog.as_ref();

@@ -40,9 +40,8 @@ use crate::rotation::RotationMatrices;
 use glam::{Mat3, Vec3, Vec3A};
 use rayon::prelude::*;
 use relight_haar::{Ranking, SparseRgb, energy_fraction, top_k_rgb};
-use relight_render::raster::{
-    Background, CullMode, DrawCall, NO_TRIANGLE, RasterOptions, Rasterizer,
-};
+use relight_render::cull::{ClosedMeshes, cull_for_closed};
+use relight_render::raster::{Background, DrawCall, NO_TRIANGLE, RasterOptions, Rasterizer};
 use relight_render::{Camera, Image, Scene};
 use relight_sphere::EnvMap;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
@@ -705,19 +704,16 @@ impl WaveletRenderer {
         // Closed, outward meshes cull their back faces: the same visible
         // triangles (each back face is behind a front face of its own mesh),
         // half the triangles to raster. Open ones (the floor) keep both sides.
-        let closed = cache.closed_meshes(scene);
+        let closed = cache.closed.of(scene);
         let draws: Vec<DrawCall> = scene
             .objects
             .iter()
             .zip(&closed)
             .enumerate()
-            .map(|(i, (o, &closed))| {
-                let d = DrawCall::new(&o.mesh.positions, &o.mesh.indices).with_object_id(i as u32);
-                if closed {
-                    d.with_cull(CullMode::Back)
-                } else {
-                    d
-                }
+            .map(|(i, (o, closed))| {
+                DrawCall::new(&o.mesh.positions, &o.mesh.indices)
+                    .with_object_id(i as u32)
+                    .with_cull(cull_for_closed(closed.as_ref(), camera.eye))
             })
             .collect();
         // A lighting change keeps the camera: the visibility buffer of the
@@ -866,9 +862,8 @@ pub struct VertexColors {
     stamps: Vec<Vec<AtomicU32>>,
     colors: Vec<Vec<Vec3>>,
     memo: Option<DotMemo>,
-    /// Per object: its mesh (positions and indices, by address and length)
-    /// and whether it is closed and outward ([`relight_geom::Mesh::is_closed_outward`]).
-    closed: Vec<(MeshId, bool)>,
+    /// Which meshes are closed (their back faces culled from outside).
+    closed: ClosedMeshes,
     /// What the caller's rasterizer was last rasterized for here.
     rastered: Option<RasterKey>,
     /// The vertices of the triangles a visibility buffer shows, `(object,
@@ -895,19 +890,7 @@ struct RasterKey {
     generation: u64,
     camera: Camera,
     meshes: Vec<std::sync::Arc<relight_geom::Mesh>>,
-    closed: Vec<bool>,
-}
-
-/// A mesh by the addresses and lengths of its positions and indices.
-type MeshId = [usize; 4];
-
-fn mesh_id(m: &relight_geom::Mesh) -> MeshId {
-    [
-        m.positions.as_ptr() as usize,
-        m.positions.len(),
-        m.indices.as_ptr() as usize,
-        m.indices.len(),
-    ]
+    closed: Vec<Option<relight_geom::Aabb>>,
 }
 
 impl VertexColors {
@@ -918,7 +901,7 @@ impl VertexColors {
         raster: &Rasterizer,
         camera: &Camera,
         scene: &Scene,
-        closed: &[bool],
+        closed: &[Option<relight_geom::Aabb>],
     ) -> bool {
         self.rastered.as_ref().is_some_and(|k| {
             k.generation != 0
@@ -931,23 +914,6 @@ impl VertexColors {
                     .zip(&scene.objects)
                     .all(|(m, o)| std::sync::Arc::ptr_eq(m, &o.mesh))
         })
-    }
-
-    /// Whether each object's mesh is closed and outward, computed once per
-    /// mesh (kept while the object's mesh is the same).
-    fn closed_meshes(&mut self, scene: &Scene) -> Vec<bool> {
-        let ids: Vec<MeshId> = scene.objects.iter().map(|o| mesh_id(&o.mesh)).collect();
-        let same = self.closed.len() == ids.len()
-            && self.closed.iter().zip(&ids).all(|((a, _), b)| a == b);
-        if !same {
-            self.closed = scene
-                .objects
-                .par_iter()
-                .zip(ids)
-                .map(|(o, id)| (id, o.mesh.is_closed_outward()))
-                .collect();
-        }
-        self.closed.iter().map(|&(_, c)| c).collect()
     }
 
     /// Starts a frame for `eye` and `key` over meshes of `sizes` vertices,
@@ -1055,7 +1021,7 @@ impl VertexColors {
     /// Forgets every colour (the meshes or materials changed).
     pub fn clear(&mut self) {
         self.key = None;
-        self.closed.clear();
+        self.closed = ClosedMeshes::default();
     }
 }
 
@@ -1198,16 +1164,16 @@ mod tests {
                     )
                     .unwrap();
                 };
-                go(&mut cache);
-                assert!(cache.closed.iter().all(|c| c.1), "all three are closed");
                 if !cull {
-                    // Same meshes: the flags are kept, so clearing them sticks.
-                    cache.key = None;
-                    for c in &mut cache.closed {
-                        c.1 = false;
-                    }
-                    go(&mut cache);
+                    cache.closed = ClosedMeshes::disabled();
                 }
+                go(&mut cache);
+                let closed = cache.closed.of(&scene);
+                assert_eq!(
+                    closed.iter().all(Option::is_some),
+                    cull,
+                    "all three are closed (culling on)"
+                );
                 (img, raster.gbuffer().covered_pixels())
             };
             let (culled, covered) = draw(true);

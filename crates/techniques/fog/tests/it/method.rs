@@ -321,7 +321,7 @@ fn batched_ball_edge_airlight_equals_the_scalar_airlight() {
     let rays = s.camera.ray_frame();
     let eye = s.camera.eye;
     let mut r = relight_render::raster::Rasterizer::new();
-    relight_fog::render::rasterize_objects(&mut r, &objects, &s.camera).unwrap();
+    relight_fog::render::rasterize_objects(&mut r, &objects, &[], &s.camera).unwrap();
     let mut empty = 0;
     for y in 0..s.camera.height {
         for x in 0..s.camera.width {
