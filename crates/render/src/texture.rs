@@ -262,11 +262,20 @@ impl NormalMap {
     #[inline]
     #[must_use]
     pub fn sample(&self, uv: Vec2) -> Vec3 {
-        let v: Vec3 = bilinear_taps(self.width, self.height, uv)
-            .iter()
-            .map(|&(i, w)| self.texels[i] * w)
-            .sum();
-        v.normalize_or(Vec3::Z)
+        self.blend(uv).normalize_or(Vec3::Z)
+    }
+
+    /// The bilinear blend of the four texels at `uv`, not renormalised: the
+    /// direction of [`NormalMap::sample`] (or zero where that falls back to
+    /// +z), for callers that normalise later anyway.
+    #[inline]
+    #[must_use]
+    pub fn blend(&self, uv: Vec2) -> Vec3 {
+        let [a, b, c, d] = bilinear_taps(self.width, self.height, uv);
+        self.texels[a.0] * a.1
+            + self.texels[b.0] * b.1
+            + self.texels[c.0] * c.1
+            + self.texels[d.0] * d.1
     }
 
     /// The perturbed world normal at a surface point with unit normal `n`,

@@ -324,11 +324,18 @@ impl BrdfShTable {
         if cos_theta_o.is_nan() || cos_theta_o <= 0.0 {
             return None;
         }
-        let theta = cos_theta_o.min(1.0).acos();
+        Some(self.locate_theta(cos_theta_o.min(1.0).acos()))
+    }
+
+    /// Interpolation position of `θ_o` (radians, clamped to the samples'
+    /// range): lower sample and weight.
+    #[inline(always)]
+    fn locate_theta(&self, theta_o: f32) -> (usize, f32) {
         let nt = self.theta_samples;
-        let t = (theta / std::f32::consts::FRAC_PI_2 * nt as f32 - 0.5).clamp(0.0, (nt - 1) as f32);
+        let t =
+            (theta_o / std::f32::consts::FRAC_PI_2 * nt as f32 - 0.5).clamp(0.0, (nt - 1) as f32);
         let j0 = (t as usize).min(nt - 2);
-        Some((j0, t - j0 as f32))
+        (j0, t - j0 as f32)
     }
 
     /// `B̂(θ_o)` of the rank-1 factorisation ([`BrdfShTable::mono_colour`]),
@@ -365,7 +372,9 @@ impl BrdfShTable {
         true
     }
 
-    /// [`BrdfShTable::lookup_mono`] times the band window `h` (one factor
+    /// [`BrdfShTable::lookup_mono`] at the polar angle `theta_o` of a view
+    /// above the horizon (radians, `[0, π/2)`; the caller has the angle
+    /// already, [`crate::shade`]), times the band window `h` (one factor
     /// per coefficient, `order²`), in one pass, for a table that has the
     /// rank-1 factorisation (else `false`, `out` untouched). `F`: fused
     /// multiply-adds (inside a caller compiled for FMA).
@@ -375,7 +384,7 @@ impl BrdfShTable {
     #[inline(always)]
     pub(crate) fn lookup_mono_windowed<const F: bool>(
         &self,
-        cos_theta_o: f32,
+        theta_o: f32,
         order: usize,
         h: &[f32],
         out: &mut [f32],
@@ -390,10 +399,7 @@ impl BrdfShTable {
         };
         let k = order * order;
         let (out, h) = (&mut out[..k], &h[..k]);
-        let Some((j0, a)) = self.locate(cos_theta_o) else {
-            out.fill(0.0);
-            return true;
-        };
+        let (j0, a) = self.locate_theta(theta_o);
         let nn = self.order * self.order;
         let (s0, s1) = (
             &m[j0 * nn..j0 * nn + k],

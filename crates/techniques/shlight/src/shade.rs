@@ -21,9 +21,14 @@
 //! counts per rotation are in `relight bench sh`.
 //!
 //! # Chunks
-//! A row's covered samples are shaded in chunks of [`CHUNK`]: each is
-//! prepared (interpolation, frames, transfer lookup), then the chunk's
-//! rotations run, then the dot products. On a CPU with AVX2 and FMA the
+//! A row's covered samples are shaded in chunks of [`CHUNK`]: each sample's
+//! vertex data and normal-map texels are gathered into [`Lanes`] (the
+//! scattered reads, one sample at a time); [`setup_lanes`] then computes the
+//! normals, frames, view angles and `T` of the whole chunk across lanes (one
+//! branch-free loop over structure-of-arrays: 8-lane registers in the AVX2
+//! copy, instead of one sample's chain of square roots and divisions at a
+//! time); each sample's transfer vector is looked up; the chunk's rotations
+//! run; then the dot products ([`dot3_rgb_avx2`] in the AVX2 copy). On a CPU with AVX2 and FMA the
 //! rotations of a normal-mapped chunk at order ≤ 6 run eight vectors at a
 //! time, lanes across samples: the exact ones (ZYZ, Ivanic–Ruedenberg) by
 //! [`relight_sh::fast::rotate_batch`] (≈ 18 ns per order-6 vector against
@@ -40,7 +45,7 @@
 use crate::bake::BrdfShTable;
 use crate::relight::{DrawData, Rotator};
 use crate::{MAX_SHADING_ORDER, NormalMap, ShRotationMethod};
-use glam::{Mat3, Vec2, Vec3, Vec4};
+use glam::{Mat3, Vec2, Vec3};
 use rayon::prelude::*;
 use relight_render::camera::CameraRays;
 use relight_render::raster::{GBuffer, NO_TRIANGLE, Rasterizer};
@@ -145,12 +150,8 @@ const CHUNK: usize = 32;
 /// A covered sample between its preparation and its dot product.
 #[derive(Clone, Copy, Default)]
 struct Pending {
-    /// Column in the row.
-    x: usize,
-    /// Draw and the triangle's three vertices.
-    d: usize,
-    verts: [usize; 3],
-    lam: Vec3,
+    /// Where it is and what it interpolates.
+    sample: Sample,
     /// Seen from behind: the coefficients take the back-face flip.
     back: bool,
     /// Transfer vectors (1 for a rank-1 table, else 3) from vector `first`
@@ -160,8 +161,64 @@ struct Pending {
     in_batch: bool,
 }
 
+/// A gathered sample's place in the frame ([`Pass::gather`]).
+#[derive(Clone, Copy, Default)]
+struct Sample {
+    /// Column in the row.
+    x: usize,
+    /// Draw and the triangle's three vertices.
+    d: usize,
+    verts: [usize; 3],
+    /// Perspective-correct barycentrics.
+    lam: Vec3,
+}
+
+/// The chunk's samples between [`Pass::gather`] and [`Pass::place`], as
+/// structure of arrays so that [`setup_lanes`] runs across them.
+struct Lanes {
+    sample: [Sample; CHUNK],
+    /// In (world, not unit): the interpolated normal; the interpolated
+    /// tangent (xyz, w = handedness); the normal map's texel blend (tangent
+    /// space, +z without a map); `eye − p`; the geometric normal.
+    n: [[f32; CHUNK]; 3],
+    t: [[f32; CHUNK]; 4],
+    m: [[f32; CHUNK]; 3],
+    view: [[f32; CHUNK]; 3],
+    geo: [[f32; CHUNK]; 3],
+    /// Out: `cos θ_o`, `θ_o`, `cos φ_o`, `sin φ_o` of the view in `F_p`; the
+    /// back-face sign (−1 seen from behind); `T = F_vᵀ F_p R_z(φ_o)`,
+    /// column-major.
+    cos_o: [f32; CHUNK],
+    theta_o: [f32; CHUNK],
+    cphi: [f32; CHUNK],
+    sphi: [f32; CHUNK],
+    sign: [f32; CHUNK],
+    rot: [[f32; CHUNK]; 9],
+}
+
+impl Default for Lanes {
+    fn default() -> Self {
+        let z = [0.0; CHUNK];
+        Self {
+            sample: [Sample::default(); CHUNK],
+            n: [z; 3],
+            t: [z; 4],
+            m: [z; 3],
+            view: [z; 3],
+            geo: [z; 3],
+            cos_o: z,
+            theta_o: z,
+            cphi: z,
+            sphi: z,
+            sign: z,
+            rot: [z; 9],
+        }
+    }
+}
+
 /// Per-thread buffers of the pass.
 struct Scratch {
+    lanes: Lanes,
     tmp: [f32; MAXN],
     exact: Option<ShRotation<f32>>,
     /// The chunk's samples and, per sample, `channels` transfer vectors of
@@ -179,6 +236,7 @@ struct Scratch {
 impl Scratch {
     fn new() -> Box<Self> {
         Box::new(Self {
+            lanes: Lanes::default(),
             tmp: [0.0; MAXN],
             exact: None,
             pending: [Pending::default(); CHUNK],
@@ -248,13 +306,19 @@ fn dot3<const F: bool>(l0: &[f32], l1: &[f32], l2: &[f32], lam: Vec3, b: &[f32])
     let k = b.len();
     let (l0, l1, l2) = (&l0[..k], &l1[..k], &l2[..k]);
     let mut s = [0.0f32; 8];
-    let full = k / 8 * 8;
-    let chunks = l0[..full]
-        .chunks_exact(8)
-        .zip(l1[..full].chunks_exact(8))
-        .zip(l2[..full].chunks_exact(8))
-        .zip(b[..full].chunks_exact(8));
+    // Whole arrays (not `chunks_exact` slices): the 8-lane body then
+    // compiles to one register per operand instead of lane pairs.
+    let (b8, _) = b.as_chunks::<8>();
+    let full = b8.len() * 8;
+    let chunks = l0
+        .as_chunks::<8>()
+        .0
+        .iter()
+        .zip(l1.as_chunks::<8>().0)
+        .zip(l2.as_chunks::<8>().0)
+        .zip(b8);
     for (((a0, a1), a2), bb) in chunks {
+        let (a0, a1, a2, bb) = (*a0, *a1, *a2, *bb);
         for j in 0..8 {
             let l = madd::<F>(lam.x, a0[j], madd::<F>(lam.y, a1[j], lam.z * a2[j]));
             s[j] = madd::<F>(l, bb[j], s[j]);
@@ -287,18 +351,178 @@ fn dot3<const F: bool>(l0: &[f32], l1: &[f32], l2: &[f32], lam: Vec3, b: &[f32])
     ((q[0] + q[2]) + (q[1] + q[3])) + t
 }
 
+/// [`dot3`] for the three output channels at once, in AVX2 registers:
+/// `out_c = ⟨Σ_j λ_j L_j^c, b_c⟩` over `k` coefficients, `L_j^c` at
+/// `light[j][c · nn..]` (vertex `j`'s lighting, `nn` coefficients per
+/// channel) and `b_c = b[c]` (one slice thrice for a rank-1 table). The
+/// compiler pairs [`dot3`]'s eight lanes into 2-lane registers; written
+/// with intrinsics the pass's dot product takes a quarter of the
+/// instructions. The last `k mod 8` coefficients are masked loads.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn dot3_rgb_avx2(light: [&[f32]; 3], nn: usize, k: usize, lam: Vec3, b: [&[f32]; 3]) -> [f32; 3] {
+    use std::arch::x86_64::*;
+    assert!(k <= nn && light.iter().all(|l| l.len() >= 3 * nn) && b.iter().all(|b| b.len() >= k));
+    let (lx, ly, lz) = (
+        _mm256_set1_ps(lam.x),
+        _mm256_set1_ps(lam.y),
+        _mm256_set1_ps(lam.z),
+    );
+    let rem = (k % 8) as i32;
+    let mask = _mm256_cmpgt_epi32(
+        _mm256_set1_epi32(rem),
+        _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+    );
+    let mut out = [0.0f32; 3];
+    for (c, o) in out.iter_mut().enumerate() {
+        // SAFETY: every full load reads `i..i + 8 ≤ k` of a slice of at least
+        // `c · nn + k` (lighting) or `k` (transfer) values, checked above;
+        // the masked loads read only their first `k mod 8` lanes.
+        unsafe {
+            let p = [
+                light[0].as_ptr().add(c * nn),
+                light[1].as_ptr().add(c * nn),
+                light[2].as_ptr().add(c * nn),
+            ];
+            let pb = b[c].as_ptr();
+            let mut acc = _mm256_setzero_ps();
+            let mut i = 0;
+            while i + 8 <= k {
+                let l = _mm256_fmadd_ps(
+                    lx,
+                    _mm256_loadu_ps(p[0].add(i)),
+                    _mm256_fmadd_ps(
+                        ly,
+                        _mm256_loadu_ps(p[1].add(i)),
+                        _mm256_mul_ps(lz, _mm256_loadu_ps(p[2].add(i))),
+                    ),
+                );
+                acc = _mm256_fmadd_ps(l, _mm256_loadu_ps(pb.add(i)), acc);
+                i += 8;
+            }
+            if rem > 0 {
+                // No closure: it could be compiled outside these features.
+                let l = _mm256_fmadd_ps(
+                    lx,
+                    _mm256_maskload_ps(p[0].add(i), mask),
+                    _mm256_fmadd_ps(
+                        ly,
+                        _mm256_maskload_ps(p[1].add(i), mask),
+                        _mm256_mul_ps(lz, _mm256_maskload_ps(p[2].add(i), mask)),
+                    ),
+                );
+                acc = _mm256_fmadd_ps(l, _mm256_maskload_ps(pb.add(i), mask), acc);
+            }
+            let q = _mm_add_ps(_mm256_castps256_ps128(acc), _mm256_extractf128_ps::<1>(acc));
+            let q = _mm_add_ps(q, _mm_movehl_ps(q, q));
+            *o = _mm_cvtss_f32(_mm_add_ss(q, _mm_movehdup_ps(q)));
+        }
+    }
+    out
+}
+
 /// The frame of `n` and `t` by Gram–Schmidt: the arithmetic of
-/// [`Frame::from_normal_tangent`] inlined into the pass (a call per frame,
-/// two per pixel, was 6 % of a frame), with its fallback.
+/// [`Frame::from_normal_tangent`] inlined into [`setup_lanes`], its fallback
+/// ([`Frame::from_z`]) computed always and selected, so that the lane loop
+/// has no branch.
 #[inline(always)]
 fn frame_of(n: Vec3, t: Vec3) -> Frame {
-    match (t - n * n.dot(t)).try_normalize() {
-        Some(x) => Frame {
-            x,
-            y: n.cross(x),
-            z: n,
-        },
-        None => Frame::from_z(n),
+    let u = t - n * n.dot(t);
+    let r = u.length_recip();
+    let fallback = Frame::from_z(n);
+    let ok = r.is_finite() && r > 0.0;
+    let x = u * r;
+    Frame {
+        x: if ok { x } else { fallback.x },
+        y: if ok { n.cross(x) } else { fallback.y },
+        z: n,
+    }
+}
+
+/// `acos x` for `x ∈ [0, 1]` (radians) without a libm call, so that it
+/// runs across lanes: Abramowitz & Stegun 4.4.46, `√(1 − x) Σ_{k<8} a_k x^k`,
+/// absolute error ≤ 2·10⁻⁸ in exact arithmetic (a few f32 ulps here; the
+/// test `lane_acos_matches_libm` checks it against `f32::acos`).
+#[inline(always)]
+fn acos_unit(x: f32) -> f32 {
+    const A: [f32; 8] = [
+        // a₀ = 1.5707963050, π/2 to f32 precision.
+        std::f32::consts::FRAC_PI_2,
+        -0.214_598_8,
+        0.088_978_99,
+        -0.050_174_3,
+        0.030_891_88,
+        -0.017_088_126,
+        0.006_670_09,
+        -0.001_262_491_1,
+    ];
+    let x = x.clamp(0.0, 1.0);
+    let mut p = A[7];
+    for a in A[..7].iter().rev() {
+        p = p * x + a;
+    }
+    (1.0 - x).sqrt() * p
+}
+
+/// The arithmetic of the chunk's first `count` samples, across lanes (no
+/// branch, no call, structure of arrays: the loop compiles to 8-lane
+/// registers in the AVX2 copy of the pass). Per sample, from the gathered
+/// interpolants ([`Lanes`]):
+/// * the unit normal `n_i` (falling back to the geometric normal, then +z)
+///   and the view `ω_o` (unit, world);
+/// * the back-face sign `s` (`ω_o · n_g < 0`: both frames flip);
+/// * the perturbed normal: [`NormalMap::perturb`]'s arithmetic with the
+///   gathered texel blend (`+z` without a map gives `n_i`);
+/// * `F_v = frame(s n_i, t)`, `F_p = frame(s n_p, t)`, `ω_o` in `F_p` as
+///   `cos θ_o`, `θ_o` ([`acos_unit`]), `cos φ_o`, `sin φ_o`, and
+///   `T = F_vᵀ F_p R_z(φ_o)`.
+#[inline(always)]
+fn setup_lanes(l: &mut Lanes, count: usize) {
+    let Lanes {
+        n,
+        t,
+        m,
+        view,
+        geo,
+        cos_o,
+        theta_o,
+        cphi,
+        sphi,
+        sign,
+        rot,
+        ..
+    } = l;
+    for i in 0..count.min(CHUNK) {
+        let g = Vec3::new(geo[0][i], geo[1][i], geo[2][i]);
+        let n_i = Vec3::new(n[0][i], n[1][i], n[2][i]).normalize_or(g.normalize_or(Vec3::Z));
+        let wo = Vec3::new(view[0][i], view[1][i], view[2][i]).normalize_or_zero();
+        let s = if wo.dot(g) < 0.0 { -1.0 } else { 1.0 };
+        let tangent = Vec3::new(t[0][i], t[1][i], t[2][i]);
+        let tp = (tangent - n_i * n_i.dot(tangent)).normalize_or(n_i.any_orthonormal_vector());
+        let bp = n_i.cross(tp) * if t[3][i] < 0.0 { -1.0 } else { 1.0 };
+        let n_p = (tp * m[0][i] + bp * m[1][i] + n_i * m[2][i]).normalize_or(n_i);
+        let fv = frame_of(s * n_i, tangent);
+        let fp = frame_of(s * n_p, tangent);
+        let w = fp.to_local(wo);
+        let rxy = (w.x * w.x + w.y * w.y).sqrt();
+        let turn = rxy > 1e-12;
+        let (c, sn) = if turn {
+            (w.x / rxy, w.y / rxy)
+        } else {
+            (1.0, 0.0)
+        };
+        cos_o[i] = w.z;
+        theta_o[i] = acos_unit(w.z);
+        cphi[i] = c;
+        sphi[i] = sn;
+        sign[i] = s;
+        // T = F_vᵀ F_p R_z(φ_o), column-major: (F_vᵀ F_p)_rc = F_v,r · F_p,c.
+        for (r, fr) in [fv.x, fv.y, fv.z].into_iter().enumerate() {
+            let (m0, m1) = (fr.dot(fp.x), fr.dot(fp.y));
+            rot[r][i] = m0 * c + m1 * sn;
+            rot[3 + r][i] = m1 * c - m0 * sn;
+            rot[6 + r][i] = fr.dot(fp.z);
+        }
     }
 }
 
@@ -394,7 +618,9 @@ impl Pass<'_> {
         self.row::<true>(s, rows, y, row);
     }
 
-    /// Row `y` of the pass (`F`: fused multiply-adds).
+    /// Row `y` of the pass (`F`: fused multiply-adds): the covered samples
+    /// are gathered into [`Lanes`], [`CHUNK`] at a time, and shaded by
+    /// [`Pass::shade_chunk`].
     #[inline(always)]
     fn row<const F: bool>(&self, s: &mut Scratch, rows: &Rows, y: usize, row: &mut [Vec3]) {
         let g = rows.g;
@@ -407,7 +633,7 @@ impl Pass<'_> {
         let bary = &g.barycentrics[y * w..(y + 1) * w];
         let k = self.order * self.order;
         s.size_for(3 * k);
-        let (mut count, mut vectors, mut batched) = (0usize, 0usize, 0usize);
+        let mut count = 0usize;
         for x in 0..row.len() {
             let id = ids[x];
             if id == NO_TRIANGLE {
@@ -434,46 +660,34 @@ impl Pass<'_> {
                 row[x] = Vec3::ZERO;
                 continue;
             };
-            match self.prepare::<F>(s, rows, d, t, bary[x], x, [vectors, batched]) {
-                Some(p) => {
-                    s.pending[count] = p;
-                    count += 1;
-                    if p.in_batch {
-                        batched += p.channels;
-                    } else {
-                        vectors += p.channels;
-                    }
-                    if count == CHUNK {
-                        self.finish::<F>(s, count, batched, row);
-                        (count, vectors, batched) = (0, 0, 0);
-                    }
-                }
-                None => row[x] = Vec3::ZERO,
+            self.gather::<F>(&mut s.lanes, count, rows.eye, d, t, bary[x], x);
+            count += 1;
+            if count == CHUNK {
+                self.shade_chunk::<F>(s, rows, count, row);
+                count = 0;
             }
         }
         if count > 0 {
-            self.finish::<F>(s, count, batched, row);
+            self.shade_chunk::<F>(s, rows, count, row);
         }
     }
 
-    /// The first half of covered sample `x` of draw `d`, triangle `t`
-    /// (module docs): its transfer vectors into the chunk buffers from vector
-    /// `first[0]` (windowed, turned to the view's azimuth and rotated to the
-    /// vertex frame now), or from vector `first[1]` of the batch buffers with
-    /// their rotations noted (a full rotation where [`Rows::batched`]);
-    /// `None` when the view is below the shading frame's horizon (black).
+    /// Lane `i` of `lanes`: covered sample `x` of draw `d`, triangle `t`,
+    /// its vertex data interpolated with the barycentrics `bary` and its
+    /// normal map's texels blended (the scattered reads, one sample at a
+    /// time; the arithmetic after them runs across lanes in [`setup_lanes`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn prepare<const F: bool>(
+    fn gather<const F: bool>(
         &self,
-        s: &mut Scratch,
-        rows: &Rows,
+        lanes: &mut Lanes,
+        i: usize,
+        eye: Vec3,
         d: usize,
         t: usize,
         bary: [f32; 2],
         x: usize,
-        first: [usize; 2],
-    ) -> Option<Pending> {
+    ) {
         let draw = &self.draws[d];
         let verts = draw.triangles[t].map(|i| i as usize);
         let [i0, i1, i2] = verts;
@@ -488,36 +702,89 @@ impl Pass<'_> {
         let (p0, p1, p2) = (draw.positions[i0], draw.positions[i1], draw.positions[i2]);
         let position = p0 * lam.x + p1 * lam.y + p2 * lam.z;
         let geo = (p1 - p0).cross(p2 - p0);
-        let wo_world = (rows.eye - position).normalize_or_zero();
-        let n_i = Vec3::new(mix[0], mix[1], mix[2]).normalize_or(geo.normalize_or(Vec3::Z));
-        let t_i = Vec4::new(mix[3], mix[4], mix[5], mix[6]);
-        let uv = Vec2::new(mix[7], mix[8]);
-        let back = wo_world.dot(geo) < 0.0;
-        let sgn = if back { -1.0 } else { 1.0 };
-        let normal_map = self.normal_maps[d];
-        let fv = frame_of(sgn * n_i, t_i.truncate());
-        let fp = match normal_map {
-            Some(m) => frame_of(sgn * m.perturb(n_i, t_i, uv), t_i.truncate()),
-            None => fv,
+        let view = eye - position;
+        let m = match self.normal_maps[d] {
+            Some(map) => map.blend(Vec2::new(mix[7], mix[8])),
+            None => Vec3::Z,
         };
-        let wo = fp.to_local(wo_world);
-        if wo.z <= 0.0 {
+        lanes.sample[i] = Sample { x, d, verts, lam };
+        for c in 0..3 {
+            lanes.n[c][i] = mix[c];
+            lanes.view[c][i] = view[c];
+            lanes.geo[c][i] = geo[c];
+            lanes.m[c][i] = m[c];
+        }
+        for c in 0..4 {
+            lanes.t[c][i] = mix[3 + c];
+        }
+    }
+
+    /// The chunk's `count` gathered samples: their frames across lanes
+    /// ([`setup_lanes`]), then, one by one, the transfer vectors into the
+    /// chunk buffers ([`Pass::place`]), then [`Pass::finish`].
+    #[inline(always)]
+    fn shade_chunk<const F: bool>(
+        &self,
+        s: &mut Scratch,
+        rows: &Rows,
+        count: usize,
+        row: &mut [Vec3],
+    ) {
+        setup_lanes(&mut s.lanes, count);
+        let (mut pending, mut vectors, mut batched) = (0usize, 0usize, 0usize);
+        for i in 0..count {
+            match self.place::<F>(s, rows, i, [vectors, batched]) {
+                Some(p) => {
+                    s.pending[pending] = p;
+                    pending += 1;
+                    if p.in_batch {
+                        batched += p.channels;
+                    } else {
+                        vectors += p.channels;
+                    }
+                }
+                None => row[s.lanes.sample[i].x] = Vec3::ZERO,
+            }
+        }
+        self.finish::<F>(s, pending, batched, row);
+    }
+
+    /// The first half of lane `i` after [`setup_lanes`]: its transfer
+    /// vectors into the chunk buffers from vector `first[0]` (windowed,
+    /// turned to the view's azimuth and rotated to the vertex frame now), or
+    /// from vector `first[1]` of the batch buffers with their rotations
+    /// noted (a full rotation where [`Rows::batched`]); `None` when the view
+    /// is below the shading frame's horizon (black).
+    #[inline(always)]
+    fn place<const F: bool>(
+        &self,
+        s: &mut Scratch,
+        rows: &Rows,
+        i: usize,
+        first: [usize; 2],
+    ) -> Option<Pending> {
+        let l = &s.lanes;
+        let cos_o = l.cos_o[i];
+        // Below the horizon, or NaN from degenerate vertex data: black.
+        if cos_o.is_nan() || cos_o <= 0.0 {
             return None;
         }
+        let sample = l.sample[i];
+        let d = sample.d;
+        let (cphi, sphi) = (l.cphi[i], l.sphi[i]);
+        let back = l.sign[i] < 0.0;
+        let vertex_from_canonical = Mat3::from_cols_array(&std::array::from_fn(|e| l.rot[e][i]));
         let order = self.order;
         let k = order * order;
         let table = &self.tables[d];
         let h = &self.windows[d][..k];
         let mono = table.mono_colour().is_some();
         let channels = if mono { 1 } else { 3 };
-        let turned_only = self.method == ShRotationMethod::None || normal_map.is_none();
+        let turned_only = self.method == ShRotationMethod::None || self.normal_maps[d].is_none();
         let in_batch = rows.batched && !turned_only;
         let first = first[usize::from(in_batch)];
         let pending = Pending {
-            x,
-            d,
-            verts,
-            lam,
+            sample,
             back,
             channels,
             first,
@@ -530,38 +797,21 @@ impl Pass<'_> {
             &mut s.src[span.clone()]
         };
         if mono {
-            table.lookup_mono_windowed::<F>(wo.z, order, h, b);
+            table.lookup_mono_windowed::<F>(l.theta_o[i], order, h, b);
         } else {
-            table.lookup(wo.z, order, b);
+            table.lookup(cos_o, order, b);
             for c in 0..channels {
                 for (v, hw) in b[c * k..(c + 1) * k].iter_mut().zip(h) {
                     *v *= hw;
                 }
             }
         }
-        let rxy = (wo.x * wo.x + wo.y * wo.y).sqrt();
-        let (cphi, sphi) = if rxy > 1e-12 {
-            (wo.x / rxy, wo.y / rxy)
-        } else {
-            (1.0, 0.0)
-        };
         if turned_only {
             for c in 0..channels {
                 let r = (first + c) * k..(first + c + 1) * k;
                 rotate_z(order, cphi, sphi, &s.src[r.clone()], &mut s.dst[r]);
             }
-            return Some(pending);
-        }
-        // T = F_vᵀ F_p R_z(φ_o): canonical → perturbed frame → vertex frame.
-        let rz = Mat3::from_cols(
-            Vec3::new(cphi, sphi, 0.0),
-            Vec3::new(-sphi, cphi, 0.0),
-            Vec3::Z,
-        );
-        let fv_m = Mat3::from_cols(fv.x, fv.y, fv.z);
-        let fp_m = Mat3::from_cols(fp.x, fp.y, fp.z);
-        let vertex_from_canonical = fv_m.transpose() * fp_m * rz;
-        if in_batch {
+        } else if in_batch {
             let rot = Rot3::from_mat3_unchecked(vertex_from_canonical);
             s.rots[first..first + channels].fill(rot);
         } else {
@@ -604,7 +854,8 @@ impl Pass<'_> {
         let nn = self.nn_max;
         let stride = 3 * nn;
         for p in &s.pending[..count] {
-            let draw = &self.draws[p.d];
+            let Sample { x, d, verts, lam } = p.sample;
+            let draw = &self.draws[d];
             let span = p.first * k..(p.first + p.channels) * k;
             let bz = if p.in_batch {
                 &mut s.batch_dst[span]
@@ -618,27 +869,58 @@ impl Pass<'_> {
                     }
                 }
             }
-            let [i0, i1, i2] = p.verts;
+            let [i0, i1, i2] = verts;
             let (l0, l1, l2) = (
                 &draw.light[i0 * stride..(i0 + 1) * stride],
                 &draw.light[i1 * stride..(i1 + 1) * stride],
                 &draw.light[i2 * stride..(i2 + 1) * stride],
             );
-            let mut out = [0.0f32; 3];
-            for (c, o) in out.iter_mut().enumerate() {
-                let bc = if p.channels == 1 {
+            let bc = |c: usize| {
+                if p.channels == 1 {
                     &bz[..k]
                 } else {
                     &bz[c * k..(c + 1) * k]
-                };
+                }
+            };
+            #[cfg(target_arch = "x86_64")]
+            let out = if F {
+                debug_assert!(fma_path());
+                // SAFETY: `F` is the AVX2 + FMA copy of the pass, which
+                // `Pass::run` takes only where `fma_path` found both.
+                unsafe { dot3_rgb_avx2([l0, l1, l2], nn, k, lam, [bc(0), bc(1), bc(2)]) }
+            } else {
+                std::array::from_fn(|c| {
+                    let r = c * nn..c * nn + k;
+                    dot3::<F>(&l0[r.clone()], &l1[r.clone()], &l2[r], lam, bc(c))
+                })
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let out: [f32; 3] = std::array::from_fn(|c| {
                 let r = c * nn..c * nn + k;
-                *o = dot3::<F>(&l0[r.clone()], &l1[r.clone()], &l2[r], p.lam, bc);
-            }
+                dot3::<F>(&l0[r.clone()], &l1[r.clone()], &l2[r], lam, bc(c))
+            });
             let v = Vec3::from_array(out);
-            row[p.x] = match self.tables[p.d].mono_colour() {
+            row[x] = match self.tables[d].mono_colour() {
                 Some(rho) => v * Vec3::from_array(rho),
                 None => v,
             };
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::acos_unit;
+
+    #[test]
+    fn lane_acos_matches_libm() {
+        let mut worst = 0.0f32;
+        for i in 0..=100_000 {
+            let x = i as f32 / 100_000.0;
+            worst = worst.max((acos_unit(x) - x.acos()).abs());
+        }
+        assert!(worst < 5e-7, "worst |acos_unit − acos| = {worst:e}");
+        assert_eq!(acos_unit(1.0), 0.0);
+        assert!((acos_unit(0.0) - std::f32::consts::FRAC_PI_2).abs() < 2e-7);
     }
 }
