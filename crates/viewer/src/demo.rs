@@ -313,6 +313,15 @@ mod tests {
         let (w, h) = (48, 27);
         let scene = demo_scene(w, h);
         let cache = std::env::temp_dir().join(format!("relight-demo-test-{}", std::process::id()));
+        // The wavelet bake's cache goes when the test ends, pass or fail
+        // (it was left behind, one folder per run).
+        struct RemoveOnDrop(std::path::PathBuf);
+        impl Drop for RemoveOnDrop {
+            fn drop(&mut self) {
+                let _ = std::fs::remove_dir_all(&self.0);
+            }
+        }
+        let _cleanup = RemoveOnDrop(cache.clone());
         let methods: Vec<MethodOptions> = DEMO_METHODS
             .into_iter()
             .map(|k| {

@@ -53,8 +53,9 @@ mod tests {
 
     /// Small, fast settings of every method (the wavelet bake at n = 16).
     fn small_options() -> ViewerOptions {
-        let cache =
-            std::env::temp_dir().join(format!("relight-viewer-test-{}", std::process::id()));
+        // One cache for every run (its entries are versioned and written
+        // atomically): a folder per process was left behind by each run.
+        let cache = std::env::temp_dir().join("relight-viewer-test-cache");
         let methods = [
             MethodKind::Wavelet,
             MethodKind::Sh,

@@ -16,14 +16,38 @@ pub fn relight(args: &[&str]) -> Output {
         .expect("run relight")
 }
 
-/// `name` in a scratch folder of this test binary and process.
+/// `name` in a scratch folder of this test binary and process. The tests
+/// share it and a test binary has no hook at exit, so the folder outlives
+/// the run; the first call removes the folders earlier runs left (those of
+/// processes no longer alive, where `/proc` tells), so that at most one
+/// run's outputs stay behind (they were ≈ 200 MB per run).
 pub fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "relight-{}-test-{}",
-        env!("CARGO_CRATE_NAME"),
-        std::process::id()
-    ));
-    std::fs::create_dir_all(&dir).unwrap();
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    let dir = DIR.get_or_init(|| {
+        let prefix = format!("relight-{}-test-", env!("CARGO_CRATE_NAME"));
+        let root = std::env::temp_dir();
+        if Path::new("/proc/self").exists()
+            && let Ok(entries) = std::fs::read_dir(&root)
+        {
+            for e in entries.flatten() {
+                let stale = e
+                    .file_name()
+                    .to_str()
+                    .and_then(|n| n.strip_prefix(&prefix))
+                    .and_then(|pid| pid.parse::<u32>().ok())
+                    .is_some_and(|pid| {
+                        pid != std::process::id()
+                            && !Path::new("/proc").join(pid.to_string()).exists()
+                    });
+                if stale {
+                    let _ = std::fs::remove_dir_all(e.path());
+                }
+            }
+        }
+        let dir = root.join(format!("{prefix}{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    });
     dir.join(name)
 }
 
