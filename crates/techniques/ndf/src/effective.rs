@@ -186,7 +186,9 @@ pub fn lambert_lobe(t: f32, inv_kappa: f32) -> f32 {
 pub fn shade_lobe(brdf: NdfBrdf, n: Vec3, inv_kappa: f32, wo: Vec3, wi: Vec3) -> f32 {
     let (co, ci) = (n.dot(wo), n.dot(wi));
     match brdf {
-        NdfBrdf::Lambert => lambert_lobe(ci, inv_kappa) * visible_fraction(co, inv_kappa) / PI,
+        NdfBrdf::Lambert => {
+            lambert_lobe(ci, inv_kappa) * crate::mask::lobe_seen_share(n, inv_kappa, wo, wi) / PI
+        }
         NdfBrdf::Blinn { s } => {
             let Some(h) = (wo + wi).try_normalize() else {
                 return 0.0;
@@ -342,24 +344,17 @@ pub fn lambert_sh_dir(gamma: &[f32], wi: Vec3) -> f32 {
     low + a4 * clamped_cos_remainder((m / r).dot(wi)) / PI
 }
 
-/// [`lambert_sh_dir`] seen from `wo`: times the [`visible_fraction`] of the
-/// NDF's mean-normal lobe (`m̂·ω_o`, κ = A⁻¹(|m|)), the view mask that a
-/// convolution with `f(n·ω_i)` alone cannot hold (at level 0, a delta, the
-/// mask of plain normal mapping).
+/// [`lambert_sh_dir`] seen from `wo`: times the share of that irradiance
+/// falling on normals that face the viewer, from the NDF's mean and
+/// covariance ([`crate::mask`]; at level 0, a delta, the mask of plain
+/// normal mapping). The first form took the NDF's visible share,
+/// `P(n·ω_o > 0)` of the mean-normal lobe, independent of `ω_i`: 6–7 %
+/// RMS at the texel level on map 0001, against 2–5 % now
+/// (`relight verify ndf`, `lambert/point` rows).
 #[inline]
 #[must_use]
 pub fn lambert_sh_dir_seen(gamma: &[f32], wo: Vec3, wi: Vec3) -> f32 {
-    let m = mean_normal_of_sh(gamma);
-    let r = m.length();
-    if r <= 0.0 {
-        return 0.5 * lambert_sh_dir(gamma, wi);
-    }
-    let inv_kappa = if r >= 1.0 - 1.5 / crate::vmf::KAPPA_MAX as f32 {
-        0.0
-    } else {
-        1.0 / crate::vmf::kappa_estimate(r)
-    };
-    lambert_sh_dir(gamma, wi) * visible_fraction((m / r).dot(wo), inv_kappa)
+    lambert_sh_dir(gamma, wi) * crate::mask::ShMoments::of_sh(gamma).seen_share(wo, wi)
 }
 
 /// The mean normal of an SH NDF from its band 1 (convention-free: three

@@ -41,6 +41,7 @@ pub mod em;
 pub mod export;
 pub mod field;
 pub mod lean;
+pub mod mask;
 pub mod method;
 pub mod pyramid;
 pub mod sh_ndf;
@@ -75,6 +76,15 @@ pub fn lod_of(duv_dx: Vec2, duv_dy: Vec2, width: usize, height: usize) -> f32 {
 /// 0.2937 both, `relight verify ndf --quick`).
 pub const MAX_PROBES: usize = 4;
 
+/// Levels by which a [`Footprint`] reads finer than its variance-matched
+/// level: a MIP texel's box and the bilinear tent between texels sit on a
+/// fixed grid, not on the pixel, and a coarser level's NDF loses contrast
+/// that the pixel's box keeps. Half a level lowered the screen-level error
+/// of both representations on the sphere and of SH on the plane, on the
+/// scenes' map and on two maps the verify does not use (figures and the
+/// one row it did not help, vMF on the plane: `docs/ndf.md`).
+pub const LEVEL_BIAS: f32 = 0.5;
+
 /// An anisotropic uv footprint as trilinear probes along its major axis
 /// (the scheme of hardware anisotropic filtering): `n = ⌈major/minor⌉`
 /// probes (at most [`MAX_PROBES`]) spread evenly over the major axis
@@ -91,7 +101,8 @@ pub const MAX_PROBES: usize = 4;
 /// interpolation between level-k texels adds a tent of half-width `2^k`:
 /// variance `4^k (1/12 + 1/6) = 4^k/4`. Equal variances give
 /// `k = ½ log2((ρ² + 2)/3)` — 0 at ρ = 1, `log2 ρ − 0.79` for large ρ —
-/// where the OpenGL rule's `log2 ρ` ([`lod_of`]) blurs twice as wide.
+/// where the OpenGL rule's `log2 ρ` ([`lod_of`]) blurs twice as wide. The
+/// probes read [`LEVEL_BIAS`] below that (clamped at 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Footprint {
     pub probes: [Vec2; MAX_PROBES],
@@ -172,7 +183,7 @@ impl Footprint {
         const _: () = assert!(MAX_PROBES == 4, "the count above stops at 4");
         let rho2 = (major2 / (n * n) as f32).max(minor2);
         let lod = if rho2 > 1.0 {
-            0.5 * ((rho2 + 2.0) / 3.0).log2()
+            (0.5 * ((rho2 + 2.0) / 3.0).log2() - LEVEL_BIAS).max(0.0)
         } else {
             0.0
         };
@@ -200,7 +211,7 @@ impl Footprint {
         };
         let level = |rho: f32| {
             if rho > 1.0 {
-                0.5 * ((rho * rho + 2.0) / 3.0).log2()
+                (0.5 * ((rho * rho + 2.0) / 3.0).log2() - LEVEL_BIAS).max(0.0)
             } else {
                 0.0
             }

@@ -2,5 +2,6 @@
 //! dependency graph instead of one per file); each module is one former
 //! `tests/*.rs` file.
 
+mod mask;
 mod math;
 mod method;

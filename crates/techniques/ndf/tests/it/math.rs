@@ -677,14 +677,17 @@ fn footprint_probes_span_the_major_axis() {
     use relight_ndf::Footprint;
     // The level whose texel ⊗ bilinear tent has the variance of a ρ-texel box
     // over bilinear level 0: 4^k/4 = ρ²/12 + 1/6.
-    let level = |rho: f32| 0.5 * ((rho * rho + 2.0) / 3.0).log2();
+    // Read `LEVEL_BIAS` finer, clamped at 0.
+    let matched = |rho: f32| 0.5 * ((rho * rho + 2.0) / 3.0).log2();
+    let level = |rho: f32| (matched(rho) - relight_ndf::LEVEL_BIAS).max(0.0);
     let uv = Vec2::new(0.3, 0.6);
     // Isotropic: one probe.
     let (dx, dy) = (Vec2::new(4.0, 0.0) / 64.0, Vec2::new(0.0, 4.0) / 64.0);
     let f = Footprint::of(uv, dx, dy, 64, 64);
     assert_eq!(f.count, 1);
     assert!((f.lod - level(4.0)).abs() < 1e-6);
-    assert!((4.0f32.powf(f.lod) / 4.0 - (16.0 / 12.0 + 1.0 / 6.0)).abs() < 1e-5);
+    let k = f.lod + relight_ndf::LEVEL_BIAS;
+    assert!((4.0f32.powf(k) / 4.0 - (16.0 / 12.0 + 1.0 / 6.0)).abs() < 1e-5);
     // 4:1 along y: 4 probes over ∂uv/∂y at the minor axis' level (2 texels).
     let (dx, dy) = (Vec2::new(2.0, 0.0) / 64.0, Vec2::new(0.0, 8.0) / 64.0);
     let f = Footprint::of(uv, dx, dy, 64, 64);

@@ -1,0 +1,215 @@
+//! The view mask from an NDF's moments (`relight_ndf::mask`), each piece
+//! checked a second way: Φ₂ and the closed form of `R` by direct
+//! quadrature, the table against the closed form, the moments against
+//! sums over the normals, and the shading against sums over normals.
+
+use glam::Vec3;
+use relight_ndf::effective::{NdfBrdf, lambert_sh_dir_seen, shade_lobe};
+use relight_ndf::mask::{ShMoments, bivariate_normal_cdf, mask_share, mask_share_exact};
+
+fn phi(x: f64) -> f64 {
+    (-0.5 * x * x).exp() / (2.0 * std::f64::consts::PI).sqrt()
+}
+
+/// `Φ` by the midpoint rule (an oracle independent of the module's erfc).
+fn cdf_quad(x: f64) -> f64 {
+    let lo = -12.0;
+    if x <= lo {
+        return 0.0;
+    }
+    let n = 4_000;
+    let h = (x - lo) / n as f64;
+    (0..n).map(|i| phi(lo + (i as f64 + 0.5) * h) * h).sum()
+}
+
+/// `E[X⁺ 1(Y>0)] / E[X⁺]` for standardized `h_x, h_y, ρ`, by quadrature
+/// over `X` of `P(Y > 0 | X)`.
+fn share_quad(hx: f64, hy: f64, rho: f64) -> f64 {
+    // σ_X = 1, μ_X = h_x; Y | X=x has mean h_y + ρ(x − h_x), sd √(1−ρ²).
+    let (lo, hi) = (0.0f64.max(hx - 10.0), hx + 10.0);
+    let n = 4_000;
+    let h = (hi - lo) / n as f64;
+    let q = (1.0 - rho * rho).sqrt();
+    let (mut a, mut b) = (0.0, 0.0);
+    for i in 0..n {
+        let x = lo + (i as f64 + 0.5) * h;
+        let w = x * phi(x - hx) * h;
+        let z = (hy + rho * (x - hx)) / q;
+        a += w * cdf_quad(z.clamp(-12.0, 12.0)).min(1.0);
+        b += w;
+    }
+    a / b
+}
+
+#[test]
+fn bivariate_cdf_matches_quadrature() {
+    for &(a, b, rho) in &[
+        (0.0, 0.0, 0.0),
+        (0.5, -0.3, 0.4),
+        (-1.2, 0.8, -0.7),
+        (1.5, 1.4, 0.95),
+        (-0.4, 2.0, -0.98),
+        (2.5, -2.5, 0.6),
+    ] {
+        // Φ₂(a, b; ρ) = ∫_{−∞}^a φ(x) Φ((b − ρx)/√(1−ρ²)) dx.
+        let q = (1.0f64 - rho * rho).sqrt();
+        let (lo, n) = (-10.0f64, 4000);
+        let h = (a - lo) / n as f64;
+        let want: f64 = (0..n)
+            .map(|i| {
+                let x = lo + (i as f64 + 0.5) * h;
+                phi(x) * cdf_quad((b - rho * x) / q) * h
+            })
+            .sum();
+        let got = bivariate_normal_cdf(a, b, rho);
+        assert!(
+            (got - want).abs() < 2e-6,
+            "Φ₂({a}, {b}; {rho}) = {got} vs {want}"
+        );
+    }
+}
+
+#[test]
+fn closed_form_share_matches_quadrature() {
+    for &(hx, hy, rho) in &[
+        (0.0, 0.0, 0.0),
+        (1.0, -0.5, 0.6),
+        (-1.5, 0.7, 0.8),
+        (0.3, 0.2, -0.9),
+        (3.0, -1.0, 0.3),
+        (-3.0, -0.5, -0.4),
+    ] {
+        let got = mask_share_exact(hx, hy, rho);
+        let want = share_quad(hx, hy, rho);
+        assert!(
+            (got - want).abs() < 1e-5,
+            "R({hx}, {hy}, {rho}) = {got} vs {want}"
+        );
+    }
+    // Limits: uncorrelated is P(Y > 0); h_y = ±∞ is 1 or 0.
+    assert!((mask_share_exact(0.7, 0.4, 0.0) - cdf_quad(0.4)).abs() < 1e-6);
+    assert_eq!(mask_share_exact(0.7, f64::INFINITY, 0.5), 1.0);
+    assert_eq!(mask_share_exact(0.7, f64::NEG_INFINITY, 0.5), 0.0);
+}
+
+#[test]
+fn the_table_follows_the_closed_form() {
+    // Random points in the compressed coordinates. Where `h_x` < −2 the
+    // light reaches a vanishing tail of the normals and R turns steep in
+    // ρ; there the error is weighed by the irradiance it scales,
+    // `E[X⁺]/(σ + |μ|)`, which the shading sees.
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut r = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    let h = |s: f64| s / (1.0 - s.abs());
+    let (mut worst, mut worst_weighed) = (0.0f64, 0.0f64);
+    for _ in 0..20_000 {
+        let (sx, sy, rho) = (0.999 * r(), 0.999 * r(), r());
+        let got = f64::from(mask_share(sx as f32, sy as f32, rho as f32));
+        let hx = h(sx);
+        let want = mask_share_exact(hx, h(sy), rho);
+        let e = (got - want).abs();
+        let irradiance = hx * (1.0 - 0.5 * libm_erfc_quad(hx)) + phi(hx);
+        worst_weighed = worst_weighed.max(e * irradiance / (1.0 + hx.abs()));
+        if hx > -2.0 && rho.abs() < 0.95 {
+            worst = worst.max(e);
+        }
+    }
+    // Measured 0.011 (near |ρ| = 0.88, h_x ≈ −1.5).
+    assert!(worst < 0.015, "table error {worst}");
+    eprintln!("table error {worst}, weighed {worst_weighed}");
+    // Measured 0.0010.
+    assert!(worst_weighed < 0.002, "weighed table error {worst_weighed}");
+    // A delta: s_y = ±1 is the exact step, whatever s_x and ρ.
+    for (sx, rho) in [(0.9, 0.3), (-0.2, -0.8), (1.0, 0.0)] {
+        assert_eq!(mask_share(sx, 1.0, rho), 1.0);
+        assert_eq!(mask_share(sx, -1.0, rho), 0.0);
+    }
+}
+
+/// `2 (1 − Φ(x))`, through [`cdf_quad`].
+fn libm_erfc_quad(x: f64) -> f64 {
+    2.0 * (1.0 - cdf_quad(x))
+}
+
+/// Normals spread about `axis` (a deterministic, lopsided set).
+fn normals(axis: Vec3, spread: f32, n: usize) -> Vec<Vec3> {
+    let f = relight_sphere::Frame::from_z(axis);
+    (0..n)
+        .map(|i| {
+            let t = i as f32 / n as f32;
+            let a = spread * (0.3 + t) * (1.0 + 0.5 * (i % 3) as f32);
+            let p = i as f32 * 2.399_963;
+            (f.z + f.x * (a * p.cos()) + f.y * (0.6 * a * p.sin())).normalize()
+        })
+        .collect()
+}
+
+fn sh_of(ns: &[Vec3]) -> [f32; 9] {
+    let mut g = [0.0f32; 9];
+    let mut y = [0.0f32; 9];
+    for n in ns {
+        relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+        for (a, b) in g.iter_mut().zip(y) {
+            *a += b / ns.len() as f32;
+        }
+    }
+    g
+}
+
+#[test]
+fn moments_of_sh_are_the_normals_moments() {
+    let ns = normals(Vec3::new(0.3, -0.2, 0.9).normalize(), 0.5, 400);
+    let m = ShMoments::of_sh(&sh_of(&ns));
+    let k = ns.len() as f32;
+    let mean: Vec3 = ns.iter().copied().sum::<Vec3>() / k;
+    assert!((m.mean - mean).length() < 1e-5, "{} vs {mean}", m.mean);
+    for (a, b) in [(Vec3::X, Vec3::Y), (Vec3::Z, Vec3::Z), (Vec3::X, Vec3::Z)] {
+        let want = ns
+            .iter()
+            .map(|n| (n.dot(a) - mean.dot(a)) * (n.dot(b) - mean.dot(b)))
+            .sum::<f32>()
+            / k;
+        let got = m.cov_form(a, b);
+        assert!((got - want).abs() < 1e-5, "cov({a}, {b}) = {got} vs {want}");
+    }
+}
+
+#[test]
+fn the_seen_share_follows_the_normals_at_grazing_views() {
+    // Lambert under one light of a spread of normals, against the sum over
+    // them (each masked by its own n·ω_o): the moments' mask beats the
+    // mean lobe's visible share where light and view are on one side.
+    let ns = normals(Vec3::new(0.1, 0.4, 0.9).normalize(), 0.6, 2000);
+    let g = sh_of(&ns);
+    let mut worst = 0.0f32;
+    for (wo, wi) in [
+        (Vec3::new(0.0, 0.97, 0.25), Vec3::new(0.2, 0.8, 0.56)),
+        (Vec3::new(0.9, 0.1, 0.42), Vec3::new(-0.5, 0.3, 0.81)),
+        (Vec3::new(-0.6, -0.7, 0.39), Vec3::new(-0.4, -0.6, 0.69)),
+    ] {
+        let (wo, wi) = (wo.normalize(), wi.normalize());
+        let truth = ns
+            .iter()
+            .map(|n| shade_lobe(NdfBrdf::Lambert, *n, 0.0, wo, wi))
+            .sum::<f32>()
+            / ns.len() as f32;
+        let got = lambert_sh_dir_seen(&g, wo, wi);
+        worst = worst.max((got - truth).abs() / truth);
+    }
+    assert!(worst < 0.06, "relative error {worst}");
+    // A delta: plain normal mapping's mask exactly.
+    let n = Vec3::new(0.3, 0.1, 0.95).normalize();
+    let g = sh_of(&[n]);
+    let wi = Vec3::new(0.1, 0.2, 0.97).normalize();
+    for wo in [Vec3::new(-0.99, 0.0, 0.12), Vec3::new(0.99, 0.0, 0.12)] {
+        let wo = wo.normalize();
+        let want = shade_lobe(NdfBrdf::Lambert, n, 0.0, wo, wi);
+        let got = lambert_sh_dir_seen(&g, wo, wi);
+        assert!((got - want).abs() < 1e-3 * want.max(0.1), "{got} vs {want}");
+    }
+}
