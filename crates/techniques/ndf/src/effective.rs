@@ -348,9 +348,8 @@ pub fn lambert_sh_dir(gamma: &[f32], wi: Vec3) -> f32 {
 /// falling on normals that face the viewer, from the NDF's mean and
 /// covariance ([`crate::mask`]; at level 0, a delta, the mask of plain
 /// normal mapping). The first form took the NDF's visible share,
-/// `P(n·ω_o > 0)` of the mean-normal lobe, independent of `ω_i`: 6–7 %
-/// RMS at the texel level on map 0001, against 2–5 % now
-/// (`relight verify ndf`, `lambert/point` rows).
+/// `P(n·ω_o > 0)` of the mean-normal lobe, independent of `ω_i`
+/// (`docs/ndf.md`, "The view mask").
 #[inline]
 #[must_use]
 pub fn lambert_sh_dir_seen(gamma: &[f32], wo: Vec3, wi: Vec3) -> f32 {

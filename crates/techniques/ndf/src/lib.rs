@@ -25,6 +25,9 @@
 //! * [`vmf`]: the lobe, `A(κ)` and its inverse, `A_l(κ)` by backward recurrence.
 //! * [`effective`]: effective BRDFs (Lambert; Blinn–Phong `s′ = κs/(κ+s)`;
 //!   GGX/Beckmann `α′² = α² + 2/κ`) and the baselines.
+//! * [`mask`]: Lambert's view mask (a normal facing away from the viewer
+//!   shades zero) from the NDF's mean and covariance, correlated with the
+//!   light.
 //!
 //! # Runtime
 //! [`method::NdfMethod`] (`--method ndf`) shades per pixel with the MIP

@@ -11,8 +11,8 @@
 //! `E[max(0, n·ω_i)] · P(n·ω_o > 0)`. Where light and view are on the same
 //! side (the screen scenes' light is behind the eye) the normals the
 //! viewer loses are the ones the light misses too, and the product
-//! undercounts: on map 0001 that was 6–7 % RMS at the texel level with
-//! the irradiance itself within 1.5 %.
+//! undercounts. It was most of the SH Lambert error under a point light
+//! (figures: `docs/ndf.md`, "The view mask").
 //!
 //! # The model
 //! Bands 0–2 of an SH NDF hold its mean `m = E[n]` and second moment
@@ -36,7 +36,7 @@
 //! Checked a second way: the closed form against direct quadrature of the
 //! bivariate normal, the table against the closed form, and [`ShMoments`]
 //! against sums over the normals an NDF was built from (tests in
-//! `tests/it/math.rs`).
+//! `tests/it/mask.rs`).
 
 use glam::Vec3;
 use relight_sh::quadrature::{SphereQuadrature, gauss_legendre};
