@@ -910,7 +910,84 @@ impl Pass<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::acos_unit;
+    use super::{CHUNK, Lanes, acos_unit, frame_of, setup_lanes};
+    use glam::{Mat3, Vec2, Vec3, Vec4};
+
+    /// The lane setup against the scalar forms it restates: the perturbed
+    /// normal of [`crate::NormalMap::perturb`] (fed the unnormalised blend, as
+    /// the pass gathers it), the back-face sign, `cos θ_o` in `F_p`, and
+    /// `T = F_vᵀ F_p R_z(φ_o)` built from [`frame_of`] matrices; on random
+    /// samples, a few seen from behind, one with a tangent along the normal.
+    #[test]
+    fn lane_setup_matches_the_scalar_perturbation_and_frames() {
+        let map = crate::NormalMap::bumps(32, 4, 0.8);
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut r = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f32 / (1u64 << 53) as f32 * 2.0 - 1.0
+        };
+        let mut lanes = Lanes::default();
+        let mut want = Vec::new();
+        for i in 0..CHUNK {
+            let n = Vec3::new(r(), r(), r() + 1.5) * 1.7; // not unit
+            let geo = (n + Vec3::new(r(), r(), r()) * 0.2).normalize();
+            let tangent = if i == 3 {
+                Vec4::from((n, 1.0))
+            } else {
+                Vec4::new(r() + 1.2, r(), r(), if i % 2 == 0 { 1.0 } else { -1.0 })
+            };
+            let uv = Vec2::new(r(), r()) * 3.0;
+            let view = if i % 4 == 1 {
+                -geo * 2.0 + Vec3::new(r(), r(), r()) * 0.3 // from behind
+            } else {
+                geo * 2.0 + Vec3::new(r(), r(), r())
+            };
+            let m = map.blend(uv);
+            for k in 0..3 {
+                lanes.n[k][i] = n[k];
+                lanes.m[k][i] = m[k];
+                lanes.view[k][i] = view[k];
+                lanes.geo[k][i] = geo[k];
+            }
+            for k in 0..4 {
+                lanes.t[k][i] = tangent[k];
+            }
+            let n_i = n.normalize();
+            let wo = view.normalize();
+            let s = if wo.dot(geo) < 0.0 { -1.0 } else { 1.0 };
+            let n_p = map.perturb(n_i, tangent, uv);
+            want.push((s, n_p, n_i, tangent.truncate(), wo));
+        }
+        setup_lanes(&mut lanes, CHUNK);
+        let cols = |f: relight_sphere::Frame| Mat3::from_cols(f.x, f.y, f.z);
+        for (i, (s, n_p, n_i, tangent, wo)) in want.into_iter().enumerate() {
+            assert_eq!(lanes.sign[i], s, "sample {i}: sign");
+            let cos_o = wo.dot(s * n_p);
+            assert!(
+                (lanes.cos_o[i] - cos_o).abs() < 1e-5,
+                "sample {i}: cos θ_o {} vs {cos_o}",
+                lanes.cos_o[i]
+            );
+            assert!((lanes.theta_o[i] - cos_o.clamp(-1.0, 1.0).acos()).abs() < 1e-4 || cos_o < 0.0);
+            let (fv, fp) = (
+                cols(frame_of(s * n_i, tangent)),
+                cols(frame_of(s * n_p, tangent)),
+            );
+            let w = fp.transpose() * wo;
+            let phi = w.y.atan2(w.x);
+            let want_t = fv.transpose() * fp * Mat3::from_rotation_z(phi);
+            let got = Mat3::from_cols_array(&std::array::from_fn(|k| lanes.rot[k][i]));
+            for k in 0..3 {
+                let (a, b) = (got.col(k), want_t.col(k));
+                assert!(
+                    (a - b).abs().max_element() < 1e-5,
+                    "sample {i}: T column {k}: {a} vs {b}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn lane_acos_matches_libm() {
