@@ -28,8 +28,10 @@ use crate::polygon::clamped_cosine_integral;
 use crate::table::lookup;
 use glam::{DVec3, Vec2, Vec3};
 use relight_geom::Mesh;
+use relight_render::cull::ClosedMeshes;
 use relight_render::method::{
     FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
+    rasterize_objects,
 };
 use relight_render::raster::{Background, Fragment, Rasterizer};
 use relight_render::{Image, Progress, Scene};
@@ -82,7 +84,7 @@ pub struct LtcMethod {
     warnings: Vec<String>,
     raster: Rasterizer,
     /// Which meshes are closed (their back faces culled from outside).
-    closed: relight_render::cull::ClosedMeshes,
+    closed: ClosedMeshes,
     frame: Image,
     pending_lighting_ms: f64,
 }
@@ -116,7 +118,7 @@ impl LtcMethod {
             lights: Vec::new(),
             warnings: Vec::new(),
             raster: Rasterizer::new(),
-            closed: relight_render::cull::ClosedMeshes::default(),
+            closed: ClosedMeshes::default(),
             frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
         })
@@ -301,13 +303,8 @@ impl Relighter for LtcMethod {
         }
         progress.check()?;
         let k = request.aa;
-        let (_, draws) = relight_render::method::rasterize_objects(
-            &mut self.raster,
-            &mut self.closed,
-            scene,
-            request,
-        )
-        .map_err(|e| invalid("raster", e))?;
+        let (_, draws) = rasterize_objects(&mut self.raster, &mut self.closed, scene, request)
+            .map_err(|e| invalid("raster", e))?;
         let (objects, lights, specular) = (&self.objects, &self.lights, self.options.specular);
         let shader = |f: &Fragment| -> Vec3 {
             let o = &objects[f.draw as usize];

@@ -51,8 +51,10 @@ use crate::transport::{Transport, bake_transport};
 use glam::Vec3;
 use rayon::prelude::*;
 use relight_geom::Mesh;
+use relight_render::cull::ClosedMeshes;
 use relight_render::method::{
     FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
+    rasterize_objects,
 };
 use relight_render::raster::{Background, Rasterizer};
 use relight_render::{AreaLight, Image, Progress, Scene, SceneBvh};
@@ -133,7 +135,7 @@ pub struct NearfieldMethod {
     warnings: Vec<String>,
     raster: Rasterizer,
     /// Which meshes are closed (their back faces culled from outside).
-    closed: relight_render::cull::ClosedMeshes,
+    closed: ClosedMeshes,
     frame: Image,
     pending_lighting_ms: f64,
     /// Times of the last lighting change: coefficients, propagation (ms).
@@ -223,7 +225,7 @@ impl NearfieldMethod {
             colors: Vec::new(),
             warnings: Vec::new(),
             raster: Rasterizer::new(),
-            closed: relight_render::cull::ClosedMeshes::default(),
+            closed: ClosedMeshes::default(),
             frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
             last_times: [0.0; 2],
@@ -774,13 +776,8 @@ impl Relighter for NearfieldMethod {
         progress.check()?;
         self.view_is_baked = self.baked_eye.is_none_or(|e| e == request.camera.eye);
         let k = request.aa;
-        let (_, draws) = relight_render::method::rasterize_objects(
-            &mut self.raster,
-            &mut self.closed,
-            scene,
-            request,
-        )
-        .map_err(|e| invalid("raster", e))?;
+        let (_, draws) = rasterize_objects(&mut self.raster, &mut self.closed, scene, request)
+            .map_err(|e| invalid("raster", e))?;
         let refs: Vec<&[Vec3]> = self.colors.iter().map(|c| &c[..]).collect();
         self.raster
             .shade_gouraud(

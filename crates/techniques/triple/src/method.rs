@@ -59,8 +59,10 @@ use crate::visibility::{bake_point_visibility, bake_vertex_visibility};
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use relight_geom::Mesh;
+use relight_render::cull::ClosedMeshes;
 use relight_render::method::{
     FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
+    rasterize_objects,
 };
 use relight_render::raster::{Background, Rasterizer};
 use relight_render::{Image, Progress, Scene, SceneBvh};
@@ -211,7 +213,7 @@ pub struct TripleMethod {
     world_from_env: Mat3,
     raster: Rasterizer,
     /// Which meshes are closed (their back faces culled from outside).
-    closed: relight_render::cull::ClosedMeshes,
+    closed: ClosedMeshes,
     frame: Image,
     colors: Vec<Vec<Vec3>>,
     /// Per object, the vertices' functions of [`Shading::Interpolated`].
@@ -333,7 +335,7 @@ impl TripleMethod {
             table: None,
             world_from_env: Mat3::IDENTITY,
             raster: Rasterizer::new(),
-            closed: relight_render::cull::ClosedMeshes::default(),
+            closed: ClosedMeshes::default(),
             frame: Image::new(0, 0),
             colors: Vec::new(),
             vertex_fns: Vec::new(),
@@ -1039,13 +1041,8 @@ impl Relighter for TripleMethod {
             .ok_or_else(|| stale("call prepare before render"))?;
         progress.check()?;
         let k = request.aa;
-        let (camera, draws) = relight_render::method::rasterize_objects(
-            &mut self.raster,
-            &mut self.closed,
-            scene,
-            request,
-        )
-        .map_err(|e| invalid("raster", e))?;
+        let (camera, draws) = rasterize_objects(&mut self.raster, &mut self.closed, scene, request)
+            .map_err(|e| invalid("raster", e))?;
         let env = &scene.env;
         let env_from_world = scene.world_from_env.transpose();
         let fog = self.fog.as_ref();
