@@ -196,6 +196,22 @@ struct Lanes {
     rot: [[f32; CHUNK]; 9],
 }
 
+impl Lanes {
+    /// Sample `i`'s inputs ([`Lanes`]' fields of the same names).
+    #[inline(always)]
+    fn put(&mut self, i: usize, n: Vec3, t: glam::Vec4, m: Vec3, view: Vec3, geo: Vec3) {
+        for c in 0..3 {
+            self.n[c][i] = n[c];
+            self.m[c][i] = m[c];
+            self.view[c][i] = view[c];
+            self.geo[c][i] = geo[c];
+        }
+        for c in 0..4 {
+            self.t[c][i] = t[c];
+        }
+    }
+}
+
 impl Default for Lanes {
     fn default() -> Self {
         let z = [0.0; CHUNK];
@@ -708,15 +724,8 @@ impl Pass<'_> {
             None => Vec3::Z,
         };
         lanes.sample[i] = Sample { x, d, verts, lam };
-        for c in 0..3 {
-            lanes.n[c][i] = mix[c];
-            lanes.view[c][i] = view[c];
-            lanes.geo[c][i] = geo[c];
-            lanes.m[c][i] = m[c];
-        }
-        for c in 0..4 {
-            lanes.t[c][i] = mix[3 + c];
-        }
+        let t = glam::Vec4::new(mix[3], mix[4], mix[5], mix[6]);
+        lanes.put(i, Vec3::new(mix[0], mix[1], mix[2]), t, m, view, geo);
     }
 
     /// The chunk's `count` gathered samples: their frames across lanes
@@ -944,16 +953,7 @@ mod tests {
             } else {
                 geo * 2.0 + Vec3::new(r(), r(), r())
             };
-            let m = map.blend(uv);
-            for k in 0..3 {
-                lanes.n[k][i] = n[k];
-                lanes.m[k][i] = m[k];
-                lanes.view[k][i] = view[k];
-                lanes.geo[k][i] = geo[k];
-            }
-            for k in 0..4 {
-                lanes.t[k][i] = tangent[k];
-            }
+            lanes.put(i, n, tangent, map.blend(uv), view, geo);
             let n_i = n.normalize();
             let wo = view.normalize();
             let s = if wo.dot(geo) < 0.0 { -1.0 } else { 1.0 };
