@@ -39,6 +39,7 @@
 //! `tests/it/mask.rs`).
 
 use glam::Vec3;
+use rayon::prelude::*;
 use relight_sh::quadrature::{SphereQuadrature, gauss_legendre};
 use std::f64::consts::{PI, SQRT_2};
 
@@ -135,29 +136,7 @@ const RHO_NODES: usize = 33;
 #[inline]
 #[must_use]
 pub fn mask_share(sx: f32, sy: f32, rho: f32) -> f32 {
-    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
-    let t = TABLE.get_or_init(|| {
-        let h = |i: usize| {
-            let s = -1.0 + 2.0 * i as f64 / (H_NODES - 1) as f64;
-            if s >= 1.0 {
-                f64::INFINITY
-            } else if s <= -1.0 {
-                f64::NEG_INFINITY
-            } else {
-                s / (1.0 - s.abs())
-            }
-        };
-        let mut out = Vec::with_capacity(H_NODES * H_NODES * RHO_NODES);
-        for k in 0..RHO_NODES {
-            let rho = -1.0 + 2.0 * k as f64 / (RHO_NODES - 1) as f64;
-            for j in 0..H_NODES {
-                for i in 0..H_NODES {
-                    out.push(mask_share_exact(h(i), h(j), rho) as f32);
-                }
-            }
-        }
-        out
-    });
+    let t = table();
     let cell = |v: f32, n: usize| {
         let x = ((v.clamp(-1.0, 1.0) + 1.0) * 0.5 * (n - 1) as f32).min((n - 1) as f32);
         let i = (x as usize).min(n - 2);
@@ -174,6 +153,42 @@ pub fn mask_share(sx: f32, sy: f32, rho: f32) -> f32 {
     };
     let (lo, hi) = (bilerp(k), bilerp(k + 1));
     lo + fz * (hi - lo)
+}
+
+/// Builds [`mask_share`]'s table now if it is not built yet (about 9·10⁶
+/// exponentials, in parallel): for a caller that would rather not pay it
+/// inside its first frame.
+pub fn warm() {
+    let _ = table();
+}
+
+/// [`mask_share`]'s table, `[ρ][s_y][s_x]`, built once.
+fn table() -> &'static [f32] {
+    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let h = |i: usize| {
+            let s = -1.0 + 2.0 * i as f64 / (H_NODES - 1) as f64;
+            if s >= 1.0 {
+                f64::INFINITY
+            } else if s <= -1.0 {
+                f64::NEG_INFINITY
+            } else {
+                s / (1.0 - s.abs())
+            }
+        };
+        (0..RHO_NODES * H_NODES * H_NODES)
+            .into_par_iter()
+            .map(|idx| {
+                let (i, j, k) = (
+                    idx % H_NODES,
+                    (idx / H_NODES) % H_NODES,
+                    idx / (H_NODES * H_NODES),
+                );
+                let rho = -1.0 + 2.0 * k as f64 / (RHO_NODES - 1) as f64;
+                mask_share_exact(h(i), h(j), rho) as f32
+            })
+            .collect()
+    })
 }
 
 /// Mean and covariance of an NDF, read from its SH bands 0–2 (module

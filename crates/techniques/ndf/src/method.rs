@@ -971,6 +971,11 @@ impl Relighter for NdfMethod {
                 light: vec![0.0; nv * 27],
             });
         }
+        if self.options.brdf == NdfBrdf::Lambert && !scene.point_lights.is_empty() {
+            // The view mask's table ([`crate::mask`]) is built on first use:
+            // here, not inside the first frame.
+            crate::mask::warm();
+        }
         self.set_lighting(scene, progress)?;
         Ok(())
     }
