@@ -32,6 +32,7 @@ use crate::lean::{LeanPyramid, LeanTexel, shade_lean};
 use crate::pyramid::{MAX_LOBES, ShadeLobe, VmfBakeOptions, VmfPyramid, unpack_fast};
 use crate::{Footprint, MeanPyramid, NdfError, ShNdfPyramid};
 use glam::{Mat3, Vec2, Vec3, Vec4};
+use relight_render::cull::{closed_bounds, cull_for_closed};
 use relight_render::method::{
     FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support,
 };
@@ -216,6 +217,10 @@ struct ObjectData {
     /// 27 floats per vertex: the 9 SH lighting coefficients per channel in
     /// the vertex frame `Frame::from_normal_tangent(n, t)`.
     light: Vec<f32>,
+    /// The bounds of a closed, outward-oriented mesh, whose back faces the
+    /// raster culls from outside them ([`relight_render::cull`]); `None`
+    /// for an open mesh.
+    closed: Option<relight_geom::Aabb>,
 }
 
 /// The `ndf` method (module docs).
@@ -969,6 +974,7 @@ impl Relighter for NdfMethod {
                 colour,
                 map,
                 light: vec![0.0; nv * 27],
+                closed: closed_bounds(m),
             });
         }
         if self.options.brdf == NdfBrdf::Lambert && !scene.point_lights.is_empty() {
@@ -1046,7 +1052,11 @@ impl Relighter for NdfMethod {
             .objects
             .iter()
             .enumerate()
-            .map(|(i, o)| DrawCall::new(&o.positions, &o.triangles).with_object_id(i as u32))
+            .map(|(i, o)| {
+                DrawCall::new(&o.positions, &o.triangles)
+                    .with_object_id(i as u32)
+                    .with_cull(cull_for_closed(o.closed.as_ref(), camera.eye))
+            })
             .collect();
         let opts = RasterOptions {
             cull: CullMode::None,
@@ -1110,6 +1120,29 @@ mod tests {
     use super::*;
     use relight_render::Camera;
     use relight_render::NoProgress;
+
+    /// The screen sphere (closed) seen from outside: its back faces are
+    /// culled, and the image is the one drawing both sides gives.
+    #[test]
+    fn a_closed_sphere_culled_from_outside_renders_the_same() {
+        let map = NormalMap::bumps(64, 4, 0.8);
+        let scene = crate::verify::sphere_scene(&map, NdfBrdf::Lambert, 64);
+        let mut m = NdfMethod::new(NdfOptions::default()).expect("options");
+        m.prepare(&scene, &NoProgress).expect("prepare");
+        assert!(m.objects[0].closed.is_some(), "the sphere is closed");
+        let req = FrameRequest::new(scene.camera);
+        let culled = m.render(&scene, &req, &NoProgress).expect("render");
+        m.objects[0].closed = None;
+        let both = m.render(&scene, &req, &NoProgress).expect("render");
+        let lit = both
+            .image
+            .pixels
+            .iter()
+            .filter(|p| p.max_element() > 0.0)
+            .count();
+        assert!(lit > 64 * 64 / 4, "{lit} lit pixels");
+        assert_eq!(culled.image.pixels, both.image.pixels);
+    }
 
     #[test]
     fn flat_triangles_shade_as_the_per_pixel_interpolation() {
