@@ -80,12 +80,14 @@ pub fn lod_of(duv_dx: Vec2, duv_dy: Vec2, width: usize, height: usize) -> f32 {
 pub const MAX_PROBES: usize = 4;
 
 /// Levels by which a [`Footprint`] reads finer than its variance-matched
-/// level: a MIP texel's box and the bilinear tent between texels sit on a
-/// fixed grid, not on the pixel, and a coarser level's NDF loses contrast
-/// that the pixel's box keeps. Half a level lowered the screen-level error
-/// of both representations on the sphere and of SH on the plane, on the
-/// scenes' map and on two maps the verify does not use (figures and the
-/// one row it did not help, vMF on the plane: `docs/ndf.md`).
+/// level, chosen on measurement: at the matched level the screen scenes
+/// lost contrast against the reference (dark pixels too bright, bright ones
+/// too dark). Half a level lowered the screen-level error of both
+/// representations on the sphere and of SH on the plane, on the scenes'
+/// map and on two maps the verify does not use. A kernel-only model would
+/// have gone the other way, so the representations' own loss of contrast
+/// at coarser levels is part of it (figures, and the one row it did not
+/// help, vMF on the plane: `docs/ndf.md`).
 pub const LEVEL_BIAS: f32 = 0.5;
 
 /// An anisotropic uv footprint as trilinear probes along its major axis
