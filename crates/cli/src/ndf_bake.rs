@@ -466,6 +466,24 @@ mod tests {
         let (b, hit_b) = vmf_cached(&map, &opts, &dir.join("cache")).unwrap();
         assert!(!hit_a && hit_b);
         assert_eq!(a, b);
+        // A flipped bit in a lobe, or a truncated file, fails the CRC: the
+        // cache re-bakes and replaces it.
+        let file = std::fs::read_dir(dir.join("cache"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .find(|p| p.extension().is_some_and(|e| e == "bin"))
+            .unwrap();
+        let good = std::fs::read(&file).unwrap();
+        let mut flipped = good.clone();
+        flipped[good.len() / 2] ^= 0x10;
+        for bad in [flipped, good[..good.len() - 1].to_vec()] {
+            assert!(VmfPyramid::from_bytes(&bad).is_none());
+            std::fs::write(&file, &bad).unwrap();
+            let (c, hit) = vmf_cached(&map, &opts, &dir.join("cache")).unwrap();
+            assert!(!hit);
+            assert_eq!(c, a);
+            assert_eq!(std::fs::read(&file).unwrap(), good);
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -27,8 +27,10 @@ use crate::vmf::{KAPPA_MAX, Vmf, mean_resultant};
 use glam::{DVec3, Vec3, Vec4};
 use rayon::prelude::*;
 
-/// The first bytes of [`VmfPyramid::to_bytes`].
-const CACHE_MAGIC: &[u8; 8] = b"RLVMF001";
+/// The first bytes of [`VmfPyramid::to_bytes`], with the format's version:
+/// bump it when the layout or the fit changes (`002`: the CRC-32 trailer,
+/// and the vectorized E-step's rounding).
+const CACHE_MAGIC: &[u8; 8] = b"RLVMF002";
 
 /// Largest number of lobes per texel.
 pub const MAX_LOBES: usize = 8;
@@ -447,8 +449,9 @@ impl VmfPyramid {
     }
 
     /// The pyramid as bytes (the disk cache's format, little-endian): the
-    /// magic `RLVMF001`, `J` and the level count as u32, then per level its
-    /// width and height (u32) and `width·height·J` packed lobes (4 × f32).
+    /// magic `RLVMF002`, `J` and the level count as u32, then per level its
+    /// width and height (u32) and `width·height·J` packed lobes (4 × f32),
+    /// then the CRC-32 of everything before it (u32).
     #[must_use]
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(16 + self.bytes() as usize + 8 * self.levels.len());
@@ -464,13 +467,20 @@ impl VmfPyramid {
                 }
             }
         }
+        let crc = crc32fast::hash(&out);
+        out.extend_from_slice(&crc.to_le_bytes());
         out
     }
 
-    /// Reads [`Self::to_bytes`]; `None` for anything else (wrong magic,
-    /// sizes that do not add up, a chain that does not halve to 1 × 1).
+    /// Reads [`Self::to_bytes`]; `None` for anything else (wrong magic or
+    /// version, a CRC that does not match, sizes that do not add up, a chain
+    /// that does not halve to 1 × 1).
     #[must_use]
     pub fn from_bytes(b: &[u8]) -> Option<Self> {
+        let (b, crc) = b.split_at_checked(b.len().checked_sub(4)?)?;
+        if crc32fast::hash(b).to_le_bytes() != crc {
+            return None;
+        }
         let mut at = 0usize;
         let mut take = |n: usize| -> Option<&[u8]> {
             let s = b.get(at..at.checked_add(n)?)?;

@@ -4,7 +4,7 @@
 //! # Algorithm
 //! With lobes `(α_j, μ_j, κ_j)` and samples `x_i` of weight `w_i`:
 //! * **E-step:** `r_ij = α_j γ(x_i; μ_j, κ_j) / Σ_k α_k γ(x_i; μ_k, κ_k)`
-//!   (log-sum-exp in f64).
+//!   (log-sum-exp in f64, vectorized over samples: [`estep`]).
 //! * **M-step:** `α_j = Σ_i w_i r_ij / Σ_i w_i`, `R_j = Σ_i w_i r_ij x_i`,
 //!   `μ_j = R_j/|R_j|`, `κ_j = A⁻¹(|R_j| / Σ_i w_i r_ij)`
 //!   ([`crate::vmf::kappa_from_resultant`]), clamped to
@@ -21,7 +21,10 @@
 //!   (first centre and every D²-draw from a SplitMix64 of fixed seed
 //!   [`EM_SEED`]), so the output is deterministic.
 
-use crate::vmf::{KAPPA_MAX, KAPPA_MIN, Vmf, kappa_from_resultant, log_norm};
+pub mod estep;
+
+use crate::vmf::{KAPPA_MAX, KAPPA_MIN, Vmf, kappa_from_resultant, norm};
+use estep::{EStepScratch, EStepSums, LobeTerms, SoaSamples};
 use glam::DVec3;
 
 /// Seed of the k-means++ start.
@@ -136,84 +139,60 @@ pub fn seed_lobes(samples: &[DVec3], weights: &[f64], j: usize) -> Vec<Lobe> {
 /// Runs EM on `lobes` in place (module docs) over `samples` with `weights`
 /// (> 0). Returns the log-likelihood trace.
 pub fn fit_em(samples: &[DVec3], weights: &[f64], lobes: &mut [Lobe], opts: &EmOptions) -> EmTrace {
+    fit_em_on(samples, weights, lobes, opts, true)
+}
+
+/// [`fit_em`], with `simd` allowing the AVX2 + FMA E-step ([`estep`]);
+/// both give the same bits.
+#[doc(hidden)]
+pub fn fit_em_on(
+    samples: &[DVec3],
+    weights: &[f64],
+    lobes: &mut [Lobe],
+    opts: &EmOptions,
+    simd: bool,
+) -> EmTrace {
     let j = lobes.len();
     let total: f64 = weights.iter().sum();
+    let soa = SoaSamples::new(samples, weights);
+    let mut terms = LobeTerms {
+        c: vec![0.0; j],
+        kmu: vec![[0.0; 3]; j],
+    };
+    let mut scratch = EStepScratch::default();
+    let mut sums = EStepSums::default();
     let mut trace = Vec::with_capacity(opts.max_iter + 1);
-    let mut logp = vec![0.0f64; j];
-    let mut sum_w = vec![0.0f64; j];
-    let mut sum_x = vec![DVec3::ZERO; j];
     let mut prev = f64::NEG_INFINITY;
     for it in 0..=opts.max_iter {
-        sum_w.fill(0.0);
-        sum_x.fill(DVec3::ZERO);
-        let consts: Vec<f64> = lobes
-            .iter()
-            .map(|l| {
-                if l.alpha > 0.0 {
-                    l.alpha.ln() + log_norm(l.vmf.kappa) - l.vmf.kappa
-                } else {
-                    f64::NEG_INFINITY
-                }
-            })
-            .collect();
-        // `ll = Σ w (m + ln s)`: the `ln s` of unit-weight samples are
-        // summed as the log of their product (s ∈ [1, J], flushed before
-        // it could overflow), one `ln` per ~100 samples instead of one each.
-        let mut ll = 0.0;
-        let mut prod = 1.0f64;
-        let kmu: Vec<DVec3> = lobes.iter().map(|l| l.vmf.mu * l.vmf.kappa).collect();
-        for (x, &w) in samples.iter().zip(weights) {
-            let mut m = f64::NEG_INFINITY;
-            for k in 0..j {
-                logp[k] = consts[k] + kmu[k].dot(*x);
-                m = m.max(logp[k]);
-            }
-            // Terms below e^−60 of the largest (1) are 0 to f64 in the sum;
-            // skipping their `exp` changes nothing but the cost.
-            let mut s = 0.0;
-            for p in logp.iter_mut() {
-                let d = *p - m;
-                *p = if d > -60.0 { d.exp() } else { 0.0 };
-                s += *p;
-            }
-            ll += w * m;
-            if w == 1.0 {
-                prod *= s;
-                if prod > 1e250 {
-                    ll += prod.ln();
-                    prod = 1.0;
-                }
+        for (k, l) in lobes.iter().enumerate() {
+            // One `ln` per lobe: `ln(α C(κ)) − κ`.
+            terms.c[k] = if l.alpha > 0.0 {
+                (l.alpha * norm(l.vmf.kappa)).ln() - l.vmf.kappa
             } else {
-                ll += w * s.ln();
-            }
-            let inv = w / s;
-            for k in 0..j {
-                let r = logp[k] * inv;
-                if r > 0.0 {
-                    sum_w[k] += r;
-                    sum_x[k] += *x * r;
-                }
-            }
+                f64::NEG_INFINITY
+            };
+            terms.kmu[k] = (l.vmf.mu * l.vmf.kappa).to_array();
         }
-        ll += prod.ln();
-        let ll = ll / total;
+        estep::estep(&soa, &terms, &mut scratch, &mut sums, simd);
+        let ll = sums.ll / total;
         trace.push(ll);
         if it == opts.max_iter || (it > 0 && ll - prev <= opts.tol) {
             break;
         }
         prev = ll;
-        for k in 0..j {
-            let l = &mut lobes[k];
-            if sum_w[k] <= 1e-12 * total {
+        for (k, l) in lobes.iter_mut().enumerate() {
+            let sum_w = sums.sum_w[k];
+            if sum_w <= 1e-12 * total {
                 l.alpha = 0.0;
                 continue;
             }
-            l.alpha = sum_w[k] / total;
-            let len = sum_x[k].length();
+            l.alpha = sum_w / total;
+            let sum_x = DVec3::from_array(sums.sum_x[k]);
+            let len = sum_x.length();
             if len > 0.0 {
-                l.vmf.mu = sum_x[k] / len;
+                l.vmf.mu = sum_x / len;
             }
-            l.vmf.kappa = kappa_from_resultant(len / sum_w[k]).clamp(KAPPA_MIN, KAPPA_MAX);
+            l.vmf.kappa = kappa_from_resultant(len / sum_w).clamp(KAPPA_MIN, KAPPA_MAX);
         }
     }
     EmTrace {
