@@ -439,7 +439,7 @@ impl NdfMethod {
                 let mut packed = [Vec4::ZERO; MAX_LOBES];
                 if let Some(v) = &b.vmf {
                     // Packed moments filter linearly (moment-matching merge).
-                    v.sample_footprint(fp, &mut packed);
+                    v.sample_footprint_on(fp, &mut packed, self.simd);
                     for p in &packed[..v.lobes] {
                         if let Some(l) = unpack_fast(*p) {
                             lobes[nl] = l;
@@ -471,20 +471,6 @@ impl NdfMethod {
             NdfFilter::Unnormalized => Baseline::Unnormalized,
             NdfFilter::Toksvig => Baseline::Toksvig,
             _ => Baseline::Normalized,
-        };
-        let fcos = |wi: Vec3| -> f32 {
-            match &rep {
-                Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
-                Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
-                Rep::Sh => lambert_sh_dir_seen(&gamma, wo, wi),
-                Rep::Vmf => match brdf {
-                    NdfBrdf::Blinn { s } => {
-                        shade_mixture_blinn(s, self.blinn_norm, &lobes[..nl], wo, wi)
-                    }
-                    _ => shade_mixture(brdf, &lobes[..nl], wo, wi),
-                },
-                Rep::Lean(t) => shade_lean(brdf, t, wo, wi),
-            }
         };
         let mut out = Vec3::ZERO;
         if has_env && brdf == NdfBrdf::Lambert {
@@ -555,7 +541,23 @@ impl NdfMethod {
                 continue;
             }
             let wi = to_t(d / r2.sqrt());
-            out += pl.intensity / r2 * fcos(wi);
+            // `f·cos θ_i` of the representation, written out here rather than
+            // as a closure: a closure was not inlined, and its body (the
+            // whole Blinn lobe loop) was then compiled for the baseline
+            // target instead of the AVX2 copy of the pixel loop.
+            let fcos = match &rep {
+                Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
+                Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
+                Rep::Sh => lambert_sh_dir_seen(&gamma, wo, wi),
+                Rep::Vmf => match brdf {
+                    NdfBrdf::Blinn { s } => {
+                        shade_mixture_blinn(s, self.blinn_norm, &lobes[..nl], wo, wi)
+                    }
+                    _ => shade_mixture(brdf, &lobes[..nl], wo, wi),
+                },
+                Rep::Lean(t) => shade_lean(brdf, t, wo, wi),
+            };
+            out += pl.intensity / r2 * fcos;
         }
         out * o.colour
     }

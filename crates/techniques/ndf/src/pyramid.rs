@@ -78,20 +78,27 @@ pub struct VmfLevel {
 
 /// [`VmfPyramid::sample_footprint`] for `J` lobes: `out[j] = Σ w · lobe_j`
 /// over the footprint's taps, in [`crate::Footprint::taps`]' order.
-#[inline]
+#[inline(always)]
 fn sample_taps<const J: usize>(levels: &[VmfLevel], fp: &crate::Footprint, out: &mut [Vec4]) {
-    let mut acc = [Vec4::ZERO; J];
+    // Plain f32 lanes rather than `Vec4`s (glam's are 128-bit registers):
+    // the AVX2 copy then adds two lobes per 256-bit operation.
+    let mut acc = [[0.0f32; 4]; J];
     let (lv, count) = fp.level_weights(levels.len());
     for &(k, wk) in &lv[..count] {
         let l = &levels[k];
         let (texels, _) = l.lobes.as_chunks::<J>();
         fp.visit_level((l.width, l.height), wk, |i, w| {
             for (a, v) in acc.iter_mut().zip(&texels[i]) {
-                *a += *v * w;
+                let v: &[f32; 4] = v.as_ref();
+                for c in 0..4 {
+                    a[c] += v[c] * w;
+                }
             }
         });
     }
-    out[..J].copy_from_slice(&acc);
+    for (o, a) in out[..J].iter_mut().zip(acc) {
+        *o = Vec4::from_array(a);
+    }
 }
 
 /// The pyramid.
@@ -422,8 +429,38 @@ impl VmfPyramid {
 
     /// The mean of [`Self::sample`] over an anisotropic footprint's probes
     /// into `out` (`J` entries; packed moments filter linearly).
+    ///
+    /// Compiled for AVX2 + FMA where the CPU has them (the caller's pixel
+    /// loop does not inline the eight lobe counts' copies), else for the
+    /// baseline; both do the same f32 operations (no contraction): the
+    /// same bits.
     #[inline]
     pub fn sample_footprint(&self, fp: &crate::Footprint, out: &mut [Vec4]) {
+        self.sample_footprint_on(fp, out, true);
+    }
+
+    /// [`Self::sample_footprint`], with `simd` allowing the AVX2 + FMA copy
+    /// (off only in the test that compares the two).
+    #[inline]
+    pub fn sample_footprint_on(&self, fp: &crate::Footprint, out: &mut [Vec4], simd: bool) {
+        #[cfg(target_arch = "x86_64")]
+        if simd && relight_sh::isa() >= relight_sh::Isa::Avx2 {
+            // SAFETY: the CPU has AVX2 and FMA (checked above).
+            unsafe { self.sample_footprint_avx2(fp, out) };
+            return;
+        }
+        let _ = simd;
+        self.sample_footprint_body(fp, out);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn sample_footprint_avx2(&self, fp: &crate::Footprint, out: &mut [Vec4]) {
+        self.sample_footprint_body(fp, out);
+    }
+
+    #[inline(always)]
+    fn sample_footprint_body(&self, fp: &crate::Footprint, out: &mut [Vec4]) {
         let j = self.lobes;
         let out = &mut out[..j];
         out.fill(Vec4::ZERO);
