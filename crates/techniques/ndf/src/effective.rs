@@ -420,10 +420,16 @@ pub fn shade_mixture(brdf: NdfBrdf, lobes: &[ShadeLobe], wo: Vec3, wi: Vec3) -> 
 #[inline]
 #[must_use]
 pub fn lambert_sh_dir(gamma: &[f32], wi: Vec3) -> f32 {
+    lambert_sh_dir_of_mean(gamma, mean_normal_of_sh(gamma), wi)
+}
+
+/// [`lambert_sh_dir`] with the NDF's mean normal `m` given (a caller that
+/// has it already: [`crate::mask::ShMoments::mean`]).
+#[inline]
+fn lambert_sh_dir_of_mean(gamma: &[f32], m: Vec3, wi: Vec3) -> f32 {
     let mut y = [0.0f32; 9];
     relight_sh::eval_sh_into(3, wi.to_array(), &mut y);
     let low = lambert_sh_env(gamma, &y);
-    let m = mean_normal_of_sh(gamma);
     let r = m.length();
     if r <= 0.0 {
         return low;
@@ -446,7 +452,22 @@ pub fn lambert_sh_dir(gamma: &[f32], wi: Vec3) -> f32 {
 #[inline]
 #[must_use]
 pub fn lambert_sh_dir_seen(gamma: &[f32], wo: Vec3, wi: Vec3) -> f32 {
-    lambert_sh_dir(gamma, wi) * crate::mask::ShMoments::of_sh(gamma).seen_share(wo, wi)
+    lambert_sh_dir_seen_with(gamma, &crate::mask::ShMoments::of_sh(gamma), wo, wi)
+}
+
+/// [`lambert_sh_dir_seen`] with the NDF's moments given
+/// ([`crate::mask::ShMoments::of_sh`]`(gamma)`): a pixel's moments serve
+/// all its lights, and their mean is the mean normal the tail needs. The
+/// same value, bit for bit.
+#[inline]
+#[must_use]
+pub fn lambert_sh_dir_seen_with(
+    gamma: &[f32],
+    moments: &crate::mask::ShMoments,
+    wo: Vec3,
+    wi: Vec3,
+) -> f32 {
+    lambert_sh_dir_of_mean(gamma, moments.mean, wi) * moments.seen_share(wo, wi)
 }
 
 /// The mean normal of an SH NDF from its band 1 (convention-free: three

@@ -24,7 +24,7 @@
 //! memory across `prepare`s; `relight ndf bake` writes them for engines.
 
 use crate::effective::{
-    Baseline, LAMBERT_TAIL_ORDER, LambertTail, NdfBrdf, lambert_lit9, lambert_sh_dir_seen,
+    Baseline, LAMBERT_TAIL_ORDER, LambertTail, NdfBrdf, lambert_lit9, lambert_sh_dir_seen_with,
     mean_normal_matrix, mixture_sh9, shade_baseline, shade_lobe, shade_mixture,
     shade_mixture_blinn,
 };
@@ -534,6 +534,14 @@ impl NdfMethod {
                 Rep::Lean(t) => tail(t.normal()),
             };
         }
+        // An SH NDF's moments (the view mask's input), once for all lights.
+        let moments = match rep {
+            Rep::Sh if !scene.point_lights.is_empty() => crate::mask::ShMoments::of_sh(&gamma),
+            _ => crate::mask::ShMoments {
+                mean: Vec3::Z,
+                cov: [0.0; 6],
+            },
+        };
         for pl in &scene.point_lights {
             let d = pl.position - position;
             let r2 = d.length_squared();
@@ -548,7 +556,7 @@ impl NdfMethod {
             let fcos = match &rep {
                 Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
                 Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
-                Rep::Sh => lambert_sh_dir_seen(&gamma, wo, wi),
+                Rep::Sh => lambert_sh_dir_seen_with(&gamma, &moments, wo, wi),
                 Rep::Vmf => match brdf {
                     NdfBrdf::Blinn { s } => {
                         shade_mixture_blinn(s, self.blinn_norm, &lobes[..nl], wo, wi)
