@@ -147,7 +147,7 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
 }
 
 /// Writes one screen-level panel side by side as
-/// `verify-ndf-screen-<scene>-<brdf>.png` in `dir`: the reference first, then
+/// `verify-ndf-screen-<scene>-<brdf>[-sky].png` in `dir`: the reference first, then
 /// plain normal mapping 8 × 8 and every filter at 1 spp, each labelled with
 /// its error against the reference.
 fn write_screen_sheet(
@@ -196,7 +196,12 @@ fn write_screen_sheet(
                 title: t.label.clone(),
                 details: [
                     vec![Line::new(
-                        format!("{} · {} · {map}", p.scene.name(), p.brdf.label()),
+                        format!(
+                            "{}{} · {} · {map}",
+                            p.scene.name(),
+                            p.light.suffix(),
+                            p.brdf.label()
+                        ),
                         GREY,
                     )],
                     details,
@@ -209,9 +214,14 @@ fn write_screen_sheet(
     let sheet = compose(&cells, w * k, h * k);
     std::fs::create_dir_all(dir).map_err(|e| anyhow!("--plot {}: {e}", dir.display()))?;
     let name = format!(
-        "verify-ndf-screen-{}-{}.png",
+        "verify-ndf-screen-{}-{}{}.png",
         p.scene.name().replace(' ', "-"),
-        p.brdf.label().replace(':', "")
+        p.brdf.label().replace(':', ""),
+        if p.light == relight_ndf::verify::ScreenLight::Sky {
+            "-sky"
+        } else {
+            ""
+        }
     );
     relight_assets::write_png(
         &dir.join(name),
@@ -254,7 +264,7 @@ pub fn bench(a: &BenchArgs, report: &Report, _bar: &Bar) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use relight_ndf::verify::{ScreenPanel, ScreenScene, ScreenTile};
+    use relight_ndf::verify::{ScreenLight, ScreenPanel, ScreenScene, ScreenTile};
 
     /// Small tiles are enlarged to a readable width and laid out two per
     /// row: three 20 × 10 tiles make a 2 × 2 sheet of 400 × 200 tiles under
@@ -272,6 +282,7 @@ mod tests {
         let panel = ScreenPanel {
             scene: ScreenScene::Sphere,
             brdf: relight_ndf::NdfBrdf::Blinn { s: 64.0 },
+            light: ScreenLight::Point,
             sigma: 0.01,
             tiles: vec![
                 tile("reference", None),

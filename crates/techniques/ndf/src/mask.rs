@@ -296,6 +296,109 @@ fn seen_share_of(mx: f32, my: f32, vx: f32, vy: f32, c: f32) -> f32 {
     mask_share(compress(mx, vx), compress(my, vy), rho)
 }
 
+/// Bands 0–2 of the part of an NDF that faces the viewer, `γ'_i = ∫ y_i(n)
+/// γ(n) H(n·ω_o) dn`, and that part's share `P(n·ω_o > 0)`: the environment
+/// light's view mask. Under environment light a pixel shades
+/// `Σ_i γ'_i lit_i` (eq. 5.7 with the seen NDF), the mask of plain normal
+/// mapping carried to a footprint.
+///
+/// # The model
+/// `y_i(n) = b_i·n + nᵀ A_i n` on the unit sphere (bands 0–2 are quadratic;
+/// the constant folded in as `c |n|²`), so `γ'_i = b_i·E[n H] + tr(A_i E[n nᵀ
+/// H])`. With `n` normal of the NDF's mean `m` and covariance `C`
+/// ([`ShMoments`]), `t = n·ω_o ~ N(μ, s²)`, `α = μ/s`, `g = C ω_o / s`:
+/// `E[H] = Φ(α)`, `E[n H] = m Φ + g φ`, `E[n nᵀ H] = (C + m mᵀ) Φ + (m gᵀ +
+/// g mᵀ) φ − g gᵀ α φ` (the truncated normal's moments: `n = m + g u + r`,
+/// `u` standard normal, `r` independent of `u`). Where every normal faces
+/// the viewer (`Φ = 1, φ = 0`) this is `γ` itself (to rounding); a delta
+/// (`s → 0`) gives `γ·H(m·ω_o)`, plain normal mapping's mask. Tested against
+/// sums over normals in `tests/it/mask.rs`.
+#[must_use]
+pub fn seen_sh9(gamma: &[f32], wo: Vec3) -> ([f32; 9], f32) {
+    let mom = ShMoments::of_sh(gamma);
+    let m = mom.mean;
+    let mu = m.dot(wo);
+    let s2 = mom.cov_form(wo, wo);
+    let mut out = [0.0f32; 9];
+    // A delta, or a spread too small for f32 moments to resolve.
+    if s2 <= 1e-10 {
+        if mu > 0.0 {
+            out.copy_from_slice(&gamma[..9]);
+            return (out, 1.0);
+        }
+        return (out, 0.0);
+    }
+    let s = s2.sqrt();
+    let alpha = mu / s;
+    let (cdf_a, pdf_a) = (cdf(f64::from(alpha)) as f32, phi(f64::from(alpha)) as f32);
+    let c = &mom.cov;
+    let cw = Vec3::new(
+        c[0] * wo.x + c[3] * wo.y + c[4] * wo.z,
+        c[3] * wo.x + c[1] * wo.y + c[5] * wo.z,
+        c[4] * wo.x + c[5] * wo.y + c[2] * wo.z,
+    );
+    let g = cw / s;
+    let e1 = m * cdf_a + g * pdf_a;
+    // E[n nᵀ H] as [xx, yy, zz, xy, xz, yz].
+    let second = |i: usize, j: usize, cij: f32| {
+        (cij + m[i] * m[j]) * cdf_a + (m[i] * g[j] + g[i] * m[j]) * pdf_a
+            - g[i] * g[j] * alpha * pdf_a
+    };
+    let e2 = [
+        second(0, 0, c[0]),
+        second(1, 1, c[1]),
+        second(2, 2, c[2]),
+        second(0, 1, c[3]),
+        second(0, 2, c[4]),
+        second(1, 2, c[5]),
+    ];
+    for (o, q) in out.iter_mut().zip(quadratic_forms()) {
+        *o = q[0] * e1.x
+            + q[1] * e1.y
+            + q[2] * e1.z
+            + q[3] * e2[0]
+            + q[4] * e2[1]
+            + q[5] * e2[2]
+            + q[6] * e2[3]
+            + q[7] * e2[4]
+            + q[8] * e2[5];
+    }
+    (out, cdf_a)
+}
+
+/// `y_i(n) = b·n + nᵀ A n` on the unit sphere for `i < 9`, as
+/// `[b_x, b_y, b_z, A_xx, A_yy, A_zz, 2A_xy, 2A_xz, 2A_yz]`: from `y_i` at
+/// `±` the axes (`b_k = (y(e_k) − y(−e_k))/2`, `A_kk = (y(e_k) + y(−e_k))/2`)
+/// and at `±(e_j + e_k)/√2` (whose even part is `(A_jj + A_kk)/2 + A_jk`),
+/// so convention-free, computed once.
+fn quadratic_forms() -> &'static [[f32; 9]; 9] {
+    static Q: std::sync::OnceLock<[[f32; 9]; 9]> = std::sync::OnceLock::new();
+    Q.get_or_init(|| {
+        let y = |d: Vec3| {
+            let mut v = [0.0f32; 9];
+            relight_sh::eval_sh_into(3, d.normalize().to_array(), &mut v);
+            v.map(f64::from)
+        };
+        let axes = [Vec3::X, Vec3::Y, Vec3::Z];
+        let (plus, minus) = (axes.map(y), axes.map(|a| y(-a)));
+        let pairs = [(0, 1), (0, 2), (1, 2)];
+        let diag = pairs.map(|(j, k)| {
+            let (p, q) = (y(axes[j] + axes[k]), y(-(axes[j] + axes[k])));
+            std::array::from_fn::<f64, 9, _>(|i| 0.5 * (p[i] + q[i]))
+        });
+        std::array::from_fn(|i| {
+            let b = [0, 1, 2].map(|k| 0.5 * (plus[k][i] - minus[k][i]));
+            let a = [0, 1, 2].map(|k| 0.5 * (plus[k][i] + minus[k][i]));
+            // Even part at (e_j + e_k)/√2: (A_jj + A_kk)/2 + A_jk.
+            let off = [0, 1, 2].map(|p| {
+                let (j, k) = pairs[p];
+                2.0 * (diag[p][i] - 0.5 * (a[j] + a[k]))
+            });
+            [b[0], b[1], b[2], a[0], a[1], a[2], off[0], off[1], off[2]].map(|v| v as f32)
+        })
+    })
+}
+
 /// `∫ p_j(n) y_i(n) dn` for `p = xx, yy, zz, xy, xz, yz` and `i < 9`,
 /// exact (a product rule exact to degree 4), computed once.
 fn monomial_projections() -> &'static [[f32; 9]; 6] {

@@ -475,13 +475,18 @@ impl NdfMethod {
         let mut out = Vec3::ZERO;
         if has_env && brdf == NdfBrdf::Lambert {
             // Bands 0–2: `Σ_i c_i lit_i` per channel, `c` the representation's
-            // SH (γ, or the SH of its normal), `lit` the lighting with `Λ_l/π`
-            // folded in ([`PixelEnv`]).
+            // SH (γ, or the SH of its normal) restricted to the normals that
+            // face the viewer (the reference's convention: a normal turned
+            // away shades zero), `lit` the lighting with `Λ_l/π` folded in
+            // ([`PixelEnv`]). A single normal is masked by its step; an
+            // NDF by [`crate::mask::seen_sh9`], whose seen share also
+            // scales the tail.
             let mut y = [0.0f32; 9];
-            let c9: &[f32] = match &rep {
+            let facing = |n: Vec3| if n.dot(wo) > 0.0 { 1.0 } else { 0.0 };
+            let seen = match &rep {
                 Rep::Normal(n) => {
                     relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                    &y
+                    facing(*n)
                 }
                 Rep::Mean(m) => {
                     let n = match baseline {
@@ -489,50 +494,58 @@ impl NdfMethod {
                         _ => m.normalize_or(Vec3::Z),
                     };
                     relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                    &y
+                    facing(*m)
                 }
-                Rep::Sh => &gamma,
+                Rep::Sh => {
+                    let seen;
+                    (y, seen) = crate::mask::seen_sh9(&gamma, wo);
+                    seen
+                }
                 Rep::Vmf => {
-                    y = mixture_sh9(&lobes[..nl]);
-                    &y
+                    let seen;
+                    (y, seen) = crate::mask::seen_sh9(&mixture_sh9(&lobes[..nl]), wo);
+                    seen
                 }
                 Rep::Lean(t) => {
-                    relight_sh::eval_sh_into(3, t.normal().to_array(), &mut y);
-                    &y
+                    let n = t.normal();
+                    relight_sh::eval_sh_into(3, n.to_array(), &mut y);
+                    facing(n)
                 }
             };
+            let c9: &[f32] = if seen > 0.0 { &y } else { &[0.0; 9] };
             for c in 0..3 {
                 out[c] += dot9(c9, &env.lit[c * 9..c * 9 + 9]);
             }
             // Bands 4–8 (effective::lambert_tail_env) in the environment's
             // frame, from each representation's (mean) normal.
             let tail = |t: Vec3| self.env_tail.eval(env.env_from_tangent * t);
-            out += match &rep {
-                Rep::Normal(n) => tail(*n),
-                Rep::Mean(m) => {
-                    let n = m.normalize_or(Vec3::Z);
-                    match baseline {
-                        Baseline::Unnormalized => m.length() * tail(n),
-                        _ => tail(n),
+            out += seen
+                * match &rep {
+                    Rep::Normal(n) => tail(*n),
+                    Rep::Mean(m) => {
+                        let n = m.normalize_or(Vec3::Z);
+                        match baseline {
+                            Baseline::Unnormalized => m.length() * tail(n),
+                            _ => tail(n),
+                        }
                     }
-                }
-                // `mean_normal_of_sh` and the rotation as one matrix.
-                Rep::Sh => self
-                    .env_tail
-                    .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3])),
-                Rep::Vmf => lobes[..nl]
-                    .iter()
-                    .map(|l| {
-                        let r = if l.inv_kappa <= 0.0 {
-                            1.0
-                        } else {
-                            crate::vmf::mean_resultant(f64::from(1.0 / l.inv_kappa)) as f32
-                        };
-                        l.alpha * tail(l.mu * r)
-                    })
-                    .sum(),
-                Rep::Lean(t) => tail(t.normal()),
-            };
+                    // `mean_normal_of_sh` and the rotation as one matrix.
+                    Rep::Sh => self
+                        .env_tail
+                        .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3])),
+                    Rep::Vmf => lobes[..nl]
+                        .iter()
+                        .map(|l| {
+                            let r = if l.inv_kappa <= 0.0 {
+                                1.0
+                            } else {
+                                crate::vmf::mean_resultant(f64::from(1.0 / l.inv_kappa)) as f32
+                            };
+                            l.alpha * tail(l.mu * r)
+                        })
+                        .sum(),
+                    Rep::Lean(t) => tail(t.normal()),
+                };
         }
         // An SH NDF's moments (the view mask's input), once for all lights.
         let moments = match rep {

@@ -37,7 +37,10 @@ mod screen;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use relight_render::{NormalMap, Progress};
-pub use screen::{ScreenPanel, ScreenScene, ScreenTile, horizon_plane_scene, screen, sphere_scene};
+pub use screen::{
+    ScreenLight, ScreenPanel, ScreenScene, ScreenTile, horizon_plane_scene, screen, sky_env,
+    sphere_scene,
+};
 use serde::Serialize;
 
 /// One row of `relight verify ndf`.

@@ -51,7 +51,7 @@ impl ScreenScene {
         }
     }
 
-    /// The scene at `size²` pixels.
+    /// The scene at `size²` pixels, under its point light.
     #[must_use]
     pub fn scene(self, map: &NormalMap, brdf: NdfBrdf, size: usize) -> Scene {
         match self {
@@ -60,6 +60,52 @@ impl ScreenScene {
             Self::Sphere => sphere_scene(map, brdf, size),
         }
     }
+
+    /// The scene at `size²` pixels under `light`.
+    #[must_use]
+    pub fn lit(self, map: &NormalMap, brdf: NdfBrdf, size: usize, light: ScreenLight) -> Scene {
+        let mut scene = self.scene(map, brdf, size);
+        if light == ScreenLight::Sky {
+            scene.point_lights.clear();
+            scene.env = sky_env();
+        }
+        scene
+    }
+}
+
+/// The lighting of a screen scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ScreenLight {
+    /// The scene's point light under a black sky.
+    Point,
+    /// [`sky_env`] alone: the environment path (Lambert only, which is what
+    /// the method's environment lighting supports).
+    Sky,
+}
+
+impl ScreenLight {
+    /// What a row's case adds to the scene's name.
+    #[must_use]
+    pub fn suffix(self) -> &'static str {
+        match self {
+            Self::Point => "",
+            Self::Sky => " under the sky",
+        }
+    }
+}
+
+/// A sky of radiance `0.3 + 2 max(0, y)⁴` (world +Y up): a bright zenith
+/// over a dim, even surround, so that every normal sees light and the
+/// shading still depends on where it points.
+#[must_use]
+pub fn sky_env() -> relight_sphere::EnvMap {
+    relight_sphere::EnvMap::from_fn(
+        relight_sphere::Param::LatLong {
+            width: 64,
+            height: 32,
+        },
+        |d| Vec3::splat(0.3 + 2.0 * d.y.max(0.0).powi(4)),
+    )
 }
 
 /// One image of a [`ScreenPanel`].
@@ -80,6 +126,7 @@ pub struct ScreenTile {
 pub struct ScreenPanel {
     pub scene: ScreenScene,
     pub brdf: NdfBrdf,
+    pub light: ScreenLight,
     /// The reference's σ_MC (relative RMS over the object).
     pub sigma: f64,
     pub tiles: Vec<ScreenTile>,
@@ -122,8 +169,12 @@ pub fn screen(
     let mut panels = Vec::new();
     let size = opts.screen_size;
     for which in ScreenScene::ALL {
-        for brdf in [NdfBrdf::Lambert, NdfBrdf::Blinn { s: 64.0 }] {
-            let scene = which.scene(map, brdf, size);
+        for (brdf, light) in [
+            (NdfBrdf::Lambert, ScreenLight::Point),
+            (NdfBrdf::Blinn { s: 64.0 }, ScreenLight::Point),
+            (NdfBrdf::Lambert, ScreenLight::Sky),
+        ] {
+            let scene = which.lit(map, brdf, size, light);
             let reference = render_reference(
                 &scene,
                 &ReferenceOptions {
@@ -135,8 +186,9 @@ pub fn screen(
             )
             .map_err(reference_error)?;
             let case = format!(
-                "{} {size}², 1 spp vs the reference ({} spp)",
+                "{}{} {size}², 1 spp vs the reference ({} spp)",
                 which.name(),
+                light.suffix(),
                 opts.reference_spp
             );
             let mut row = |rep: &str, error: f64, target: Option<f64>, source: &str| {
@@ -219,6 +271,7 @@ pub fn screen(
             panels.push(ScreenPanel {
                 scene: which,
                 brdf,
+                light,
                 sigma,
                 tiles,
             });
