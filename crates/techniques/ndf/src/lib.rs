@@ -26,7 +26,8 @@
 //! * [`effective`]: effective BRDFs (Lambert; Blinn–Phong `s′ = κs/(κ+s)`;
 //!   GGX/Beckmann `α′² = α² + 2/κ`) and the baselines.
 //! * [`mask`]: Lambert's view mask (a normal facing away from the viewer
-//!   shades zero) from the NDF's mean and covariance, correlated with the
+//!   shades zero) from the NDF's mean and covariance: correlated with the
+//!   light under a point light, the seen part of the NDF under environment
 //!   light.
 //!
 //! # Runtime

@@ -1,5 +1,6 @@
 //! The view mask of a Lambert NDF under one light, from the NDF's first two
-//! moments.
+//! moments; and under environment light, the part of the NDF that faces the
+//! viewer ([`seen_sh9`], its model in its own docs).
 //!
 //! # The problem
 //! A pixel shades `∫ γ(n) max(0, n·ω_i) H(n·ω_o) dn / π`: a normal turned
