@@ -937,14 +937,7 @@ pub fn lambert_mixture_env_tail(lobes: &[ShadeLobe], light: &[f32], y: &mut [f32
     let low = lambert_mixture_env(lobes, &light[..9]);
     let tail: f32 = lobes
         .iter()
-        .map(|l| {
-            let r = if l.inv_kappa <= 0.0 {
-                1.0
-            } else {
-                crate::vmf::mean_resultant(f64::from(1.0 / l.inv_kappa)) as f32
-            };
-            l.alpha * lambert_tail_env(l.mu * r, light, y)
-        })
+        .map(|l| l.alpha * lambert_tail_env(l.mean_normal(), light, y))
         .sum();
     low + tail
 }

@@ -535,14 +535,7 @@ impl NdfMethod {
                         .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3])),
                     Rep::Vmf => lobes[..nl]
                         .iter()
-                        .map(|l| {
-                            let r = if l.inv_kappa <= 0.0 {
-                                1.0
-                            } else {
-                                crate::vmf::mean_resultant(f64::from(1.0 / l.inv_kappa)) as f32
-                            };
-                            l.alpha * tail(l.mu * r)
-                        })
+                        .map(|l| l.alpha * tail(l.mean_normal()))
                         .sum(),
                     Rep::Lean(t) => tail(t.normal()),
                 };

@@ -124,6 +124,18 @@ pub struct ShadeLobe {
     pub inv_kappa: f32,
 }
 
+impl ShadeLobe {
+    /// The lobe's mean normal `A(κ) μ` (`μ` for a delta).
+    #[inline]
+    #[must_use]
+    pub fn mean_normal(&self) -> Vec3 {
+        if self.inv_kappa <= 0.0 {
+            return self.mu;
+        }
+        self.mu * mean_resultant(f64::from(1.0 / self.inv_kappa)) as f32
+    }
+}
+
 /// Unpacks a (possibly filtered) lobe; `None` when its weight is below 1e-6.
 /// κ from the first moment by [`crate::vmf::kappa_estimate`]; a lobe at the
 /// clamp's resultant (or beyond) is a delta (`inv_kappa = 0`).
