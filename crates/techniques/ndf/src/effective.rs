@@ -136,21 +136,33 @@ pub fn visible_fraction(t: f32, inv_kappa: f32) -> f32 {
 /// Stegun 7.1.26 (|error| ≤ 1.5e-7).
 #[inline(always)]
 fn normal_cdf(x: f32) -> f32 {
-    // Beyond 6σ the tail (< 1e-9) rounds away: 1 or 0 without the `exp`.
+    normal_cdf_pdf(x).0
+}
+
+/// `(Φ(x), φ(x))` in f32 with one `exp`: A&S 7.1.26's `erf(x/√2)` carries
+/// the factor `e^{−x²/2}`, which is also `√(2π) φ(x)`. Beyond 6σ, `(1, 0)`
+/// or `(0, 0)` (the tail is below 1e-8).
+#[inline(always)]
+pub(crate) fn normal_cdf_pdf(x: f32) -> (f32, f32) {
     if x.abs() > 6.0 {
-        return if x > 0.0 { 1.0 } else { 0.0 };
+        return (if x > 0.0 { 1.0 } else { 0.0 }, 0.0);
     }
     let z = x.abs() * std::f32::consts::FRAC_1_SQRT_2;
     let k = 1.0 / (1.0 + 0.327_591_1 * z);
     let poly = k
         * (0.254_829_6
             + k * (-0.284_496_74 + k * (1.421_413_7 + k * (-1.453_152_1 + k * 1.061_405_4))));
-    let erf = 1.0 - poly * (-z * z).exp();
-    if x >= 0.0 {
+    let e = (-z * z).exp();
+    let erf = 1.0 - poly * e;
+    let cdf = if x >= 0.0 {
         0.5 * (1.0 + erf)
     } else {
         0.5 * (1.0 - erf)
-    }
+    };
+    (
+        cdf,
+        e * (0.5 * std::f32::consts::FRAC_2_SQRT_PI * std::f32::consts::FRAC_1_SQRT_2),
+    )
 }
 
 /// `max(0,t)` minus its bands `l ≤ 2` (`1/4 + t/2 + 5/16 P_2(t)`).
@@ -984,6 +996,27 @@ pub fn shade_baseline(brdf: NdfBrdf, b: Baseline, m: Vec3, wo: Vec3, wi: Vec3) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn normal_cdf_and_pdf_match_the_f64_forms() {
+        // Φ by the midpoint rule on φ (independent of A&S).
+        let phi = |x: f64| (-0.5 * x * x).exp() / (2.0 * std::f64::consts::PI).sqrt();
+        for i in -160..=160 {
+            let x = i as f32 / 20.0;
+            let (c, p) = normal_cdf_pdf(x);
+            let n = 20_000;
+            let (lo, h) = (-12.0, (f64::from(x) + 12.0) / f64::from(n));
+            let want: f64 = (0..n).map(|k| phi(lo + (f64::from(k) + 0.5) * h) * h).sum();
+            assert!((f64::from(c) - want).abs() < 3e-7, "Φ({x}) = {c} vs {want}");
+            let wp = if x.abs() > 6.0 {
+                0.0
+            } else {
+                phi(f64::from(x))
+            };
+            assert!((f64::from(p) - wp).abs() < 1e-7, "φ({x}) = {p} vs {wp}");
+            assert_eq!(normal_cdf(x), c);
+        }
+    }
 
     #[test]
     fn pow_unit_is_the_power_to_two_parts_in_1e5() {

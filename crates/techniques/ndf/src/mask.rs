@@ -208,7 +208,7 @@ impl ShMoments {
     /// `E[p(n)] = Σ_i γ_i ∫ p y_i` for the quadratic monomials `p`, whose
     /// projections onto bands 0–2 are computed once (convention-free, as
     /// [`crate::effective::mean_normal_of_sh`]'s band-1 axes).
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn of_sh(gamma: &[f32]) -> Self {
         let p = monomial_projections();
@@ -216,7 +216,11 @@ impl ShMoments {
         let mut second = [0.0f32; 6];
         for (s, row) in second.iter_mut().zip(p) {
             // Bands 0 and 2 only (band 1 of an even monomial is zero).
-            *s = gamma[0] * row[0] + (4..9).map(|i| gamma[i] * row[i]).sum::<f32>();
+            let mut band2 = 0.0;
+            for i in 4..9 {
+                band2 += gamma[i] * row[i];
+            }
+            *s = gamma[0] * row[0] + band2;
         }
         let m = mean;
         Self {
@@ -314,6 +318,7 @@ fn seen_share_of(mx: f32, my: f32, vx: f32, vy: f32, c: f32) -> f32 {
 /// the viewer (`Φ = 1, φ = 0`) this is `γ` itself (to rounding); a delta
 /// (`s → 0`) gives `γ·H(m·ω_o)`, plain normal mapping's mask. Tested against
 /// sums over normals in `tests/it/mask.rs`.
+#[inline(always)]
 #[must_use]
 pub fn seen_sh9(gamma: &[f32], wo: Vec3) -> ([f32; 9], f32) {
     let mom = ShMoments::of_sh(gamma);
@@ -331,7 +336,16 @@ pub fn seen_sh9(gamma: &[f32], wo: Vec3) -> ([f32; 9], f32) {
     }
     let s = s2.sqrt();
     let alpha = mu / s;
-    let (cdf_a, pdf_a) = (cdf(f64::from(alpha)) as f32, phi(f64::from(alpha)) as f32);
+    // Beyond 6σ the share is 1 or 0 to 1e-9: the NDF itself, or nothing
+    // (most pixels of a view that is not grazing).
+    if alpha.abs() > 6.0 {
+        if alpha > 0.0 {
+            out.copy_from_slice(&gamma[..9]);
+            return (out, 1.0);
+        }
+        return (out, 0.0);
+    }
+    let (cdf_a, pdf_a) = crate::effective::normal_cdf_pdf(alpha);
     let c = &mom.cov;
     let cw = Vec3::new(
         c[0] * wo.x + c[3] * wo.y + c[4] * wo.z,
