@@ -320,7 +320,7 @@ pub struct MethodFlags {
     pub twists: Option<usize>,
     /// How the tables are kept (triple): f32, compact (lighting f16, BRDF and
     /// visibility 8-bit with a scale per function), or one table compact:
-    /// lighting-f16, brdf-u8, visibility-u8 [default: f32].
+    /// lighting-f16, brdf-u8, visibility-u8 [default: compact].
     #[arg(long)]
     pub storage: Option<String>,
     /// Fraction of the light's wavelet terms kept, source level (nearfield)

@@ -135,7 +135,7 @@ pub fn bench(a: &BenchArgs, report: &Report, bar: &Bar) -> Result<()> {
     )?;
     report.table("relight bench triple: timings", &timings, &[])?;
     report.table(
-        "relight bench triple: storage (f32, and compact: lighting f16, BRDF 8-bit)",
+        "relight bench triple: storage (compact, the default: lighting f16, BRDF 8-bit, judged; f32 beside)",
         &storage,
         &[],
     )

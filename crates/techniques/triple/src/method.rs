@@ -145,7 +145,10 @@ pub struct TripleOptions {
     pub shading: Shading,
     /// Where bakes are cached. Default [`cache::default_cache_dir`].
     pub cache_dir: PathBuf,
-    /// How the tables are kept ([`crate::storage`]). Default f32.
+    /// How the tables are kept ([`crate::storage`]). Default compact
+    /// (lighting f16, BRDF and visibility 8-bit: the storage, within
+    /// its budgets; `relight verify triple` reports what it costs against
+    /// f32).
     pub storage: Storage,
     /// Texels per side of each object's visibility texture over its uvs
     /// ([`crate::vis_texture`]); 0 keeps visibility per vertex. Objects
@@ -165,7 +168,7 @@ impl Default for TripleOptions {
             vis_level: 4,
             shading: Shading::Pixel,
             cache_dir: cache::default_cache_dir(),
-            storage: Storage::F32,
+            storage: Storage::Compact,
             visibility_texture: 0,
         }
     }

@@ -26,11 +26,11 @@ use serde::Serialize;
 
 /// Which storage the method keeps its tables in: all f32, all compact, or
 /// one table compact (what `relight verify triple` charges each choice).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+/// The method's default is [`crate::TripleOptions::default`]'s.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Storage {
     /// Every table as f32 (the reference form).
-    #[default]
     F32,
     /// Lighting f16, BRDF and visibility 8-bit with a scale per function.
     Compact,
