@@ -426,13 +426,9 @@ impl NdfMethod {
                         gamma.copy_from_slice(&all[..9]);
                     }
                 }
-                if let Some((n, w)) = plain {
-                    let mut y = [0.0f32; 9];
-                    relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                    for (g, y) in gamma.iter_mut().zip(y) {
-                        *g = *g * (1.0 - w) + y * w;
-                    }
-                }
+                // Plain normal mapping's share stays apart: the view masks
+                // below take the NDF's moments, and a delta mixed into them
+                // would be masked as part of one Gaussian.
                 Rep::Sh
             }
             (Some((_, b)), NdfFilter::Vmf) => {
@@ -483,62 +479,78 @@ impl NdfMethod {
             // scales the tail.
             let mut y = [0.0f32; 9];
             let facing = |n: Vec3| if n.dot(wo) > 0.0 { 1.0 } else { 0.0 };
-            let seen = match &rep {
+            let tail = |t: Vec3| self.env_tail.eval(env.env_from_tangent * t);
+            // `(c, tail)`: bands 0–2 of the seen part, and bands 4–8.
+            let (seen, tail_sum) = match &rep {
                 Rep::Normal(n) => {
                     relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                    facing(*n)
+                    let h = facing(*n);
+                    (h, h * tail(*n))
                 }
                 Rep::Mean(m) => {
-                    let n = match baseline {
-                        Baseline::Unnormalized => *m,
-                        _ => m.normalize_or(Vec3::Z),
+                    let n = m.normalize_or(Vec3::Z);
+                    let (c, t) = match baseline {
+                        Baseline::Unnormalized => (*m, m.length() * tail(n)),
+                        _ => (n, tail(n)),
                     };
-                    relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                    facing(*m)
-                }
-                Rep::Sh => {
-                    let seen;
-                    (y, seen) = crate::mask::seen_sh9(&gamma, wo);
-                    seen
-                }
-                Rep::Vmf => {
-                    let seen;
-                    (y, seen) = crate::mask::seen_sh9(&mixture_sh9(&lobes[..nl]), wo);
-                    seen
+                    relight_sh::eval_sh_into(3, c.to_array(), &mut y);
+                    let h = facing(*m);
+                    (h, h * t)
                 }
                 Rep::Lean(t) => {
                     let n = t.normal();
                     relight_sh::eval_sh_into(3, n.to_array(), &mut y);
-                    facing(n)
+                    let h = facing(n);
+                    (h, h * tail(n))
+                }
+                // An NDF: its seen part (`seen_sh9`), whose share scales the
+                // tail at the NDF's mean normal (for SH `mean_normal_of_sh`
+                // and the rotation as one matrix); plain normal mapping's
+                // share `w` is a delta with its own step.
+                // An SH NDF: its seen part (`seen_sh9`), whose share scales
+                // the tail at the NDF's mean normal (`mean_normal_of_sh` and
+                // the rotation as one matrix); plain normal mapping's share
+                // `w` is a delta with its own step.
+                Rep::Sh => {
+                    let share;
+                    (y, share) = crate::mask::seen_sh9(&gamma, wo);
+                    let mut t = share
+                        * self
+                            .env_tail
+                            .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3]));
+                    if let Some((n, w)) = plain {
+                        let h = facing(n);
+                        let mut yn = [0.0f32; 9];
+                        relight_sh::eval_sh_into(3, n.to_array(), &mut yn);
+                        for (c, yn) in y.iter_mut().zip(yn) {
+                            *c = *c * (1.0 - w) + h * w * yn;
+                        }
+                        t = t * (1.0 - w) + h * w * tail(n);
+                    }
+                    (1.0, t)
+                }
+                // A mixture: each lobe's seen part, the lobe narrower than
+                // the mixture, so each is nearer the Gaussian the mask
+                // assumes; the delta of plain normal mapping gets its step.
+                Rep::Vmf => {
+                    let mut t = Vec3::ZERO;
+                    for l in &lobes[..nl] {
+                        let one = ShadeLobe { alpha: 1.0, ..*l };
+                        let (yl, share) = crate::mask::seen_sh9(&mixture_sh9(&[one]), wo);
+                        for (c, yl) in y.iter_mut().zip(yl) {
+                            *c += l.alpha * yl;
+                        }
+                        t += (l.alpha * share) * tail(l.mean_normal());
+                    }
+                    (1.0, t)
                 }
             };
-            let c9: &[f32] = if seen > 0.0 { &y } else { &[0.0; 9] };
-            for c in 0..3 {
-                out[c] += dot9(c9, &env.lit[c * 9..c * 9 + 9]);
+            if seen > 0.0 {
+                for c in 0..3 {
+                    out[c] += dot9(&y, &env.lit[c * 9..c * 9 + 9]);
+                }
             }
-            // Bands 4–8 (effective::lambert_tail_env) in the environment's
-            // frame, from each representation's (mean) normal.
-            let tail = |t: Vec3| self.env_tail.eval(env.env_from_tangent * t);
-            out += seen
-                * match &rep {
-                    Rep::Normal(n) => tail(*n),
-                    Rep::Mean(m) => {
-                        let n = m.normalize_or(Vec3::Z);
-                        match baseline {
-                            Baseline::Unnormalized => m.length() * tail(n),
-                            _ => tail(n),
-                        }
-                    }
-                    // `mean_normal_of_sh` and the rotation as one matrix.
-                    Rep::Sh => self
-                        .env_tail
-                        .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3])),
-                    Rep::Vmf => lobes[..nl]
-                        .iter()
-                        .map(|l| l.alpha * tail(l.mean_normal()))
-                        .sum(),
-                    Rep::Lean(t) => tail(t.normal()),
-                };
+            out += tail_sum;
         }
         // An SH NDF's moments (the view mask's input), once for all lights.
         let moments = match rep {
@@ -562,7 +574,15 @@ impl NdfMethod {
             let fcos = match &rep {
                 Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
                 Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
-                Rep::Sh => lambert_sh_dir_seen_with(&gamma, &moments, wo, wi),
+                Rep::Sh => {
+                    let f = lambert_sh_dir_seen_with(&gamma, &moments, wo, wi);
+                    match plain {
+                        Some((n, w)) => {
+                            f * (1.0 - w) + w * shade_lobe(NdfBrdf::Lambert, n, 0.0, wo, wi)
+                        }
+                        None => f,
+                    }
+                }
                 Rep::Vmf => match brdf {
                     NdfBrdf::Blinn { s } => {
                         shade_mixture_blinn(s, self.blinn_norm, &lobes[..nl], wo, wi)
