@@ -426,6 +426,16 @@ pub trait Relighter: Send {
     /// As [`Relighter::prepare`].
     fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError>;
 
+    /// Whether [`Relighter::set_lighting`] with `scene` would bake again
+    /// (seconds) rather than update (milliseconds): an interactive caller
+    /// defers such a change until the input that makes it is over (the
+    /// viewer, while a drag lasts). False by default; a method that bakes
+    /// per light (nearfield: a light whose plane tilts) says when.
+    fn lighting_rebakes(&self, scene: &Scene) -> bool {
+        let _ = scene;
+        false
+    }
+
     /// Renders `scene` (as last prepared and lit) for `request`.
     ///
     /// # Errors

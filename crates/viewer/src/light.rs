@@ -360,6 +360,45 @@ mod tests {
         }
 
         #[test]
+        fn a_tilting_drag_bakes_once_at_the_release() {
+            let mut v = viewer(scene());
+            let bakes = Bakes::default();
+            let f0 = v.frame(32, 18, false, &bakes).unwrap();
+            assert_eq!(bakes.0.load(Ordering::Relaxed), 1);
+            // A yaw turns the ceiling light in its plane: no bake, mid-drag
+            // either.
+            v.light_yaw_deg = 30.0;
+            let f1 = v.frame(32, 18, true, &bakes).unwrap();
+            assert_eq!(bakes.0.load(Ordering::Relaxed), 1);
+            assert!(f1.message.is_none(), "{:?}", f1.message);
+            assert!(diff(&f0, &f1) > 0.0, "the yaw changed nothing");
+            // A right drag that pitches the lighting tilts the light's plane.
+            for step in 1..=3 {
+                v.light_pitch_deg = 10.0 * step as f32;
+                let f = v.frame(32, 18, true, &bakes).unwrap();
+                assert_eq!(bakes.0.load(Ordering::Relaxed), 1, "a drag frame re-baked");
+                assert!(
+                    f.message
+                        .as_deref()
+                        .is_some_and(|m| m.contains("drag ends")),
+                    "{:?}",
+                    f.message
+                );
+                assert_eq!(
+                    diff(&f1, &f),
+                    0.0,
+                    "a deferred frame is the last lighting's"
+                );
+            }
+            // The release: one bake, the tilted light shown, no note.
+            let f = v.frame(32, 18, false, &bakes).unwrap();
+            assert_eq!(bakes.0.load(Ordering::Relaxed), 2);
+            assert!(f.message.is_none(), "{:?}", f.message);
+            assert!(diff(&f1, &f) > 0.0, "the tilt changed nothing");
+            assert_eq!(v.prepares(), 1);
+        }
+
+        #[test]
         fn nearfield_without_an_area_light_says_why_on_screen() {
             // No environment, no area light: the method's own refusal.
             let mut s = scene();

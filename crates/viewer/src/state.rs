@@ -8,7 +8,7 @@
 //!
 //! | input | call |
 //! |---|---|
-//! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target |
+//! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target; a change the method would bake again for ([`Relighter::lighting_rebakes`]: nearfield's tilted area light) waits for the release, the drag's frames keeping the last lighting with a note |
 //! | area-light edit (move in its plane, scale, texture; [`crate::light`]) | [`Relighter::set_lighting`] with the scene's first area light edited, then turned by the lighting rotation — never a new `prepare` |
 //! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera |
 //! | still view | progressive antialiasing: each [`Viewer::frame`] adds one pass of one sample per pixel at the next sub-pixel offset of an `aa × aa` grid ([`Camera::with_pixel_offset`]) to a running mean, until `aa²` passes ([`Viewer::refining`]); Monte Carlo methods (the reference) instead add a pass of their own samples per frame |
@@ -596,11 +596,23 @@ impl Viewer {
                 message: slot.refused.clone(),
             });
         };
-        if slot.lit != Some(lighting) {
+        // A lighting change that would bake again (nearfield: a tilted
+        // area light) waits while a drag lasts: the frame keeps the last
+        // lighting and says so, and the frame at the release (not a preview)
+        // bakes once.
+        let deferred =
+            preview && slot.lit.is_some_and(|l| l != lighting) && method.lighting_rebakes(scene);
+        if slot.lit != Some(lighting) && !deferred {
             method.set_lighting(scene, progress)?;
             slot.lit = Some(lighting);
         }
         let mut notes = slot.warnings.clone();
+        if deferred {
+            notes.push(format!(
+                "method {} bakes again for this lighting: it waits until the drag ends",
+                method.name()
+            ));
+        }
         if stopped {
             notes.push(format!(
                 "method {} cannot render {} without preparing again: the clock waits at t = {:.2} s",

@@ -182,6 +182,31 @@ fn the_light(scene: &Scene) -> Result<&AreaLight, MethodError> {
 }
 
 impl NearfieldMethod {
+    /// Whether the transport must be baked again for `light` (its plane
+    /// changed, or the objects or visibility did), and else the in-plane
+    /// turn from the baked axes, if any: a light turned in the baked plane
+    /// keeps the bake (module docs).
+    fn lighting_plan(
+        &self,
+        scene: &Scene,
+        light: &AreaLight,
+        own: &LightFrame,
+    ) -> (bool, Option<InPlane>) {
+        let same_objects =
+            relight_render::method::same_meshes(self.objects.iter().map(|p| &p.mesh), scene);
+        match self.baked {
+            Some((b, vis)) if same_objects && vis == scene.visibility => {
+                if b.axes == own.axes {
+                    (false, None)
+                } else {
+                    let turn = InPlane::of(&b.axes, light);
+                    (turn.is_none(), turn)
+                }
+            }
+            _ => (true, None),
+        }
+    }
+
     /// A method with `options` (checked here).
     ///
     /// # Errors
@@ -723,19 +748,7 @@ impl Relighter for NearfieldMethod {
         let t = Instant::now();
         let light = the_light(scene)?;
         let own = LightFrame::of(light);
-        let same_objects =
-            relight_render::method::same_meshes(self.objects.iter().map(|p| &p.mesh), scene);
-        // A light turned in the baked plane keeps the bake (module docs).
-        let mut turn = None;
-        let rebake = match self.baked {
-            Some((b, vis)) if same_objects && vis == scene.visibility => {
-                if b.axes != own.axes {
-                    turn = InPlane::of(&b.axes, light);
-                }
-                b.axes != own.axes && turn.is_none()
-            }
-            _ => true,
-        };
+        let (rebake, mut turn) = self.lighting_plan(scene, light, &own);
         if rebake {
             self.bake(scene, progress)?;
             turn = None;
@@ -756,6 +769,17 @@ impl Relighter for NearfieldMethod {
         let ms = t.elapsed().as_secs_f64() * 1e3;
         self.pending_lighting_ms = ms;
         Ok(ms)
+    }
+
+    fn lighting_rebakes(&self, scene: &Scene) -> bool {
+        let Ok(light) = the_light(scene) else {
+            return false;
+        };
+        let own = LightFrame::of(light);
+        // What `set_lighting` bakes: the transport for a light whose plane
+        // changed, or the fixed-view transports for a camera that moved.
+        self.lighting_plan(scene, light, &own).0
+            || self.baked_eye.is_some_and(|e| e != scene.camera.eye)
     }
 
     fn render(
