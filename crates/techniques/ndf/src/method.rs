@@ -507,17 +507,21 @@ impl NdfMethod {
                 // tail at the NDF's mean normal (for SH `mean_normal_of_sh`
                 // and the rotation as one matrix); plain normal mapping's
                 // share `w` is a delta with its own step.
-                // An SH NDF: its seen part (`seen_sh9`), whose share scales
-                // the tail at the NDF's mean normal (`mean_normal_of_sh` and
-                // the rotation as one matrix); plain normal mapping's share
-                // `w` is a delta with its own step.
+                // An SH NDF: its seen part (`seen_sh9`), and the tail at that
+                // part's mean normal (its band 1 over its share, rotated with
+                // `mean_normal_of_sh` as one matrix) times the share; plain
+                // normal mapping's share `w` is a delta with its own step.
                 Rep::Sh => {
                     let share;
                     (y, share) = crate::mask::seen_sh9(&gamma, wo);
-                    let mut t = share
-                        * self
-                            .env_tail
-                            .eval(env.env_from_sh1 * Vec3::new(gamma[1], gamma[2], gamma[3]));
+                    let mut t = if share > 0.0 {
+                        share
+                            * self
+                                .env_tail
+                                .eval(env.env_from_sh1 * (Vec3::new(y[1], y[2], y[3]) / share))
+                    } else {
+                        Vec3::ZERO
+                    };
                     if let Some((n, w)) = plain {
                         let h = facing(n);
                         let mut yn = [0.0f32; 9];
