@@ -321,7 +321,14 @@ fn seen_share_of(mx: f32, my: f32, vx: f32, vy: f32, c: f32) -> f32 {
 #[inline(always)]
 #[must_use]
 pub fn seen_sh9(gamma: &[f32], wo: Vec3) -> ([f32; 9], f32) {
-    let mom = ShMoments::of_sh(gamma);
+    seen_sh9_with(gamma, &ShMoments::of_sh(gamma), wo)
+}
+
+/// [`seen_sh9`] with `gamma`'s moments already taken
+/// (`ShMoments::of_sh(gamma)`, shared with the point lights' mask).
+#[inline(always)]
+#[must_use]
+pub fn seen_sh9_with(gamma: &[f32], mom: &ShMoments, wo: Vec3) -> ([f32; 9], f32) {
     let m = mom.mean;
     let mu = m.dot(wo);
     let s2 = mom.cov_form(wo, wo);

@@ -468,6 +468,17 @@ impl NdfMethod {
             NdfFilter::Toksvig => Baseline::Toksvig,
             _ => Baseline::Normalized,
         };
+        // An SH NDF's moments (the view masks' input), once for the
+        // environment and all point lights.
+        let moments = match rep {
+            Rep::Sh if (has_env && brdf == NdfBrdf::Lambert) || !scene.point_lights.is_empty() => {
+                crate::mask::ShMoments::of_sh(&gamma)
+            }
+            _ => crate::mask::ShMoments {
+                mean: Vec3::Z,
+                cov: [0.0; 6],
+            },
+        };
         let mut out = Vec3::ZERO;
         if has_env && brdf == NdfBrdf::Lambert {
             // Bands 0–2: `Σ_i c_i lit_i` per channel, `c` the representation's
@@ -513,7 +524,7 @@ impl NdfMethod {
                 // normal mapping's share `w` is a delta with its own step.
                 Rep::Sh => {
                     let share;
-                    (y, share) = crate::mask::seen_sh9(&gamma, wo);
+                    (y, share) = crate::mask::seen_sh9_with(&gamma, &moments, wo);
                     let mut t = if share > 0.0 {
                         share
                             * self
@@ -556,14 +567,6 @@ impl NdfMethod {
             }
             out += tail_sum;
         }
-        // An SH NDF's moments (the view mask's input), once for all lights.
-        let moments = match rep {
-            Rep::Sh if !scene.point_lights.is_empty() => crate::mask::ShMoments::of_sh(&gamma),
-            _ => crate::mask::ShMoments {
-                mean: Vec3::Z,
-                cov: [0.0; 6],
-            },
-        };
         for pl in &scene.point_lights {
             let d = pl.position - position;
             let r2 = d.length_squared();
