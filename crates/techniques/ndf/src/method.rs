@@ -486,12 +486,14 @@ impl NdfMethod {
             // face the viewer (the reference's convention: a normal turned
             // away shades zero), `lit` the lighting with `Λ_l/π` folded in
             // ([`PixelEnv`]). A single normal is masked by its step; an
-            // NDF by [`crate::mask::seen_sh9`], whose seen share also
-            // scales the tail.
+            // NDF by [`crate::mask::seen_sh9`] (per lobe for a mixture),
+            // whose seen share also scales the tail.
             let mut y = [0.0f32; 9];
             let facing = |n: Vec3| if n.dot(wo) > 0.0 { 1.0 } else { 0.0 };
             let tail = |t: Vec3| self.env_tail.eval(env.env_from_tangent * t);
-            // `(c, tail)`: bands 0–2 of the seen part, and bands 4–8.
+            // `y` takes `c`; the arms give the step that gates it (1 for an
+            // NDF, already masked) and bands 4–8 (`lambert_tail_env`, in
+            // the environment's frame) of what the viewer sees.
             let (seen, tail_sum) = match &rep {
                 Rep::Normal(n) => {
                     relight_sh::eval_sh_into(3, n.to_array(), &mut y);
@@ -514,10 +516,6 @@ impl NdfMethod {
                     let h = facing(n);
                     (h, h * tail(n))
                 }
-                // An NDF: its seen part (`seen_sh9`), whose share scales the
-                // tail at the NDF's mean normal (for SH `mean_normal_of_sh`
-                // and the rotation as one matrix); plain normal mapping's
-                // share `w` is a delta with its own step.
                 // An SH NDF: its seen part (`seen_sh9`), and the tail at that
                 // part's mean normal (its band 1 over its share, rotated with
                 // `mean_normal_of_sh` as one matrix) times the share; plain
