@@ -386,7 +386,8 @@ pub fn draw_hud(canvas: &mut Canvas, info: &HudInfo) {
 /// What a method's preparation has reached: the phase and its counts.
 #[derive(Clone, Debug, PartialEq, Eq, Default)]
 pub struct PrepareStatus {
-    pub method: String,
+    /// What runs, e.g. "preparing wavelet".
+    pub title: String,
     pub phase: String,
     pub done: u64,
     pub total: u64,
@@ -405,10 +406,7 @@ pub fn draw_progress(canvas: &mut Canvas, status: &PrepareStatus) {
         0.0
     };
     let lines = vec![
-        Line::new(
-            format!("preparing {} ({} s)", status.method, status.elapsed_s),
-            WHITE,
-        ),
+        Line::new(format!("{} ({} s)", status.title, status.elapsed_s), WHITE),
         Line::new(
             format!(
                 "{}: {}/{} ({pct:.0} %)",
@@ -660,7 +658,7 @@ mod tests {
             draw_progress(
                 &mut c,
                 &PrepareStatus {
-                    method: "wavelet".into(),
+                    title: "preparing wavelet".into(),
                     phase: "rotation matrices".into(),
                     done,
                     total: 100,

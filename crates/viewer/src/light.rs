@@ -390,12 +390,35 @@ mod tests {
                     "a deferred frame is the last lighting's"
                 );
             }
-            // The release: one bake, the tilted light shown, no note.
+            // The release. The window asks whether a bake is due and runs
+            // it on its worker thread; a cancelled bake leaves it due.
+            assert!(v.lighting_bake_due(), "the tilt is not announced");
+            struct Cancelled;
+            impl Progress for Cancelled {
+                fn start(&self, _: &str, _: u64) {}
+                fn inc(&self, _: u64) {}
+                fn finish(&self) {}
+                fn is_cancelled(&self) -> bool {
+                    true
+                }
+            }
+            assert!(v.apply_lighting(&Cancelled).is_err());
+            assert!(v.lighting_bake_due(), "a cancelled bake counted as done");
+            v.apply_lighting(&bakes).unwrap();
+            assert_eq!(bakes.0.load(Ordering::Relaxed), 2);
+            assert!(!v.lighting_bake_due());
+            // The frame after it: no second bake, the tilted light, no note.
             let f = v.frame(32, 18, false, &bakes).unwrap();
             assert_eq!(bakes.0.load(Ordering::Relaxed), 2);
             assert!(f.message.is_none(), "{:?}", f.message);
             assert!(diff(&f1, &f) > 0.0, "the tilt changed nothing");
             assert_eq!(v.prepares(), 1);
+            // A caller that draws straight away (no worker) bakes in the
+            // still frame itself.
+            v.light_pitch_deg = 40.0;
+            let g = v.frame(32, 18, false, &bakes).unwrap();
+            assert_eq!(bakes.0.load(Ordering::Relaxed), 3);
+            assert!(diff(&f, &g) > 0.0 && !v.lighting_bake_due());
         }
 
         #[test]

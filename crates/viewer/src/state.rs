@@ -8,7 +8,7 @@
 //!
 //! | input | call |
 //! |---|---|
-//! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target; a change the method would bake again for ([`Relighter::lighting_rebakes`]: nearfield's tilted area light) waits for the release, the drag's frames keeping the last lighting with a note |
+//! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target; a change the method would bake again for ([`Relighter::lighting_rebakes`]: nearfield's tilted area light) waits for the release, the drag's frames keeping the last lighting with a note; at the release the window bakes it on its worker thread ([`Viewer::lighting_bake_due`], [`Viewer::apply_lighting`]) |
 //! | area-light edit (move in its plane, scale, texture; [`crate::light`]) | [`Relighter::set_lighting`] with the scene's first area light edited, then turned by the lighting rotation — never a new `prepare` |
 //! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera |
 //! | still view | progressive antialiasing: each [`Viewer::frame`] adds one pass of one sample per pixel at the next sub-pixel offset of an `aa × aa` grid ([`Camera::with_pixel_offset`]) to a running mean, until `aa²` passes ([`Viewer::refining`]); Monte Carlo methods (the reference) instead add a pass of their own samples per frame |
@@ -130,6 +130,34 @@ struct Slot {
     /// `Some(t)` when prepared on the scene posed at `t` (a method that does
     /// not animate, on a moving scene).
     posed_at: Option<f32>,
+}
+
+impl Slot {
+    /// Gives the method `lighting` (`scene` carries it) unless it has it
+    /// already; nothing for a method not created.
+    fn light(
+        &mut self,
+        scene: &Scene,
+        lighting: Lighting,
+        progress: &dyn Progress,
+    ) -> Result<(), ViewerError> {
+        if let Some(m) = self.method.as_mut()
+            && self.lit != Some(lighting)
+        {
+            m.set_lighting(scene, progress)?;
+            self.lit = Some(lighting);
+        }
+        Ok(())
+    }
+}
+
+/// The scene the frames draw: the pose at the clock's time when the scene
+/// is animated, else the lit scene.
+fn shown_scene<'a>(posed: &'a Option<(f32, Scene)>, lit_scene: &'a Scene) -> &'a Scene {
+    match posed {
+        Some((_, s)) if lit_scene.is_animated() => s,
+        _ => lit_scene,
+    }
 }
 
 /// The lighting of a frame: the rotation (right drag) and the area-light
@@ -580,10 +608,7 @@ impl Viewer {
             time: self.time,
         };
         self.refresh_pose();
-        let scene = match &self.posed {
-            Some((_, s)) if self.lit_scene.is_animated() => s,
-            _ => &self.lit_scene,
-        };
+        let scene = shown_scene(&self.posed, &self.lit_scene);
         let stopped = self.playing && !self.slots[self.current].animates();
         let slot = &mut self.slots[self.current];
         let Some(method) = slot.method.as_mut() else {
@@ -602,10 +627,10 @@ impl Viewer {
         // bakes once.
         let deferred =
             preview && slot.lit.is_some_and(|l| l != lighting) && method.lighting_rebakes(scene);
-        if slot.lit != Some(lighting) && !deferred {
-            method.set_lighting(scene, progress)?;
-            slot.lit = Some(lighting);
+        if !deferred {
+            slot.light(scene, lighting, progress)?;
         }
+        let method = slot.method.as_mut().expect("created: checked above");
         let mut notes = slot.warnings.clone();
         if deferred {
             notes.push(format!(
@@ -769,6 +794,39 @@ impl Viewer {
     #[must_use]
     pub fn method_options(&self) -> &MethodOptions {
         &self.slots[self.current].options
+    }
+
+    /// True when the method shown is prepared but not yet given the
+    /// current lighting, and giving it would bake again
+    /// ([`Relighter::lighting_rebakes`]: nearfield's tilted area light).
+    /// The window then runs [`Viewer::apply_lighting`] on a worker thread,
+    /// with progress, instead of stalling inside [`Viewer::frame`].
+    pub fn lighting_bake_due(&mut self) -> bool {
+        self.update_lighting();
+        self.refresh_pose();
+        let lighting = self.lit;
+        let scene = shown_scene(&self.posed, &self.lit_scene);
+        let slot = &self.slots[self.current];
+        slot.lit.is_some_and(|l| l != lighting)
+            && slot
+                .method
+                .as_ref()
+                .is_some_and(|m| m.lighting_rebakes(scene))
+    }
+
+    /// Gives the method shown the current lighting now
+    /// ([`Relighter::set_lighting`]), whatever it costs: the bake that
+    /// [`Viewer::lighting_bake_due`] announces. Nothing to do for a method
+    /// not prepared (its preparation takes the lighting) or already lit.
+    ///
+    /// # Errors
+    /// The method's errors, cancellation through `progress` included.
+    pub fn apply_lighting(&mut self, progress: &dyn Progress) -> Result<(), ViewerError> {
+        self.update_lighting();
+        self.refresh_pose();
+        let lighting = self.lit;
+        let scene = shown_scene(&self.posed, &self.lit_scene);
+        self.slots[self.current].light(scene, lighting, progress)
     }
 
     /// True once the method shown has been created, checked and prepared

@@ -17,7 +17,9 @@
 //! A method prepares (bakes or loads its data) on a worker thread the first
 //! time it is shown: the window keeps drawing, with the phase and a progress
 //! bar in the frame and the same progress on stderr, and `Esc`/`q` cancels
-//! the bake and quits.
+//! the bake and quits. A lighting change that bakes again (nearfield's
+//! tilted area light, held back while the drag lasts) runs there too, at
+//! the release, behind the same panel.
 
 use crate::hud::{ErrorMeter, HudInfo, PrepareStatus, draw_hud, draw_progress};
 use crate::state::{Frame, Viewer, ViewerError};
@@ -72,9 +74,18 @@ impl Progress for SharedProgress<'_> {
     }
 }
 
+/// What the worker thread runs: a method's first preparation, or the
+/// bake a lighting change needs ([`Viewer::lighting_bake_due`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Job {
+    Prepare,
+    Lighting,
+}
+
 /// A preparation running on the worker thread.
 struct Preparing<'s> {
     method: String,
+    job: Job,
     started: Instant,
     handle: ScopedJoinHandle<'s, (Viewer, Result<(), ViewerError>)>,
 }
@@ -189,13 +200,16 @@ impl<'s, 'e> App<'s, 'e> {
         event_loop.exit();
     }
 
-    /// Starts preparing the current method on a worker thread.
-    fn start_preparing(&mut self) {
+    /// Starts `job` for the current method on a worker thread.
+    fn start_preparing(&mut self, job: Job) {
         let Some(mut viewer) = self.viewer.take() else {
             return;
         };
         let method = viewer.method().name().to_string();
-        eprintln!("relight: view: preparing {method} …");
+        match job {
+            Job::Prepare => eprintln!("relight: view: preparing {method} …"),
+            Job::Lighting => eprintln!("relight: view: baking {method} for the new lighting …"),
+        }
         self.progress.done.store(0, Ordering::Relaxed);
         self.progress.total.store(0, Ordering::Relaxed);
         *self
@@ -205,11 +219,15 @@ impl<'s, 'e> App<'s, 'e> {
             .unwrap_or_else(|e| e.into_inner()) = "starting".into();
         let progress: &'e SharedProgress<'e> = self.progress;
         let handle = self.scope.spawn(move || {
-            let r = viewer.prepare(progress);
+            let r = match job {
+                Job::Prepare => viewer.prepare(progress),
+                Job::Lighting => viewer.apply_lighting(progress),
+            };
             (viewer, r)
         });
         self.preparing = Some(Preparing {
             method,
+            job,
             started: Instant::now(),
             handle,
         });
@@ -230,8 +248,12 @@ impl<'s, 'e> App<'s, 'e> {
             .join()
             .map_err(|_| ViewerError::Window(format!("preparing {} panicked", p.method)))?;
         self.viewer = Some(viewer);
+        let done = match p.job {
+            Job::Prepare => "prepared",
+            Job::Lighting => "baked for the new lighting",
+        };
         eprintln!(
-            "relight: view: {} prepared in {:.1} s",
+            "relight: view: {} {done} in {:.1} s",
             p.method,
             p.started.elapsed().as_secs_f64()
         );
@@ -264,7 +286,10 @@ impl<'s, 'e> App<'s, 'e> {
             return Ok(());
         };
         let status = PrepareStatus {
-            method: p.method.clone(),
+            title: match p.job {
+                Job::Prepare => format!("preparing {}", p.method),
+                Job::Lighting => format!("baking {} for the new lighting", p.method),
+            },
             phase: self
                 .progress
                 .phase
@@ -287,7 +312,7 @@ impl<'s, 'e> App<'s, 'e> {
             draw_progress(&mut Canvas::new(buf, w, h), &status);
         })?;
         if let Some(win) = &self.window {
-            win.set_title(&format!("relight — preparing {}", status.method));
+            win.set_title(&format!("relight — {}", status.title));
         }
         Ok(())
     }
@@ -298,7 +323,13 @@ impl<'s, 'e> App<'s, 'e> {
             return self.redraw_progress();
         }
         if self.viewer.as_ref().is_some_and(|v| !v.is_prepared()) {
-            self.start_preparing();
+            self.start_preparing(Job::Prepare);
+            return self.redraw_progress();
+        }
+        // A lighting change that bakes again (held back while the drag
+        // lasted) bakes here, off the event loop, at the release.
+        if self.drag.is_none() && self.viewer.as_mut().is_some_and(Viewer::lighting_bake_due) {
+            self.start_preparing(Job::Lighting);
             return self.redraw_progress();
         }
         let (Some(window), Some(surface), Some(viewer)) = (
