@@ -24,10 +24,10 @@ pub enum WaveletCommand {
         /// Magnification (> 0; 2 shows half the image twice as large).
         #[arg(long, default_value_t = 2.0)]
         scale: f64,
-        /// Input point shown at the output's centre, as fractions X,Y of the width and height.
+        /// Input point shown at the output's centre, as fractions X,Y (each in 0…1) of the width and height.
         #[arg(long, default_value = "0.5,0.5")]
         center: String,
-        /// Source wavelet terms kept (largest RGB energy); default all.
+        /// Source wavelet terms kept (largest RGB energy; ≥ 1); default all.
         #[arg(long)]
         terms: Option<usize>,
     },
@@ -47,6 +47,18 @@ pub fn run(c: WaveletCommand) -> Result<()> {
     if !(scale.is_finite() && scale > 0.0) {
         bail!("--scale: must be a finite number > 0, got {scale}");
     }
+    // A centre off the image would show none of it: a black output.
+    if !center.iter().all(|c| (0.0..=1.0).contains(c)) {
+        bail!(
+            "--center {},{}: each fraction must be in 0…1 (a centre off the image shows none of it)",
+            c[0],
+            c[1]
+        );
+    }
+    if terms == Some(0) {
+        bail!("--terms 0: keep at least one source term (none gives a black image)");
+    }
+    crate::output::check_output(&output, "output", &["exr", "hdr", "png"])?;
     let (img, _) = relight_assets::read_image(&input)?;
     let n = img.width;
     if img.height != n || !n.is_power_of_two() {

@@ -331,3 +331,39 @@ fn view_without_a_display_is_a_one_line_error() {
     let out = relight(&["-q", "view", "--aa", "0"]);
     assert_clean_error(&out, "aa = 0");
 }
+
+#[test]
+fn wavelet_zoom_refuses_what_would_draw_nothing() {
+    // A 4×4 input made here: the checks run before any work.
+    let input = tmp("zoom-in.png");
+    let px = vec![glam::Vec3::splat(0.5); 16];
+    relight_assets::write_image(&input, 4, 4, &px, relight_assets::ToneMap::default()).unwrap();
+    let input = input.to_str().unwrap();
+    let out = tmp("zoom-out.png");
+    let out = out.to_str().unwrap();
+    let zoom = |extra: &[&str]| {
+        let mut a = vec!["wavelet", "zoom", input, out];
+        a.extend_from_slice(extra);
+        relight(&a)
+    };
+    assert_clean_error(&zoom(&["--center", "4,0.6"]), "--center 4,0.6");
+    assert_clean_error(&zoom(&["--center", "0.5,-0.1"]), "--center");
+    assert_clean_error(&zoom(&["--terms", "0"]), "--terms 0");
+    let bad_out = tmp("zoom-out.txt");
+    assert_clean_error(
+        &relight(&["wavelet", "zoom", input, bad_out.to_str().unwrap()]),
+        "zoom-out.txt",
+    );
+    // The edge of the image is a valid centre, and one term draws something.
+    let ok = zoom(&["--center", "1,0", "--terms", "1"]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let (img, _) = relight_assets::read_image(std::path::Path::new(out)).unwrap();
+    assert!(
+        img.pixels.iter().any(|p| p.max_element() > 0.0),
+        "black zoom"
+    );
+}
