@@ -124,21 +124,6 @@ pub struct MethodsRow {
     pub source: Option<String>,
 }
 
-/// Relative standard error of a reference over `mask`: √(Σ se²) / √(Σ |L|²)
-/// with se the per-pixel standard error of the luminance, the noise floor of
-/// a relative RMS error over the same pixels.
-fn masked_noise(image: &Image, std_error: &[f32], mask: &[bool]) -> f64 {
-    let (mut num, mut den) = (0.0f64, 0.0f64);
-    for ((p, &se), &m) in image.pixels.iter().zip(std_error).zip(mask) {
-        if m {
-            num += f64::from(se) * f64::from(se);
-            let l = relight_render::sampling::luminance(*p);
-            den += f64::from(l) * f64::from(l);
-        }
-    }
-    if den > 0.0 { (num / den).sqrt() } else { 0.0 }
-}
-
 /// Runs the matrix (see the module docs).
 ///
 /// # Errors
@@ -171,8 +156,8 @@ pub fn verify_methods(
             let r = relight_render::reference::render_reference(scene, &ro, progress)
                 .map_err(|e| MethodError::failed("reference", e))?;
             let ms = t.elapsed().as_secs_f64() * 1e3;
-            let noise = masked_noise(&r.image, &r.std_error, &mask);
-            let noise_all = masked_noise(&r.image, &r.std_error, &all);
+            let noise = r.rms_relative_std_error_over(&mask);
+            let noise_all = r.rms_relative_std_error_over(&all);
             Ok((r.image, noise, noise_all, ms))
         };
         let full = reference(MediumMode::MultipleScattering)?;

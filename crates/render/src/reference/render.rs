@@ -27,14 +27,39 @@ pub struct ReferenceImage {
     pub spp: u32,
     /// Mean over pixels of `std_error` divided by the mean pixel luminance.
     pub relative_std_error: f64,
-    /// √(Σ std_error²) / √(Σ luminance²): the relative RMS error the
-    /// image's own noise gives against the truth — the σ_MC to read a
-    /// relative RMS error (`relight compare`, verify) against.
+    /// √(Σ std_error²) / √(Σ luminance²) over every pixel: the relative
+    /// RMS error the image's own noise gives against the truth. An error
+    /// measured over part of the image (object pixels) must be read against
+    /// [`ReferenceImage::rms_relative_std_error_over`] the same part: the
+    /// environment's background pixels are nearly noise-free but add to the
+    /// denominator, so this figure understates the objects' noise.
     pub rms_relative_std_error: f64,
     /// Rays traced (camera, shadow and scattered).
     pub rays: u64,
     /// Wall-clock time of the sampling (excluding BVH build), seconds.
     pub seconds: f64,
+}
+
+impl ReferenceImage {
+    /// σ_MC over the pixels where `mask` is true: √(Σ σ_i²) / √(Σ Y_i²),
+    /// σ_i the standard error of pixel i's mean luminance `Y_i` — the noise
+    /// floor of a relative RMS error [`Image::relative_rms_error`] measured
+    /// over the same `mask` (checked against the difference of two
+    /// references of different seeds, `tests/reference/basic.rs`). 0 when
+    /// the masked pixels are black. `mask` shorter than the image counts
+    /// only the pixels it covers.
+    #[must_use]
+    pub fn rms_relative_std_error_over(&self, mask: &[bool]) -> f64 {
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for ((s, p), &m) in self.std_error.iter().zip(&self.image.pixels).zip(mask) {
+            if m {
+                let y = f64::from(luminance(*p));
+                num += f64::from(*s) * f64::from(*s);
+                den += y * y;
+            }
+        }
+        if den > 0.0 { (num / den).sqrt() } else { 0.0 }
+    }
 }
 
 /// Per-pixel running sums: RGB and luminance moments.

@@ -651,3 +651,35 @@ fn bench_reports_positive_throughput() {
     assert!(rows[1].rays > rows[0].rays, "shadow rays counted");
     assert!(rows[4].rays > rows[2].rays, "scattered rays counted");
 }
+
+/// σ_MC over a mask is the noise two references of different seeds show
+/// against each other there: relative RMS of A − B ≈ √2 σ. Over the whole
+/// image the figure is smaller here (the sky behind the sphere is read,
+/// not sampled, yet counts in the denominator), so an error measured over
+/// object pixels needs the masked one.
+#[test]
+fn masked_noise_floor_matches_two_seeds() {
+    let env = sun_sky(128, Vec3::new(0.3, 1.0, 0.4), 8.0, 20.0);
+    let scene = sphere_scene(env, lambert(0.8), 48);
+    let mask = object_mask(&scene, 0);
+    let (a, b) = (
+        render_reference(&scene, &opts(16, 1), &NoProgress).unwrap(),
+        render_reference(&scene, &opts(16, 2), &NoProgress).unwrap(),
+    );
+    let sigma = a
+        .rms_relative_std_error_over(&mask)
+        .hypot(b.rms_relative_std_error_over(&mask))
+        / 2f64.sqrt();
+    let seen = a.image.relative_rms_error(&b.image, Some(&mask)) / 2f64.sqrt();
+    eprintln!(
+        "σ over the sphere {sigma:.4}, from two seeds {seen:.4}; over the image {:.4}",
+        a.rms_relative_std_error
+    );
+    assert!(mask.iter().filter(|&&m| m).count() > 500);
+    assert!((seen / sigma - 1.0).abs() < 0.15, "{seen} vs {sigma}");
+    assert!(a.rms_relative_std_error < 0.8 * sigma);
+    // An all-true mask is the whole-image figure; an empty one is 0.
+    let all = vec![true; a.std_error.len()];
+    assert!((a.rms_relative_std_error_over(&all) - a.rms_relative_std_error).abs() < 1e-9);
+    assert_eq!(a.rms_relative_std_error_over(&[]), 0.0);
+}

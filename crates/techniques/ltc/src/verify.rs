@@ -421,7 +421,7 @@ fn image_rows(
         let (e_ltc, e_nf) = (err(&a.image), err(&b.image));
         rows.push(row(
             format!("{what}: reference noise σ_MC ({} spp)", reference.spp),
-            reference.rms_relative_std_error,
+            reference.rms_relative_std_error_over(&mask),
             "relative RMS",
             None,
             "relight_render::reference",

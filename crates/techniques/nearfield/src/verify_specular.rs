@@ -253,7 +253,7 @@ pub fn specular_rows(
     let err = |img: &relight_render::Image| img.relative_rms_error(&reference.image, Some(&mask));
     rows.push(row(
         format!("glossy: reference noise σ_MC ({} spp)", reference.spp),
-        reference.rms_relative_std_error,
+        reference.rms_relative_std_error_over(&mask),
         "relative RMS",
         None,
         "relight_render::reference",

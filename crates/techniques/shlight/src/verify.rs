@@ -23,10 +23,8 @@
 use crate::relight::ShRotationMethod;
 use crate::{NormalMap, ShLightError, ShRenderer, WindowChoice};
 use relight_render::bvh::SceneBvh;
-use relight_render::reference::{
-    EnvLight, ReferenceImage, ReferenceOptions, render_reference_with,
-};
-use relight_render::sampling::{EnvFilter, luminance};
+use relight_render::reference::{EnvLight, ReferenceOptions, render_reference_with};
+use relight_render::sampling::EnvFilter;
 use relight_render::{Progress, Scene};
 use serde::Serialize;
 use std::time::Instant;
@@ -171,17 +169,6 @@ fn judge(rows: &mut [ShVerifyRow]) {
     }
 }
 
-fn masked_std_error(r: &ReferenceImage, mask: &[bool]) -> f64 {
-    let (mut se2, mut y2) = (0.0f64, 0.0f64);
-    for (i, &m) in mask.iter().enumerate() {
-        if m {
-            se2 += f64::from(r.std_error[i]).powi(2);
-            y2 += f64::from(luminance(r.image.pixels[i])).powi(2);
-        }
-    }
-    if y2 > 0.0 { (se2 / y2).sqrt() } else { 0.0 }
-}
-
 /// Runs the accuracy study. `normal_map`: a named map (e.g. one of
 /// `shared/data/normalmaps`); `None` uses the procedural bumps
 /// [`NormalMap::bumps`]`(256, 8, 0.6)` named `bumps`.
@@ -295,7 +282,7 @@ pub fn verify_sh(
                         } else {
                             0.0
                         },
-                        reference_rel_std_error: masked_std_error(reference, &img.mask),
+                        reference_rel_std_error: reference.rms_relative_std_error_over(&img.mask),
                         reference_spp: reference.spp,
                         pixels: img.mask.iter().filter(|&&m| m).count(),
                         ms_shade,

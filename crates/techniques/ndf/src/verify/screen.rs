@@ -132,20 +132,6 @@ pub struct ScreenPanel {
     pub tiles: Vec<ScreenTile>,
 }
 
-/// The reference's σ_MC over `mask`: `√(Σ σ_i²) / √(Σ Y_i²)`, `σ_i` the
-/// standard error of pixel i's luminance `Y_i`.
-fn masked_sigma(std_error: &[f32], image: &Image, mask: &[bool]) -> f64 {
-    let (mut num, mut den) = (0.0f64, 0.0f64);
-    for ((s, p), &m) in std_error.iter().zip(&image.pixels).zip(mask) {
-        if m {
-            let y = f64::from(0.2126 * p.x + 0.7152 * p.y + 0.0722 * p.z);
-            num += f64::from(*s) * f64::from(*s);
-            den += y * y;
-        }
-    }
-    if den > 0.0 { (num / den).sqrt() } else { 0.0 }
-}
-
 fn reference_error(e: ReferenceError) -> MethodError {
     match e {
         ReferenceError::Cancelled => MethodError::Cancelled,
@@ -225,7 +211,7 @@ pub fn screen(
                 .as_ref()
                 .map(relight_render::method::Coverage::object_mask)
                 .unwrap_or_else(|| vec![true; size * size]);
-            let sigma = masked_sigma(&reference.std_error, &reference.image, &mask);
+            let sigma = reference.rms_relative_std_error_over(&mask);
             row("reference σ_MC", sigma, None, "- (the judge's own noise)");
             let mut tiles = vec![ScreenTile {
                 label: format!("reference ({} spp)", opts.reference_spp),
