@@ -82,6 +82,24 @@ enum Job {
     Lighting,
 }
 
+impl Job {
+    /// What runs, for the panel, the window title and stderr.
+    fn title(self, method: &str) -> String {
+        match self {
+            Self::Prepare => format!("preparing {method}"),
+            Self::Lighting => format!("baking {method} for the new lighting"),
+        }
+    }
+
+    /// What has happened when it ends, for stderr.
+    fn done(self) -> &'static str {
+        match self {
+            Self::Prepare => "prepared",
+            Self::Lighting => "baked for the new lighting",
+        }
+    }
+}
+
 /// A preparation running on the worker thread.
 struct Preparing<'s> {
     method: String,
@@ -206,10 +224,7 @@ impl<'s, 'e> App<'s, 'e> {
             return;
         };
         let method = viewer.method().name().to_string();
-        match job {
-            Job::Prepare => eprintln!("relight: view: preparing {method} …"),
-            Job::Lighting => eprintln!("relight: view: baking {method} for the new lighting …"),
-        }
+        eprintln!("relight: view: {} …", job.title(&method));
         self.progress.done.store(0, Ordering::Relaxed);
         self.progress.total.store(0, Ordering::Relaxed);
         *self
@@ -248,13 +263,10 @@ impl<'s, 'e> App<'s, 'e> {
             .join()
             .map_err(|_| ViewerError::Window(format!("preparing {} panicked", p.method)))?;
         self.viewer = Some(viewer);
-        let done = match p.job {
-            Job::Prepare => "prepared",
-            Job::Lighting => "baked for the new lighting",
-        };
         eprintln!(
-            "relight: view: {} {done} in {:.1} s",
+            "relight: view: {} {} in {:.1} s",
             p.method,
+            p.job.done(),
             p.started.elapsed().as_secs_f64()
         );
         result
@@ -286,10 +298,7 @@ impl<'s, 'e> App<'s, 'e> {
             return Ok(());
         };
         let status = PrepareStatus {
-            title: match p.job {
-                Job::Prepare => format!("preparing {}", p.method),
-                Job::Lighting => format!("baking {} for the new lighting", p.method),
-            },
+            title: p.job.title(&p.method),
             phase: self
                 .progress
                 .phase
