@@ -402,6 +402,10 @@ pub struct Noise {
     /// √(Σ se²) / √(Σ L²): the relative RMS error the noise alone gives,
     /// the σ_MC a relative RMS error is read against.
     pub rms_relative_std_error: f64,
+    /// The same over the pixels objects fully cover
+    /// ([`Coverage::object_mask`]): the σ_MC of an error measured there, as
+    /// `relight compare` and `verify` measure (0 when no object is seen).
+    pub object_rms_relative_std_error: f64,
 }
 
 /// A rendering method (see the module docs).

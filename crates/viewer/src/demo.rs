@@ -26,8 +26,9 @@
 //! * **bake**: [`Relighter::prepare`], bake or cache load.
 //! * **error**: relative RMS over object pixels (fully covered in both
 //!   images: the `relight compare` measure), against the reference of
-//!   [`DEMO_SPP`] samples per pixel; its own Monte Carlo noise
-//!   (`σ_MC`, shown in its tile) is part of every figure.
+//!   [`DEMO_SPP`] samples per pixel; its own Monte Carlo noise over the
+//!   same pixels (`σ_MC`, [`relight_render::method::Noise::object_rms_relative_std_error`],
+//!   shown in its tile) is part of every figure.
 //!
 //! Timings are of whatever machine runs it; `relight bench` measures them
 //! properly.
@@ -253,9 +254,9 @@ pub fn tile_cell(tile: &DemoTile) -> Cell {
         if let Some(n) = out.noise {
             details.push(Line::new(
                 format!(
-                    "Monte Carlo, {} spp: noise σ_MC {:.1} % (the judge)",
+                    "Monte Carlo, {} spp: noise σ_MC {:.1} % over objects (the judge)",
                     n.spp,
-                    100.0 * n.rms_relative_std_error
+                    100.0 * n.object_rms_relative_std_error
                 ),
                 GREEN,
             ));
@@ -354,6 +355,9 @@ mod tests {
         let by = |k: MethodKind| tiles.iter().find(|t| t.method == k).unwrap();
         let reference = by(MethodKind::Reference);
         assert!(reference.rendered.is_ok() && reference.error.is_none());
+        // The judge's noise over the pixels the errors are measured on.
+        let judge = &tile_cell(reference).details[0].text;
+        assert!(judge.contains("over objects"), "{judge}");
         // Wavelet renders the shadows approximately (AO), and says so.
         let wavelet = by(MethodKind::Wavelet);
         assert!(

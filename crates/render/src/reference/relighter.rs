@@ -22,7 +22,8 @@ use super::render::{Accumulator, validate};
 use super::{ReferenceError, ReferenceOptions, validate_scene};
 use crate::bvh::SceneBvh;
 use crate::method::{
-    FrameRequest, FrameTimings, MethodError, Noise, Relighter, Rendered, SceneFeature, Support,
+    COVERAGE_SUBSAMPLES, Coverage, FrameRequest, FrameTimings, MethodError, Noise, Relighter,
+    Rendered, SceneFeature, Support, rasterize_coverage,
 };
 use crate::{AreaLight, Camera, Progress, Scene};
 use glam::{Mat3, Vec2, Vec3};
@@ -35,7 +36,7 @@ use std::time::Instant;
 pub struct ReferenceRenderer {
     /// Its settings (every default in [`ReferenceOptions::default`]).
     pub options: ReferenceOptions,
-    running: Option<(FrameKey, Accumulator)>,
+    running: Option<(FrameKey, Accumulator, Coverage)>,
 }
 
 impl ReferenceRenderer {
@@ -51,7 +52,7 @@ impl ReferenceRenderer {
     /// Samples per pixel of the running estimate (0 before the first frame).
     #[must_use]
     pub fn spp(&self) -> u32 {
-        self.running.as_ref().map_or(0, |(_, a)| a.spp)
+        self.running.as_ref().map_or(0, |(_, a, _)| a.spp)
     }
 }
 
@@ -176,9 +177,13 @@ impl Relighter for ReferenceRenderer {
         let opts = self.options;
         validate(scene, &camera, &opts).map_err(method_error)?;
         let key = FrameKey::of(scene, &camera);
-        let mut acc = match self.running.take() {
-            Some((k, a)) if request.progressive && k == key => a,
-            _ => Accumulator::new(camera.width, camera.height),
+        let (mut acc, coverage) = match self.running.take() {
+            Some((k, a, c)) if request.progressive && k == key => (a, c),
+            _ => (
+                Accumulator::new(camera.width, camera.height),
+                rasterize_coverage(scene, &camera, COVERAGE_SUBSAMPLES)
+                    .map_err(|e| MethodError::failed(self.name(), e))?,
+            ),
         };
         let until = if request.progressive {
             (acc.spp + opts.pass_spp.max(1)).min(opts.spp)
@@ -195,10 +200,11 @@ impl Relighter for ReferenceRenderer {
                 .map_err(method_error)?;
         }
         let r = acc.image();
-        self.running = Some((key, acc));
+        self.running = Some((key, acc, coverage.clone()));
+        let object_rms_relative_std_error = r.rms_relative_std_error_over(&coverage.object_mask());
         Ok(Rendered {
             image: r.image,
-            coverage: None,
+            coverage: Some(coverage),
             timings: FrameTimings {
                 lighting_ms: 0.0,
                 view_ms: t.elapsed().as_secs_f64() * 1e3,
@@ -207,6 +213,7 @@ impl Relighter for ReferenceRenderer {
                 spp: r.spp,
                 relative_std_error: r.relative_std_error,
                 rms_relative_std_error: r.rms_relative_std_error,
+                object_rms_relative_std_error,
             }),
         })
     }

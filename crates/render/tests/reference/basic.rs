@@ -4,7 +4,10 @@
 use super::common::*;
 use glam::{Mat3, Vec2, Vec3};
 use relight_brdf::{Brdf, Ggx};
-use relight_render::method::{FrameRequest, MethodError, Relighter, SceneFeature, Support};
+use relight_render::method::{
+    COVERAGE_SUBSAMPLES, FrameRequest, MethodError, Relighter, SceneFeature, Support,
+    rasterize_coverage,
+};
 use relight_render::sampling::{EnvFilter, luminance};
 use relight_render::{
     AreaLight, BrdfBlend, EnvLight, Image, Medium, MediumMode, NoProgress, NormalMap, PointLight,
@@ -456,7 +459,15 @@ fn relighter_is_progressive_and_reports_noise() {
         let r = m.render(&scene, &req, &NoProgress).unwrap();
         let noise = r.noise.unwrap();
         assert_eq!(noise.spp, (2 * k).min(8));
-        assert!(r.coverage.is_none());
+        // The coverage the judge masks with, rasterized once per frame key.
+        let coverage = r
+            .coverage
+            .as_ref()
+            .expect("the reference carries its coverage");
+        assert_eq!(
+            coverage,
+            &rasterize_coverage(&scene, &scene.camera, COVERAGE_SUBSAMPLES).unwrap()
+        );
         if k > 1 {
             let prev: &relight_render::method::Noise = last.as_ref().unwrap();
             if k <= 4 {
@@ -468,6 +479,12 @@ fn relighter_is_progressive_and_reports_noise() {
             let full = render_reference(&scene, &o, &NoProgress).unwrap();
             assert_eq!(r.image, full.image, "progressive = one render of 8 spp");
             assert!((noise.relative_std_error - full.relative_std_error).abs() < 1e-12);
+            // σ_MC over the objects is the masked floor, not the whole image's.
+            let objects = coverage.object_mask();
+            assert!(objects.iter().any(|&o| o) && !objects.iter().all(|&o| o));
+            let want = full.rms_relative_std_error_over(&objects);
+            assert!((noise.object_rms_relative_std_error - want).abs() < 1e-12);
+            assert!(noise.object_rms_relative_std_error != noise.rms_relative_std_error);
         }
     }
     // A new camera starts again.
