@@ -131,6 +131,43 @@ pub struct Texture {
 }
 
 impl Texture {
+    /// The light texture of the area-light verify scenes, `size²` texels:
+    /// warm (left) and cool (right) halves, six horizontal stripe bands
+    /// alternating 1 and `stripe_low`, and a bright disc of radius 0.1 at
+    /// uv (0.7, 0.3) adding `spot` (all the frequencies a light's wavelet
+    /// compression must track).
+    ///
+    /// # Panics
+    /// `size == 0`.
+    #[must_use]
+    pub fn stripes_and_spot(size: usize, stripe_low: f32, spot: f32) -> Self {
+        let texels = (0..size * size)
+            .map(|i| {
+                let (x, y) = (
+                    (i % size) as f32 / size as f32,
+                    (i / size) as f32 / size as f32,
+                );
+                let warm = if x < 0.5 {
+                    Vec3::new(1.4, 0.9, 0.4)
+                } else {
+                    Vec3::new(0.4, 0.8, 1.4)
+                };
+                let stripe = if ((y * 6.0) as i32) % 2 == 0 {
+                    1.0
+                } else {
+                    stripe_low
+                };
+                let disc = if (x - 0.7).powi(2) + (y - 0.3).powi(2) < 0.01 {
+                    spot
+                } else {
+                    0.0
+                };
+                warm * stripe + Vec3::splat(disc)
+            })
+            .collect();
+        Self::try_new(size, size, texels).expect("a non-zero size")
+    }
+
     /// From finite, non-negative texels.
     ///
     /// # Errors

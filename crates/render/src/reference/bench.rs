@@ -59,9 +59,11 @@ pub(crate) fn floor_quad(y: f32, half: f32) -> Mesh {
     }
 }
 
-/// A lat-long sky: blue gradient above, grey ground below, and a small sun of
-/// radiance `sun` within `sun_radius_deg` of `sun_dir` (high dynamic range).
-pub(crate) fn sun_sky(width: usize, sun_dir: Vec3, sun_radius_deg: f32, sun: f32) -> EnvMap {
+/// A lat-long sky of `width × width/2` texels: blue gradient above, grey
+/// ground below, and a small sun of radiance `sun` within `sun_radius_deg` of
+/// `sun_dir` (high dynamic range). The bench's sky, and the tests'.
+#[must_use]
+pub fn sun_sky(width: usize, sun_dir: Vec3, sun_radius_deg: f32, sun: f32) -> EnvMap {
     let sun_dir = sun_dir.normalize();
     let cos_r = sun_radius_deg.to_radians().cos();
     EnvMap::from_fn(

@@ -112,7 +112,7 @@ pub mod wavelet_verify;
 
 #[cfg(test)]
 pub(crate) use bench::floor_quad;
-pub use bench::{ReferenceBenchRow, bench_reference};
+pub use bench::{ReferenceBenchRow, bench_reference, sun_sky};
 pub use gi::{CameraHit, GiImage, GiOptions, GiTracer, GiVertex, render_gi_reference};
 pub use lights::EnvLight;
 pub use relighter::ReferenceRenderer;

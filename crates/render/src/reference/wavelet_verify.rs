@@ -22,31 +22,7 @@ use std::time::Instant;
 /// band and a bright spot.
 #[must_use]
 pub fn test_texture(size: usize) -> Texture {
-    let texels = (0..size * size)
-        .map(|i| {
-            let (x, y) = (
-                (i % size) as f32 / size as f32,
-                (i / size) as f32 / size as f32,
-            );
-            let warm = if x < 0.5 {
-                Vec3::new(1.4, 0.9, 0.4)
-            } else {
-                Vec3::new(0.4, 0.8, 1.4)
-            };
-            let stripe = if ((y * 6.0) as i32) % 2 == 0 {
-                1.0
-            } else {
-                0.4
-            };
-            let spot = if (x - 0.7).powi(2) + (y - 0.3).powi(2) < 0.01 {
-                4.0
-            } else {
-                0.0
-            };
-            warm * stripe + Vec3::splat(spot)
-        })
-        .collect();
-    Texture::try_new(size, size, texels).expect("valid size")
+    Texture::stripes_and_spot(size, 0.4, 4.0)
 }
 
 /// The glossy BRDF of [`glossy_scene`]: GGX, α = 0.1, gold-like F₀.

@@ -20,30 +20,7 @@ pub fn black_env() -> EnvMap {
     constant_env(0.0)
 }
 
-/// A lat-long sky: blue gradient above, grey ground, a sun of radiance `sun`
-/// within `radius_deg` of `sun_dir`.
-pub fn sun_sky(width: usize, sun_dir: Vec3, radius_deg: f32, sun: f32) -> EnvMap {
-    let sun_dir = sun_dir.normalize();
-    let cos_r = radius_deg.to_radians().cos();
-    EnvMap::from_fn(
-        Param::LatLong {
-            width,
-            height: width / 2,
-        },
-        |d| {
-            let base = if d.y >= 0.0 {
-                Vec3::new(0.3, 0.5, 0.9).lerp(Vec3::new(0.8, 0.9, 1.0), 1.0 - d.y)
-            } else {
-                Vec3::splat(0.25)
-            };
-            if d.dot(sun_dir) >= cos_r {
-                base + Vec3::splat(sun)
-            } else {
-                base
-            }
-        },
-    )
-}
+pub use relight_render::reference::sun_sky;
 
 pub fn lambert(albedo: f32) -> Arc<dyn Brdf> {
     Arc::new(Lambert::new(Vec3::splat(albedo)).expect("albedo in [0, 1]"))

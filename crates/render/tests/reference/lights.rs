@@ -26,13 +26,10 @@ pub(super) fn polygon_irradiance(x: Vec3, n: Vec3, v: &[Vec3]) -> f64 {
     0.5 * sum.abs()
 }
 
-/// A Lambert plane (ρ = 0.8) under one uniform rectangle (radiance 2) and
-/// nothing else, against the closed form averaged over each pixel (4 × 4
-/// sub-pixel grid) — with MIS, and with each strategy alone.
-#[test]
-fn lambert_plane_under_a_rectangle_matches_the_closed_form() {
-    let rho = 0.8f32;
-    let radiance = 2.0f32;
+/// A Lambert (`rho`) plane under a uniform downward 1 × 0.6 rectangle of
+/// `radiance`, shadows on, seen at `size²`; and per pixel the closed form
+/// (Lambert's edge sum) averaged over a 4 × 4 sub-pixel grid.
+pub fn plane_under_rectangle(rho: f32, radiance: f32, size: usize) -> (Scene, Vec<f64>) {
     let light = AreaLight {
         center: Vec3::new(0.2, 1.0, -0.1),
         size: Vec2::new(1.0, 0.6),
@@ -55,15 +52,14 @@ fn lambert_plane_under_a_rectangle_matches_the_closed_form() {
             Vec3::new(0.0, 2.5, 2.5),
             Vec3::new(0.0, 0.0, -0.3),
             50.0,
-            32,
-            32,
+            size,
+            size,
         ),
     );
     scene.visibility = true;
     scene.area_lights.push(light);
-    let mask = object_mask(&scene, 0);
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    let closed: Vec<f64> = (0..w * h)
+    let (w, h) = (size, size);
+    let closed = (0..w * h)
         .map(|i| {
             let k = 4;
             let mut s = 0.0;
@@ -80,6 +76,19 @@ fn lambert_plane_under_a_rectangle_matches_the_closed_form() {
             s / (k * k) as f64
         })
         .collect();
+    (scene, closed)
+}
+
+/// A Lambert plane (ρ = 0.8) under one uniform rectangle (radiance 2) and
+/// nothing else, against the closed form averaged over each pixel (4 × 4
+/// sub-pixel grid) — with MIS, and with each strategy alone.
+#[test]
+fn lambert_plane_under_a_rectangle_matches_the_closed_form() {
+    let rho = 0.8f32;
+    let radiance = 2.0f32;
+    let (scene, closed) = plane_under_rectangle(rho, radiance, 32);
+    let mask = object_mask(&scene, 0);
+    let (w, h) = (scene.camera.width, scene.camera.height);
     for (strategy, spp) in [
         (LightSampling::Mis, 64),
         (LightSampling::LightOnly, 64),

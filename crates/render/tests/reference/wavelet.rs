@@ -5,8 +5,8 @@
 //! against light-area sampling (issue 13: ≥ 10× lower at 8 spp).
 
 use super::common::*;
-use super::lights::polygon_irradiance;
-use glam::{Mat3, Vec2, Vec3};
+use super::lights::plane_under_rectangle;
+use glam::Vec3;
 use relight_render::reference::wavelet_sampling::{FaceProduct, LightGrid};
 use relight_render::reference::wavelet_verify::{
     covered_pixels, glossy_face_product, glossy_scene, mean_agreement, pdf_sphere_integral,
@@ -14,11 +14,7 @@ use relight_render::reference::wavelet_verify::{
 };
 use relight_render::reference::{ReferenceError, WaveletSamplingOptions};
 use relight_render::sampling::luminance;
-use relight_render::{
-    AreaLight, LightSampling, NoProgress, Object, ReferenceOptions, Rng, Scene, render_reference,
-};
-use std::f64::consts::PI;
-use std::sync::Arc;
+use relight_render::{LightSampling, NoProgress, ReferenceOptions, Rng, render_reference};
 
 /// Shading points of the glossy scene's sphere: top, front, side.
 fn points() -> [(Vec3, Vec3); 3] {
@@ -245,33 +241,7 @@ fn wavelet_agrees_with_mis_on_a_glossy_sphere() {
 #[test]
 fn light_outside_the_face_leaves_no_bias() {
     let (rho, radiance) = (0.8f32, 2.0f32);
-    let light = AreaLight {
-        center: Vec3::new(0.2, 1.0, -0.1),
-        size: Vec2::new(1.0, 0.6),
-        world_from_light: Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
-        intensity: Vec3::splat(radiance),
-        texture: None,
-    };
-    let corners: Vec<Vec3> = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
-        .iter()
-        .map(|&(u, v)| light.point_at(Vec2::new(u, v)))
-        .collect();
-    let mut scene = Scene::new(
-        vec![Object::new(
-            Arc::new(relight_geom::shapes::plane(6.0, 1)),
-            lambert(rho),
-        )],
-        black_env(),
-        camera(
-            Vec3::new(0.0, 2.5, 2.5),
-            Vec3::new(0.0, 0.0, -0.3),
-            50.0,
-            24,
-            24,
-        ),
-    );
-    scene.visibility = true;
-    scene.area_lights.push(light);
+    let (scene, closed) = plane_under_rectangle(rho, radiance, 24);
     let mask = object_mask(&scene, 0);
     let (w, h) = (scene.camera.width, scene.camera.height);
     let o = ReferenceOptions {
@@ -288,19 +258,7 @@ fn light_outside_the_face_leaves_no_bias() {
     let r = render_reference(&scene, &o, &NoProgress).unwrap();
     let (mut diff, mut sum_cf, mut var, mut n) = (0.0f64, 0.0f64, 0.0f64, 0);
     for i in (0..w * h).filter(|&i| mask[i]) {
-        let k = 4;
-        let mut cf = 0.0;
-        for j in 0..k * k {
-            let (eye, d) = scene.camera.ray(
-                (i % w) as f32 + ((j % k) as f32 + 0.5) / k as f32,
-                (i / w) as f32 + ((j / k) as f32 + 0.5) / k as f32,
-            );
-            let x = eye + d * (-eye.y / d.y);
-            cf += f64::from(rho) / PI
-                * f64::from(radiance)
-                * polygon_irradiance(x, Vec3::Y, &corners);
-        }
-        cf /= (k * k) as f64;
+        let cf = closed[i];
         diff += f64::from(luminance(r.image.pixels[i])) - cf;
         sum_cf += cf;
         var += f64::from(r.std_error[i]).powi(2);

@@ -1185,6 +1185,38 @@ mod tests {
         assert_eq!(culled.image.pixels, both.image.pixels);
     }
 
+    /// The bench's horizon plane (96², 16 tiles) with `filter` and `brdf`
+    /// (vMF at 3 lobes), under a coloured sky when `sky`, prepared.
+    fn prepared_plane(
+        map: &NormalMap,
+        filter: NdfFilter,
+        brdf: NdfBrdf,
+        sky: bool,
+    ) -> (Scene, NdfMethod) {
+        let mut scene = crate::verify::horizon_plane_scene(map, brdf, 96, 16.0);
+        if sky {
+            scene.env = relight_sphere::EnvMap::from_fn(
+                relight_sphere::Param::LatLong {
+                    width: 32,
+                    height: 16,
+                },
+                |d| Vec3::new(0.5 + 0.5 * d.y.max(0.0), 0.4, 0.3 + 0.2 * d.x.abs()),
+            );
+        }
+        let mut m = NdfMethod::new(NdfOptions {
+            filter,
+            brdf,
+            vmf: VmfBakeOptions {
+                lobes: 3,
+                ..VmfBakeOptions::default()
+            },
+            ..NdfOptions::default()
+        })
+        .expect("options");
+        m.prepare(&scene, &NoProgress).expect("prepare");
+        (scene, m)
+    }
+
     #[test]
     fn flat_triangles_shade_as_the_per_pixel_interpolation() {
         // The bench's horizon plane (one normal and tangent everywhere), under
@@ -1195,27 +1227,7 @@ mod tests {
             (NdfFilter::Sh, NdfBrdf::Lambert),
             (NdfFilter::Vmf, NdfBrdf::Blinn { s: 64.0 }),
         ] {
-            let mut scene = crate::verify::horizon_plane_scene(&map, brdf, 96, 16.0);
-            if brdf == NdfBrdf::Lambert {
-                scene.env = relight_sphere::EnvMap::from_fn(
-                    relight_sphere::Param::LatLong {
-                        width: 32,
-                        height: 16,
-                    },
-                    |d| Vec3::new(0.5 + 0.5 * d.y.max(0.0), 0.4, 0.3 + 0.2 * d.x.abs()),
-                );
-            }
-            let mut m = NdfMethod::new(NdfOptions {
-                filter,
-                brdf,
-                vmf: VmfBakeOptions {
-                    lobes: 3,
-                    ..VmfBakeOptions::default()
-                },
-                ..NdfOptions::default()
-            })
-            .expect("options");
-            m.prepare(&scene, &NoProgress).expect("prepare");
+            let (scene, mut m) = prepared_plane(&map, filter, brdf, brdf == NdfBrdf::Lambert);
             let o = &m.objects[0];
             let flat = (0..o.triangles.len())
                 .filter(|&t| {
@@ -1260,25 +1272,7 @@ mod tests {
             (NdfFilter::Toksvig, NdfBrdf::Blinn { s: 64.0 }),
             (NdfFilter::Lean, NdfBrdf::Blinn { s: 64.0 }),
         ] {
-            let mut scene = crate::verify::horizon_plane_scene(&map, brdf, 96, 16.0);
-            scene.env = relight_sphere::EnvMap::from_fn(
-                relight_sphere::Param::LatLong {
-                    width: 32,
-                    height: 16,
-                },
-                |d| Vec3::new(0.5 + 0.5 * d.y.max(0.0), 0.4, 0.3 + 0.2 * d.x.abs()),
-            );
-            let mut m = NdfMethod::new(NdfOptions {
-                filter,
-                brdf,
-                vmf: VmfBakeOptions {
-                    lobes: 3,
-                    ..VmfBakeOptions::default()
-                },
-                ..NdfOptions::default()
-            })
-            .expect("options");
-            m.prepare(&scene, &NoProgress).expect("prepare");
+            let (scene, mut m) = prepared_plane(&map, filter, brdf, true);
             let req = FrameRequest::new(scene.camera);
             let fast = m.render(&scene, &req, &NoProgress).expect("render");
             m.simd = false;
