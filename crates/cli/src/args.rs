@@ -28,7 +28,8 @@ pub enum Command {
     /// Render a scene file, or a mesh under an environment map.
     Render(Box<RenderArgs>),
     /// Interactive window: drag to orbit, right-drag to turn the lighting,
-    /// 1-4 for wavelet/sh/fog/reference, a for antialiasing, s to save, Esc to quit.
+    /// keys 1-8 for wavelet/sh/fog/shexp/reference/ndf/nearfield/triple, a for
+    /// antialiasing, s to save, Esc to quit.
     View(Box<ViewArgs>),
     /// Describe files: environment maps, images and meshes, with statistics.
     Info {
@@ -710,6 +711,25 @@ pub struct VerifyArgs {
 mod tests {
     use super::Cli;
     use clap::CommandFactory;
+
+    /// `relight view`'s help names the methods in the order the number keys
+    /// select them ([`relight_viewer::ViewerOptions`]'s).
+    #[test]
+    fn view_help_lists_the_keys_in_the_viewers_order() {
+        let cli = Cli::command();
+        let about = cli
+            .find_subcommand("view")
+            .and_then(|v| v.get_about())
+            .expect("view has an about")
+            .to_string();
+        let names: Vec<&str> = relight_viewer::ViewerOptions::default()
+            .methods
+            .iter()
+            .map(|m| m.kind().name())
+            .collect();
+        let want = format!("keys 1-{} for {}", names.len(), names.join("/"));
+        assert!(about.contains(&want), "{about:?} lacks {want:?}");
+    }
 
     /// Every subcommand, argument and value of `relight` has help text.
     #[test]
