@@ -46,7 +46,7 @@ pub fn render_with(
     let out = render_frame(method.as_mut(), &posed, &request, bar)?;
     let noise = out.noise.map_or(String::new(), |n| {
         format!(
-            ", {} spp, relative standard error {:.4} (RMS {:.4}; over object pixels {:.4})",
+            ", {} spp, relative standard error {:.4} (RMS {:.4}), over object pixels RMS {:.4}",
             n.spp, n.relative_std_error, n.rms_relative_std_error, n.object_rms_relative_std_error
         )
     });
