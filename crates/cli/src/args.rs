@@ -299,6 +299,12 @@ pub struct MethodFlags {
     /// vMF lobes per texel J (ndf) [default: 6].
     #[arg(long)]
     pub lobes: Option<usize>,
+    /// How the vmf filter reads a pixel's texel taps (ndf): `merge` (the
+    /// taps' lobes averaged slot by slot, GPU trilinear filtering, J lobes
+    /// per pixel) or `mixture` (every tap's lobes kept: the exact filter,
+    /// tens of lobes per pixel) [default: merge].
+    #[arg(long)]
+    pub vmf_taps: Option<String>,
     /// Samples per texel side of the interpolated normal field the SH and
     /// vMF pyramids are built from (ndf): 1 (the texel normals), 2 or 4
     /// [default: 2].

@@ -27,7 +27,7 @@ pub fn kind_of(m: Method) -> MethodKind {
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 28] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 29] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
@@ -71,6 +71,7 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 28] = [
     ("--normal-filter", &[MethodKind::Ndf]),
     ("--ndf-brdf", &[MethodKind::Ndf]),
     ("--lobes", &[MethodKind::Ndf]),
+    ("--vmf-taps", &[MethodKind::Ndf]),
     ("--ndf-supersample", &[MethodKind::Ndf]),
     ("--select", &[MethodKind::Triple]),
     ("--shading", &[MethodKind::Triple]),
@@ -104,6 +105,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.normal_filter.is_some(),
         f.ndf_brdf.is_some(),
         f.lobes.is_some(),
+        f.vmf_taps.is_some(),
         f.ndf_supersample.is_some(),
         f.select.is_some(),
         f.shading.is_some(),
@@ -161,7 +163,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         error => "--error", rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
         ao => "--ao", cache => "--cache", fog => "--fog", exp => "--exp", spheres => "--spheres",
         visibility_texture => "--visibility-texture",
-        normal_filter => "--normal-filter", ndf_brdf => "--ndf-brdf", lobes => "--lobes", ndf_supersample => "--ndf-supersample",
+        normal_filter => "--normal-filter", ndf_brdf => "--ndf-brdf", lobes => "--lobes", vmf_taps => "--vmf-taps", ndf_supersample => "--ndf-supersample",
         select => "--select", shading => "--shading", twists => "--twists",
         storage => "--storage",
         source_terms => "--source-terms", target_terms => "--target-terms", face => "--face",

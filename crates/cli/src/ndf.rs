@@ -11,7 +11,7 @@ use anyhow::{Result, anyhow, bail};
 use relight_ndf::{NdfBrdf, NdfFilter, NdfOptions};
 
 /// Applies the ndf flags (`--normal-filter`, `--ndf-brdf`, `--lobes`,
-/// `--ndf-supersample`, `--order`).
+/// `--vmf-taps`, `--ndf-supersample`, `--order`).
 ///
 /// # Errors
 /// A bad flag value, naming the flag.
@@ -27,6 +27,9 @@ pub fn apply_flags(o: &mut NdfOptions, f: &MethodFlags) -> Result<()> {
     }
     if let Some(j) = f.lobes {
         o.vmf.lobes = j;
+    }
+    if let Some(t) = &f.vmf_taps {
+        o.vmf_taps = t.parse().map_err(|e| anyhow!("--vmf-taps: {e}"))?;
     }
     if let Some(s) = f.ndf_supersample {
         o.supersample = s;

@@ -10,7 +10,7 @@
 //! is a report (`pass` null) and the source says why.
 
 use crate::effective::NdfBrdf;
-use crate::method::{Baked, NdfFilter, NdfMethod, NdfOptions};
+use crate::method::{Baked, NdfFilter, NdfMethod, NdfOptions, VmfTaps};
 use crate::{ShNdfPyramid, VmfPyramid};
 use relight_render::method::{FrameRequest, MethodError, Relighter, render_frame};
 use relight_render::{NoProgress, NormalMap};
@@ -131,21 +131,26 @@ pub fn bench_ndf(
             .judged(target),
         );
     }
-    for (filter, brdf, env, target) in [
+    let blinn = NdfBrdf::Blinn { s: 64.0 };
+    for (filter, vmf_taps, brdf, env, target) in [
         (
             NdfFilter::Sh,
+            VmfTaps::Merge,
             NdfBrdf::Lambert,
             true,
             Some((1e3 / 60.0, "SH Lambert ≥ 60 fps at 512²")),
         ),
         (
             NdfFilter::Vmf,
-            NdfBrdf::Blinn { s: 64.0 },
+            VmfTaps::Merge,
+            blinn,
             false,
             Some((1e3 / 25.0, "vMF J=6, one light ≥ 25 fps at 512²")),
         ),
-        (NdfFilter::Toksvig, NdfBrdf::Blinn { s: 64.0 }, false, None),
-        (NdfFilter::Lean, NdfBrdf::Blinn { s: 64.0 }, false, None),
+        // The quality mode: what keeping every tap's lobes costs.
+        (NdfFilter::Vmf, VmfTaps::Mixture, blinn, false, None),
+        (NdfFilter::Toksvig, VmfTaps::Merge, blinn, false, None),
+        (NdfFilter::Lean, VmfTaps::Merge, blinn, false, None),
     ] {
         let mut scene = crate::verify::horizon_plane_scene(map, brdf, image, 16.0);
         if env {
@@ -161,6 +166,7 @@ pub fn bench_ndf(
         let mut m = NdfMethod::new(NdfOptions {
             filter,
             brdf,
+            vmf_taps,
             ..NdfOptions::default()
         })?;
         m.prepare(&scene, &NoProgress)?;
@@ -178,7 +184,12 @@ pub fn bench_ndf(
         rows.push(
             NdfBenchRow {
                 what: "frame".into(),
-                representation: format!("{} ({})", filter.name(), brdf.label()),
+                representation: match vmf_taps {
+                    VmfTaps::Mixture => {
+                        format!("{}, taps as a mixture ({})", filter.name(), brdf.label())
+                    }
+                    VmfTaps::Merge => format!("{} ({})", filter.name(), brdf.label()),
+                },
                 size: image,
                 ms,
                 fps: Some(1e3 / ms),

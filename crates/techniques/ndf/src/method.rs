@@ -137,6 +137,9 @@ pub struct NdfOptions {
     /// bilinearly interpolated, renormalised normals that plain normal
     /// mapping and the reference shade. Default 2.
     pub supersample: usize,
+    /// How a pixel's vMF lobes come from its footprint's texel taps.
+    /// Default [`VmfTaps::Merge`].
+    pub vmf_taps: VmfTaps,
 }
 
 impl Default for NdfOptions {
@@ -147,9 +150,58 @@ impl Default for NdfOptions {
             order: 3,
             vmf: VmfBakeOptions::default(),
             supersample: 2,
+            vmf_taps: VmfTaps::Merge,
         }
     }
 }
+
+/// How the vMF representation filters a pixel's footprint: the texel taps
+/// (bilinear per probe, two levels, up to [`crate::MAX_PROBES`] probes) and
+/// their `J` lobes each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VmfTaps {
+    /// The taps' packed lobes averaged slot by slot: the moment-matching
+    /// merge ([`crate::pyramid`]), what GPU trilinear filtering of the
+    /// stored lobe textures computes. `J` lobes per pixel. Merging two
+    /// narrow lobes of different axes gives one broad lobe, which blurs a
+    /// sharp highlight (the error measured in `docs/ndf.md`).
+    Merge,
+    /// Every tap's lobes kept, each weighted by its tap: the pixel's NDF is
+    /// the exact trilinear filter of the texels' mixtures, and since the
+    /// shading is linear in the NDF, so is the pixel's colour. Up to
+    /// `2 × 16 × J` lobes per pixel (tens on average): a quality mode, not
+    /// a real-time one.
+    Mixture,
+}
+
+impl VmfTaps {
+    /// Both, in a fixed order.
+    pub const ALL: [Self; 2] = [Self::Merge, Self::Mixture];
+
+    /// The name on the command line.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Merge => "merge",
+            Self::Mixture => "mixture",
+        }
+    }
+}
+
+impl std::str::FromStr for VmfTaps {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| format!("`{s}`: expected merge or mixture"))
+    }
+}
+
+/// The most lobes one pixel's vMF NDF holds: [`VmfTaps::Mixture`]'s every
+/// tap's `J` lobes, and plain normal mapping's delta.
+const MAX_PIXEL_LOBES: usize = 2 * crate::MAX_LEVEL_TAPS * MAX_LOBES + 1;
 
 /// The baked pyramids of one normal map.
 #[derive(Debug)]
@@ -318,6 +370,15 @@ impl NdfMethod {
                 format!("must be 1, 2 or 4 (got {})", options.supersample),
             ));
         }
+        if options.vmf_taps == VmfTaps::Mixture && options.filter != NdfFilter::Vmf {
+            return Err(invalid(
+                "vmf-taps",
+                format!(
+                    "mixture filters the vmf representation only (the filter is {})",
+                    options.filter.name()
+                ),
+            ));
+        }
         if options.filter == NdfFilter::Sh && options.brdf != NdfBrdf::Lambert {
             return Err(invalid(
                 "normal-filter",
@@ -375,6 +436,7 @@ impl NdfMethod {
         env: &PixelEnv,
         scene: &Scene,
         has_env: bool,
+        lobes: &mut [ShadeLobe; MAX_PIXEL_LOBES],
     ) -> Vec3 {
         let to_t = |v: Vec3| Vec3::new(v.dot(frame.x), hand * v.dot(frame.y), v.dot(frame.z));
         let wo = to_t((eye - position).normalize_or_zero());
@@ -382,12 +444,8 @@ impl NdfMethod {
             return Vec3::ZERO;
         }
         let brdf = self.options.brdf;
-        // J lobes and a delta for plain normal mapping's share.
-        let mut lobes = [ShadeLobe {
-            alpha: 0.0,
-            mu: Vec3::Z,
-            inv_kappa: 0.0,
-        }; MAX_LOBES + 1];
+        // J lobes (or every tap's, `VmfTaps::Mixture`) and a delta for plain
+        // normal mapping's share, in the caller's scratch.
         let mut nl = 0;
         // Lambert reads bands 0–2 of the SH NDF, whatever its order.
         let mut gamma = [0.0f32; 9];
@@ -433,15 +491,35 @@ impl NdfMethod {
             }
             (Some((_, b)), NdfFilter::Vmf) => {
                 let mut packed = [Vec4::ZERO; MAX_LOBES];
-                if let Some(v) = &b.vmf {
-                    // Packed moments filter linearly (moment-matching merge).
-                    v.sample_footprint_on(fp, &mut packed, self.simd);
-                    for p in &packed[..v.lobes] {
-                        if let Some(l) = unpack_fast(*p) {
-                            lobes[nl] = l;
-                            nl += 1;
+                match (&b.vmf, self.options.vmf_taps) {
+                    (Some(v), VmfTaps::Merge) => {
+                        // Packed moments filter linearly (moment-matching merge).
+                        v.sample_footprint_on(fp, &mut packed, self.simd);
+                        for p in &packed[..v.lobes] {
+                            if let Some(l) = unpack_fast(*p) {
+                                lobes[nl] = l;
+                                nl += 1;
+                            }
                         }
                     }
+                    (Some(v), VmfTaps::Mixture) => {
+                        // Every tap's lobes, weighted by the tap: the
+                        // mixture of the texels' mixtures.
+                        let taps =
+                            fp.taps(v.levels.len(), |k| (v.levels[k].width, v.levels[k].height));
+                        for j in 0..taps.count {
+                            let level = &v.levels[taps.levels[j]];
+                            for (i, w) in taps.level(j) {
+                                for p in &level.lobes[i * v.lobes..(i + 1) * v.lobes] {
+                                    if let Some(l) = unpack_fast(*p * w) {
+                                        lobes[nl] = l;
+                                        nl += 1;
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    (None, _) => {}
                 }
                 if let Some((n, w)) = plain {
                     for l in &mut lobes[..nl] {
@@ -607,6 +685,12 @@ impl NdfMethod {
     fn row_body(&self, ctx: &RowCtx<'_>, y: usize, row: &mut [Vec3]) {
         // The last triangle's constants (a row crosses few).
         let mut cached: Option<TriangleConsts> = None;
+        // The pixels' vMF lobes, one scratch per row.
+        let mut lobes = [ShadeLobe {
+            alpha: 0.0,
+            mu: Vec3::Z,
+            inv_kappa: 0.0,
+        }; MAX_PIXEL_LOBES];
         for (x, px) in row.iter_mut().enumerate() {
             let Some((d, tri, lam)) = ctx.raster.barycentrics_at(ctx.draws, x, y) else {
                 continue;
@@ -681,6 +765,7 @@ impl NdfMethod {
                 env,
                 ctx.scene,
                 ctx.has_env,
+                &mut lobes,
             );
         }
     }

@@ -19,7 +19,7 @@
 
 use super::NdfVerifyRow;
 use crate::effective::NdfBrdf;
-use crate::method::{NdfFilter, NdfMethod, NdfOptions};
+use crate::method::{NdfFilter, NdfMethod, NdfOptions, VmfTaps};
 use glam::{Vec2, Vec3};
 use relight_render::method::{FrameRequest, MethodError, Relighter, render_frame};
 use relight_render::reference::{ReferenceError, ReferenceOptions, render_reference};
@@ -191,10 +191,11 @@ pub fn screen(
                     pass: target.map(|t| error <= t),
                 });
             };
-            let render = |filter: NdfFilter, aa: usize| {
+            let render_taps = |filter: NdfFilter, vmf_taps: VmfTaps, aa: usize| {
                 let mut m = NdfMethod::new(NdfOptions {
                     filter,
                     brdf,
+                    vmf_taps,
                     ..NdfOptions::default()
                 })?;
                 m.prepare(&scene, progress)?;
@@ -205,6 +206,7 @@ pub fn screen(
                     progress,
                 )
             };
+            let render = |filter: NdfFilter, aa: usize| render_taps(filter, VmfTaps::Merge, aa);
             let plain = render(NdfFilter::None, 8)?;
             let mask = plain
                 .coverage
@@ -253,6 +255,23 @@ pub fn screen(
                     error: Some(e),
                     target,
                 });
+                if filter == NdfFilter::Vmf {
+                    // The same lobes without the merge: what the merge costs.
+                    let img = render_taps(filter, VmfTaps::Mixture, 1)?;
+                    let e = img.image.relative_rms_error(&reference.image, Some(&mask));
+                    row(
+                        "vmf, taps as a mixture",
+                        e,
+                        Some(SCREEN_TARGET),
+                        "issue 14: screen ≤ 5 %",
+                    );
+                    tiles.push(ScreenTile {
+                        label: "vmf mixture".into(),
+                        image: img.image,
+                        error: Some(e),
+                        target: Some(SCREEN_TARGET),
+                    });
+                }
             }
             panels.push(ScreenPanel {
                 scene: which,
