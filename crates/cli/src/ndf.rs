@@ -37,6 +37,12 @@ pub fn apply_flags(o: &mut NdfOptions, f: &MethodFlags) -> Result<()> {
     if let Some(n) = f.order {
         o.order = n;
     }
+    if f.vmf_taps.is_some() && o.filter != NdfFilter::Vmf {
+        bail!(
+            "--vmf-taps: applies to the vmf filter (--normal-filter vmf, or a glossy --ndf-brdf), not {}",
+            o.filter.name()
+        );
+    }
     Ok(())
 }
 
@@ -268,6 +274,34 @@ pub fn bench(a: &BenchArgs, report: &Report, _bar: &Bar) -> Result<()> {
 mod tests {
     use super::*;
     use relight_ndf::verify::{ScreenLight, ScreenPanel, ScreenScene, ScreenTile};
+
+    /// `--vmf-taps` reads the vmf filter's taps: given with another filter
+    /// it is an error naming the flag; a glossy BRDF picks vmf by itself.
+    #[test]
+    fn vmf_taps_needs_the_vmf_filter() {
+        let flags = |filter: Option<&str>, brdf: Option<&str>| MethodFlags {
+            normal_filter: filter.map(str::to_string),
+            ndf_brdf: brdf.map(str::to_string),
+            vmf_taps: Some("mixture".into()),
+            ..MethodFlags::default()
+        };
+        let mut o = NdfOptions::default();
+        let e = apply_flags(&mut o, &flags(Some("sh"), None)).unwrap_err();
+        assert!(e.to_string().starts_with("--vmf-taps:"), "{e}");
+        let mut o = NdfOptions::default();
+        apply_flags(&mut o, &flags(None, Some("blinn:64"))).unwrap();
+        assert_eq!(
+            (o.filter, o.vmf_taps),
+            (NdfFilter::Vmf, relight_ndf::VmfTaps::Mixture)
+        );
+        let mut o = NdfOptions::default();
+        let bad = MethodFlags {
+            vmf_taps: Some("blend".into()),
+            ..flags(Some("vmf"), None)
+        };
+        let e = apply_flags(&mut o, &bad).unwrap_err();
+        assert!(e.to_string().contains("expected merge or mixture"), "{e}");
+    }
 
     /// Small tiles are enlarged to a readable width and laid out two per
     /// row: three 20 × 10 tiles make a 2 × 2 sheet of 400 × 200 tiles under

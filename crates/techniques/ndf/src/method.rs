@@ -137,8 +137,9 @@ pub struct NdfOptions {
     /// bilinearly interpolated, renormalised normals that plain normal
     /// mapping and the reference shade. Default 2.
     pub supersample: usize,
-    /// How a pixel's vMF lobes come from its footprint's texel taps.
-    /// Default [`VmfTaps::Merge`].
+    /// How a pixel's vMF lobes come from its footprint's texel taps (the
+    /// vmf filter's; the other filters do not read it, so that a viewer
+    /// cycling filters keeps it). Default [`VmfTaps::Merge`].
     pub vmf_taps: VmfTaps,
 }
 
@@ -368,15 +369,6 @@ impl NdfMethod {
             return Err(invalid(
                 "supersample",
                 format!("must be 1, 2 or 4 (got {})", options.supersample),
-            ));
-        }
-        if options.vmf_taps == VmfTaps::Mixture && options.filter != NdfFilter::Vmf {
-            return Err(invalid(
-                "vmf-taps",
-                format!(
-                    "mixture filters the vmf representation only (the filter is {})",
-                    options.filter.name()
-                ),
             ));
         }
         if options.filter == NdfFilter::Sh && options.brdf != NdfBrdf::Lambert {

@@ -94,18 +94,6 @@ fn the_taps_mixture_is_nearer_the_reference_than_their_merge() {
 }
 
 #[test]
-fn the_taps_mixture_is_for_the_vmf_filter_only() {
-    let e = NdfMethod::new(NdfOptions {
-        filter: NdfFilter::Sh,
-        vmf_taps: VmfTaps::Mixture,
-        ..NdfOptions::default()
-    })
-    .err()
-    .expect("refused");
-    assert!(e.to_string().contains("vmf-taps"), "{e}");
-}
-
-#[test]
 fn lean_on_a_flat_map_renders_the_base_glossy_lobe() {
     let map = NormalMap::from_vectors(16, 16, &[Vec3::Z; 256]).unwrap();
     let brdf = NdfBrdf::Blinn { s: 32.0 };
