@@ -1343,13 +1343,16 @@ mod tests {
             return;
         }
         let map = NormalMap::bumps(64, 4, 0.8);
-        for (filter, brdf) in [
-            (NdfFilter::Sh, NdfBrdf::Lambert),
-            (NdfFilter::Vmf, NdfBrdf::Blinn { s: 64.0 }),
-            (NdfFilter::Toksvig, NdfBrdf::Blinn { s: 64.0 }),
-            (NdfFilter::Lean, NdfBrdf::Blinn { s: 64.0 }),
+        let blinn = NdfBrdf::Blinn { s: 64.0 };
+        for (filter, brdf, taps) in [
+            (NdfFilter::Sh, NdfBrdf::Lambert, VmfTaps::Merge),
+            (NdfFilter::Vmf, blinn, VmfTaps::Merge),
+            (NdfFilter::Vmf, blinn, VmfTaps::Mixture),
+            (NdfFilter::Toksvig, blinn, VmfTaps::Merge),
+            (NdfFilter::Lean, blinn, VmfTaps::Merge),
         ] {
             let (scene, mut m) = prepared_plane(&map, filter, brdf, true);
+            m.options.vmf_taps = taps;
             let req = FrameRequest::new(scene.camera);
             let fast = m.render(&scene, &req, &NoProgress).expect("render");
             m.simd = false;
@@ -1359,7 +1362,7 @@ mod tests {
                 assert_eq!(
                     p.to_array().map(f32::to_bits),
                     q.to_array().map(f32::to_bits),
-                    "{filter:?}: {p} vs {q}"
+                    "{filter:?} {taps:?}: {p} vs {q}"
                 );
             }
         }
