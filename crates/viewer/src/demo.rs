@@ -254,7 +254,7 @@ pub fn tile_cell(tile: &DemoTile) -> Cell {
         if let Some(n) = out.noise {
             details.push(Line::new(
                 format!(
-                    "Monte Carlo, {} spp: noise σ_MC {:.1} % over objects (the judge)",
+                    "Monte Carlo, {} spp: σ_MC {:.1} % over objects (judge)",
                     n.spp,
                     100.0 * n.object_rms_relative_std_error
                 ),

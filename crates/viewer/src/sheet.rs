@@ -59,6 +59,16 @@ pub struct Sheet {
     pub tiles: Vec<Rect>,
 }
 
+/// `text` cut to `chars` characters, its last one `…` when cut.
+fn clip(text: &str, chars: usize) -> String {
+    if text.chars().count() <= chars {
+        return text.to_string();
+    }
+    let mut out: String = text.chars().take(chars.saturating_sub(1)).collect();
+    out.push('…');
+    out
+}
+
 /// Composes `cells` of `tile_width × tile_height` images.
 ///
 /// # Panics
@@ -110,10 +120,12 @@ pub fn compose(cells: &[Cell], tile_width: usize, tile_height: usize) -> Sheet {
             }
         }
         let mut c = Canvas::new(&mut words, width, height);
-        c.text(x0 + pad, y0 + pad, 2 * s, WHITE, &cell.title);
+        // Header lines stop at their own cell's edge.
+        let fit = |scale: usize, text: &str| clip(text, (tile_width - 2 * pad) / (GLYPH * scale));
+        c.text(x0 + pad, y0 + pad, 2 * s, WHITE, &fit(2 * s, &cell.title));
         let mut y = y0 + pad + line_height(2 * s);
         for l in cell.details.iter().take(DETAIL_LINES) {
-            c.text(x0 + pad, y, s, l.color, &l.text);
+            c.text(x0 + pad, y, s, l.color, &fit(s, &l.text));
             y += line_height(s);
         }
         // A one-pixel rule between headers (the images stay untouched).
@@ -238,6 +250,37 @@ mod tests {
         assert!(count(header, WHITE) > 30);
         assert!(count(s.tiles[2], RED) > 30);
         assert_eq!(count(s.tiles[0], RED), 0);
+    }
+
+    /// A label longer than its cell is cut there (with `…`), not drawn
+    /// over the next cell's header.
+    #[test]
+    fn long_labels_stop_at_their_cells_edge() {
+        let (tw, th) = (96, 40);
+        let long = "x".repeat(200);
+        let cells = vec![
+            Cell {
+                title: long.clone(),
+                details: vec![Line::new(long.clone(), GREEN)],
+                image: Ok(flat(tw, th, 0.5)),
+            },
+            Cell {
+                title: String::new(),
+                details: vec![],
+                image: Ok(flat(tw, th, 0.5)),
+            },
+        ];
+        let s = compose(&cells, tw, th);
+        let hh = header_height(tw);
+        let drawn = |c: u32| {
+            (0..hh)
+                .flat_map(|y| (tw..2 * tw).map(move |x| (x, y)))
+                .filter(|&(x, y)| s.words[y * s.width + x] == c)
+                .count()
+        };
+        assert_eq!((drawn(WHITE), drawn(GREEN)), (0, 0));
+        assert_eq!(clip("abcdef", 4), "abc…");
+        assert_eq!(clip("abc", 4), "abc");
     }
 
     #[test]
