@@ -5,11 +5,21 @@ use glam::Vec3;
 use relight_ndf::verify::{horizon_plane_scene, sphere_scene};
 use relight_ndf::{NdfBrdf, NdfFilter, NdfMethod, NdfOptions, VmfTaps};
 use relight_render::method::{FrameRequest, Relighter, Rendered, render_frame};
-use relight_render::{NoProgress, NormalMap, Scene};
+use relight_render::reference::{ReferenceOptions, render_reference};
+use relight_render::{NoProgress, NormalMap, ReferenceImage, Scene};
 
 /// The ndf method's frame of `scene` with `brdf` under `filter`.
 fn render_with(scene: &Scene, brdf: NdfBrdf, filter: NdfFilter) -> Rendered {
     render_taps(scene, brdf, filter, VmfTaps::Merge)
+}
+
+/// The judge's image of `scene` at 256 samples per pixel.
+fn reference_256(scene: &Scene) -> ReferenceImage {
+    let opts = ReferenceOptions {
+        spp: 256,
+        ..ReferenceOptions::default()
+    };
+    render_reference(scene, &opts, &NoProgress).unwrap()
 }
 
 /// [`render_with`], the vMF taps read as `vmf_taps` says.
@@ -66,19 +76,10 @@ fn constant_map_every_filter_matches_plain_normal_mapping() {
 #[test]
 fn the_taps_mixture_is_nearer_the_reference_than_their_merge() {
     use relight_ndf::verify::{ScreenLight, ScreenScene};
-    use relight_render::reference::{ReferenceOptions, render_reference};
     let map = NormalMap::bumps(512, 32, 0.8);
     let brdf = NdfBrdf::Blinn { s: 64.0 };
     let scene = ScreenScene::HorizonPlane.lit(&map, brdf, 96, ScreenLight::Point);
-    let reference = render_reference(
-        &scene,
-        &ReferenceOptions {
-            spp: 256,
-            ..ReferenceOptions::default()
-        },
-        &NoProgress,
-    )
-    .unwrap();
+    let reference = reference_256(&scene);
     let merge = render_taps(&scene, brdf, NdfFilter::Vmf, VmfTaps::Merge);
     let mask = merge.coverage.as_ref().unwrap().object_mask();
     let sigma = reference.rms_relative_std_error_over(&mask);
@@ -136,7 +137,6 @@ fn constant_map_on_the_sphere_every_filter_matches_plain_normal_mapping() {
 #[test]
 fn plain_normal_mapping_agrees_with_the_reference_renderer() {
     use relight_ndf::verify::{ScreenLight, ScreenScene};
-    use relight_render::reference::{ReferenceOptions, render_reference};
     let map = NormalMap::bumps(64, 4, 0.6);
     for which in ScreenScene::ALL {
         for (brdf, light) in [
@@ -145,15 +145,7 @@ fn plain_normal_mapping_agrees_with_the_reference_renderer() {
             (NdfBrdf::Lambert, ScreenLight::Sky),
         ] {
             let scene = which.lit(&map, brdf, 40, light);
-            let reference = render_reference(
-                &scene,
-                &ReferenceOptions {
-                    spp: 256,
-                    ..ReferenceOptions::default()
-                },
-                &NoProgress,
-            )
-            .unwrap();
+            let reference = reference_256(&scene);
             let mut m = NdfMethod::new(NdfOptions {
                 filter: NdfFilter::None,
                 brdf,
