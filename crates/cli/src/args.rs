@@ -334,6 +334,12 @@ pub struct MethodFlags {
     /// [default: 0.01].
     #[arg(long)]
     pub source_terms: Option<f64>,
+    /// How the source terms are ranked (nearfield): `area-weighted`
+    /// (`|F| · √support area`: coarse terms first, what a vertex's integral
+    /// feels) or `magnitude` (`|F|`, the light's own L2 error)
+    /// [default: area-weighted].
+    #[arg(long)]
+    pub source_ranking: Option<String>,
     /// Fraction of each vertex's target terms kept by the constant-light
     /// heuristic (nearfield) [default: 0.2].
     #[arg(long)]

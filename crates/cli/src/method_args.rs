@@ -27,7 +27,7 @@ pub fn kind_of(m: Method) -> MethodKind {
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 29] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 30] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
@@ -78,6 +78,7 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 29] = [
     ("--twists", &[MethodKind::Triple]),
     ("--storage", &[MethodKind::Triple]),
     ("--source-terms", &[MethodKind::Nearfield]),
+    ("--source-ranking", &[MethodKind::Nearfield]),
     ("--target-terms", &[MethodKind::Nearfield]),
     ("--face", &[MethodKind::Nearfield]),
 ];
@@ -112,6 +113,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.twists.is_some(),
         f.storage.is_some(),
         f.source_terms.is_some(),
+        f.source_ranking.is_some(),
         f.target_terms.is_some(),
         f.face.is_some(),
     ];
@@ -166,7 +168,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         normal_filter => "--normal-filter", ndf_brdf => "--ndf-brdf", lobes => "--lobes", vmf_taps => "--vmf-taps", ndf_supersample => "--ndf-supersample",
         select => "--select", shading => "--shading", twists => "--twists",
         storage => "--storage",
-        source_terms => "--source-terms", target_terms => "--target-terms", face => "--face",
+        source_terms => "--source-terms", source_ranking => "--source-ranking", target_terms => "--target-terms", face => "--face",
     );
 }
 
@@ -308,7 +310,7 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
         }
         MethodOptions::Ndf(o) => crate::ndf::apply_flags(o, f)?,
-        MethodOptions::Nearfield(o) => crate::nearfield::apply_flags(o, f),
+        MethodOptions::Nearfield(o) => crate::nearfield::apply_flags(o, f)?,
         MethodOptions::Ltc(_) => {}
     }
     Ok(o)

@@ -15,9 +15,12 @@ use relight_render::method::Relighter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Applies `--order`, `--face`, `--source-terms`, `--target-terms` (ranges
-/// are checked by the method) and `--cache`.
-pub fn apply_flags(o: &mut NearfieldOptions, f: &MethodFlags) {
+/// Applies `--order`, `--face`, `--source-terms`, `--source-ranking`,
+/// `--target-terms` (ranges are checked by the method) and `--cache`.
+///
+/// # Errors
+/// An unknown `--source-ranking`, naming the flag.
+pub fn apply_flags(o: &mut NearfieldOptions, f: &MethodFlags) -> Result<()> {
     if let Some(n) = f.order {
         o.order = n;
     }
@@ -27,12 +30,16 @@ pub fn apply_flags(o: &mut NearfieldOptions, f: &MethodFlags) {
     if let Some(s) = f.source_terms {
         o.source_terms = s;
     }
+    if let Some(r) = &f.source_ranking {
+        o.source_ranking = r.parse().map_err(|e| anyhow!("--source-ranking: {e}"))?;
+    }
     if let Some(t) = f.target_terms {
         o.target_terms = t;
     }
     // The CLI keeps transport bakes: `--cache DIR`, else $RELIGHT_CACHE/nearfield
     // (`relight cache list`).
     o.cache_dir = Some(cache_dir(f.cache.as_deref()));
+    Ok(())
 }
 
 /// The transport cache folder: `dir`, else
@@ -149,4 +156,34 @@ pub fn bench(a: &BenchArgs, report: &Report, bar: &Bar) -> Result<()> {
         &bakes,
         &[],
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use relight_nearfield::Ranking;
+
+    /// `--source-ranking` spells both rankings; anything else is an error
+    /// naming the flag and the choices.
+    #[test]
+    fn source_ranking_flag() {
+        let flags = |r: &str| MethodFlags {
+            source_ranking: Some(r.into()),
+            cache: Some(PathBuf::from("unused")),
+            ..MethodFlags::default()
+        };
+        let mut o = NearfieldOptions::default();
+        assert_eq!(o.source_ranking, Ranking::AreaWeighted);
+        apply_flags(&mut o, &flags("magnitude")).unwrap();
+        assert_eq!(o.source_ranking, Ranking::Magnitude);
+        apply_flags(&mut o, &flags("area-weighted")).unwrap();
+        assert_eq!(o.source_ranking, Ranking::AreaWeighted);
+        let e = apply_flags(&mut o, &flags("largest"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("--source-ranking:") && e.contains("magnitude or area-weighted"),
+            "{e}"
+        );
+    }
 }

@@ -474,6 +474,31 @@ pub enum Ranking {
     AreaWeighted,
 }
 
+impl Ranking {
+    /// Every ranking, in CLI order.
+    pub const ALL: [Self; 2] = [Self::Magnitude, Self::AreaWeighted];
+
+    /// The CLI spelling.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Magnitude => "magnitude",
+            Self::AreaWeighted => "area-weighted",
+        }
+    }
+}
+
+impl std::str::FromStr for Ranking {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|r| r.name() == s)
+            .ok_or_else(|| format!("`{s}`: expected magnitude or area-weighted"))
+    }
+}
+
 /// Non-linear approximation: the `k` coefficients of a dense RGB coefficient
 /// vector (`n × n` Mallat layout) with the largest score under `ranking`,
 /// one index set shared by R, G and B; ties broken by lower index. Returns all

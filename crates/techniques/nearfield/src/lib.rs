@@ -43,4 +43,5 @@ pub mod transport;
 pub mod verify;
 pub mod verify_specular;
 
+pub use light::Ranking;
 pub use method::{NEARFIELD_METHOD_NAME, NearfieldMethod, NearfieldOptions};

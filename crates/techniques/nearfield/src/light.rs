@@ -4,16 +4,38 @@
 //! The emitted radiance `F(u) = texture(u) × intensity` over the light's uv
 //! square is box-averaged onto an `n × n` grid (`q × q` bilinear texture
 //! reads per cell) and transformed to the standard 2D Haar basis
-//! ([`relight_affine::standard`]), per RGB channel. Compression keeps the
-//! `n_s` coefficients of largest `|F_r| + |F_g| + |F_b|`; the thesis does not
-//! say how ties are broken: here **coarse first** (smaller
-//! `max(level(i₁), level(i₂))`, then smaller `i₂`, then `i₁`). The scaling
-//! coefficient (the light's mean, all of its power) is always kept: a
-//! sky texture with a sun has many wavelets larger than its mean, and
-//! dropping the mean leaves a light that integrates to nothing.
+//! ([`relight_affine::standard`]), per RGB channel.
+//!
+//! # Source-level compression
+//! The thesis keeps "the most significant" `n_s` coefficients, "as in
+//! standard PRT". Two rankings ([`Ranking`]), both on the channel sum
+//! `|F| = |F_r| + |F_g| + |F_b|`:
+//! - [`Ranking::Magnitude`]: largest `|F|`, the L2-optimal set for the
+//!   light's radiance itself;
+//! - [`Ranking::AreaWeighted`] (the default): largest `|F| · √A`, `A =
+//!   w(i₁) w(i₂)` the basis function's support area on the unit square
+//!   (`w(i) = 1` for `i ≤ 1`, else `2^{1 − rank(i)}`), which orders like
+//!   the `|F|² · A` of Ng, Ramamoorthi and Hanrahan (2003, §4) that the
+//!   wavelet method offers. Why it suits propagation: a vertex integrates
+//!   the light against its transport, which over most of the light is
+//!   smooth at the light's scale (the light fills a small part of the
+//!   face). Dropping `F_k ψ_k` then costs about `F_k ⟨ψ_k, T⟩`, and
+//!   `|⟨ψ_k, T⟩| ≤ ‖ψ_k‖₁ · osc(T) = √A · osc(T)` over the support: a fine
+//!   wavelet of a sharp edge has a large `|F_k|` but little effect on any
+//!   vertex. The difference is largest for a light turned in its plane
+//!   ([`crate::rotate`]), whose bounding rectangle's zero corners and
+//!   diagonal edges fill the magnitude ranking with fine terms
+//!   (`docs/nearfield.md` has both rankings' errors).
+//!
+//! The thesis does not say how ties are broken: here **coarse first**
+//! (smaller `max(level(i₁), level(i₂))`, then smaller `i₂`, then `i₁`).
+//! The scaling coefficient (the light's mean, all of its power) is always
+//! kept: a sky texture with a sun has many wavelets larger than its mean,
+//! and dropping the mean leaves a light that integrates to nothing.
 
 use glam::{Vec2, Vec3};
 use relight_affine::standard::{forward_2d, level_rank};
+pub use relight_haar::Ranking;
 use relight_render::AreaLight;
 
 /// Texture reads per cell side when box-averaging the light.
@@ -150,14 +172,32 @@ pub fn coarse_key(i1: usize, i2: usize) -> (u32, usize, usize) {
     (level_rank(i1).max(level_rank(i2)), i2, i1)
 }
 
-/// The `count_of(fraction)` largest coefficients (module docs), zeros
-/// dropped.
+/// Side of the support of 1D standard-basis index `i` on `[0, 1]`: 1 for
+/// φ (`i = 0`) and the mother wavelet, halving per level.
 #[must_use]
-pub fn compress(light: &LightCoeffs, fraction: f64) -> SourceTerms {
+pub fn support_width(i: usize) -> f64 {
+    if i <= 1 {
+        1.0
+    } else {
+        0.5f64.powi(level_rank(i) as i32 - 1)
+    }
+}
+
+/// The `count_of(fraction)` coefficients that rank highest under `ranking`
+/// (module docs), zeros dropped.
+#[must_use]
+pub fn compress(light: &LightCoeffs, fraction: f64, ranking: Ranking) -> SourceTerms {
     let n = light.n;
     let keep = count_of(fraction, n);
     let mut idx: Vec<(f64, usize)> = (0..n * n)
-        .map(|k| (light.c.iter().map(|c| c[k].abs()).sum::<f64>(), k))
+        .map(|k| {
+            let m: f64 = light.c.iter().map(|c| c[k].abs()).sum();
+            let w = match ranking {
+                Ranking::Magnitude => 1.0,
+                Ranking::AreaWeighted => (support_width(k % n) * support_width(k / n)).sqrt(),
+            };
+            (m * w, k)
+        })
         .filter(|(m, _)| *m > 0.0)
         .collect();
     idx.sort_by(|a, b| {

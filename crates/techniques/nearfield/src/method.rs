@@ -39,7 +39,7 @@
 
 use crate::cache::{BakeKey, CacheError};
 use crate::face::LightFrame;
-use crate::light::{LightCoeffs, SourceTerms, compress, count_of};
+use crate::light::{LightCoeffs, Ranking, SourceTerms, compress, count_of};
 use crate::propagate::{
     Kernel, Primitives, VertexMap, VertexScratch, prefetch, shade_fma, shade_rgb_fma, shade_vertex,
 };
@@ -85,6 +85,9 @@ pub struct NearfieldOptions {
     pub face: f64,
     /// Fraction of the light's `n²` coefficients kept (source level). Default 0.01.
     pub source_terms: f64,
+    /// How the source terms are ranked ([`crate::light`]'s module docs).
+    /// Default [`Ranking::AreaWeighted`].
+    pub source_ranking: Ranking,
     /// Fraction of each vertex's `n²` target coefficients kept by the
     /// constant-light heuristic (eq. 4.38). Default 0.20.
     pub target_terms: f64,
@@ -102,6 +105,7 @@ impl Default for NearfieldOptions {
             light_order: None,
             face: 4.0,
             source_terms: 0.01,
+            source_ranking: Ranking::AreaWeighted,
             target_terms: 0.20,
             cache_dir: None,
         }
@@ -399,6 +403,11 @@ impl NearfieldMethod {
         self.options.target_terms = target_terms;
     }
 
+    /// Changes the source ranking (takes effect at the next `set_lighting`).
+    pub fn set_source_ranking(&mut self, ranking: Ranking) {
+        self.options.source_ranking = ranking;
+    }
+
     fn bake(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
         self.bake_with(scene, progress, false)
     }
@@ -646,7 +655,7 @@ impl NearfieldMethod {
             None => LightCoeffs::of_at(light, n, coarse),
             Some(turn) => LightCoeffs::of_cells(&turn.cells(light, coarse), n, coarse),
         };
-        self.source = compress(&coeffs, self.options.source_terms);
+        self.source = compress(&coeffs, o.source_terms, o.source_ranking);
         t.elapsed().as_secs_f64() * 1e3
     }
 

@@ -14,7 +14,7 @@ use crate::light::light_cells;
 use crate::method::{NearfieldMethod, NearfieldOptions};
 use crate::scenes::glossy_floor_and_sphere;
 use crate::specular::{ObjectKind, VertexBrdf, local_view, vertex_frame};
-use crate::verify::{VerifyOptions, VerifyRow};
+use crate::verify::{VerifyOptions, VerifyRow, fail, magnitude_ranked_image};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use relight_render::method::{FrameRequest, Relighter};
@@ -146,7 +146,6 @@ pub fn specular_rows(
     progress: &dyn Progress,
 ) -> Result<Vec<VerifyRow>, String> {
     const ISSUE: &str = "issue 13 (verify nearfield: fixed-view specular)";
-    let fail = |e: relight_render::method::MethodError| e.to_string();
     let mut rows = Vec::new();
     let scene = glossy_floor_and_sphere(opts.floor, opts.segments, opts.width, opts.height, true);
     let light = scene.area_lights[0].clone();
@@ -327,5 +326,12 @@ pub fn specular_rows(
             ISSUE,
         ));
     }
+    rows.push(row(
+        "glossy image: nearfield 1 %/20 %, sources ranked by magnitude (default: area-weighted)",
+        err(&magnitude_ranked_image(&mut m, &scene, &request, progress)?),
+        "relative RMS vs reference",
+        None,
+        ISSUE,
+    ));
     Ok(rows)
 }
