@@ -86,26 +86,45 @@ pub fn bench_ndf(
 ) -> Result<Vec<NdfBenchRow>, MethodError> {
     let mut rows = Vec::new();
     // What the method bakes for each filter (`Baked::bake`: SH and vMF from
-    // the interpolated field at the default supersampling), the
+    // the interpolated field at the default supersampling, and vMF at 4 × 4
+    // per texel), the
     // representation's bytes with its full MIP chain.
-    for (filter, name, reps, target) in [
+    let supersample = NdfOptions::default().supersample;
+    for (filter, name, ss, reps, target) in [
         (
             NdfFilter::Sh,
             "sh order 3",
+            supersample,
             repeats,
             Some((100.0, "SH bake ≤ 100 ms at 512²")),
         ),
         (
             NdfFilter::Vmf,
             "vmf J=6",
+            supersample,
             1,
             Some((5000.0, "vMF bake ≤ 5 s at 512²")),
         ),
-        (NdfFilter::Toksvig, "mean normal (baselines)", repeats, None),
-        (NdfFilter::Lean, "lean (5 moments)", repeats, None),
+        // The glossy quality mode's field, 4 × 4 samples per texel.
+        (NdfFilter::Vmf, "vmf J=6, field 4×4 per texel", 4, 1, None),
+        (
+            NdfFilter::Toksvig,
+            "mean normal (baselines)",
+            supersample,
+            repeats,
+            None,
+        ),
+        (
+            NdfFilter::Lean,
+            "lean (5 moments)",
+            supersample,
+            repeats,
+            None,
+        ),
     ] {
         let options = NdfOptions {
             filter,
+            supersample: ss,
             ..NdfOptions::default()
         };
         let mut baked = None;

@@ -403,6 +403,12 @@ impl NdfMethod {
         &self.options
     }
 
+    /// Changes how the vmf filter reads its taps, from the next frame on
+    /// (the pyramids do not depend on it: no re-bake).
+    pub fn set_vmf_taps(&mut self, taps: VmfTaps) {
+        self.options.vmf_taps = taps;
+    }
+
     /// The pyramids baked for `map` with this method's options (from the
     /// in-memory cache when baked before).
     pub fn baked(&mut self, map: &NormalMap) -> Arc<Baked> {

@@ -271,6 +271,59 @@ pub fn screen(
                         error: Some(e),
                         target: Some(SCREEN_TARGET),
                     });
+                    // The glossy scenes' quality modes (docs/ndf.md, "The
+                    // glossy rows"): the interpolated field sampled 4 × 4 per
+                    // texel (16× the level-0 data, about 4× the bake), one
+                    // footprint per pixel, then 2 × 2 per pixel (each
+                    // sub-pixel's footprint a quarter of the box: nearer the
+                    // box filter the reference applies than one trilinear
+                    // lookup), merged and as a mixture.
+                    if brdf != NdfBrdf::Lambert {
+                        let mut m = NdfMethod::new(NdfOptions {
+                            filter,
+                            brdf,
+                            vmf_taps: VmfTaps::Mixture,
+                            supersample: 4,
+                            ..NdfOptions::default()
+                        })?;
+                        m.prepare(&scene, progress)?;
+                        for (label, tile, taps, aa) in [
+                            (
+                                "vmf, taps as a mixture, field 4×4 per texel",
+                                "vmf mixture 4x4",
+                                VmfTaps::Mixture,
+                                1,
+                            ),
+                            (
+                                "vmf, field 4×4 per texel, 2×2 spp",
+                                "vmf 4x4, 2x2 spp",
+                                VmfTaps::Merge,
+                                2,
+                            ),
+                            (
+                                "vmf, taps as a mixture, field 4×4 per texel, 2×2 spp",
+                                "vmf mixture 4x4, 2x2 spp",
+                                VmfTaps::Mixture,
+                                2,
+                            ),
+                        ] {
+                            m.set_vmf_taps(taps);
+                            let img = render_frame(
+                                &mut m,
+                                &scene,
+                                &FrameRequest::new(scene.camera).with_aa(aa),
+                                progress,
+                            )?;
+                            let e = img.image.relative_rms_error(&reference.image, Some(&mask));
+                            row(label, e, Some(SCREEN_TARGET), "issue 14: screen ≤ 5 %");
+                            tiles.push(ScreenTile {
+                                label: tile.into(),
+                                image: img.image,
+                                error: Some(e),
+                                target: Some(SCREEN_TARGET),
+                            });
+                        }
+                    }
                 }
             }
             panels.push(ScreenPanel {

@@ -84,14 +84,29 @@ fn the_taps_mixture_is_nearer_the_reference_than_their_merge() {
     let mask = merge.coverage.as_ref().unwrap().object_mask();
     let sigma = reference.rms_relative_std_error_over(&mask);
     let e = |r: &Rendered| r.image.relative_rms_error(&reference.image, Some(&mask));
-    let (e_merge, e_mixture) = (
-        e(&merge),
-        e(&render_taps(&scene, brdf, NdfFilter::Vmf, VmfTaps::Mixture)),
-    );
+    let mixture = render_taps(&scene, brdf, NdfFilter::Vmf, VmfTaps::Mixture);
+    let (e_merge, e_mixture) = (e(&merge), e(&mixture));
     assert!(
         e_mixture < 0.75 * e_merge && e_merge > 3.0 * sigma,
         "mixture {e_mixture}, merge {e_merge}, σ_MC {sigma}"
     );
+    // The taps are read per frame: switching them on a prepared method
+    // renders what a method built with them renders.
+    let mut m = NdfMethod::new(NdfOptions {
+        filter: NdfFilter::Vmf,
+        brdf,
+        ..NdfOptions::default()
+    })
+    .unwrap();
+    m.prepare(&scene, &NoProgress).unwrap();
+    let frame = |m: &mut NdfMethod| {
+        render_frame(m, &scene, &FrameRequest::new(scene.camera), &NoProgress)
+            .unwrap()
+            .image
+    };
+    assert_eq!(frame(&mut m).pixels, merge.image.pixels);
+    m.set_vmf_taps(VmfTaps::Mixture);
+    assert_eq!(frame(&mut m).pixels, mixture.image.pixels);
 }
 
 #[test]
