@@ -22,8 +22,8 @@ fn reference_256(scene: &Scene) -> ReferenceImage {
     render_reference(scene, &opts, &NoProgress).unwrap()
 }
 
-/// [`render_with`], the vMF taps read as `vmf_taps` says.
-fn render_taps(scene: &Scene, brdf: NdfBrdf, filter: NdfFilter, vmf_taps: VmfTaps) -> Rendered {
+/// The ndf method with `filter`, `brdf` and `vmf_taps`, prepared for `scene`.
+fn prepared(scene: &Scene, brdf: NdfBrdf, filter: NdfFilter, vmf_taps: VmfTaps) -> NdfMethod {
     let mut m = NdfMethod::new(NdfOptions {
         filter,
         brdf,
@@ -32,6 +32,12 @@ fn render_taps(scene: &Scene, brdf: NdfBrdf, filter: NdfFilter, vmf_taps: VmfTap
     })
     .unwrap();
     m.prepare(scene, &NoProgress).unwrap();
+    m
+}
+
+/// [`render_with`], the vMF taps read as `vmf_taps` says.
+fn render_taps(scene: &Scene, brdf: NdfBrdf, filter: NdfFilter, vmf_taps: VmfTaps) -> Rendered {
+    let mut m = prepared(scene, brdf, filter, vmf_taps);
     render_frame(&mut m, scene, &FrameRequest::new(scene.camera), &NoProgress).unwrap()
 }
 
@@ -92,13 +98,7 @@ fn the_taps_mixture_is_nearer_the_reference_than_their_merge() {
     );
     // The taps are read per frame: switching them on a prepared method
     // renders what a method built with them renders.
-    let mut m = NdfMethod::new(NdfOptions {
-        filter: NdfFilter::Vmf,
-        brdf,
-        ..NdfOptions::default()
-    })
-    .unwrap();
-    m.prepare(&scene, &NoProgress).unwrap();
+    let mut m = prepared(&scene, brdf, NdfFilter::Vmf, VmfTaps::Merge);
     let frame = |m: &mut NdfMethod| {
         render_frame(m, &scene, &FrameRequest::new(scene.camera), &NoProgress)
             .unwrap()
@@ -161,13 +161,7 @@ fn plain_normal_mapping_agrees_with_the_reference_renderer() {
         ] {
             let scene = which.lit(&map, brdf, 40, light);
             let reference = reference_256(&scene);
-            let mut m = NdfMethod::new(NdfOptions {
-                filter: NdfFilter::None,
-                brdf,
-                ..NdfOptions::default()
-            })
-            .unwrap();
-            m.prepare(&scene, &NoProgress).unwrap();
+            let mut m = prepared(&scene, brdf, NdfFilter::None, VmfTaps::Merge);
             let plain = render_frame(
                 &mut m,
                 &scene,
