@@ -82,23 +82,30 @@ pub fn bake(
     let mut m = NearfieldMethod::new(o.clone())?;
     m.bake_scene(&scene, bar)?;
     warn_all(&m.warnings());
-    let vertices: usize =
-        m.transports().iter().map(|t| t.values.len()).sum::<usize>() / (o.order * o.order);
-    let bytes = 4 * vertices * o.order * o.order;
+    let vertices: usize = scene.objects.iter().map(|o| o.mesh.positions.len()).sum();
+    let bytes = m.data_bytes();
     let how = if m.loads() > 0 {
         "loaded from the cache"
     } else {
         "baked"
     };
-    let cached = m
-        .cache_path()
-        .map_or_else(|| "-".into(), |p| p.display().to_string());
+    let paths = m.cache_paths();
+    let cached = if paths.is_empty() {
+        "-".to_string()
+    } else {
+        paths
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     if let Some(path) = out {
         m.save_bake(path)?;
     }
     println!(
-        "relight bake nearfield: {vertices} vertices in {} objects, order {}, face {}, {}: {how} in {:.1} s, {:.1} MB, cached as {cached}{}",
+        "relight bake nearfield: {vertices} vertices in {} objects, {} light plane(s), order {}, face {}, {}: {how} in {:.1} s, {:.1} MB, cached as {cached}{}",
         scene.objects.len(),
+        m.planes(),
         o.order,
         o.face,
         if scene.visibility {

@@ -2,8 +2,8 @@
 //! interface ([`Relighter`], name `nearfield`).
 //!
 //! # What it renders
-//! One textured rectangular area light ([`relight_render::AreaLight`]) on
-//! any BRDF, with or without shadows, per vertex (Gouraud). A Lambertian
+//! Textured rectangular area lights ([`relight_render::AreaLight`], one or
+//! more) on any BRDF, with or without shadows, per vertex (Gouraud). A Lambertian
 //! object (or a blend of two Lambertian BRDFs) is baked as `cos V` and
 //! shaded with its albedo; every other BRDF — glossy, coloured, measured,
 //! a blend by a texture — gets the thesis' fixed-view transport
@@ -13,6 +13,22 @@
 //! changes with direction. Environment, point lights, media and normal
 //! maps are refused; a lobe narrower than a face cell is shaded at the
 //! cell's width, with a warning.
+//!
+//! # Several lights
+//! The transport lives on a face aligned with a light's plane (eq. 4.34),
+//! and its shadow rays end at that plane, so lights in one plane share one
+//! transport per object, and each plane gets its own bake (and cache
+//! file). Two lights share a plane when their normals agree
+//! ([`crate::rotate::AXIS_TOLERANCE`]) and so do their offsets along it;
+//! the plane's first light sets its axes and the others are turned in it
+//! (their bounding rectangles, below). Each light is propagated on its
+//! own — its own source terms (the fraction is per light), affine map and
+//! target mask — and the vertex sums the lights' dot products, so the work
+//! per frame is the one-light work times the number of lights, and the
+//! result is exactly the sum of the lights' (`tests/it/lights.rs`).
+//! Editing a light keeps every bake unless the number of lights changes or
+//! a light's normal leaves its plane's (then all planes are baked again,
+//! from the cache where they match).
 //!
 //! # The fixed view and the camera
 //! The fixed-view transport is for the eye it was baked with (the scene's
@@ -27,8 +43,8 @@
 //!
 //! | call | work |
 //! |---|---|
-//! | [`Relighter::prepare`] | the per-vertex transport on the light's face ([`crate::transport`]), shadows ray-cast when the scene has visibility, or loaded from the disk cache ([`crate::cache`], with [`NearfieldOptions::cache_dir`]); then `set_lighting` |
-//! | [`Relighter::set_lighting`] | light moved, scaled or turned in its plane (or moved to another height): the light frame the vertices are mapped through; always: the light's coefficients (a turned light re-rasterised into its bounding rectangle, [`crate::rotate`]), source compression, the fused propagation per vertex (affine map, ACC rows, target mask and dot product, [`crate::propagate`]: a move costs what a texture edit costs). A light whose normal changed re-bakes the transport. |
+//! | [`Relighter::prepare`] | the per-vertex transport on each light plane's face ([`crate::transport`]), shadows ray-cast when the scene has visibility, or loaded from the disk cache ([`crate::cache`], with [`NearfieldOptions::cache_dir`]); then `set_lighting` |
+//! | [`Relighter::set_lighting`] | per light, moved, scaled or turned in its plane (or moved to another height): the light frame the vertices are mapped through; always: the light's coefficients (a turned light re-rasterised into its bounding rectangle, [`crate::rotate`]), source compression, and for all lights the fused propagation per vertex (affine map, ACC rows, target mask and dot product, [`crate::propagate`]: a move costs what a texture edit costs). A light whose normal changed, or another number of lights, re-bakes the transports. |
 //! | [`Relighter::render`] | rasterize and interpolate the vertex colours |
 //!
 //! Moving along the normal keeps the baked shadows, cast towards the old
@@ -112,7 +128,7 @@ impl Default for NearfieldOptions {
     }
 }
 
-/// One object's baked and per-light data.
+/// One object's data, the same for every light.
 struct Prepared {
     mesh: Arc<Mesh>,
     /// How it is shaded ([`crate::specular::object_kind`]).
@@ -122,19 +138,74 @@ struct Prepared {
     albedo: Vec3,
     /// Per vertex, a Lambertian blend's albedo (else empty).
     albedos: Vec<Vec3>,
-    transport: Transport,
+}
+
+/// The transports baked for one plane of lights (module docs, "Several
+/// lights"): the face and the shadow rays are the plane's, so every light
+/// in it shares them.
+struct PlaneBake {
+    /// The frame the transports were baked for: the plane's first light's.
+    frame: LightFrame,
+    /// The bake's cache key.
+    key: BakeKey,
+    /// One per object.
+    transports: Vec<Transport>,
+}
+
+/// One scene light as the propagation sees it.
+#[derive(Clone, Debug, Default)]
+struct LitLight {
+    /// Index of its plane in `NearfieldMethod::planes`.
+    plane: usize,
+    /// The frame vertices are mapped through (the light's own, or a
+    /// turned light's bounding rectangle); `None`: not set yet (black).
+    frame: Option<LightFrame>,
+    source: SourceTerms,
+}
+
+/// Offset along the normal (scene units, relative to `1 + |c|`) within
+/// which two lights of one normal lie in one plane.
+const PLANE_TOLERANCE: f32 = 1e-5;
+
+/// For each of `lights`, the index of its plane (in order of first
+/// appearance). Two lights share a plane when the second is the first
+/// turned in the first's plane ([`InPlane::of`]: the same normal) and
+/// their centres' offsets along it agree within [`PLANE_TOLERANCE`].
+fn planes_of(lights: &[AreaLight]) -> Vec<usize> {
+    let mut leaders: Vec<usize> = Vec::new();
+    let mut out = Vec::with_capacity(lights.len());
+    for (i, l) in lights.iter().enumerate() {
+        let same = |j: usize| {
+            let a = &lights[j];
+            let n = a.normal();
+            let scale = 1.0 + a.center.length().max(l.center.length());
+            (a.world_from_light == l.world_from_light
+                || InPlane::of(&a.world_from_light, l).is_some())
+                && (l.center - a.center).dot(n).abs() <= PLANE_TOLERANCE * scale
+        };
+        match leaders.iter().position(|&j| same(j)) {
+            Some(p) => out.push(p),
+            None => {
+                out.push(leaders.len());
+                leaders.push(i);
+            }
+        }
+    }
+    out
 }
 
 /// Near-field relighting as a [`Relighter`] (module docs).
 pub struct NearfieldMethod {
     options: NearfieldOptions,
     objects: Vec<Prepared>,
-    /// The light frame the transport was baked for, and with visibility.
-    baked: Option<(LightFrame, bool)>,
-    /// The light frame the propagation maps vertices through (the light's
-    /// own, or a turned light's bounding rectangle).
-    light_frame: Option<LightFrame>,
-    source: SourceTerms,
+    /// The transports per plane of lights (empty: nothing baked).
+    planes: Vec<PlaneBake>,
+    /// Whether the planes were baked with visibility.
+    baked_visibility: bool,
+    /// Per scene light (at least one entry: the single-light calls
+    /// [`Self::set_light_frame`], [`Self::update_source`] and
+    /// [`Self::source`] address the first).
+    lights: Vec<LitLight>,
     colors: Vec<Vec<Vec3>>,
     warnings: Vec<String>,
     raster: Rasterizer,
@@ -145,8 +216,6 @@ pub struct NearfieldMethod {
     /// Times of the last lighting change: coefficients, propagation (ms).
     pub last_times: [f64; 2],
     bakes: usize,
-    /// The key of the current bake.
-    key: Option<BakeKey>,
     loads: usize,
     /// The camera's eye the fixed-view transports were baked for (`None`:
     /// no fixed-view object).
@@ -173,42 +242,44 @@ fn invalid(option: &'static str, message: impl ToString) -> MethodError {
     }
 }
 
-/// The one area light of `scene`.
-fn the_light(scene: &Scene) -> Result<&AreaLight, MethodError> {
+/// The area lights of `scene` (at least one).
+fn the_lights(scene: &Scene) -> Result<&[AreaLight], MethodError> {
     match scene.area_lights.as_slice() {
-        [l] => Ok(l),
-        [] => Err(invalid("scene", "needs one [[area_light]] (it has none)")),
-        ls => Err(invalid(
-            "scene",
-            format!("renders one area light (the scene has {})", ls.len()),
-        )),
+        [] => Err(invalid("scene", "needs an [[area_light]] (it has none)")),
+        ls => Ok(ls),
     }
 }
 
 impl NearfieldMethod {
-    /// Whether the transport must be baked again for `light` (its plane
-    /// changed, or the objects or visibility did), and else the in-plane
-    /// turn from the baked axes, if any: a light turned in the baked plane
-    /// keeps the bake (module docs).
-    fn lighting_plan(
-        &self,
-        scene: &Scene,
-        light: &AreaLight,
-        own: &LightFrame,
-    ) -> (bool, Option<InPlane>) {
+    /// How each of `scene`'s lights maps onto the baked planes: per light,
+    /// its plane and its in-plane turn from the plane's axes, if any (a
+    /// light turned in its baked plane, or moved in it or along its
+    /// normal, keeps the bake: module docs). `None` when the transports
+    /// must be baked again: nothing baked, other objects or visibility,
+    /// another number of lights, or a light whose normal changed.
+    fn lighting_plan(&self, scene: &Scene) -> Option<Vec<(usize, Option<InPlane>)>> {
         let same_objects =
             relight_render::method::same_meshes(self.objects.iter().map(|p| &p.mesh), scene);
-        match self.baked {
-            Some((b, vis)) if same_objects && vis == scene.visibility => {
-                if b.axes == own.axes {
-                    (false, None)
-                } else {
-                    let turn = InPlane::of(&b.axes, light);
-                    (turn.is_none(), turn)
-                }
-            }
-            _ => (true, None),
+        if self.planes.is_empty()
+            || !same_objects
+            || self.baked_visibility != scene.visibility
+            || self.lights.len() != scene.area_lights.len()
+        {
+            return None;
         }
+        scene
+            .area_lights
+            .iter()
+            .zip(&self.lights)
+            .map(|(light, lit)| {
+                let axes = &self.planes[lit.plane].frame.axes;
+                if *axes == light.world_from_light {
+                    Some((lit.plane, None))
+                } else {
+                    InPlane::of(axes, light).map(|t| (lit.plane, Some(t)))
+                }
+            })
+            .collect()
     }
 
     /// A method with `options` (checked here).
@@ -248,9 +319,9 @@ impl NearfieldMethod {
         Ok(Self {
             options,
             objects: Vec::new(),
-            baked: None,
-            light_frame: None,
-            source: SourceTerms::default(),
+            planes: Vec::new(),
+            baked_visibility: false,
+            lights: vec![LitLight::default()],
             colors: Vec::new(),
             warnings: Vec::new(),
             raster: Rasterizer::new(),
@@ -259,7 +330,6 @@ impl NearfieldMethod {
             pending_lighting_ms: 0.0,
             last_times: [0.0; 2],
             bakes: 0,
-            key: None,
             loads: 0,
             baked_eye: None,
             view_is_baked: true,
@@ -291,21 +361,36 @@ impl NearfieldMethod {
         self.options.cache_dir.as_deref()
     }
 
-    /// The key of the current bake (after `prepare` or [`Self::bake_scene`]).
+    /// The number of light planes baked (one transport per plane and
+    /// object; module docs, "Several lights").
     #[must_use]
-    pub fn bake_key(&self) -> Option<&BakeKey> {
-        self.key.as_ref()
+    pub fn planes(&self) -> usize {
+        self.planes.len()
     }
 
-    /// The cache file of the current bake, when caching.
+    /// The key of the current bake of the first light's plane (after
+    /// `prepare` or [`Self::bake_scene`]).
+    #[must_use]
+    pub fn bake_key(&self) -> Option<&BakeKey> {
+        self.planes.first().map(|p| &p.key)
+    }
+
+    /// The cache file of the first light's plane's bake, when caching.
     #[must_use]
     pub fn cache_path(&self) -> Option<PathBuf> {
-        Some(
-            self.options
-                .cache_dir
-                .as_ref()?
-                .join(self.key.as_ref()?.file_name()),
-        )
+        self.cache_paths().into_iter().next()
+    }
+
+    /// The cache file of each plane's bake, when caching (else empty).
+    #[must_use]
+    pub fn cache_paths(&self) -> Vec<PathBuf> {
+        let Some(dir) = self.options.cache_dir.as_ref() else {
+            return Vec::new();
+        };
+        self.planes
+            .iter()
+            .map(|p| dir.join(p.key.file_name()))
+            .collect()
     }
 
     /// Bakes (or loads from the cache) `scene`'s transport only: what
@@ -322,23 +407,38 @@ impl NearfieldMethod {
         self.bake(scene, progress)
     }
 
-    /// Writes the current bake to `path` (the cache's format, [`crate::cache`]).
+    /// Writes the current bake to `path` (the cache's format,
+    /// [`crate::cache`]): one file holds one plane's transports.
     ///
     /// # Errors
-    /// [`CacheError`] when nothing is baked or the file cannot be written.
+    /// [`CacheError`] when nothing is baked, the scene's lights lie in
+    /// more than one plane, or the file cannot be written.
     pub fn save_bake(&self, path: &Path) -> Result<(), CacheError> {
-        let key = self.key.as_ref().ok_or_else(|| CacheError::Mismatch {
+        let mismatch = |why: String| CacheError::Mismatch {
             path: path.to_path_buf(),
-            why: "nothing baked yet".into(),
-        })?;
-        let t: Vec<&Transport> = self.objects.iter().map(|p| &p.transport).collect();
-        crate::cache::save(path, key, &t)
+            why,
+        };
+        let plane = match self.planes.as_slice() {
+            [p] => p,
+            [] => return Err(mismatch("nothing baked yet".into())),
+            ps => {
+                return Err(mismatch(format!(
+                    "the lights lie in {} planes, a bake each (one file holds one); they are in the cache",
+                    ps.len()
+                )));
+            }
+        };
+        let t: Vec<&Transport> = plane.transports.iter().collect();
+        crate::cache::save(path, &plane.key, &t)
     }
 
-    /// Each object's baked transport.
+    /// Each object's baked transport for the first light's plane.
     #[must_use]
     pub fn transports(&self) -> Vec<&Transport> {
-        self.objects.iter().map(|p| &p.transport).collect()
+        self.planes
+            .first()
+            .map(|p| p.transports.iter().collect())
+            .unwrap_or_default()
     }
 
     /// Each object's albedo as shaded: the colour is `B ⊙ albedo / π` for
@@ -391,10 +491,10 @@ impl NearfieldMethod {
         count_of(self.options.target_terms, self.options.order)
     }
 
-    /// The source terms of the last lighting change.
+    /// The first light's source terms of the last lighting change.
     #[must_use]
     pub fn source(&self) -> &SourceTerms {
-        &self.source
+        &self.lights[0].source
     }
 
     /// Changes the compression (takes effect at the next `set_lighting`).
@@ -412,8 +512,9 @@ impl NearfieldMethod {
         self.bake_with(scene, progress, false)
     }
 
-    /// The bake of `scene`; `keep_lambertian`: the objects (the same meshes
-    /// and light plane) keep their Lambertian transports and only the
+    /// The bake of `scene`, one per plane of its lights;
+    /// `keep_lambertian`: a plane baked before for the same light frame
+    /// (the same meshes) keeps its Lambertian transports and only the
     /// fixed-view ones are baked again (a camera change).
     fn bake_with(
         &mut self,
@@ -421,8 +522,14 @@ impl NearfieldMethod {
         progress: &dyn Progress,
         keep_lambertian: bool,
     ) -> Result<(), MethodError> {
-        let light = the_light(scene)?;
-        let frame = LightFrame::of(light);
+        let lights = the_lights(scene)?;
+        let plane_of = planes_of(lights);
+        let mut frames: Vec<LightFrame> = Vec::new();
+        for (l, &p) in lights.iter().zip(&plane_of) {
+            if p == frames.len() {
+                frames.push(LightFrame::of(l));
+            }
+        }
         let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
         let (n, face) = (self.options.order, self.options.face);
         self.warnings.clear();
@@ -444,107 +551,132 @@ impl NearfieldMethod {
         let kinds: Vec<ObjectKind> = scene.objects.iter().map(object_kind).collect();
         let specular = kinds.iter().any(ObjectKind::is_specular);
         let bvh = scene.visibility.then(|| SceneBvh::build(&meshes));
-        let key = BakeKey::of_kinds(scene, &frame, n, face, &kinds);
-        let path = self
-            .options
-            .cache_dir
-            .as_ref()
-            .map(|d| d.join(key.file_name()));
-        let mut cached = None;
-        if let Some(p) = path.as_deref().filter(|p| p.exists()) {
-            match crate::cache::load(p, &key, face) {
-                Ok(t) => cached = Some(t),
-                Err(e) => self.warnings.push(format!(
-                    "method nearfield: cached transport unusable ({e}); re-baked"
-                )),
+        // Per plane: its key, a cached bake if one loads, and the Lambertian
+        // transports kept from an earlier bake of the same frame.
+        let mut old_planes = std::mem::take(&mut self.planes);
+        let mut plans = Vec::with_capacity(frames.len());
+        for frame in &frames {
+            let key = BakeKey::of_kinds(scene, frame, n, face, &kinds);
+            let path = self
+                .options
+                .cache_dir
+                .as_ref()
+                .map(|d| d.join(key.file_name()));
+            let mut cached = None;
+            if let Some(p) = path.as_deref().filter(|p| p.exists()) {
+                match crate::cache::load(p, &key, face) {
+                    Ok(t) => cached = Some(t),
+                    Err(e) => self.warnings.push(format!(
+                        "method nearfield: cached transport unusable ({e}); re-baked"
+                    )),
+                }
             }
-        }
-        let loaded = cached.is_some();
-        let mut kept: Vec<Option<Transport>> = if keep_lambertian {
-            std::mem::take(&mut self.objects)
-                .into_iter()
-                .map(|p| (!p.kind.is_specular()).then_some(p.transport))
-                .collect()
-        } else {
-            Vec::new()
-        };
-        kept.resize_with(meshes.len(), || None);
-        let mut spec_s = 0.0;
-        let transports = match cached {
-            Some(t) => t,
-            None => {
-                let total: u64 = meshes
-                    .iter()
+            let mut kept: Vec<Option<Transport>> = match old_planes
+                .iter()
+                .position(|p| keep_lambertian && p.frame == *frame)
+            {
+                Some(i) => std::mem::take(&mut old_planes[i].transports)
+                    .into_iter()
                     .zip(&kinds)
-                    .zip(&kept)
-                    .filter(|((_, k), kt)| k.is_specular() || kt.is_none())
-                    .map(|((m, _), _)| m.positions.len() as u64)
-                    .sum();
-                progress.start("nearfield transport", total);
-                let mut out = Vec::with_capacity(meshes.len());
-                for (((m, o), kind), kt) in
-                    meshes.iter().zip(&scene.objects).zip(&kinds).zip(&mut kept)
-                {
-                    if let Some(t) = kt.take().filter(|_| !kind.is_specular()) {
-                        out.push(t);
-                        continue;
-                    }
-                    match kind {
-                        ObjectKind::Specular { tint } => {
-                            let t0 = Instant::now();
-                            let weights = o
-                                .blend
-                                .as_ref()
-                                .map(|b| blend_weights(b, &m.uvs))
-                                .unwrap_or_default();
-                            out.push(bake_specular(
-                                &frame,
-                                SpecularMesh {
-                                    positions: &m.positions,
-                                    normals: &m.normals,
-                                    tangents: &m.tangents,
-                                },
-                                ObjectBrdf {
-                                    first: o.brdf.as_ref(),
-                                    second: o
-                                        .blend
-                                        .as_ref()
-                                        .map(|b| (b.second.as_ref(), &weights[..])),
-                                    tint: *tint,
-                                },
-                                scene.camera.eye,
+                    .map(|(t, k)| (!k.is_specular()).then_some(t))
+                    .collect(),
+                None => Vec::new(),
+            };
+            kept.resize_with(meshes.len(), || None);
+            plans.push((key, path, cached, kept));
+        }
+        drop(old_planes);
+        let total: u64 = plans
+            .iter()
+            .filter(|(_, _, cached, _)| cached.is_none())
+            .flat_map(|(_, _, _, kept)| meshes.iter().zip(&kinds).zip(kept))
+            .filter(|((_, k), kt)| k.is_specular() || kt.is_none())
+            .map(|((m, _), _)| m.positions.len() as u64)
+            .sum();
+        let any_baked = plans.iter().any(|(_, _, cached, _)| cached.is_none());
+        if any_baked {
+            progress.start("nearfield transport", total);
+        }
+        let mut spec_s = 0.0;
+        let mut planes = Vec::with_capacity(frames.len());
+        for (frame, (key, path, cached, mut kept)) in frames.iter().zip(plans) {
+            let loaded = cached.is_some();
+            let transports = match cached {
+                Some(t) => t,
+                None => {
+                    let mut out = Vec::with_capacity(meshes.len());
+                    for (((m, o), kind), kt) in
+                        meshes.iter().zip(&scene.objects).zip(&kinds).zip(&mut kept)
+                    {
+                        if let Some(t) = kt.take().filter(|_| !kind.is_specular()) {
+                            out.push(t);
+                            continue;
+                        }
+                        match kind {
+                            ObjectKind::Specular { tint } => {
+                                let t0 = Instant::now();
+                                let weights = o
+                                    .blend
+                                    .as_ref()
+                                    .map(|b| blend_weights(b, &m.uvs))
+                                    .unwrap_or_default();
+                                out.push(bake_specular(
+                                    frame,
+                                    SpecularMesh {
+                                        positions: &m.positions,
+                                        normals: &m.normals,
+                                        tangents: &m.tangents,
+                                    },
+                                    ObjectBrdf {
+                                        first: o.brdf.as_ref(),
+                                        second: o
+                                            .blend
+                                            .as_ref()
+                                            .map(|b| (b.second.as_ref(), &weights[..])),
+                                        tint: *tint,
+                                    },
+                                    scene.camera.eye,
+                                    n,
+                                    face,
+                                    bvh.as_ref(),
+                                    progress,
+                                )?);
+                                spec_s += t0.elapsed().as_secs_f64();
+                            }
+                            _ => out.push(bake_transport(
+                                frame,
+                                &m.positions,
+                                &m.normals,
                                 n,
                                 face,
                                 bvh.as_ref(),
                                 progress,
-                            )?);
-                            spec_s += t0.elapsed().as_secs_f64();
+                            )?),
                         }
-                        _ => out.push(bake_transport(
-                            &frame,
-                            &m.positions,
-                            &m.normals,
-                            n,
-                            face,
-                            bvh.as_ref(),
-                            progress,
-                        )?),
                     }
+                    out
                 }
-                progress.finish();
-                out
+            };
+            if let (false, Some(p)) = (loaded, path.as_deref()) {
+                let refs: Vec<&Transport> = transports.iter().collect();
+                if let Err(e) = crate::cache::save(p, &key, &refs) {
+                    self.warnings.push(format!(
+                        "method nearfield: could not cache the transport ({e})"
+                    ));
+                }
             }
-        };
-        if let (false, Some(p)) = (loaded, path.as_deref()) {
-            let refs: Vec<&Transport> = transports.iter().collect();
-            if let Err(e) = crate::cache::save(p, &key, &refs) {
-                self.warnings.push(format!(
-                    "method nearfield: could not cache the transport ({e})"
-                ));
-            }
+            planes.push(PlaneBake {
+                frame: *frame,
+                key,
+                transports,
+            });
         }
+        if any_baked {
+            progress.finish();
+        }
+        let loaded = !any_baked;
         let mut objects = Vec::with_capacity(meshes.len());
-        for ((o, kind), transport) in scene.objects.iter().zip(&kinds).zip(transports) {
+        for (o, kind) in scene.objects.iter().zip(&kinds) {
             let m = &o.mesh;
             let pi = std::f32::consts::PI;
             let (albedo, albedos) = match *kind {
@@ -568,11 +700,18 @@ impl NearfieldMethod {
                 kind: *kind,
                 albedo,
                 albedos,
-                transport,
             });
         }
         self.objects = objects;
-        self.baked = Some((frame, scene.visibility));
+        self.planes = planes;
+        self.baked_visibility = scene.visibility;
+        self.lights = plane_of
+            .iter()
+            .map(|&plane| LitLight {
+                plane,
+                ..LitLight::default()
+            })
+            .collect();
         self.baked_eye = specular.then_some(scene.camera.eye);
         self.view_is_baked = true;
         self.specular_bake_s = spec_s;
@@ -623,7 +762,6 @@ impl NearfieldMethod {
                 }
             ));
         }
-        self.key = Some(key);
         if loaded {
             self.loads += 1;
         } else {
@@ -632,22 +770,23 @@ impl NearfieldMethod {
         Ok(())
     }
 
-    /// Maps the vertices through `frame` from the next [`Self::propagate`]
-    /// on (a light move or scale: the ACC rows and masks are the kernel's,
-    /// [`crate::propagate`]).
+    /// Maps the vertices through `frame` for the first light from the next
+    /// [`Self::propagate`] on (a light move or scale: the ACC rows and
+    /// masks are the kernel's, [`crate::propagate`]).
     pub fn set_light_frame(&mut self, frame: &LightFrame) {
-        self.light_frame = Some(*frame);
+        self.lights[0].frame = Some(*frame);
     }
 
-    /// The light's coefficients and source compression. Returns ms.
+    /// The first light's coefficients and source compression: `light`
+    /// as it is. Returns ms.
     pub fn update_source(&mut self, light: &AreaLight) -> f64 {
-        self.update_source_turned(light, None)
+        self.update_source_of(0, light, None)
     }
 
-    /// [`Self::update_source`] for `light` turned in the baked plane by
-    /// `turn` (its bounding rectangle re-rasterised, [`crate::rotate`]).
-    /// Returns ms.
-    pub fn update_source_turned(&mut self, light: &AreaLight, turn: Option<&InPlane>) -> f64 {
+    /// Light `index`'s coefficients and source compression: `light` as
+    /// it is, or turned in its baked plane by `turn` (its bounding
+    /// rectangle re-rasterised, [`crate::rotate`]). Returns ms.
+    fn update_source_of(&mut self, index: usize, light: &AreaLight, turn: Option<&InPlane>) -> f64 {
         let t = Instant::now();
         let o = &self.options;
         let (n, coarse) = (o.order, o.light_order.unwrap_or(o.order).min(o.order));
@@ -655,48 +794,61 @@ impl NearfieldMethod {
             None => LightCoeffs::of_at(light, n, coarse),
             Some(turn) => LightCoeffs::of_cells(&turn.cells(light, coarse), n, coarse),
         };
-        self.source = compress(&coeffs, o.source_terms, o.source_ranking);
+        self.lights[index].source = compress(&coeffs, o.source_terms, o.source_ranking);
         t.elapsed().as_secs_f64() * 1e3
     }
 
-    /// The fused propagation of every vertex (the per-frame relighting
-    /// work: affine maps, ACC rows, masks and the kernel,
-    /// [`crate::propagate`]). Vertices are black before a light frame is
-    /// set. Returns ms.
+    /// The fused propagation of every vertex, summed over the lights (the
+    /// per-frame relighting work: affine maps, ACC rows, masks and the
+    /// kernel, [`crate::propagate`]). A light whose frame is not set adds
+    /// nothing. Returns ms.
     pub fn propagate(&mut self) -> f64 {
         let t = Instant::now();
         let (n, face) = (self.options.order, self.options.face);
         let m = self.target_count();
         let nn = n * n;
         let prims = Primitives::new(n);
-        let kernel = Kernel {
-            primitives: &prims,
-            source: &self.source,
-            targets: m,
-        };
-        let frame = self.light_frame;
+        // Per light with a frame: its kernel, frame and plane.
+        let lit: Vec<(Kernel, LightFrame, &PlaneBake)> = self
+            .lights
+            .iter()
+            .filter_map(|l| {
+                let kernel = Kernel {
+                    primitives: &prims,
+                    source: &l.source,
+                    targets: m,
+                };
+                Some((kernel, l.frame?, self.planes.get(l.plane)?))
+            })
+            .collect();
         self.colors = self
             .objects
             .iter()
-            .map(|p| {
+            .enumerate()
+            .map(|(oi, p)| {
                 let verts = p.mesh.positions.len();
-                let channels = p.transport.channels;
+                let Some(channels) = self.planes.first().map(|b| b.transports[oi].channels) else {
+                    return vec![Vec3::ZERO; verts];
+                };
+                let per = channels * nn;
                 (0..verts)
                     .into_par_iter()
                     .with_min_len(256)
                     .map_init(VertexScratch::default, |sc, v| {
-                        let Some((s, o)) =
-                            frame.and_then(|f| f.affine(f.local(p.mesh.positions[v]), face))
-                        else {
-                            return Vec3::ZERO;
-                        };
-                        let per = channels * nn;
-                        let t = &p.transport.values[v * per..(v + 1) * per];
-                        if let Some(next) = p.transport.values.get((v + 1) * per..(v + 2) * per) {
-                            prefetch(next);
+                        let mut b = Vec3::ZERO;
+                        for (kernel, frame, plane) in &lit {
+                            let Some((s, o)) = frame.affine(frame.local(p.mesh.positions[v]), face)
+                            else {
+                                continue;
+                            };
+                            let values = &plane.transports[oi].values;
+                            let t = &values[v * per..(v + 1) * per];
+                            if let Some(next) = values.get((v + 1) * per..(v + 2) * per) {
+                                prefetch(next);
+                            }
+                            let vertex = VertexMap { s, o, transport: t };
+                            b += Vec3::from(shade_vertex(kernel, &vertex, sc)).max(Vec3::ZERO);
                         }
-                        let vertex = VertexMap { s, o, transport: t };
-                        let b = Vec3::from(shade_vertex(&kernel, &vertex, sc)).max(Vec3::ZERO);
                         if channels == 3 {
                             return b;
                         }
@@ -709,18 +861,28 @@ impl NearfieldMethod {
         t.elapsed().as_secs_f64() * 1e3
     }
 
-    /// FMAs of one [`Self::propagate`].
+    /// FMAs of one [`Self::propagate`] (every light's kernel).
     #[must_use]
     pub fn propagate_fma(&self) -> f64 {
         let m = self.target_count();
+        let Some(plane) = self.planes.first() else {
+            return 0.0;
+        };
         self.objects
             .iter()
-            .map(|p| {
-                let per = if p.transport.channels == 3 {
-                    shade_rgb_fma(&self.source, m)
-                } else {
-                    shade_fma(&self.source, m)
-                };
+            .zip(&plane.transports)
+            .map(|(p, t)| {
+                let per: usize = self
+                    .lights
+                    .iter()
+                    .map(|l| {
+                        if t.channels == 3 {
+                            shade_rgb_fma(&l.source, m)
+                        } else {
+                            shade_fma(&l.source, m)
+                        }
+                    })
+                    .sum();
                 (p.mesh.positions.len() * per) as f64
             })
             .sum()
@@ -747,7 +909,7 @@ impl Relighter for NearfieldMethod {
 
     fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
         check_scene(self, scene, false)?;
-        the_light(scene)?;
+        the_lights(scene)?;
         self.bake(scene, progress)?;
         self.set_lighting(scene, progress)?;
         Ok(())
@@ -755,40 +917,43 @@ impl Relighter for NearfieldMethod {
 
     fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError> {
         let t = Instant::now();
-        let light = the_light(scene)?;
-        let own = LightFrame::of(light);
-        let (rebake, mut turn) = self.lighting_plan(scene, light, &own);
-        if rebake {
+        let lights = the_lights(scene)?;
+        let mut plan = self.lighting_plan(scene);
+        if plan.is_none() {
             self.bake(scene, progress)?;
-            turn = None;
         } else if self.baked_eye.is_some_and(|e| e != scene.camera.eye) {
             // The fixed view moved with the scene's camera (module docs):
-            // the Lambertian transports are kept when the light is where
-            // they were baked for, else everything is baked for it anew.
-            let keep = turn.is_none() && self.baked.is_some_and(|(b, _)| b == own);
-            self.bake_with(scene, progress, keep)?;
-            turn = None;
+            // a plane whose light is where it was baked for keeps its
+            // Lambertian transports, the others are baked anew.
+            self.bake_with(scene, progress, true)?;
+            plan = None;
         }
-        let frame = turn.map_or(own, |t| t.frame);
-        progress.check()?;
-        self.set_light_frame(&frame);
-        let c = self.update_source_turned(light, turn.as_ref());
+        let plan = match plan {
+            Some(p) => p,
+            None => self.lighting_plan(scene).ok_or_else(|| {
+                invalid("scene", "the lights do not match the bake made for them")
+            })?,
+        };
+        let mut coeffs_ms = 0.0;
+        for (i, (light, (_, turn))) in lights.iter().zip(&plan).enumerate() {
+            progress.check()?;
+            self.lights[i].frame = Some(turn.map_or_else(|| LightFrame::of(light), |t| t.frame));
+            coeffs_ms += self.update_source_of(i, light, turn.as_ref());
+        }
         let p = self.propagate();
-        self.last_times = [c, p];
+        self.last_times = [coeffs_ms, p];
         let ms = t.elapsed().as_secs_f64() * 1e3;
         self.pending_lighting_ms = ms;
         Ok(ms)
     }
 
     fn lighting_rebakes(&self, scene: &Scene) -> bool {
-        let Ok(light) = the_light(scene) else {
+        if scene.area_lights.is_empty() {
             return false;
-        };
-        let own = LightFrame::of(light);
-        // What `set_lighting` bakes: the transport for a light whose plane
+        }
+        // What `set_lighting` bakes: the transports for lights whose plane
         // changed, or the fixed-view transports for a camera that moved.
-        self.lighting_plan(scene, light, &own).0
-            || self.baked_eye.is_some_and(|e| e != scene.camera.eye)
+        self.lighting_plan(scene).is_none() || self.baked_eye.is_some_and(|e| e != scene.camera.eye)
     }
 
     fn render(
@@ -841,9 +1006,10 @@ impl Relighter for NearfieldMethod {
     }
 
     fn data_bytes(&self) -> u64 {
-        self.objects
+        self.planes
             .iter()
-            .map(|p| 4 * p.transport.values.len() as u64)
+            .flat_map(|p| &p.transports)
+            .map(|t| 4 * t.values.len() as u64)
             .sum()
     }
 }

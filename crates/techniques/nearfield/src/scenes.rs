@@ -1,6 +1,7 @@
 //! The scenes `verify` and `bench nearfield` use, built in code: a
-//! Lambertian floor and sphere under one textured ceiling light, no
-//! environment (the method renders the area light alone).
+//! Lambertian floor and sphere under one textured ceiling light (or three
+//! lights in two planes), no environment (the method renders the area
+//! lights alone).
 
 use glam::{Mat3, Vec2, Vec3};
 use relight_brdf::Lambert;
@@ -113,5 +114,39 @@ pub fn glossy_floor_and_sphere(
     for (o, b) in s.objects.iter_mut().zip(glossy_brdfs()) {
         o.brdf = b;
     }
+    s
+}
+
+/// [`floor_and_sphere`] lit by three lights in two planes (the method's
+/// module docs, "Several lights"): the textured ceiling light, a second,
+/// plain ceiling panel in the same plane turned 90° (it shares the first
+/// one's transport through its bounding rectangle), and a textured wall
+/// light facing `+X` beyond the floor's edge (its own plane, its own
+/// transport; no camera ray through it meets an object).
+#[must_use]
+pub fn floor_and_sphere_three_lights(
+    floor: usize,
+    segments: usize,
+    width: usize,
+    height: usize,
+    visibility: bool,
+) -> Scene {
+    let mut s = floor_and_sphere(floor, segments, width, height, visibility);
+    s.area_lights.push(AreaLight {
+        center: Vec3::new(-1.0, 1.6, -0.8),
+        size: Vec2::new(0.6, 0.4),
+        // The first light's axes turned 90° about its normal −Y.
+        world_from_light: Mat3::from_cols(Vec3::Z, -Vec3::X, -Vec3::Y),
+        intensity: Vec3::new(2.0, 1.8, 1.5),
+        texture: None,
+    });
+    s.area_lights.push(AreaLight {
+        center: Vec3::new(-2.2, 0.8, 0.0),
+        size: Vec2::new(0.8, 0.6),
+        // x̂ = −Z, ŷ = Y, ẑ = X: emits towards +X (right-handed).
+        world_from_light: Mat3::from_cols(-Vec3::Z, Vec3::Y, Vec3::X),
+        intensity: Vec3::splat(2.5),
+        texture: Some(Arc::new(test_texture(32))),
+    });
     s
 }

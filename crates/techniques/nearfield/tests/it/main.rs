@@ -2,6 +2,7 @@
 //! topic (`cargo test -p relight-nearfield --test it <topic>::`).
 
 mod cache;
+mod lights;
 mod method;
 mod rotation;
 mod specular;

@@ -368,10 +368,10 @@ fn refusals_name_the_problem() {
         })
     ));
     let mut s = small(false);
-    s.area_lights.push(s.area_lights[0].clone());
+    s.area_lights.clear();
     let mut m = NearfieldMethod::new(NearfieldOptions::default()).unwrap();
     let e = m.prepare(&s, &NoProgress).unwrap_err().to_string();
-    assert!(e.contains("one area light"), "{e}");
+    assert!(e.contains("needs an [[area_light]]"), "{e}");
     let mut s = small(false);
     s.env = relight_sphere::EnvMap::from_fn(
         relight_sphere::Param::LatLong {

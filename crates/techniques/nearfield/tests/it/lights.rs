@@ -1,0 +1,136 @@
+//! Several area lights (topic `lights`): lights in one plane share one
+//! transport, each plane gets its own, the result is the sum of the
+//! lights' (exactly: each light is propagated on its own), edits keep the
+//! bakes unless a light leaves its plane, and each plane's bake is cached.
+
+use glam::Vec3;
+use relight_nearfield::scenes::floor_and_sphere_three_lights;
+use relight_nearfield::{NearfieldMethod, NearfieldOptions};
+use relight_render::method::Relighter;
+use relight_render::{NoProgress, Scene};
+
+fn scene() -> Scene {
+    floor_and_sphere_three_lights(8, 8, 32, 24, true)
+}
+
+fn method() -> NearfieldMethod {
+    NearfieldMethod::new(NearfieldOptions {
+        order: 16,
+        ..NearfieldOptions::default()
+    })
+    .unwrap()
+}
+
+/// `scene` with only light `keep` on (the others at intensity 0).
+fn only(scene: &Scene, keep: usize) -> Scene {
+    let mut s = scene.clone();
+    for (i, l) in s.area_lights.iter_mut().enumerate() {
+        if i != keep {
+            l.intensity = Vec3::ZERO;
+        }
+    }
+    s
+}
+
+fn largest(colors: &[Vec<Vec3>]) -> f32 {
+    colors
+        .iter()
+        .flatten()
+        .map(|c| c.max_element())
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn lights_group_by_plane_and_add_up() {
+    let s = scene();
+    let mut m = method();
+    m.prepare(&s, &NoProgress).unwrap();
+    assert_eq!(
+        m.planes(),
+        2,
+        "the ceiling pair shares a plane, the wall light has its own"
+    );
+    assert_eq!(m.bakes(), 1);
+    let all = m.vertex_colors().to_vec();
+    let top = largest(&all);
+    assert!(top > 0.0);
+    let mut sum: Vec<Vec<Vec3>> = all.iter().map(|o| vec![Vec3::ZERO; o.len()]).collect();
+    for i in 0..s.area_lights.len() {
+        m.set_lighting(&only(&s, i), &NoProgress).unwrap();
+        let alone = m.vertex_colors();
+        assert!(
+            largest(alone) > 0.01 * top,
+            "light {i} lights the scene on its own"
+        );
+        for (acc, c) in sum.iter_mut().zip(alone) {
+            for (a, c) in acc.iter_mut().zip(c) {
+                *a += *c;
+            }
+        }
+    }
+    assert_eq!(m.bakes(), 1, "an intensity edit keeps the bakes");
+    let worst = all
+        .iter()
+        .flatten()
+        .zip(sum.iter().flatten())
+        .map(|(a, b)| (*a - *b).abs().max_element())
+        .fold(0.0, f32::max);
+    assert!(
+        worst <= 1e-5 * top,
+        "the sum of the lights: off by {worst} of {top}"
+    );
+}
+
+#[test]
+fn a_light_that_leaves_its_plane_rebakes() {
+    let mut s = scene();
+    let mut m = method();
+    m.prepare(&s, &NoProgress).unwrap();
+    // Moved in its plane and along its normal, and turned in it: kept.
+    s.area_lights[2].center += Vec3::new(0.1, 0.2, -0.3);
+    s.area_lights[1].world_from_light *= glam::Mat3::from_rotation_z(0.4);
+    assert!(!m.lighting_rebakes(&s));
+    m.set_lighting(&s, &NoProgress).unwrap();
+    assert_eq!(m.bakes(), 1);
+    // The wall light tilted: a new bake (it is still alone in its plane).
+    s.area_lights[2].world_from_light *= glam::Mat3::from_rotation_x(0.3);
+    assert!(m.lighting_rebakes(&s));
+    m.set_lighting(&s, &NoProgress).unwrap();
+    assert_eq!((m.bakes(), m.planes()), (2, 2));
+    // One light fewer re-bakes; the second ceiling panel, lowered, is
+    // then a plane of its own.
+    s.area_lights[1].center.y -= 0.5;
+    s.area_lights.remove(2);
+    assert!(m.lighting_rebakes(&s));
+    m.set_lighting(&s, &NoProgress).unwrap();
+    assert_eq!((m.bakes(), m.planes()), (3, 2));
+    // No light at all is an error naming the scene.
+    s.area_lights.clear();
+    let e = m.set_lighting(&s, &NoProgress).unwrap_err().to_string();
+    assert!(e.contains("area_light"), "{e}");
+}
+
+#[test]
+fn each_plane_is_cached_and_one_file_holds_one_plane() {
+    let d = std::env::temp_dir().join(format!("relight-nearfield-lights-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    let opts = NearfieldOptions {
+        order: 16,
+        cache_dir: Some(d.clone()),
+        ..NearfieldOptions::default()
+    };
+    let s = scene();
+    let mut a = NearfieldMethod::new(opts.clone()).unwrap();
+    a.prepare(&s, &NoProgress).unwrap();
+    let paths = a.cache_paths();
+    assert_eq!(paths.len(), 2);
+    assert!(paths.iter().all(|p| p.exists()), "{paths:?}");
+    assert_ne!(paths[0], paths[1]);
+    let mut b = NearfieldMethod::new(opts).unwrap();
+    b.prepare(&s, &NoProgress).unwrap();
+    assert_eq!((b.bakes(), b.loads()), (0, 1), "both planes load");
+    assert_eq!(a.vertex_colors(), b.vertex_colors(), "bit for bit");
+    let e = a.save_bake(&d.join("out.bin")).unwrap_err().to_string();
+    assert!(e.contains("2 planes"), "{e}");
+    let _ = std::fs::remove_dir_all(&d);
+}
