@@ -420,6 +420,27 @@ pub fn verify_rows(
     Ok(rows)
 }
 
+/// The reference render of `scene` the image rows judge by
+/// (`opts.reference_spp`; each scene its own `seed`).
+pub(crate) fn reference_render(
+    scene: &Scene,
+    opts: &VerifyOptions,
+    seed: u64,
+    progress: &dyn Progress,
+) -> Result<relight_render::reference::ReferenceImage, String> {
+    render_reference(
+        scene,
+        &ReferenceOptions {
+            spp: opts.reference_spp,
+            pass_spp: opts.reference_spp.min(16),
+            seed,
+            ..ReferenceOptions::default()
+        },
+        progress,
+    )
+    .map_err(|e| e.to_string())
+}
+
 /// The image rows: the error ladder and the distant baseline.
 fn image_rows(
     base: &Scene,
@@ -432,17 +453,7 @@ fn image_rows(
     scene.visibility = true;
     let light = scene.area_lights[0].clone();
     let frame = LightFrame::of(&light);
-    let reference = render_reference(
-        &scene,
-        &ReferenceOptions {
-            spp: opts.reference_spp,
-            pass_spp: opts.reference_spp.min(16),
-            seed: 7,
-            ..ReferenceOptions::default()
-        },
-        progress,
-    )
-    .map_err(|e| e.to_string())?;
+    let reference = reference_render(&scene, opts, 7, progress)?;
     let nf = NearfieldOptions::default();
     let mut m = NearfieldMethod::new(NearfieldOptions {
         source_terms: 1.0,
@@ -603,17 +614,7 @@ fn turned_rows(
     const DEG: f32 = 30.0;
     let mut turned = scene.clone();
     turned.area_lights[0].world_from_light *= glam::Mat3::from_rotation_z(DEG.to_radians());
-    let reference = render_reference(
-        &turned,
-        &ReferenceOptions {
-            spp: opts.reference_spp,
-            pass_spp: opts.reference_spp.min(16),
-            seed: 11,
-            ..ReferenceOptions::default()
-        },
-        progress,
-    )
-    .map_err(|e| e.to_string())?;
+    let reference = reference_render(&turned, opts, 11, progress)?;
     const SOURCE: &str = "issue 13 (verify nearfield); sun-thesis-2008 §4.5.6";
     let bakes = m.bakes();
     let mut rows = Vec::new();
@@ -681,17 +682,7 @@ fn three_lights_rows(
     const SOURCE: &str = "issue 13's image target (verify nearfield), for three lights";
     let scene =
         floor_and_sphere_three_lights(opts.floor, opts.segments, opts.width, opts.height, true);
-    let reference = render_reference(
-        &scene,
-        &ReferenceOptions {
-            spp: opts.reference_spp,
-            pass_spp: opts.reference_spp.min(16),
-            seed: 13,
-            ..ReferenceOptions::default()
-        },
-        progress,
-    )
-    .map_err(|e| e.to_string())?;
+    let reference = reference_render(&scene, opts, 17, progress)?;
     let mut m = NearfieldMethod::new(NearfieldOptions::default()).map_err(fail)?;
     m.prepare(&scene, progress).map_err(fail)?;
     let request = FrameRequest::new(scene.camera).with_aa(opts.aa);

@@ -14,11 +14,11 @@ use crate::light::light_cells;
 use crate::method::{NearfieldMethod, NearfieldOptions};
 use crate::scenes::glossy_floor_and_sphere;
 use crate::specular::{ObjectKind, VertexBrdf, local_view, vertex_frame};
-use crate::verify::{VerifyOptions, VerifyRow, fail, magnitude_ranked_image};
+use crate::verify::{VerifyOptions, VerifyRow, fail, magnitude_ranked_image, reference_render};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use relight_render::method::{FrameRequest, Relighter};
-use relight_render::reference::{ReferenceOptions, render_reference};
+
 use relight_render::verify_row::row;
 use relight_render::{AreaLight, Object, Progress, Scene, SceneBvh};
 use relight_sphere::Frame;
@@ -231,17 +231,7 @@ pub fn specular_rows(
     if opts.per_vertex_only {
         return Ok(rows);
     }
-    let reference = render_reference(
-        &scene,
-        &ReferenceOptions {
-            spp: opts.reference_spp,
-            pass_spp: opts.reference_spp.min(16),
-            seed: 13,
-            ..ReferenceOptions::default()
-        },
-        progress,
-    )
-    .map_err(|e| e.to_string())?;
+    let reference = reference_render(&scene, opts, 13, progress)?;
     let request = FrameRequest::new(scene.camera).with_aa(opts.aa);
     let frame0 = m.render(&scene, &request, progress).map_err(fail)?;
     let mask = frame0
