@@ -29,7 +29,8 @@ pub enum Command {
     Render(Box<RenderArgs>),
     /// Interactive window: drag to orbit, right-drag to turn the lighting,
     /// keys 1-8 for wavelet/sh/fog/shexp/reference/ndf/nearfield/triple, a for
-    /// antialiasing, s to save, Esc to quit.
+    /// antialiasing, l (or Shift) to move and scale an area light, t for its
+    /// texture, Tab for the next light, s to save, Esc to quit.
     View(Box<ViewArgs>),
     /// Describe files: environment maps, images and meshes, with statistics.
     Info {

@@ -6,7 +6,7 @@
 //! |---|---|
 //! | top left | method (`[k/n]` its key), ms of the frame's work and the fps it allows; the method's settings (order or terms, AA or spp); the measured error against the reference; the area light (centre, size, texture, and whether the light-editing mode is on) when the scene has one |
 //! | centre | why the method draws nothing (its refusal, [`Frame::message`]) or what it approximates; while a method prepares, its phase and a progress bar |
-//! | bottom left | the key help (`h` hides the HUD); with an area light, its editing keys: `l` (or Shift held) makes a left drag move the light in its own plane, following the cursor, and the wheel scale it; `t` cycles its texture ([`crate::light`]) |
+//! | bottom left | the key help (`h` hides the HUD); with an area light, its editing keys: `l` (or Shift held) makes a left drag move the light in its own plane, following the cursor, and the wheel scale it; `t` cycles its texture; with several, `Tab` picks the light the edits go to ([`crate::light`]) |
 //!
 //! # The error shown
 //! The relative RMS error over object pixels, √Σ‖a − r‖² / √Σ‖r‖² (the
@@ -65,8 +65,11 @@ pub struct HudInfo {
     pub refining: bool,
     /// The animation clock (seconds) and whether it runs, for a moving scene.
     pub clock: Option<(f32, bool)>,
-    /// The area light as drawn (centre, size, texture), when the scene has one.
+    /// The edited area light as drawn (centre, size, texture), when the
+    /// scene has one.
     pub light: Option<String>,
+    /// The scene's area lights.
+    pub lights: usize,
     /// The light-editing mode is on (drag moves and the wheel scales the light).
     pub light_mode: bool,
 }
@@ -98,6 +101,7 @@ impl HudInfo {
                 .is_animated()
                 .then(|| (viewer.time(), viewer.clock_runs())),
             light: light_line(viewer),
+            lights: viewer.lit_scene().area_lights.len(),
             light_mode: viewer.light_mode,
         }
     }
@@ -192,11 +196,19 @@ impl HudInfo {
         )];
         if self.light.is_some() {
             lines.push(Line::new(
-                if self.light_mode {
-                    "l: back to orbit   t: light texture"
-                } else {
-                    "l or hold Shift: edit area light (drag moves, wheel scales)   t: light texture"
-                },
+                format!(
+                    "{}   t: light texture{}",
+                    if self.light_mode {
+                        "l: back to orbit"
+                    } else {
+                        "l or hold Shift: edit area light (drag moves, wheel scales)"
+                    },
+                    if self.lights > 1 {
+                        "   Tab: next light"
+                    } else {
+                        ""
+                    }
+                ),
                 GREY,
             ));
         }
@@ -221,17 +233,24 @@ impl HudInfo {
     }
 }
 
-/// The area light of the last frame (centre, size, texture), when the scene
-/// has one.
+/// The edited area light of the last frame (which of how many, centre,
+/// size, texture), when the scene has one.
 fn light_line(viewer: &Viewer) -> Option<String> {
-    let l = viewer.lit_scene().area_lights.first()?;
+    let lights = &viewer.lit_scene().area_lights;
+    let i = viewer.edited_light();
+    let l = lights.get(i)?;
+    let which = if lights.len() > 1 {
+        format!(" {} of {} (Tab: next)", i + 1, lights.len())
+    } else {
+        String::new()
+    };
     let c = l.center;
     let texture = match viewer.light_edit().texture {
         crate::light::LightTexture::Scene if l.texture.is_none() => "none",
         t => t.name(),
     };
     Some(format!(
-        "area light: centre ({:.2}, {:.2}, {:.2}) · {:.2} × {:.2} · texture {texture}",
+        "area light{which}: centre ({:.2}, {:.2}, {:.2}) · {:.2} × {:.2} · texture {texture}",
         c.x, c.y, c.z, l.size.x, l.size.y
     ))
 }
@@ -444,14 +463,20 @@ pub fn draw_progress(canvas: &mut Canvas, status: &PrepareStatus) {
 struct ViewKey {
     camera: Camera,
     light: [f32; 2],
-    edit: LightEdit,
+    /// The edited light, its edit and the resets so far: together they
+    /// change with every area-light edit.
+    edit: (usize, LightEdit, u32),
 }
 
 fn key_of(viewer: &Viewer, width: usize, height: usize) -> ViewKey {
     ViewKey {
         camera: viewer.camera(width, height),
         light: [viewer.light_yaw_deg, viewer.light_pitch_deg],
-        edit: viewer.light_edit(),
+        edit: (
+            viewer.edited_light(),
+            viewer.light_edit(),
+            viewer.light_resets(),
+        ),
     }
 }
 

@@ -3,7 +3,8 @@
 //! `nearfield` method makes without a re-bake (`docs/nearfield.md`,
 //! *Run-time edits without a re-bake*), shown to every method alike.
 //!
-//! A [`LightEdit`] is applied to the scene's **first** area light as loaded,
+//! A [`LightEdit`] is kept per area light and applied to it as loaded
+//! (`Tab` picks the light the edits go to, the first at the start),
 //! before the lighting rotation ([`crate::Viewer`]'s right drag), so the
 //! edited light is what every method (and the reference) is given through
 //! `set_lighting`:
@@ -140,7 +141,7 @@ impl LightTextures {
     }
 }
 
-/// An edit of the scene's first area light (module docs).
+/// An edit of one of the scene's area lights (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightEdit {
     /// The centre's move along the light's own `x̂` and `ŷ` (world units).
@@ -357,6 +358,61 @@ mod tests {
             assert_eq!(light(&v).center, l0.center);
             assert!(diff(&f0, &back) <= 1e-4 * diff(&f0, &f3), "reset");
             assert_eq!((v.prepares(), bakes.0.load(Ordering::Relaxed)), (2, 1));
+        }
+
+        /// With several lights, `Tab` passes the edits on: each light
+        /// keeps its own edit, nearfield re-bakes nothing (the moved light
+        /// stays in its plane), the HUD names the edited light, and a reset
+        /// restores them all.
+        #[test]
+        fn tab_passes_the_edits_to_the_next_light() {
+            let s = relight_nearfield::scenes::floor_and_sphere_three_lights(6, 8, 32, 18, true);
+            let loaded: Vec<Vec3> = s.area_lights.iter().map(|l| l.center).collect();
+            let mut v = viewer(s);
+            let bakes = Bakes::default();
+            let f0 = v.frame(32, 18, false, &bakes).unwrap();
+            assert!(f0.message.is_none(), "{:?}", f0.message);
+            let centres = |v: &Viewer| -> Vec<Vec3> {
+                v.lit_scene().area_lights.iter().map(|l| l.center).collect()
+            };
+            assert_eq!(v.edited_light(), 0);
+            assert!(v.move_light(Vec2::new(0.2, 0.0)));
+            assert!(v.edit_next_light() && v.edit_next_light());
+            assert_eq!(v.edited_light(), 2);
+            assert!(v.move_light(Vec2::new(0.0, -0.1)) && v.scale_light(1.0));
+            let f1 = v.frame(32, 18, false, &bakes).unwrap();
+            assert!(diff(&f0, &f1) > 0.0, "the edits changed nothing");
+            let c = centres(&v);
+            let lights = &v.lit_scene().area_lights;
+            assert!((c[0] - (loaded[0] + 0.2 * lights[0].world_from_light.x_axis)).length() < 1e-6);
+            assert_eq!(c[1], loaded[1], "light 2 was never edited");
+            assert!((c[2] - (loaded[2] - 0.1 * lights[2].world_from_light.y_axis)).length() < 1e-6);
+            assert!(
+                (lights[2].size.x / 0.8 - 1.1).abs() < 1e-5,
+                "{}",
+                lights[2].size
+            );
+            assert_eq!(bakes.0.load(Ordering::Relaxed), 1, "an edit re-baked");
+            let info =
+                crate::hud::HudInfo::new(&v, &f1, crate::hud::ErrorReading::IsReference, 1.0);
+            let status: String = info.status_lines().iter().map(|l| l.text.clone()).collect();
+            assert!(status.contains("area light 3 of 3"), "{status}");
+            let help: String = info.help_lines().iter().map(|l| l.text.clone()).collect();
+            assert!(help.contains("Tab: next light"), "{help}");
+            // Back to the first: its edit is still there.
+            assert!(v.edit_next_light());
+            assert_eq!(
+                (v.edited_light(), v.light_edit().offset),
+                (0, Vec2::new(0.2, 0.0))
+            );
+            // A reset restores every light, also from the never-edited
+            // second light (whose own edit the reset leaves as it was).
+            assert!(v.edit_next_light());
+            v.frame(32, 18, false, &bakes).unwrap();
+            v.reset();
+            let f2 = v.frame(32, 18, false, &bakes).unwrap();
+            assert_eq!(centres(&v), loaded);
+            assert!(diff(&f0, &f2) <= 1e-4 * diff(&f0, &f1), "reset");
         }
 
         #[test]

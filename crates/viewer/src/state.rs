@@ -9,7 +9,7 @@
 //! | input | call |
 //! |---|---|
 //! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target; a change the method would bake again for ([`Relighter::lighting_rebakes`]: nearfield's tilted area light) waits for the release, the drag's frames keeping the last lighting with a note; at the release the window bakes it on its worker thread ([`Viewer::lighting_bake_due`], [`Viewer::apply_lighting`]) |
-//! | area-light edit (move in its plane, scale, texture; [`crate::light`]) | [`Relighter::set_lighting`] with the scene's first area light edited, then turned by the lighting rotation — never a new `prepare` |
+//! | area-light edit (move in its plane, scale, texture; [`crate::light`]) | [`Relighter::set_lighting`] with the scene's area lights edited (`Tab` picks which one the edits go to), then turned by the lighting rotation — never a new `prepare` |
 //! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera |
 //! | still view | progressive antialiasing: each [`Viewer::frame`] adds one pass of one sample per pixel at the next sub-pixel offset of an `aa × aa` grid ([`Camera::with_pixel_offset`]) to a running mean, until `aa²` passes ([`Viewer::refining`]); Monte Carlo methods (the reference) instead add a pass of their own samples per frame |
 //!
@@ -165,7 +165,12 @@ fn shown_scene<'a>(posed: &'a Option<(f32, Scene)>, lit_scene: &'a Scene) -> &'a
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Lighting {
     rotation: Mat3,
+    /// The edited light and its edit (the others' edits change only
+    /// while they are the edited one).
+    light: usize,
     edit: LightEdit,
+    /// Bumped by a reset, which may change lights other than the edited one.
+    resets: u32,
 }
 
 /// What a run of antialiasing passes accumulates for.
@@ -193,10 +198,14 @@ pub struct Viewer {
     /// The scene with the current lighting rotation and light edit applied.
     lit_scene: Scene,
     lit: Lighting,
-    /// The edit of the scene's first area light ([`crate::light`]).
-    light_edit: LightEdit,
-    /// Its built-in textures (empty without an area light).
-    light_textures: LightTextures,
+    /// The edit of each area light ([`crate::light`]).
+    light_edits: Vec<LightEdit>,
+    /// Each area light's built-in textures.
+    light_textures: Vec<LightTextures>,
+    /// The area light the edits go to (the `Tab` key).
+    edited_light: usize,
+    /// Resets so far ([`Lighting::resets`]).
+    resets: u32,
     /// Light-editing mode (the `l` key): a left drag moves the area light
     /// and the wheel scales it, instead of orbiting and zooming.
     pub light_mode: bool,
@@ -250,19 +259,23 @@ impl Viewer {
                     why: "is not among the viewer's methods",
                 })?;
         let orbit = Orbit::from_camera(&scene.camera);
-        let light_textures = scene
+        let light_textures: Vec<LightTextures> = scene
             .area_lights
-            .first()
+            .iter()
             .map(LightTextures::for_light)
-            .unwrap_or_default();
+            .collect();
         Ok(Self {
             lit_scene: scene.clone(),
             lit: Lighting {
                 rotation: Mat3::IDENTITY,
+                light: 0,
                 edit: LightEdit::default(),
+                resets: 0,
             },
-            light_edit: LightEdit::default(),
+            light_edits: vec![LightEdit::default(); light_textures.len()],
             light_textures,
+            edited_light: 0,
+            resets: 0,
             light_mode: false,
             prepares: 0,
             scene,
@@ -335,12 +348,14 @@ impl Viewer {
         true
     }
 
-    /// Back to the starting camera and lighting (the area light as loaded).
+    /// Back to the starting camera and lighting (every area light as
+    /// loaded; the edited one stays selected).
     pub fn reset(&mut self) {
         self.orbit = self.home;
         self.light_yaw_deg = 0.0;
         self.light_pitch_deg = 0.0;
-        self.light_edit = LightEdit::default();
+        self.light_edits.fill(LightEdit::default());
+        self.resets = self.resets.wrapping_add(1);
     }
 
     /// True when the scene has an area light to edit ([`crate::light`]).
@@ -349,24 +364,55 @@ impl Viewer {
         !self.scene.area_lights.is_empty()
     }
 
-    /// The current edit of the scene's first area light.
+    /// The current edit of the edited area light ([`Self::edited_light`]).
     #[must_use]
     pub fn light_edit(&self) -> LightEdit {
-        self.light_edit
+        self.light_edits
+            .get(self.edited_light)
+            .copied()
+            .unwrap_or_default()
     }
 
-    /// Moves the area light by `delta` along its own `x̂` and `ŷ` (world
+    /// How many times [`Self::reset`] ran (a reset may change lights other
+    /// than the edited one).
+    #[must_use]
+    pub fn light_resets(&self) -> u32 {
+        self.resets
+    }
+
+    /// The index of the area light that moves, scales and textures go to.
+    #[must_use]
+    pub fn edited_light(&self) -> usize {
+        self.edited_light
+    }
+
+    /// Edits go to the next area light (the `Tab` key; after the last, the
+    /// first). False without an area light.
+    pub fn edit_next_light(&mut self) -> bool {
+        if !self.has_area_light() {
+            return false;
+        }
+        self.edited_light = (self.edited_light + 1) % self.light_edits.len();
+        true
+    }
+
+    /// The edited light's edit, for changing.
+    fn edit_mut(&mut self) -> &mut LightEdit {
+        &mut self.light_edits[self.edited_light]
+    }
+
+    /// Moves the edited area light by `delta` along its own `x̂` and `ŷ` (world
     /// units, in its plane). False, and nothing changes, without an area
     /// light or for a non-finite `delta`.
     pub fn move_light(&mut self, delta: Vec2) -> bool {
         if !self.has_area_light() || !delta.is_finite() {
             return false;
         }
-        self.light_edit.offset += delta;
+        self.edit_mut().offset += delta;
         true
     }
 
-    /// Moves the area light in its plane so that the point of the plane
+    /// Moves the edited area light in its plane so that the point of the plane
     /// under pixel `from` of a `width × height` frame goes under pixel `to`
     /// (the light follows the cursor). A step is at most the orbit's
     /// distance to its target. False, and nothing changes, without an area
@@ -383,7 +429,7 @@ impl Viewer {
             return false;
         }
         self.update_lighting();
-        let l = &self.lit_scene.area_lights[0];
+        let l = &self.lit_scene.area_lights[self.edited_light];
         let (c, n) = (l.center, l.normal());
         let (x, y) = (l.world_from_light.x_axis, l.world_from_light.y_axis);
         let rays = self.camera(width, height).ray_frame();
@@ -401,24 +447,25 @@ impl Viewer {
         self.move_light(Vec2::new(step.dot(x), step.dot(y)))
     }
 
-    /// Scales the area light by [`crate::light::SCALE_PER_STEP`] per
+    /// Scales the edited area light by [`crate::light::SCALE_PER_STEP`] per
     /// `steps` (wheel steps; negative: smaller). False without an area light.
     pub fn scale_light(&mut self, steps: f32) -> bool {
         if !self.has_area_light() {
             return false;
         }
-        self.light_edit.scale_by_steps(steps);
+        self.edit_mut().scale_by_steps(steps);
         true
     }
 
-    /// Gives the area light the next texture ([`crate::light::LightTexture`]:
+    /// Gives the edited area light the next texture ([`crate::light::LightTexture`]:
     /// the scene's own, checker, stripes, gradient; the `t` key). False
     /// without an area light.
     pub fn cycle_light_texture(&mut self) -> bool {
         if !self.has_area_light() {
             return false;
         }
-        self.light_edit.texture = self.light_edit.texture.next();
+        let e = self.edit_mut();
+        e.texture = e.texture.next();
         true
     }
 
@@ -441,7 +488,9 @@ impl Viewer {
     fn lighting(&self) -> Lighting {
         Lighting {
             rotation: self.light_rotation(),
-            edit: self.light_edit,
+            light: self.edited_light,
+            edit: self.light_edit(),
+            resets: self.resets,
         }
     }
 
@@ -477,7 +526,7 @@ impl Viewer {
         }
     }
 
-    /// Brings `lit_scene` to the current lighting: the first area light
+    /// Brings `lit_scene` to the current lighting: the area lights
     /// edited ([`crate::light`]), then the environment turned and the point
     /// and area lights carried about the home orbit target.
     fn update_lighting(&mut self) {
@@ -493,12 +542,10 @@ impl Viewer {
         for (l, l0) in s.point_lights.iter_mut().zip(&src.point_lights) {
             l.position = target + r * (l0.position - target);
         }
-        for (i, (l, l0)) in s.area_lights.iter_mut().zip(&src.area_lights).enumerate() {
-            *l = if i == 0 {
-                lighting.edit.apply(l0, &self.light_textures)
-            } else {
-                l0.clone()
-            };
+        let edits = self.light_edits.iter().zip(&self.light_textures);
+        for ((l, l0), (edit, textures)) in s.area_lights.iter_mut().zip(&src.area_lights).zip(edits)
+        {
+            *l = edit.apply(l0, textures);
             // Unturned, the light is exactly the edited one (a reset gives
             // the scene's own, bit for bit).
             if r != Mat3::IDENTITY {

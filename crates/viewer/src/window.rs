@@ -11,7 +11,7 @@
 //! With an area light in the scene ([`crate::light`]): `l` toggles the
 //! light-editing mode (or hold Shift), in which a left drag moves the first
 //! area light in its own plane, following the cursor, and the wheel scales
-//! it; `t` cycles its texture. Every edit reaches the methods through
+//! it; `t` cycles its texture; `Tab` passes the edits to the next light. Every edit reaches the methods through
 //! `set_lighting`, in the next frame, without preparing again.
 //!
 //! A method prepares (bakes or loads its data) on a worker thread the first
@@ -411,6 +411,14 @@ impl<'s, 'e> App<'s, 'e> {
     fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) -> Result<(), ViewerError> {
         match key {
             Key::Named(NamedKey::Escape) => self.quit(event_loop),
+            Key::Named(NamedKey::Tab) => {
+                let Some(viewer) = self.viewer.as_mut() else {
+                    return Ok(());
+                };
+                if !viewer.edit_next_light() {
+                    return Ok(());
+                }
+            }
             Key::Character(c) => {
                 if c.as_str() == "q" {
                     self.quit(event_loop);
