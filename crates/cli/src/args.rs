@@ -199,6 +199,10 @@ pub struct SceneArgs {
     /// the intensity.
     #[arg(long)]
     pub light_texture: Option<PathBuf>,
+    /// Which of the scene's `[[area_light]]`s the `--light-*` flags edit,
+    /// counting from 1 in file order (needed when the scene has several).
+    #[arg(long)]
+    pub light_index: Option<usize>,
 }
 
 impl SceneArgs {
@@ -210,6 +214,7 @@ impl SceneArgs {
             || self.light_orientation.is_some()
             || self.light_intensity.is_some()
             || self.light_texture.is_some()
+            || self.light_index.is_some()
     }
 }
 

@@ -7,7 +7,7 @@
 use crate::args::SceneArgs;
 use crate::output::warn_all;
 use crate::parse::{parse_floats, parse_size};
-use anyhow::{Result, anyhow, ensure};
+use anyhow::{Result, anyhow, bail, ensure};
 use glam::{Vec2, Vec3};
 use relight_brdf::BrdfSpec;
 use relight_render::{AreaLight, Medium, Object, PointLight, Scene};
@@ -54,22 +54,29 @@ pub fn load_normal_map(path: &Path) -> Result<relight_render::NormalMap> {
         .map_err(|e| anyhow!("{}: not a normal map: {e}", path.display()))
 }
 
-/// Applies the `--light-*` area-light flags: edits the scene's one area
-/// light, or adds one (then `--light-center` is needed). Each bad value is a
-/// one-line error naming its flag.
+/// Applies the `--light-*` area-light flags: edits the scene's area light
+/// number `--light-index` (from 1; the one light without it), or adds one
+/// to a scene without (then `--light-center` is needed). Each bad value is
+/// a one-line error naming its flag.
 fn apply_area_light_flags(a: &SceneArgs, scene: &mut Scene) -> Result<()> {
-    ensure!(
-        scene.area_lights.len() <= 1,
-        "--light-center/--light-size/--light-orientation/--light-intensity/--light-texture edit one area light; the scene has {}",
-        scene.area_lights.len()
-    );
+    let count = scene.area_lights.len();
+    let index = match (a.light_index, count) {
+        (Some(i), n) if (1..=n).contains(&i) => Some(i - 1),
+        (Some(i), 0) => bail!("--light-index {i}: the scene has no [[area_light]]"),
+        (Some(i), n) => bail!("--light-index {i}: must be 1…{n} (the scene's area lights)"),
+        (None, 0) => None,
+        (None, 1) => Some(0),
+        (None, n) => bail!(
+            "--light-center/--light-size/--light-orientation/--light-intensity/--light-texture edit one area light; the scene has {n}: give --light-index 1…{n}"
+        ),
+    };
     let center = a
         .light_center
         .as_deref()
         .map(|c| parse_floats(c, 3, "--light-center").map(|v| Vec3::new(v[0], v[1], v[2])))
         .transpose()?;
-    let mut light = match scene.area_lights.pop() {
-        Some(l) => l,
+    let mut light = match index {
+        Some(i) => scene.area_lights.remove(i),
         None => AreaLight {
             center: center.ok_or_else(|| {
                 anyhow!(
@@ -116,7 +123,9 @@ fn apply_area_light_flags(a: &SceneArgs, scene: &mut Scene) -> Result<()> {
         warn_all(&warnings);
         light.texture = Some(Arc::new(tex));
     }
-    scene.area_lights.push(light);
+    scene
+        .area_lights
+        .insert(index.unwrap_or(scene.area_lights.len()), light);
     Ok(())
 }
 

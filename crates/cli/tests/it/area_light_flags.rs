@@ -1,6 +1,6 @@
-//! The `--light-*` area-light scene flags (issue 13): they add or edit the
-//! scene's one `[[area_light]]` for every method, and a bad value is a
-//! one-line error naming the flag.
+//! The `--light-*` area-light scene flags (issue 13): they add an
+//! `[[area_light]]` or edit one (`--light-index` picks which) for every
+//! method, and a bad value is a one-line error naming the flag.
 
 use crate::common::{assert_one_line_error, tmp};
 use std::process::{Command, Output};
@@ -186,4 +186,86 @@ fn light_sampling_flag_picks_the_reference_strategy() {
         out,
     ]);
     assert_one_line_error(&relight(&other), &["--light-sampling", "sh"]);
+}
+
+/// With several `[[area_light]]`s the flags need `--light-index` (from 1),
+/// and edit only that light: the two lights' images, each with the other
+/// turned off by `--light-intensity 0`, add up to the image of both
+/// (nearfield propagates each light on its own).
+#[test]
+fn light_index_picks_the_light_the_flags_edit() {
+    let scene = tmp("two-lights.toml");
+    std::fs::write(
+        &scene,
+        r#"visibility = false
+[environment]
+builtin = "black"
+[camera]
+eye = [0.0, 2.0, 3.4]
+target = [0.0, 0.3, 0.0]
+fov = 45.0
+size = [40, 24]
+[[object]]
+builtin = "ground-grid"
+brdf = "lambert:0.7"
+[[area_light]]
+center = [0.0, 1.2, 0.0]
+size = [1.0, 0.6]
+normal = [0.0, -1.0, 0.0]
+intensity = 2.0
+[[area_light]]
+center = [-1.0, 1.2, -0.5]
+size = [0.4, 0.4]
+normal = [0.0, -1.0, 0.0]
+intensity = [1.0, 2.0, 3.0]
+"#,
+    )
+    .unwrap();
+    let scene = scene.to_str().unwrap();
+    let run = |name: &str, extra: &[&str]| -> f32 {
+        let out = tmp(name);
+        let mut args = vec![
+            "-q",
+            "render",
+            scene,
+            "--method",
+            "nearfield",
+            "--order",
+            "8",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = relight(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        mean_of(&out.with_extension("exr"))
+    };
+    let both = run("index-both.png", &[]);
+    let first = run(
+        "index-first.png",
+        &["--light-index", "2", "--light-intensity", "0"],
+    );
+    let second = run(
+        "index-second.png",
+        &["--light-index", "1", "--light-intensity", "0"],
+    );
+    assert!(first > 0.01 && second > 0.01, "{first} {second}");
+    assert!(
+        ((first + second) / both - 1.0).abs() < 2e-3,
+        "{first} + {second} vs {both}"
+    );
+    let out = tmp("index-bad.png");
+    let out = out.to_str().unwrap();
+    for (extra, words) in [
+        (
+            &["--light-intensity", "0"][..],
+            &["--light-index", "has 2"][..],
+        ),
+        (&["--light-index", "3"][..], &["--light-index", "1…2"][..]),
+        (&["--light-index", "0"][..], &["--light-index", "1…2"][..]),
+    ] {
+        let mut args = vec!["render", scene, "--method", "nearfield", "--out", out];
+        args.extend(extra);
+        assert_one_line_error(&relight(&args), words);
+    }
 }
