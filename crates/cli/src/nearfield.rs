@@ -149,18 +149,23 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar, per_vertex_only: bool)
 /// `relight bench nearfield`: Fig. 4.11's table and the bake.
 pub fn bench(a: &BenchArgs, report: &Report, bar: &Bar) -> Result<()> {
     let opts = BenchOptions::new(a.quick, relight_viewer::bench::MACHINE_GFMA);
-    let (rows, bakes) = bench_nearfield(&opts, bar)?;
+    let b = bench_nearfield(&opts, bar)?;
     report.table(
         &format!(
             "relight bench nearfield: Fig. 4.11 (order 32, face 4, shadows; frame = propagation + Gouraud raster at {}×{}; thesis 3 GHz 1/8 threads)",
             opts.width, opts.height
         ),
-        &rows,
+        &b.rows,
         &[],
     )?;
     report.table(
         "relight bench nearfield: bake (transport with shadows)",
-        &bakes,
+        &b.bakes,
+        &[],
+    )?;
+    report.table(
+        "relight bench nearfield: several lights (one bake per light plane, one propagation per light; propagation alone, both threads, wall clock)",
+        &b.lights,
         &[],
     )
 }

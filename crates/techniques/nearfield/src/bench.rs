@@ -1,10 +1,12 @@
 //! `relight bench nearfield`: Fig. 4.11's table — propagation and
 //! full-frame rates per compression on three scenes — against the thesis'
 //! 1-thread (must) and 8-thread (target) figures, the work per vertex
-//! against the machine's FMA ceiling, and the bake time.
+//! against the machine's FMA ceiling, the bake time, and what several
+//! lights cost (not in the thesis: the method's module docs, "Several
+//! lights").
 
 use crate::method::{NearfieldMethod, NearfieldOptions};
-use crate::scenes::floor_and_sphere;
+use crate::scenes::{floor_and_sphere, floor_and_sphere_three_lights};
 use relight_render::method::{FrameRequest, MethodError, Relighter};
 use relight_render::{NoProgress, Progress};
 use serde::Serialize;
@@ -90,6 +92,37 @@ pub struct BakeRow {
     pub data_mb: f64,
 }
 
+/// Several lights on the first scene ([`floor_and_sphere_three_lights`]):
+/// one bake per light plane, one propagation per light.
+#[derive(Clone, Debug, Serialize)]
+pub struct LightsRow {
+    pub scene: String,
+    pub vertices: usize,
+    pub lights: usize,
+    pub planes: usize,
+    pub compression: String,
+    /// The bake of every plane, with shadows (s).
+    pub bake_s: f64,
+    pub data_mb: f64,
+    pub fma_per_vertex: f64,
+    /// The propagation of every light, every thread, wall clock (ms).
+    pub propagate_ms: f64,
+    /// The same for the first light alone, on the same bake (ms).
+    pub propagate_ms_first_light: f64,
+    /// `propagate_ms / propagate_ms_first_light` (≈ the lights, when each
+    /// costs what the first does).
+    pub ratio: f64,
+}
+
+/// Everything `relight bench nearfield` prints.
+#[derive(Clone, Debug)]
+pub struct NearfieldBench {
+    /// Fig. 4.11's table.
+    pub rows: Vec<BenchRow>,
+    pub bakes: Vec<BakeRow>,
+    pub lights: Vec<LightsRow>,
+}
+
 /// Settings of [`bench_nearfield`].
 #[derive(Clone, Debug)]
 pub struct BenchOptions {
@@ -168,14 +201,14 @@ fn min_cpu_ms(repeats: usize, mut f: impl FnMut()) -> f64 {
     }
 }
 
-/// The table and the bake rows.
+/// The tables.
 ///
 /// # Errors
 /// A method failure.
 pub fn bench_nearfield(
     opts: &BenchOptions,
     progress: &dyn Progress,
-) -> Result<(Vec<BenchRow>, Vec<BakeRow>), MethodError> {
+) -> Result<NearfieldBench, MethodError> {
     let mut rows = Vec::new();
     let mut bakes = Vec::new();
     let one = rayon::ThreadPoolBuilder::new()
@@ -257,5 +290,55 @@ pub fn bench_nearfield(
             });
         }
     }
-    Ok((rows, bakes))
+    let lights = bench_lights(opts, progress)?;
+    Ok(NearfieldBench {
+        rows,
+        bakes,
+        lights,
+    })
+}
+
+/// [`LightsRow`]s at 1 %/20 % and 5 %/40 %.
+fn bench_lights(
+    opts: &BenchOptions,
+    progress: &dyn Progress,
+) -> Result<Vec<LightsRow>, MethodError> {
+    let Some(&(floor, seg)) = opts.scenes.first() else {
+        return Ok(Vec::new());
+    };
+    let scene = floor_and_sphere_three_lights(floor, seg, opts.width, opts.height, true);
+    let verts: usize = scene.objects.iter().map(|o| o.mesh.positions.len()).sum();
+    let mut m = NearfieldMethod::new(NearfieldOptions::default())?;
+    let t = Instant::now();
+    m.prepare(&scene, progress)?;
+    let bake_s = t.elapsed().as_secs_f64() - m.last_times.iter().sum::<f64>() * 1e-3;
+    // The first light alone, as a scene of its own: its bake is the same
+    // transport as the three-light scene's first plane.
+    let mut first = scene.clone();
+    first.area_lights.truncate(1);
+    let mut one = NearfieldMethod::new(NearfieldOptions::default())?;
+    one.prepare(&first, progress)?;
+    let mut rows = Vec::new();
+    for (s, tt) in [(0.01, 0.20), (0.05, 0.40)] {
+        m.set_compression(s, tt);
+        m.set_lighting(&scene, &NoProgress)?;
+        one.set_compression(s, tt);
+        one.set_lighting(&first, &NoProgress)?;
+        let all = min_ms(opts.repeats, || m.propagate());
+        let alone = min_ms(opts.repeats, || one.propagate());
+        rows.push(LightsRow {
+            scene: "floor+sphere, three lights".into(),
+            vertices: verts,
+            lights: scene.area_lights.len(),
+            planes: m.planes(),
+            compression: format!("{:.0} %/{:.0} %", s * 100.0, tt * 100.0),
+            bake_s,
+            data_mb: m.data_bytes() as f64 / 1e6,
+            fma_per_vertex: m.propagate_fma() / verts as f64,
+            propagate_ms: all,
+            propagate_ms_first_light: alone,
+            ratio: all / alone,
+        });
+    }
+    Ok(rows)
 }
