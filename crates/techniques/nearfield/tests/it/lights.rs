@@ -134,3 +134,24 @@ fn each_plane_is_cached_and_one_file_holds_one_plane() {
     assert!(e.contains("2 planes"), "{e}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A glossy object under several lights: each plane gets its fixed-view
+/// transport, and when the scene's camera moves every plane's is baked
+/// again (the Lambertian floor's kept) — the same colours as a fresh
+/// prepare from the new eye, bit for bit.
+#[test]
+fn a_camera_move_rebakes_every_planes_fixed_view() {
+    let mut s = scene();
+    s.objects[0].brdf = relight_nearfield::scenes::glossy_brdfs()[0].clone();
+    let mut m = method();
+    m.prepare(&s, &NoProgress).unwrap();
+    assert_eq!((m.bakes(), m.planes()), (1, 2));
+    s.camera.eye = Vec3::new(-2.0, 1.5, 2.5);
+    assert!(m.lighting_rebakes(&s));
+    m.set_lighting(&s, &NoProgress).unwrap();
+    assert_eq!((m.bakes(), m.planes()), (2, 2));
+    assert_eq!(m.baked_eye(), Some(s.camera.eye));
+    let mut fresh = method();
+    fresh.prepare(&s, &NoProgress).unwrap();
+    assert_eq!(fresh.vertex_colors(), m.vertex_colors());
+}
