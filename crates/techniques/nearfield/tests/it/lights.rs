@@ -155,3 +155,67 @@ fn a_camera_move_rebakes_every_planes_fixed_view() {
     fresh.prepare(&s, &NoProgress).unwrap();
     assert_eq!(fresh.vertex_colors(), m.vertex_colors());
 }
+
+/// The parallel-rectangle integral behind the face-clipping warning
+/// against midpoint quadrature, and the clipped share of a light that
+/// fills the plane against the face's own Lambertian share
+/// ([`relight_nearfield::face::lobe_fraction`]).
+#[test]
+fn the_clipped_share_matches_quadrature() {
+    use relight_nearfield::method::{face_clipping, parallel_rect_integral};
+    let quad = |x: [f64; 2], y: [f64; 2]| {
+        let n = 600;
+        let (hx, hy) = ((x[1] - x[0]) / n as f64, (y[1] - y[0]) / n as f64);
+        let mut sum = 0.0;
+        for j in 0..n {
+            let v = y[0] + (j as f64 + 0.5) * hy;
+            for i in 0..n {
+                let u = x[0] + (i as f64 + 0.5) * hx;
+                sum += (1.0 + u * u + v * v).powi(-2);
+            }
+        }
+        sum * hx * hy
+    };
+    for (x, y) in [
+        ([0.0, 1.0], [0.0, 2.0]),
+        ([-0.7, 1.3], [-2.0, -0.4]),
+        ([2.5, 5.5], [-0.3, 0.3]),
+    ] {
+        let (got, want) = (parallel_rect_integral(x, y), quad(x, y));
+        assert!(
+            (got / want - 1.0).abs() < 1e-5,
+            "{x:?} × {y:?}: {got} vs {want}"
+        );
+    }
+    // A light filling the plane (tiny s) centred on the vertex (o = ½ − s/2):
+    // π in all, the face's Lambertian share of it kept.
+    let s = 1e-4;
+    let (all, kept) = face_clipping([s, s], [0.5 - 0.5 * s, 0.5 - 0.5 * s], 4.0);
+    let want = relight_nearfield::face::lobe_fraction(4.0, 2000);
+    assert!((all / std::f64::consts::PI - 1.0).abs() < 1e-3, "{all}");
+    assert!((kept / all - want).abs() < 1e-3, "{} vs {want}", kept / all);
+    // A light inside the face loses nothing.
+    let (all, kept) = face_clipping([4.0, 4.0], [-1.5, -1.5], 4.0);
+    assert!(all > 0.0 && kept == all, "{all} {kept}");
+}
+
+/// The wall light of the three-light scene falls past the face of the floor
+/// vertices just in front of it, and the method says so (the ceiling light
+/// does not; the small panel does, for a sphere vertex); the one-light
+/// scene does not warn.
+#[test]
+fn light_past_the_face_is_a_warning() {
+    let mut m = method();
+    m.prepare(&scene(), &NoProgress).unwrap();
+    let w = m.warnings().join("\n");
+    assert!(w.contains("area light 3 falls past the face"), "{w}");
+    assert!(!w.contains("area light 1 falls"), "{w}");
+    let mut one = method();
+    one.prepare(
+        &relight_nearfield::scenes::floor_and_sphere(8, 8, 32, 24, true),
+        &NoProgress,
+    )
+    .unwrap();
+    let w = one.warnings().join("\n");
+    assert!(!w.contains("falls past"), "{w}");
+}
