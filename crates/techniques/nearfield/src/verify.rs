@@ -420,6 +420,51 @@ pub fn verify_rows(
     Ok(rows)
 }
 
+/// Per-vertex colours of `scene`'s Lambertian objects (`albedos`) lit
+/// exactly by every area light: by `samples²` points over the light's area
+/// (`face: None`), or by `(1.5 samples)²` over its footprint on the face of
+/// side `face` ([`face_quadrature`], the light's own frame); shadows by
+/// `bvh`.
+fn exact_vertex_colors(
+    scene: &Scene,
+    albedos: &[Vec3],
+    bvh: &SceneBvh,
+    samples: usize,
+    face: Option<f64>,
+) -> Vec<Vec<Vec3>> {
+    scene
+        .objects
+        .iter()
+        .zip(albedos)
+        .map(|(o, a)| {
+            let k = *a / std::f32::consts::PI;
+            (0..o.mesh.positions.len())
+                .into_par_iter()
+                .map(|v| {
+                    let (p, nn) = (o.mesh.positions[v], o.mesh.normals[v]);
+                    let b: Vec3 = scene
+                        .area_lights
+                        .iter()
+                        .map(|l| match face {
+                            None => area_quadrature(l, p, nn, samples, Some(bvh)),
+                            Some(f) => face_quadrature(
+                                &LightFrame::of(l),
+                                f,
+                                p,
+                                nn,
+                                samples * 3 / 2,
+                                &|uv| l.radiance_at(uv),
+                                Some(bvh),
+                            ),
+                        })
+                        .sum();
+                    k * b
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// The reference render of `scene` the image rows judge by
 /// (`opts.reference_spp`; each scene its own `seed`).
 pub(crate) fn reference_render(
@@ -452,7 +497,6 @@ fn image_rows(
     let mut scene = base.clone();
     scene.visibility = true;
     let light = scene.area_lights[0].clone();
-    let frame = LightFrame::of(&light);
     let reference = reference_render(&scene, opts, 7, progress)?;
     let nf = NearfieldOptions::default();
     let mut m = NearfieldMethod::new(NearfieldOptions {
@@ -480,35 +524,7 @@ fn image_rows(
     let meshes: Vec<_> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
     let bvh = SceneBvh::build(&meshes);
     let albedos = m.albedos();
-    let samples = opts.image_samples;
-    let per_vertex = |face: Option<f64>| -> Vec<Vec<Vec3>> {
-        scene
-            .objects
-            .iter()
-            .zip(&albedos)
-            .map(|(o, a)| {
-                let k = *a / std::f32::consts::PI;
-                (0..o.mesh.positions.len())
-                    .into_par_iter()
-                    .map(|v| {
-                        let (p, nn) = (o.mesh.positions[v], o.mesh.normals[v]);
-                        k * match face {
-                            None => area_quadrature(&light, p, nn, samples, Some(&bvh)),
-                            Some(f) => face_quadrature(
-                                &frame,
-                                f,
-                                p,
-                                nn,
-                                samples * 3 / 2,
-                                &|uv| light.radiance_at(uv),
-                                Some(&bvh),
-                            ),
-                        }
-                    })
-                    .collect()
-            })
-            .collect()
-    };
+    let per_vertex = |face| exact_vertex_colors(&scene, &albedos, &bvh, opts.image_samples, face);
     let render_colors = |m: &mut NearfieldMethod, colors: Vec<Vec<Vec3>>| -> Result<f64, String> {
         let saved = m.replace_colors(colors);
         let r = m.render(&scene, &request, progress).map_err(fail)?;
@@ -704,49 +720,12 @@ fn three_lights_rows(
         None,
         "relight_render::reference",
     )];
-    // The ladder's first rungs: each vertex lit exactly (area quadrature
-    // of every light, shadows), then only through each light's face,
-    // drawn through the same Gouraud raster.
+    // The ladder's first rungs: each vertex lit exactly by every light,
+    // then only through each light's face, drawn through the same raster.
     let meshes: Vec<_> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
     let bvh = SceneBvh::build(&meshes);
     let face = m.options().face;
     let albedos = m.albedos();
-    let samples = opts.image_samples;
-    let exact = |clipped: bool| -> Vec<Vec<Vec3>> {
-        scene
-            .objects
-            .iter()
-            .zip(&albedos)
-            .map(|(o, a)| {
-                (0..o.mesh.positions.len())
-                    .into_par_iter()
-                    .map(|v| {
-                        let (p, nn) = (o.mesh.positions[v], o.mesh.normals[v]);
-                        let b: Vec3 = scene
-                            .area_lights
-                            .iter()
-                            .map(|l| {
-                                if clipped {
-                                    face_quadrature(
-                                        &LightFrame::of(l),
-                                        face,
-                                        p,
-                                        nn,
-                                        samples * 3 / 2,
-                                        &|uv| l.radiance_at(uv),
-                                        Some(&bvh),
-                                    )
-                                } else {
-                                    area_quadrature(l, p, nn, samples, Some(&bvh))
-                                }
-                            })
-                            .sum();
-                        b * *a / std::f32::consts::PI
-                    })
-                    .collect()
-            })
-            .collect()
-    };
     for (clipped, what) in [
         (
             false,
@@ -754,7 +733,14 @@ fn three_lights_rows(
         ),
         (true, "face-clipped exact per-vertex: + face truncation"),
     ] {
-        let saved = m.replace_colors(exact(clipped));
+        let colors = exact_vertex_colors(
+            &scene,
+            &albedos,
+            &bvh,
+            opts.image_samples,
+            clipped.then_some(face),
+        );
+        let saved = m.replace_colors(colors);
         let r = m.render(&scene, &request, progress).map_err(fail)?;
         m.replace_colors(saved);
         rows.push(row(
