@@ -23,7 +23,8 @@
 //!
 //! Light outside the face (grazing directions, `|v_i| > S/2`) is dropped;
 //! [`lobe_fraction`] gives the share of a centred Lambertian lobe the face
-//! keeps (Fig. 4.7E's green curve).
+//! keeps (Fig. 4.7E's green curve), and [`face_clipping`] what one light
+//! loses at one vertex (the method's warning).
 
 use glam::{Mat3, Vec3};
 use relight_render::AreaLight;
@@ -117,4 +118,52 @@ pub fn solid_angle_fraction(face: f64, samples: usize) -> f64 {
         }
     }
     sum * h * h / (2.0 * std::f64::consts::PI)
+}
+
+/// Light dropped past the face at a vertex, as a share of the light's
+/// brightest vertex, that the method's warning starts at ([`face_clipping`]).
+pub const FACE_CLIPPING_WARNING: f64 = 0.05;
+
+/// `∫_0^x ∫_0^y (1 + u² + w²)⁻² dw du`, the projected solid angle of the
+/// rectangle `[0, x] × [0, y]` of a plane at unit distance, seen from a
+/// point whose normal faces the plane (the parallel-rectangle form factor
+/// × π); odd in `x` and in `y`.
+fn parallel_rect_corner(x: f64, y: f64) -> f64 {
+    let (rx, ry) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    0.5 * (x / rx * (y / rx).atan() + y / ry * (x / ry).atan())
+}
+
+/// [`parallel_rect_corner`] over `[x0, x1] × [y0, y1]`.
+#[must_use]
+pub fn parallel_rect_integral(x: [f64; 2], y: [f64; 2]) -> f64 {
+    parallel_rect_corner(x[1], y[1])
+        - parallel_rect_corner(x[0], y[1])
+        - parallel_rect_corner(x[1], y[0])
+        + parallel_rect_corner(x[0], y[0])
+}
+
+/// A uniform light's projected solid angle at a vertex with affine map
+/// `(s, o)` (eq. 4.34) whose normal faces the light's plane, whole and
+/// inside the face of side `face` (the rest is dropped, §4.5.4): the light
+/// covers `t ∈ [−o/s, (1 − o)/s]` per axis of the face `t ∈ [0, 1]²`, that
+/// is `v = face (t − ½)`, each point weighted by `(1 + |v|²)⁻²`.
+#[must_use]
+pub fn face_clipping(s: [f64; 2], o: [f64; 2], face: f64) -> (f64, f64) {
+    let h = 0.5 * face;
+    let span = |k: usize| {
+        [
+            face * (-o[k] / s[k] - 0.5),
+            face * ((1.0 - o[k]) / s[k] - 0.5),
+        ]
+    };
+    let (x, y) = (span(0), span(1));
+    let all = parallel_rect_integral(x, y).max(0.0);
+    let clip = |r: [f64; 2]| [r[0].max(-h), r[1].min(h)];
+    let (cx, cy) = (clip(x), clip(y));
+    let kept = if cx[0] < cx[1] && cy[0] < cy[1] {
+        parallel_rect_integral(cx, cy).clamp(0.0, all)
+    } else {
+        0.0
+    };
+    (all, kept)
 }

@@ -162,7 +162,7 @@ fn a_camera_move_rebakes_every_planes_fixed_view() {
 /// ([`relight_nearfield::face::lobe_fraction`]).
 #[test]
 fn the_clipped_share_matches_quadrature() {
-    use relight_nearfield::method::{face_clipping, parallel_rect_integral};
+    use relight_nearfield::face::{face_clipping, parallel_rect_integral};
     let quad = |x: [f64; 2], y: [f64; 2]| {
         let n = 600;
         let (hx, hy) = ((x[1] - x[0]) / n as f64, (y[1] - y[0]) / n as f64);
