@@ -206,7 +206,8 @@ pub struct SceneArgs {
 }
 
 impl SceneArgs {
-    /// True when any `--light-*` area-light flag is given.
+    /// True when any `--light-*` flag that edits an area light is given
+    /// (`--light-index` only says which light they edit).
     #[must_use]
     pub fn edits_area_light(&self) -> bool {
         self.light_center.is_some()
@@ -214,7 +215,6 @@ impl SceneArgs {
             || self.light_orientation.is_some()
             || self.light_intensity.is_some()
             || self.light_texture.is_some()
-            || self.light_index.is_some()
     }
 }
 

@@ -271,6 +271,10 @@ pub fn build_scene(
     }
     if a.edits_area_light() {
         apply_area_light_flags(a, &mut scene)?;
+    } else if let Some(i) = a.light_index {
+        bail!(
+            "--light-index {i}: says which area light the --light-center/--light-size/--light-orientation/--light-intensity/--light-texture flags edit, and none is given"
+        );
     }
     let time = a.time.unwrap_or(0.0);
     ensure!(

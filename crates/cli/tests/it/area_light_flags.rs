@@ -261,8 +261,18 @@ intensity = [1.0, 2.0, 3.0]
             &["--light-intensity", "0"][..],
             &["--light-index", "has 2"][..],
         ),
-        (&["--light-index", "3"][..], &["--light-index", "1…2"][..]),
-        (&["--light-index", "0"][..], &["--light-index", "1…2"][..]),
+        (
+            &["--light-index", "3", "--light-intensity", "0"][..],
+            &["--light-index", "1…2"][..],
+        ),
+        (
+            &["--light-index", "0", "--light-intensity", "0"][..],
+            &["--light-index", "1…2"][..],
+        ),
+        (
+            &["--light-index", "2"][..],
+            &["--light-index", "none is given"][..],
+        ),
     ] {
         let mut args = vec!["render", scene, "--method", "nearfield", "--out", out];
         args.extend(extra);
