@@ -41,6 +41,7 @@ pub mod scenes;
 pub mod specular;
 pub mod transport;
 pub mod verify;
+mod verify_judge;
 pub mod verify_specular;
 
 pub use light::Ranking;

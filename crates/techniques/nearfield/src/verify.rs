@@ -12,6 +12,7 @@ use crate::face::{LightFrame, lobe_fraction, solid_angle_fraction};
 use crate::light::{Ranking, light_cells};
 use crate::method::{NearfieldMethod, NearfieldOptions};
 use crate::scenes::{floor_and_sphere, floor_and_sphere_three_lights};
+use crate::verify_judge::{ImageJudge, image_row};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use relight_affine::standard::{forward_2d, propagate_two_step};
@@ -492,12 +493,10 @@ fn image_rows(
     opts: &VerifyOptions,
     progress: &dyn Progress,
 ) -> Result<Vec<VerifyRow>, String> {
-    let mut rows = Vec::new();
     const ISSUE: &str = "issue 13 (verify nearfield)";
     let mut scene = base.clone();
     scene.visibility = true;
     let light = scene.area_lights[0].clone();
-    let reference = reference_render(&scene, opts, 7, progress)?;
     let nf = NearfieldOptions::default();
     let mut m = NearfieldMethod::new(NearfieldOptions {
         source_terms: 1.0,
@@ -506,58 +505,30 @@ fn image_rows(
     })
     .map_err(fail)?;
     m.prepare(&scene, progress).map_err(fail)?;
-    let request = FrameRequest::new(scene.camera).with_aa(opts.aa);
-    let frame0 = m.render(&scene, &request, progress).map_err(fail)?;
-    let mask = frame0
-        .coverage
-        .as_ref()
-        .map(|c| c.object_mask())
-        .ok_or("no coverage")?;
-    let err = |img: &relight_render::Image| img.relative_rms_error(&reference.image, Some(&mask));
-    rows.push(row(
-        format!("reference noise σ_MC ({} spp)", reference.spp),
-        reference.rms_relative_std_error_over(&mask),
-        "relative RMS",
-        None,
-        "relight_render::reference",
-    ));
-    let meshes: Vec<_> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
-    let bvh = SceneBvh::build(&meshes);
-    let albedos = m.albedos();
-    let per_vertex = |face| exact_vertex_colors(&scene, &albedos, &bvh, opts.image_samples, face);
-    let render_colors = |m: &mut NearfieldMethod, colors: Vec<Vec<Vec3>>| -> Result<f64, String> {
-        let saved = m.replace_colors(colors);
-        let r = m.render(&scene, &request, progress).map_err(fail)?;
-        m.replace_colors(saved);
-        Ok(err(&r.image))
-    };
-    let e_gouraud = render_colors(&mut m, per_vertex(None))?;
-    let e_face = render_colors(&mut m, per_vertex(Some(nf.face)))?;
-    let e_full = err(&frame0.image);
-    rows.push(row(
+    let (judge, frame0) = ImageJudge::new(&mut m, &scene, opts, 7, progress)?;
+    let mut rows = vec![judge.noise_row("")];
+    let [e_gouraud, e_face] = exact_rungs(&judge, &mut m, &scene, opts, progress)?;
+    rows.push(image_row(
         "image: exact per-vertex light (area quadrature, shadows), Gouraud: Gouraud + σ_MC",
         e_gouraud,
-        "relative RMS vs reference",
         None,
         ISSUE,
     ));
-    rows.push(row(
+    rows.push(image_row(
         format!(
             "image: face-clipped exact per-vertex (face {}): + face truncation",
             nf.face
         ),
         e_face,
-        "relative RMS vs reference",
         None,
         ISSUE,
     ));
-    rows.push(row(
+    rows.push(image_row(
         format!(
             "image: nearfield order {} 100 %/100 %: + discretisation",
             nf.order
         ),
-        e_full,
-        "relative RMS vs reference",
+        judge.error(&frame0),
         None,
         ISSUE,
     ));
@@ -565,13 +536,12 @@ fn image_rows(
     for (s, t) in [(0.01, 0.20), (0.01, 0.01), (0.05, 0.40), (0.20, 0.70)] {
         m.set_compression(s, t);
         m.set_lighting(&scene, progress).map_err(fail)?;
-        let r = m.render(&scene, &request, progress).map_err(fail)?;
-        let e = err(&r.image);
+        let e = judge.render_error(&mut m, &scene, progress)?;
         let main = s == 0.01 && t == 0.20;
         if main {
             e_main = e;
         }
-        rows.push(row(
+        rows.push(image_row(
             format!(
                 "image: nearfield {:.0} %/{:.0} %{}",
                 s * 100.0,
@@ -579,15 +549,18 @@ fn image_rows(
                 if main { ": + compression" } else { "" }
             ),
             e,
-            "relative RMS vs reference",
-            main.then_some((0.08, true)),
+            main.then_some(0.08),
             ISSUE,
         ));
     }
-    rows.push(row(
+    rows.push(image_row(
         "image: nearfield 1 %/20 %, sources ranked by magnitude (default: area-weighted)",
-        err(&magnitude_ranked_image(&mut m, &scene, &request, progress)?),
-        "relative RMS vs reference",
+        judge.error(&magnitude_ranked_image(
+            &mut m,
+            &scene,
+            judge.request(),
+            progress,
+        )?),
         None,
         ISSUE,
     ));
@@ -595,11 +568,10 @@ fn image_rows(
     // the scene centre, uncompressed, with its own baked transport.
     let centre = scene_centre(&scene);
     let colors = distant_colors(&m, &light, centre);
-    let e_distant = render_colors(&mut m, colors)?;
-    rows.push(row(
+    let e_distant = judge.colors_error(&mut m, &scene, colors, progress)?;
+    rows.push(image_row(
         format!("image: distant baseline (light seen from the scene centre {centre:.2})"),
         e_distant,
-        "relative RMS vs reference",
         None,
         "sun-thesis-2008 Fig. 4.8C",
     ));
@@ -610,27 +582,46 @@ fn image_rows(
         Some((3.0, false)),
         ISSUE,
     ));
-    rows.extend(turned_rows(
-        &scene, &mut m, opts, &request, &mask, progress,
-    )?);
+    rows.extend(turned_rows(&scene, &mut m, opts, &judge, progress)?);
     Ok(rows)
+}
+
+/// The error ladder's first rungs for `m`'s scene (Lambertian, shadows):
+/// each vertex lit exactly by every light (area quadrature), then only
+/// through each light's face, both drawn through `m`'s raster.
+fn exact_rungs(
+    judge: &ImageJudge,
+    m: &mut NearfieldMethod,
+    scene: &Scene,
+    opts: &VerifyOptions,
+    progress: &dyn Progress,
+) -> Result<[f64; 2], String> {
+    let meshes: Vec<_> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
+    let bvh = SceneBvh::build(&meshes);
+    let albedos = m.albedos();
+    let face = m.options().face;
+    let mut rung = |face| {
+        let colors = exact_vertex_colors(scene, &albedos, &bvh, opts.image_samples, face);
+        judge.colors_error(m, scene, colors, progress)
+    };
+    Ok([rung(None)?, rung(Some(face))?])
 }
 
 /// The light turned 30° in its plane (thesis §4.5.6; `crate::rotate`) on
 /// the unturned bake of `m`, at 1 %/20 %, against a reference render of the
-/// turned light: gated by the unturned light's image target (≤ 0.08).
+/// turned light (same mask as `judge`): gated by the unturned light's image
+/// target (≤ 0.08).
 fn turned_rows(
     scene: &Scene,
     m: &mut NearfieldMethod,
     opts: &VerifyOptions,
-    request: &FrameRequest,
-    mask: &[bool],
+    judge: &ImageJudge,
     progress: &dyn Progress,
 ) -> Result<Vec<VerifyRow>, String> {
     const DEG: f32 = 30.0;
     let mut turned = scene.clone();
     turned.area_lights[0].world_from_light *= glam::Mat3::from_rotation_z(DEG.to_radians());
-    let reference = reference_render(&turned, opts, 11, progress)?;
+    let judge = judge.with_reference(reference_render(&turned, opts, 11, progress)?);
     const SOURCE: &str = "issue 13 (verify nearfield); sun-thesis-2008 §4.5.6";
     let bakes = m.bakes();
     let mut rows = Vec::new();
@@ -649,25 +640,21 @@ fn turned_rows(
         if m.bakes() != bakes {
             return Err("a light turned in its plane re-baked the transport".into());
         }
-        let r = m.render(&turned, request, progress).map_err(fail)?;
         let main = s == 0.01 && t == 0.20;
-        rows.push(row(
+        rows.push(image_row(
             format!(
                 "image: light turned {DEG}° in its plane (bounding rectangle on the unturned bake), nearfield {:.0} %/{:.0} %",
                 s * 100.0,
                 t * 100.0
             ),
-            r.image.relative_rms_error(&reference.image, Some(mask)),
-            "relative RMS vs reference",
-            main.then_some((0.08, true)),
+            judge.render_error(m, &turned, progress)?,
+            main.then_some(0.08),
             SOURCE,
         ));
     }
-    rows.push(row(
+    rows.push(image_row(
         format!("image: light turned {DEG}° (bounding rectangle), nearfield 1 %/20 %, sources ranked by magnitude (default: area-weighted)"),
-        magnitude_ranked_image(m, &turned, request, progress)?
-            .relative_rms_error(&reference.image, Some(mask)),
-        "relative RMS vs reference",
+        judge.error(&magnitude_ranked_image(m, &turned, judge.request(), progress)?),
         None,
         SOURCE,
     ));
@@ -675,11 +662,9 @@ fn turned_rows(
     // rectangle): what the turn costs over a re-bake.
     let mut native = NearfieldMethod::new(m.options().clone()).map_err(fail)?;
     native.prepare(&turned, progress).map_err(fail)?;
-    let r = native.render(&turned, request, progress).map_err(fail)?;
-    rows.push(row(
+    rows.push(image_row(
         format!("image: light turned {DEG}°, transport re-baked for its axes, nearfield 1 %/20 %"),
-        r.image.relative_rms_error(&reference.image, Some(mask)),
-        "relative RMS vs reference",
+        judge.render_error(&mut native, &turned, progress)?,
         None,
         SOURCE,
     ));
@@ -698,55 +683,18 @@ fn three_lights_rows(
     const SOURCE: &str = "issue 13's image target (verify nearfield), for three lights";
     let scene =
         floor_and_sphere_three_lights(opts.floor, opts.segments, opts.width, opts.height, true);
-    let reference = reference_render(&scene, opts, 17, progress)?;
     let mut m = NearfieldMethod::new(NearfieldOptions::default()).map_err(fail)?;
     m.prepare(&scene, progress).map_err(fail)?;
-    let request = FrameRequest::new(scene.camera).with_aa(opts.aa);
-    let mask = m
-        .render(&scene, &request, progress)
-        .map_err(fail)?
-        .coverage
-        .as_ref()
-        .map(|c| c.object_mask())
-        .ok_or("no coverage")?;
-    let mut rows = vec![row(
-        format!(
-            "three lights in {} planes: reference noise σ_MC ({} spp)",
-            m.planes(),
-            reference.spp
-        ),
-        reference.rms_relative_std_error_over(&mask),
-        "relative RMS",
-        None,
-        "relight_render::reference",
-    )];
-    // The ladder's first rungs: each vertex lit exactly by every light,
-    // then only through each light's face, drawn through the same raster.
-    let meshes: Vec<_> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
-    let bvh = SceneBvh::build(&meshes);
-    let face = m.options().face;
-    let albedos = m.albedos();
-    for (clipped, what) in [
-        (
-            false,
-            "exact per-vertex light (area quadrature, shadows), Gouraud: Gouraud + σ_MC",
-        ),
-        (true, "face-clipped exact per-vertex: + face truncation"),
-    ] {
-        let colors = exact_vertex_colors(
-            &scene,
-            &albedos,
-            &bvh,
-            opts.image_samples,
-            clipped.then_some(face),
-        );
-        let saved = m.replace_colors(colors);
-        let r = m.render(&scene, &request, progress).map_err(fail)?;
-        m.replace_colors(saved);
-        rows.push(row(
+    let (judge, _) = ImageJudge::new(&mut m, &scene, opts, 17, progress)?;
+    let mut rows = vec![judge.noise_row(&format!("three lights in {} planes: ", m.planes()))];
+    let rungs = exact_rungs(&judge, &mut m, &scene, opts, progress)?;
+    for (e, what) in rungs.into_iter().zip([
+        "exact per-vertex light (area quadrature, shadows), Gouraud: Gouraud + σ_MC",
+        "face-clipped exact per-vertex: + face truncation",
+    ]) {
+        rows.push(image_row(
             format!("image: three lights, {what}"),
-            r.image.relative_rms_error(&reference.image, Some(&mask)),
-            "relative RMS vs reference",
+            e,
             None,
             SOURCE,
         ));
@@ -755,8 +703,7 @@ fn three_lights_rows(
         let main = s == 0.01;
         m.set_compression(s, t);
         m.set_lighting(&scene, progress).map_err(fail)?;
-        let r = m.render(&scene, &request, progress).map_err(fail)?;
-        rows.push(row(
+        rows.push(image_row(
             format!(
                 "image: three lights in two planes, nearfield {:.0} %/{:.0} % per light: + {}",
                 s * 100.0,
@@ -767,9 +714,8 @@ fn three_lights_rows(
                     "discretisation"
                 }
             ),
-            r.image.relative_rms_error(&reference.image, Some(&mask)),
-            "relative RMS vs reference",
-            main.then_some((0.08, true)),
+            judge.render_error(&mut m, &scene, progress)?,
+            main.then_some(0.08),
             SOURCE,
         ));
     }

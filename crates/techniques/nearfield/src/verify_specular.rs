@@ -14,10 +14,11 @@ use crate::light::light_cells;
 use crate::method::{NearfieldMethod, NearfieldOptions};
 use crate::scenes::glossy_floor_and_sphere;
 use crate::specular::{ObjectKind, VertexBrdf, local_view, vertex_frame};
-use crate::verify::{VerifyOptions, VerifyRow, fail, magnitude_ranked_image, reference_render};
+use crate::verify::{VerifyOptions, VerifyRow, fail, magnitude_ranked_image};
+use crate::verify_judge::{ImageJudge, image_row};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use relight_render::method::{FrameRequest, Relighter};
+use relight_render::method::Relighter;
 
 use relight_render::verify_row::row;
 use relight_render::{AreaLight, Object, Progress, Scene, SceneBvh};
@@ -231,45 +232,28 @@ pub fn specular_rows(
     if opts.per_vertex_only {
         return Ok(rows);
     }
-    let reference = reference_render(&scene, opts, 13, progress)?;
-    let request = FrameRequest::new(scene.camera).with_aa(opts.aa);
-    let frame0 = m.render(&scene, &request, progress).map_err(fail)?;
-    let mask = frame0
-        .coverage
-        .as_ref()
-        .map(|c| c.object_mask())
-        .ok_or("no coverage")?;
-    let err = |img: &relight_render::Image| img.relative_rms_error(&reference.image, Some(&mask));
-    rows.push(row(
-        format!("glossy: reference noise σ_MC ({} spp)", reference.spp),
-        reference.rms_relative_std_error_over(&mask),
-        "relative RMS",
-        None,
-        "relight_render::reference",
-    ));
-    let mut render_colors = |colors: Vec<Vec<Vec3>>| -> Result<f64, String> {
-        let saved = m.replace_colors(colors);
-        let r = m.render(&scene, &request, progress).map_err(fail)?;
-        m.replace_colors(saved);
-        Ok(err(&r.image))
-    };
+    let (judge, frame0) = ImageJudge::new(&mut m, &scene, opts, 13, progress)?;
+    rows.push(judge.noise_row("glossy: "));
     let samples = opts.image_samples;
     let radiance = |uv: Vec2| light.radiance_at(uv);
-    let e_gouraud = render_colors(quadrature_colors(
+    let e_gouraud = judge.colors_error(
+        &mut m,
         &scene,
-        None,
-        samples,
-        &radiance,
-        Some(&bvh),
-    ))?;
-    let e_face = render_colors(quadrature_colors(
+        quadrature_colors(&scene, None, samples, &radiance, Some(&bvh)),
+        progress,
+    )?;
+    let e_face = judge.colors_error(
+        &mut m,
         &scene,
-        Some(nf.face),
-        samples * 3 / 2,
-        &radiance,
-        Some(&bvh),
-    ))?;
-    let e_full = err(&frame0.image);
+        quadrature_colors(
+            &scene,
+            Some(nf.face),
+            samples * 3 / 2,
+            &radiance,
+            Some(&bvh),
+        ),
+        progress,
+    )?;
     for (what, e) in [
         (
             "exact per-vertex light (area quadrature, shadows, BRDF at the vertex's view), Gouraud: Gouraud + σ_MC".to_string(),
@@ -281,16 +265,10 @@ pub fn specular_rows(
         ),
         (
             format!("nearfield order {} 100 %/100 %: + discretisation", nf.order),
-            e_full,
+            judge.error(&frame0),
         ),
     ] {
-        rows.push(row(
-            format!("glossy image: {what}"),
-            e,
-            "relative RMS vs reference",
-            None,
-            ISSUE,
-        ));
+        rows.push(image_row(format!("glossy image: {what}"), e, None, ISSUE));
     }
     for (s, t) in [
         (0.01, 0.20),
@@ -301,25 +279,27 @@ pub fn specular_rows(
     ] {
         m.set_compression(s, t);
         m.set_lighting(&scene, progress).map_err(fail)?;
-        let r = m.render(&scene, &request, progress).map_err(fail)?;
         let main = s == 0.01 && t == 0.20;
-        rows.push(row(
+        rows.push(image_row(
             format!(
                 "glossy image: nearfield {:.0} %/{:.0} %{}",
                 s * 100.0,
                 t * 100.0,
                 if main { ": + compression" } else { "" }
             ),
-            err(&r.image),
-            "relative RMS vs reference",
-            main.then_some((0.08, true)),
+            judge.render_error(&mut m, &scene, progress)?,
+            main.then_some(0.08),
             ISSUE,
         ));
     }
-    rows.push(row(
+    rows.push(image_row(
         "glossy image: nearfield 1 %/20 %, sources ranked by magnitude (default: area-weighted)",
-        err(&magnitude_ranked_image(&mut m, &scene, &request, progress)?),
-        "relative RMS vs reference",
+        judge.error(&magnitude_ranked_image(
+            &mut m,
+            &scene,
+            judge.request(),
+            progress,
+        )?),
         None,
         ISSUE,
     ));
