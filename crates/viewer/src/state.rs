@@ -119,6 +119,8 @@ struct Slot {
     method: Option<Box<dyn Relighter>>,
     /// Why it cannot render the scene (checked once).
     refused: Option<String>,
+    /// What the method approximates in the scene (checked once); its own
+    /// warnings, which a lighting change may change, are read per frame.
     warnings: Vec<String>,
     /// The lighting `set_lighting` last ran with.
     lit: Option<Lighting>,
@@ -618,7 +620,6 @@ impl Viewer {
             }
             r => r?,
         }
-        slot.warnings.extend(m.warnings());
         slot.posed_at = posed.then_some(time);
         slot.lit = Some(self.lit);
         slot.method = Some(m);
@@ -679,6 +680,7 @@ impl Viewer {
         }
         let method = slot.method.as_mut().expect("created: checked above");
         let mut notes = slot.warnings.clone();
+        notes.extend(method.warnings());
         if deferred {
             notes.push(format!(
                 "method {} bakes again for this lighting: it waits until the drag ends",

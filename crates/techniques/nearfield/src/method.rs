@@ -209,8 +209,10 @@ pub struct NearfieldMethod {
     colors: Vec<Vec<Vec3>>,
     /// The bake's warnings.
     warnings: Vec<String>,
-    /// The last lighting change's warnings ([`face_clipping_warnings`]).
-    lighting_warnings: Vec<String>,
+    /// The lighting's warnings ([`face_clipping_warnings`]), worked out
+    /// when first asked for after each lighting change, so that a change
+    /// (a light drag, a bench's move) costs only the propagation.
+    lighting_warnings: std::sync::OnceLock<Vec<String>>,
     raster: Rasterizer,
     /// Which meshes are closed (their back faces culled from outside).
     closed: ClosedMeshes,
@@ -372,7 +374,7 @@ impl NearfieldMethod {
             lights: vec![LitLight::default()],
             colors: Vec::new(),
             warnings: Vec::new(),
-            lighting_warnings: Vec::new(),
+            lighting_warnings: std::sync::OnceLock::new(),
             raster: Rasterizer::new(),
             closed: ClosedMeshes::default(),
             frame: Image::new(0, 0),
@@ -990,11 +992,7 @@ impl Relighter for NearfieldMethod {
             coeffs_ms += self.update_source_of(i, light, turn.as_ref());
         }
         let p = self.propagate();
-        self.lighting_warnings = face_clipping_warnings(
-            &self.objects,
-            self.lights.iter().map(|l| l.frame),
-            self.options.face,
-        );
+        self.lighting_warnings = std::sync::OnceLock::new();
         self.last_times = [coeffs_ms, p];
         let ms = t.elapsed().as_secs_f64() * 1e3;
         self.pending_lighting_ms = ms;
@@ -1050,7 +1048,18 @@ impl Relighter for NearfieldMethod {
 
     fn warnings(&self) -> Vec<String> {
         let mut w = self.warnings.clone();
-        w.extend(self.lighting_warnings.iter().cloned());
+        w.extend(
+            self.lighting_warnings
+                .get_or_init(|| {
+                    face_clipping_warnings(
+                        &self.objects,
+                        self.lights.iter().map(|l| l.frame),
+                        self.options.face,
+                    )
+                })
+                .iter()
+                .cloned(),
+        );
         w
     }
 

@@ -206,10 +206,21 @@ fn the_clipped_share_matches_quadrature() {
 #[test]
 fn light_past_the_face_is_a_warning() {
     let mut m = method();
-    m.prepare(&scene(), &NoProgress).unwrap();
+    let three = scene();
+    m.prepare(&three, &NoProgress).unwrap();
     let w = m.warnings().join("\n");
     assert!(w.contains("area light 3 falls past the face"), "{w}");
     assert!(!w.contains("area light 1 falls"), "{w}");
+    // Moved back along its normal, away from the floor, the wall light
+    // fits the faces: the warnings follow the lighting (no new bake).
+    let mut moved = three.clone();
+    let wall = &mut moved.area_lights[2];
+    wall.center -= 2.0 * wall.normal();
+    let bakes = m.bakes();
+    m.set_lighting(&moved, &NoProgress).unwrap();
+    assert_eq!(m.bakes(), bakes);
+    let w = m.warnings().join("\n");
+    assert!(!w.contains("area light 3 falls"), "{w}");
     let mut one = method();
     one.prepare(
         &relight_nearfield::scenes::floor_and_sphere(8, 8, 32, 24, true),
