@@ -44,6 +44,21 @@ pub fn render_with(
     };
     let request = FrameRequest::new(posed.camera).with_aa(aa);
     let out = render_frame(method.as_mut(), &posed, &request, bar)?;
+    if out.image.pixels.iter().all(|p| *p == glam::Vec3::ZERO) {
+        let in_view = out
+            .coverage
+            .as_ref()
+            .is_none_or(|c| c.object_mask().contains(&true));
+        warn_all(&[format!(
+            "method {}: the image is black (every pixel 0){}",
+            method.name(),
+            if in_view {
+                ""
+            } else {
+                ": no object is in the camera's view, and the environment behind is black"
+            }
+        )]);
+    }
     let noise = out.noise.map_or(String::new(), |n| {
         format!(
             ", {} spp, relative standard error {:.4} (RMS {:.4}), over object pixels RMS {:.4}",

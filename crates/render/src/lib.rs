@@ -16,6 +16,7 @@ pub mod raster;
 pub mod reference;
 pub mod sampling;
 pub mod scene;
+mod scene_lighting;
 pub mod texture;
 pub mod verify_row;
 

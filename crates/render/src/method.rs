@@ -485,8 +485,9 @@ pub struct FrameWork {
 }
 
 /// Checks that `method` renders every feature of `scene`: `Ok(warnings)`
-/// (one per approximated feature, only with `approximate`), or the first
-/// feature it cannot render.
+/// (the scene's own, [`Scene::lighting_warnings`], then one per
+/// approximated feature, only with `approximate`), or the first feature it
+/// cannot render.
 ///
 /// # Errors
 /// [`MethodError::Unsupported`].
@@ -495,7 +496,7 @@ pub fn check_scene(
     scene: &Scene,
     approximate: bool,
 ) -> Result<Vec<String>, MethodError> {
-    let mut warnings = Vec::new();
+    let mut warnings = scene.lighting_warnings();
     for feature in SceneFeature::of_scene(scene) {
         match method.supports(feature) {
             Support::Full => {}

@@ -279,3 +279,40 @@ intensity = [1.0, 2.0, 3.0]
         assert_one_line_error(&relight(&args), words);
     }
 }
+
+/// A light turned away from the floor lights nothing, in every method: the
+/// scene check says which light and why, and the render that follows says
+/// that the image is black. A floor with no light at all says that nothing
+/// lights it. Both render (exit 0): the scene is valid, only dark.
+#[test]
+fn lighting_that_misses_the_objects_is_a_warning() {
+    let out = tmp("away.png");
+    let out = out.to_str().unwrap();
+    for (method, extra, words) in [
+        (
+            "ltc",
+            &[
+                "--light-center",
+                "0,1.2,0",
+                "--light-orientation",
+                "0,-90,0",
+            ][..],
+            &["area light 1 lights none of the objects", "image is black"][..],
+        ),
+        ("sh", &[][..], &["nothing lights it", "image is black"][..]),
+    ] {
+        let mut args = vec!["render"];
+        args.extend(FLOOR);
+        args.extend(extra);
+        args.extend(["--method", method, "--out", out]);
+        let o = relight(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{err}");
+        for w in words {
+            assert!(
+                err.lines().any(|l| l.contains("warning") && l.contains(w)),
+                "{method}: no warning with {w:?} in\n{err}"
+            );
+        }
+    }
+}

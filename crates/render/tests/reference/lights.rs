@@ -289,3 +289,37 @@ fn area_light_is_seen_from_the_front_only() {
         );
     }
 }
+
+/// A scene whose lighting misses its objects says so, through
+/// `check_scene` (what the CLI and the viewer call): nothing emitting at
+/// all, or an area light with every vertex behind its emitting side.
+#[test]
+fn lighting_that_misses_the_objects_is_warned() {
+    use relight_render::method::check_scene;
+    let (lit, _) = plane_under_rectangle(0.5, 1.0, 8);
+    let method = relight_render::ReferenceRenderer::new(ReferenceOptions::default());
+    assert!(lit.lighting_warnings().is_empty());
+    assert!(check_scene(&method, &lit, false).unwrap().is_empty());
+
+    // Turned over (emitting up, away from the plane below it).
+    let mut up = lit.clone();
+    up.area_lights[0].world_from_light = Mat3::from_cols(Vec3::X, -Vec3::Z, Vec3::Y);
+    let w = check_scene(&method, &up, false).unwrap().join("\n");
+    assert!(w.contains("area light 1 lights none of the objects"), "{w}");
+    assert!(!w.contains("nothing lights it"), "{w}");
+
+    // Nothing emits: zero intensity, or a black texture, under a black sky.
+    let mut dark = lit.clone();
+    dark.area_lights[0].intensity = Vec3::ZERO;
+    let w = dark.lighting_warnings().join("\n");
+    assert!(w.contains("nothing lights it"), "{w}");
+    let mut black_texture = lit.clone();
+    black_texture.area_lights[0].texture = Some(Arc::new(Texture::constant(Vec3::ZERO).unwrap()));
+    assert!(black_texture.lighting_warnings()[0].contains("nothing lights it"));
+    // A point light, or a sky, lights it again.
+    dark.point_lights
+        .push(PointLight::new(Vec3::new(0.0, 1.0, 0.0), Vec3::ONE));
+    assert!(dark.lighting_warnings().is_empty());
+    black_texture.env = constant_env(0.5);
+    assert!(black_texture.lighting_warnings().is_empty());
+}
