@@ -424,6 +424,29 @@ mod tests {
             assert!(diff(&f0, &f2) <= 1e-4 * diff(&f0, &f1), "reset");
         }
 
+        /// The method's warnings follow the lighting: moved far along its
+        /// plane, the ceiling light falls past every vertex's face, which
+        /// the frame says (no bake), and the reset takes the warning away.
+        #[test]
+        fn warnings_follow_the_edited_light() {
+            let mut v = viewer(scene());
+            let bakes = Bakes::default();
+            let says = |f: &crate::Frame| {
+                f.message
+                    .as_deref()
+                    .is_some_and(|m| m.contains("area light 1 falls past the face"))
+            };
+            let f0 = v.frame(32, 18, false, &bakes).unwrap();
+            assert!(!says(&f0), "{:?}", f0.message);
+            assert!(v.move_light(Vec2::new(12.0, 0.0)));
+            let f1 = v.frame(32, 18, false, &bakes).unwrap();
+            assert!(says(&f1), "{:?}", f1.message);
+            v.reset();
+            let f2 = v.frame(32, 18, false, &bakes).unwrap();
+            assert!(!says(&f2), "{:?}", f2.message);
+            assert_eq!(bakes.0.load(Ordering::Relaxed), 1, "an edit re-baked");
+        }
+
         #[test]
         fn a_tilting_drag_bakes_once_at_the_release() {
             let mut v = viewer(scene());
