@@ -60,10 +60,18 @@ pub fn render_with(
         )]);
     }
     let noise = out.noise.map_or(String::new(), |n| {
-        format!(
-            ", {} spp, relative standard error {:.4} (RMS {:.4}), over object pixels RMS {:.4}",
-            n.spp, n.relative_std_error, n.rms_relative_std_error, n.object_rms_relative_std_error
-        )
+        if n.spp < 2 {
+            // One sample per pixel has no spread to estimate an error from.
+            format!(", {} spp (the standard error needs ≥ 2)", n.spp)
+        } else {
+            format!(
+                ", {} spp, relative standard error {:.4} (RMS {:.4}), over object pixels RMS {:.4}",
+                n.spp,
+                n.relative_std_error,
+                n.rms_relative_std_error,
+                n.object_rms_relative_std_error
+            )
+        }
     });
     eprintln!(
         "relight: {}: prepared in {prepare_s:.2} s; frame: lighting {:.1} ms, view {:.1} ms{noise}",
