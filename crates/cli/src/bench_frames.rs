@@ -27,7 +27,7 @@ const fn spec(name: &'static str, y: &'static str) -> PlotSpec<'static> {
     }
 }
 
-pub fn run(a: &BenchArgs, bar: &crate::progress::Bar) -> Result<()> {
+pub fn run(a: &BenchArgs, report: &Report, bar: &crate::progress::Bar) -> Result<()> {
     let mut opts = if a.quick {
         FrameBenchOptions::quick()
     } else {
@@ -45,10 +45,6 @@ pub fn run(a: &BenchArgs, bar: &crate::progress::Bar) -> Result<()> {
         opts.cases.retain(|c| kinds.contains(&c.options.kind()));
     }
     let mut rows = bench_frames(&opts, bar)?;
-    let report = Report {
-        json: a.json,
-        plot_dir: a.plot.clone(),
-    };
     // JSON keeps each row's note whole; the text table names it by a key and
     // lists every distinct note once under the table.
     let notes = if a.json {

@@ -316,18 +316,15 @@ fn fog(c: FogCommand) -> Result<()> {
 
 fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
     check_plot_dir(a.plot.as_deref())?;
-    let report = Report {
-        json: a.json,
-        plot_dir: a.plot.clone(),
-    };
+    let report = Report::new(a.json, a.plot.clone());
     if a.suite != Suite::Frames && !a.methods.is_empty() {
         bail!("--method applies to `bench frames` only");
     }
     if let Some(isa) = a.isa {
         relight_sh::set_isa_limit(isa.into());
     }
-    match a.suite {
-        Suite::Frames => crate::bench_frames::run(&a, bar),
+    let result = match a.suite {
+        Suite::Frames => crate::bench_frames::run(&a, &report, bar),
         Suite::Shexp => crate::shexp::bench(&a, &report),
         Suite::RadianceCache => crate::radcache::bench(a.quick, &report, bar),
         Suite::Affine => crate::affine::bench(&a, &report),
@@ -520,7 +517,9 @@ fn bench(a: BenchArgs, bar: &Bar) -> Result<()> {
                 }],
             )
         }
-    }
+    };
+    report.finish(&format!("bench {}", suite_name(&a.suite)));
+    result
 }
 
 /// `../shared/data` beside the working directory, or `$RELIGHT_DATA`.
@@ -530,11 +529,8 @@ pub fn data_dir() -> PathBuf {
 
 fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
     check_plot_dir(a.plot.as_deref())?;
-    let report = Report {
-        json: a.json,
-        plot_dir: a.plot.clone(),
-    };
-    match a.suite {
+    let report = Report::new(a.json, a.plot.clone());
+    let result = match a.suite {
         VerifySuite::Methods => crate::verify_methods::verify_methods(&a, &report, bar),
         VerifySuite::Shexp => crate::shexp::verify(&a, &report),
         VerifySuite::RadianceCache => crate::radcache::verify(a.quick, &report, bar),
@@ -714,7 +710,9 @@ fn verify(a: VerifyArgs, bar: &Bar) -> Result<()> {
             )?;
             Ok(())
         }
-    }
+    };
+    report.finish(&format!("verify {}", suite_name(&a.suite)));
+    result
 }
 
 /// `relight verify importance`: wavelet importance sampling of area lights
@@ -812,3 +810,10 @@ const FOG_PLOTS: [FogPlot; 7] = [
         log_x: false,
     },
 ];
+
+/// A suite's name as the command line spells it.
+fn suite_name(suite: &impl clap::ValueEnum) -> String {
+    suite
+        .to_possible_value()
+        .map_or_else(String::new, |v| v.get_name().to_string())
+}

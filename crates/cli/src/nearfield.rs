@@ -4,6 +4,7 @@
 
 use crate::args::{BenchArgs, MethodFlags, SceneArgs, VerifyArgs};
 use crate::output::{check_output, warn_all};
+use crate::plot::{Plot, PlotSpec};
 use crate::progress::Bar;
 use crate::scene_args::build_scene;
 use crate::table::Report;
@@ -150,13 +151,40 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar, per_vertex_only: bool)
 pub fn bench(a: &BenchArgs, report: &Report, bar: &Bar) -> Result<()> {
     let opts = BenchOptions::new(a.quick, relight_viewer::bench::MACHINE_GFMA);
     let b = bench_nearfield(&opts, bar)?;
-    report.table(
+    report.table_plots(
         &format!(
             "relight bench nearfield: Fig. 4.11 (order 32, face 4, shadows; frame = propagation + Gouraud raster at {}×{}; thesis 3 GHz 1/8 threads)",
             opts.width, opts.height
         ),
         &b.rows,
-        &[],
+        &[
+            Plot::new(PlotSpec {
+                name: "bench-nearfield-propagation",
+                x: "fma_per_vertex",
+                y: "propagate_fps_1t",
+                series: &["scene"],
+                log_y: true,
+            })
+            .log_x()
+            .titled("relight bench nearfield: propagation rate against work per vertex (Fig. 4.11's compressions, 1 thread)")
+            .labels(
+                "FMA per vertex (compression 1 %/1 % … 100 %/100 %)",
+                "propagations per second, 1 thread",
+            ),
+            Plot::new(PlotSpec {
+                name: "bench-nearfield-frame",
+                x: "fma_per_vertex",
+                y: "frame_fps_1t",
+                series: &["scene"],
+                log_y: true,
+            })
+            .log_x()
+            .titled("relight bench nearfield: frame rate (propagation + Gouraud raster) against work per vertex, 1 thread")
+            .labels(
+                "FMA per vertex (compression 1 %/1 % … 100 %/100 %)",
+                "frames per second, 1 thread",
+            ),
+        ],
     )?;
     report.table(
         "relight bench nearfield: bake (transport with shadows)",

@@ -29,9 +29,39 @@ pub struct Report {
     pub json: bool,
     /// Directory for SVG plots (`--plot`), if any.
     pub plot_dir: Option<PathBuf>,
+    /// Tables printed and plots they asked for (drawn or skipped with a
+    /// reason), so far.
+    counts: std::sync::Arc<[std::sync::atomic::AtomicUsize; 2]>,
 }
 
 impl Report {
+    /// A report to standard output (`json`: JSON arrays) with plots into
+    /// `plot_dir`.
+    #[must_use]
+    pub fn new(json: bool, plot_dir: Option<PathBuf>) -> Self {
+        Self {
+            json,
+            plot_dir,
+            counts: std::sync::Arc::default(),
+        }
+    }
+
+    /// Says so when `--plot` was given, tables were printed and none of
+    /// them has a plot, instead of leaving the folder empty without a word.
+    pub fn finish(&self, what: &str) {
+        let [tables, plots] = &*self.counts;
+        let relaxed = std::sync::atomic::Ordering::Relaxed;
+        if let Some(dir) = &self.plot_dir
+            && tables.load(relaxed) > 0
+            && plots.load(relaxed) == 0
+        {
+            eprintln!(
+                "relight: warning: --plot {}: {what} has no plots (its tables are not curves); nothing written",
+                dir.display()
+            );
+        }
+    }
+
     /// Prints `rows` (flat serde structs) as an aligned text table (columns in
     /// the first row's field order) or as a JSON array, and writes the `plots`
     /// of them when a plot directory was given.
@@ -69,6 +99,9 @@ impl Report {
         } else {
             print!("{}", render_text(title, &values));
         }
+        let relaxed = std::sync::atomic::Ordering::Relaxed;
+        self.counts[0].fetch_add(1, relaxed);
+        self.counts[1].fetch_add(plots.len(), relaxed);
         if let Some(dir) = &self.plot_dir {
             for plot in plots {
                 if let Some(path) = write_plot(dir, title, &values, plot)? {

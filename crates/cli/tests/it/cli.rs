@@ -217,6 +217,32 @@ fn verify_writes_json_and_an_svg_plot() {
     assert!(svg.contains(spec), "legend lacks {spec}");
 }
 
+/// `--plot` draws Fig. 4.11's rates for `bench nearfield`, and a suite
+/// whose tables have no curves (`verify ltc`) says it wrote nothing
+/// instead of leaving the folder empty without a word.
+#[test]
+fn plot_folder_gets_plots_or_a_warning() {
+    let dir = tmp("plots-nearfield");
+    let _ = std::fs::remove_dir_all(&dir);
+    let d = dir.to_str().unwrap();
+    let out = relight(&["-q", "bench", "nearfield", "--quick", "--plot", d]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    for name in ["bench-nearfield-propagation", "bench-nearfield-frame"] {
+        let svg = std::fs::read_to_string(dir.join(format!("{name}.svg"))).expect("plot written");
+        assert!(svg.contains("FMA per vertex"), "{name}: no axis label");
+    }
+    assert!(!err.contains("has no plots"), "{err}");
+    let out = relight(&["-q", "verify", "ltc", "--quick", "--plot", d]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.lines()
+            .any(|l| l.contains("warning: --plot") && l.contains("verify ltc has no plots")),
+        "{err}"
+    );
+}
+
 /// The relative RMS that `relight compare` prints.
 fn compared(a: &Path, b: &Path) -> f64 {
     let out = relight(&["compare", a.to_str().unwrap(), b.to_str().unwrap()]);
