@@ -26,6 +26,8 @@ pub enum AssetError {
     Corrupt { path: PathBuf, detail: String },
     #[error("{}: unsupported: {what}", path.display())]
     Unsupported { path: PathBuf, what: String },
+    #[error("{}: is a folder, not a file", path.display())]
+    Folder { path: PathBuf },
     #[error("{}: unknown file type (extension `{ext}`); expected {expected}", path.display())]
     UnknownFormat {
         path: PathBuf,
@@ -85,6 +87,7 @@ impl AssetError {
     pub fn path(&self) -> &Path {
         match self {
             Self::Missing { path }
+            | Self::Folder { path }
             | Self::Io { path, .. }
             | Self::Write { path, .. }
             | Self::Truncated { path, .. }
@@ -122,6 +125,20 @@ impl LoadReport {
 
 /// The file extension of `path`, lower-cased ("" when there is none), which
 /// names the format of every file relight reads.
+/// The format named by `path`'s extension, `Ok(None)` for an unknown one;
+/// a folder is [`AssetError::Folder`], whatever its name.
+pub(crate) fn format_by_extension<F>(
+    path: &Path,
+    of: impl Fn(&str) -> Option<F>,
+) -> Result<Option<F>, AssetError> {
+    if path.is_dir() {
+        return Err(AssetError::Folder {
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(of(&lowercase_extension(path)))
+}
+
 pub(crate) fn lowercase_extension(path: &Path) -> String {
     path.extension()
         .and_then(|e| e.to_str())

@@ -165,19 +165,17 @@ const IMAGE_EXTS: &str = ".exr, .hdr, .pic, .png, .jpg or .jpeg";
 impl ImageFormat {
     /// The format named by the file extension.
     pub fn from_path(path: &Path) -> Result<Self, AssetError> {
-        let ext = crate::error::lowercase_extension(path);
-        Ok(match ext.as_str() {
-            "exr" => Self::Exr,
-            "hdr" | "pic" | "rgbe" => Self::Hdr,
-            "png" => Self::Png,
-            "jpg" | "jpeg" => Self::Jpeg,
-            _ => {
-                return Err(AssetError::UnknownFormat {
-                    path: path.to_path_buf(),
-                    ext,
-                    expected: IMAGE_EXTS,
-                });
-            }
+        crate::error::format_by_extension(path, |ext| match ext {
+            "exr" => Some(Self::Exr),
+            "hdr" | "pic" | "rgbe" => Some(Self::Hdr),
+            "png" => Some(Self::Png),
+            "jpg" | "jpeg" => Some(Self::Jpeg),
+            _ => None,
+        })?
+        .ok_or_else(|| AssetError::UnknownFormat {
+            path: path.to_path_buf(),
+            ext: crate::error::lowercase_extension(path),
+            expected: IMAGE_EXTS,
         })
     }
     fn magic_ok(self, b: &[u8]) -> bool {
@@ -1053,6 +1051,17 @@ mod tests {
         assert!(matches!(
             read_image(&dir.join("x.tga")),
             Err(AssetError::UnknownFormat { .. })
+        ));
+        // A folder, even one named like an image, is said to be a folder.
+        std::fs::create_dir_all(dir.join("folder.exr")).unwrap();
+        for p in [dir.clone(), dir.join("folder.exr")] {
+            let e = read_image(&p).unwrap_err();
+            assert!(matches!(e, AssetError::Folder { .. }), "{e}");
+            assert!(e.to_string().ends_with("is a folder, not a file"), "{e}");
+        }
+        assert!(matches!(
+            crate::load_mesh(&dir),
+            Err(AssetError::Folder { .. })
         ));
         // An .exr that is really a PNG.
         std::fs::copy(dir.join("a.png"), dir.join("fake.exr")).unwrap();

@@ -71,6 +71,11 @@ const LUMA: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
 /// Describes an image, environment map, mesh or MERL file (by extension).
 pub fn describe(path: &Path) -> Result<FileInfo, AssetError> {
+    if path.is_dir() {
+        return Err(AssetError::Folder {
+            path: path.to_path_buf(),
+        });
+    }
     let ext = crate::error::lowercase_extension(path);
     if ext == "binary" {
         let bytes = crate::read_merl_bytes(path)?;

@@ -45,18 +45,16 @@ const MESH_EXTS: &str = ".obj, .ply, .gltf or .glb";
 impl MeshFormat {
     /// The format named by the file extension.
     pub fn from_path(path: &Path) -> Result<Self, AssetError> {
-        let ext = crate::error::lowercase_extension(path);
-        Ok(match ext.as_str() {
-            "obj" => Self::Obj,
-            "ply" => Self::Ply,
-            "gltf" | "glb" => Self::Gltf,
-            _ => {
-                return Err(AssetError::UnknownFormat {
-                    path: path.to_path_buf(),
-                    ext,
-                    expected: MESH_EXTS,
-                });
-            }
+        crate::error::format_by_extension(path, |ext| match ext {
+            "obj" => Some(Self::Obj),
+            "ply" => Some(Self::Ply),
+            "gltf" | "glb" => Some(Self::Gltf),
+            _ => None,
+        })?
+        .ok_or_else(|| AssetError::UnknownFormat {
+            path: path.to_path_buf(),
+            ext: crate::error::lowercase_extension(path),
+            expected: MESH_EXTS,
         })
     }
 }

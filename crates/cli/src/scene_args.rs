@@ -118,8 +118,8 @@ fn apply_area_light_flags(a: &SceneArgs, scene: &mut Scene) -> Result<()> {
         };
     }
     if let Some(p) = &a.light_texture {
-        let (tex, warnings) = relight_scene::load_texture(p)
-            .map_err(|e| anyhow!("--light-texture {}: {}", p.display(), e))?;
+        let (tex, warnings) =
+            relight_scene::load_texture(p).map_err(|e| anyhow!("--light-texture: {e}"))?;
         warn_all(&warnings);
         light.texture = Some(Arc::new(tex));
     }
