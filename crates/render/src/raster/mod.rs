@@ -1216,6 +1216,28 @@ fn pixel_span(a: i32, b: i32) -> (i64, i64) {
     )
 }
 
+/// The pixels `([x0, x1], [y0, y1])` whose centres lie in the triangle's
+/// bounding box, clipped to columns `[0, width)` and rows `[row0, row1)`;
+/// `None` when no pixel centre does.
+#[inline]
+fn pixel_box(
+    v: &[ScreenVertex; 3],
+    width: i64,
+    (row0, row1): (i64, i64),
+) -> Option<((i64, i64), (i64, i64))> {
+    let (x0, x1) = pixel_span(
+        v[0].x.min(v[1].x).min(v[2].x),
+        v[0].x.max(v[1].x).max(v[2].x),
+    );
+    let (y0, y1) = pixel_span(
+        v[0].y.min(v[1].y).min(v[2].y),
+        v[0].y.max(v[1].y).max(v[2].y),
+    );
+    let (x0, x1) = (x0.max(0), x1.min(width - 1));
+    let (y0, y1) = (y0.max(row0), y1.min(row1 - 1));
+    (x0 <= x1 && y0 <= y1).then_some(((x0, x1), (y0, y1)))
+}
+
 impl BinSetup {
     /// Strip range of a screen triangle, or `None` if it is culled, has zero
     /// area or covers no pixel centre's bounding box.
@@ -1230,19 +1252,7 @@ impl BinSetup {
         if !keep {
             return None;
         }
-        let (x0, x1) = pixel_span(
-            v[0].x.min(v[1].x).min(v[2].x),
-            v[0].x.max(v[1].x).max(v[2].x),
-        );
-        let (y0, y1) = pixel_span(
-            v[0].y.min(v[1].y).min(v[2].y),
-            v[0].y.max(v[1].y).max(v[2].y),
-        );
-        let (x0, x1) = (x0.max(0), x1.min(self.width - 1));
-        let (y0, y1) = (y0.max(0), y1.min(self.height - 1));
-        if x0 > x1 || y0 > y1 {
-            return None;
-        }
+        let (_, (y0, y1)) = pixel_box(v, self.width, (0, self.height))?;
         Some((
             (y0 / self.strip_height) as usize,
             (y1 / self.strip_height) as usize,
@@ -1351,19 +1361,9 @@ impl Strip<'_> {
         if area == 0 {
             return;
         }
-        let (x0, x1) = pixel_span(
-            v[0].x.min(v[1].x).min(v[2].x),
-            v[0].x.max(v[1].x).max(v[2].x),
-        );
-        let (y0, y1) = pixel_span(
-            v[0].y.min(v[1].y).min(v[2].y),
-            v[0].y.max(v[1].y).max(v[2].y),
-        );
-        let (x0, x1) = (x0.max(0), x1.min(self.width - 1));
-        let (y0, y1) = (y0.max(self.y0), y1.min(self.y1 - 1));
-        if x0 > x1 || y0 > y1 {
+        let Some(((x0, x1), (y0, y1))) = pixel_box(&v, self.width, (self.y0, self.y1)) else {
             return;
-        }
+        };
         // Edge functions E_ab(p) = A (p.x − a.x) + B (p.y − a.y), A = a.y − b.y,
         // B = b.x − a.x, positive inside. Top-left edges (A > 0, or A = 0 and
         // B > 0) include E = 0; the others are biased by −1.
