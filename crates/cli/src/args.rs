@@ -581,7 +581,8 @@ pub enum BakeCommand {
         #[arg(long)]
         cache: Option<PathBuf>,
         /// Also write the bake to this file (the cache's format: versioned,
-        /// with a CRC).
+        /// with a CRC); lights in several planes write one file per plane,
+        /// `.plane1`, `.plane2`, … before the extension.
         #[arg(long)]
         out: Option<PathBuf>,
     },

@@ -100,9 +100,10 @@ pub fn bake(
             .collect::<Vec<_>>()
             .join(", ")
     };
-    if let Some(path) = out {
-        m.save_bake(path)?;
-    }
+    let written = match out {
+        Some(path) => m.save_bakes(path)?,
+        None => Vec::new(),
+    };
     println!(
         "relight bake nearfield: {vertices} vertices in {} objects, {} light plane(s), order {}, face {}, {}: {how} in {:.1} s, {:.1} MB, cached as {cached}{}",
         scene.objects.len(),
@@ -116,7 +117,18 @@ pub fn bake(
         },
         t.elapsed().as_secs_f64(),
         bytes as f64 / 1e6,
-        out.map_or(String::new(), |p| format!(", wrote {}", p.display()))
+        if written.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", wrote {}",
+                written
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        }
     );
     Ok(())
 }

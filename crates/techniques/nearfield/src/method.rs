@@ -300,6 +300,23 @@ fn face_clipping_warnings(
     out
 }
 
+/// The file [`NearfieldMethod::save_bakes`] writes for plane `index` (from
+/// 0) of a bake with several planes: `.plane{index + 1}` before `path`'s
+/// extension (`out.bake` → `out.plane2.bake`; `out` → `out.plane2`).
+#[must_use]
+pub fn plane_bake_path(path: &Path, index: usize) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map_or_else(Default::default, |s| s.to_os_string());
+    let mut name = stem;
+    name.push(format!(".plane{}", index + 1));
+    if let Some(ext) = path.extension() {
+        name.push(".");
+        name.push(ext);
+    }
+    path.with_file_name(name)
+}
+
 impl NearfieldMethod {
     /// How each of `scene`'s lights maps onto the baked planes: per light,
     /// its plane and its in-plane turn from the plane's axes, if any (a
@@ -458,29 +475,35 @@ impl NearfieldMethod {
         self.bake(scene, progress)
     }
 
-    /// Writes the current bake to `path` (the cache's format,
-    /// [`crate::cache`]): one file holds one plane's transports.
+    /// Writes the current bake in the cache's format ([`crate::cache`]),
+    /// one file per light plane (a file holds one plane's transports):
+    /// `path` itself for one plane; for several, [`plane_bake_path`] of
+    /// each (`out.bake` → `out.plane1.bake`, `out.plane2.bake`, …, in the
+    /// order of the planes' first lights). Returns the files written.
     ///
     /// # Errors
-    /// [`CacheError`] when nothing is baked, the scene's lights lie in
-    /// more than one plane, or the file cannot be written.
-    pub fn save_bake(&self, path: &Path) -> Result<(), CacheError> {
-        let mismatch = |why: String| CacheError::Mismatch {
-            path: path.to_path_buf(),
-            why,
-        };
-        let plane = match self.planes.as_slice() {
-            [p] => p,
-            [] => return Err(mismatch("nothing baked yet".into())),
-            ps => {
-                return Err(mismatch(format!(
-                    "the lights lie in {} planes, a bake each (one file holds one); they are in the cache",
-                    ps.len()
-                )));
-            }
-        };
-        let t: Vec<&Transport> = plane.transports.iter().collect();
-        crate::cache::save(path, &plane.key, &t)
+    /// [`CacheError`] when nothing is baked, or a file cannot be written.
+    pub fn save_bakes(&self, path: &Path) -> Result<Vec<PathBuf>, CacheError> {
+        if self.planes.is_empty() {
+            return Err(CacheError::Mismatch {
+                path: path.to_path_buf(),
+                why: "nothing baked yet".into(),
+            });
+        }
+        let several = self.planes.len() > 1;
+        self.planes
+            .iter()
+            .enumerate()
+            .map(|(i, plane)| {
+                let out = if several {
+                    plane_bake_path(path, i)
+                } else {
+                    path.to_path_buf()
+                };
+                let t: Vec<&Transport> = plane.transports.iter().collect();
+                crate::cache::save(&out, &plane.key, &t).map(|()| out)
+            })
+            .collect()
     }
 
     /// Each object's baked transport for the first light's plane.

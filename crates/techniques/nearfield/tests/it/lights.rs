@@ -111,7 +111,7 @@ fn a_light_that_leaves_its_plane_rebakes() {
 }
 
 #[test]
-fn each_plane_is_cached_and_one_file_holds_one_plane() {
+fn each_plane_is_cached_and_exported_to_its_own_file() {
     let d = std::env::temp_dir().join(format!("relight-nearfield-lights-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     let opts = NearfieldOptions {
@@ -130,8 +130,23 @@ fn each_plane_is_cached_and_one_file_holds_one_plane() {
     b.prepare(&s, &NoProgress).unwrap();
     assert_eq!((b.bakes(), b.loads()), (0, 1), "both planes load");
     assert_eq!(a.vertex_colors(), b.vertex_colors(), "bit for bit");
-    let e = a.save_bake(&d.join("out.bin")).unwrap_err().to_string();
-    assert!(e.contains("2 planes"), "{e}");
+    // Exported one file per plane, each byte for byte its cache file.
+    let written = a.save_bakes(&d.join("out.bin")).unwrap();
+    assert_eq!(
+        written,
+        [d.join("out.plane1.bin"), d.join("out.plane2.bin")]
+    );
+    assert_eq!(
+        relight_nearfield::method::plane_bake_path(std::path::Path::new("dir/out"), 2),
+        std::path::Path::new("dir/out.plane3")
+    );
+    for (w, c) in written.iter().zip(&paths) {
+        assert_eq!(
+            std::fs::read(w).unwrap(),
+            std::fs::read(c).unwrap(),
+            "{w:?}"
+        );
+    }
     let _ = std::fs::remove_dir_all(&d);
 }
 
