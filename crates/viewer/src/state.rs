@@ -119,9 +119,12 @@ struct Slot {
     method: Option<Box<dyn Relighter>>,
     /// Why it cannot render the scene (checked once).
     refused: Option<String>,
-    /// What the method approximates in the scene (checked once); its own
-    /// warnings, which a lighting change may change, are read per frame.
+    /// What the method approximates in the scene (checked once).
     warnings: Vec<String>,
+    /// The method's own warnings, which a lighting change may change, as
+    /// read at the last frame that was not a preview: a drag's frames keep
+    /// them (reading them may cost a pass over the vertices).
+    method_warnings: Vec<String>,
     /// The lighting `set_lighting` last ran with.
     lit: Option<Lighting>,
     /// Samples accumulated in the last frame (progressive methods).
@@ -297,6 +300,7 @@ impl Viewer {
                     method: None,
                     refused: None,
                     warnings: Vec::new(),
+                    method_warnings: Vec::new(),
                     lit: None,
                     spp: 0,
                     monte_carlo: None,
@@ -343,6 +347,7 @@ impl Viewer {
         slot.method = None;
         slot.refused = None;
         slot.warnings.clear();
+        slot.method_warnings.clear();
         slot.lit = None;
         slot.posed_at = None;
         slot.monte_carlo = None;
@@ -620,6 +625,7 @@ impl Viewer {
             }
             r => r?,
         }
+        slot.method_warnings = m.warnings();
         slot.posed_at = posed.then_some(time);
         slot.lit = Some(self.lit);
         slot.method = Some(m);
@@ -679,8 +685,11 @@ impl Viewer {
             slot.light(scene, lighting, progress)?;
         }
         let method = slot.method.as_mut().expect("created: checked above");
+        if !preview {
+            slot.method_warnings = method.warnings();
+        }
         let mut notes = slot.warnings.clone();
-        notes.extend(method.warnings());
+        notes.extend(slot.method_warnings.iter().cloned());
         if deferred {
             notes.push(format!(
                 "method {} bakes again for this lighting: it waits until the drag ends",

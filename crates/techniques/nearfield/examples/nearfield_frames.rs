@@ -5,7 +5,9 @@
 //! Prints wall ms per move (a new light position: affine maps, masks and
 //! propagation) and per propagation (the light's texture edited in place);
 //! with `RASTER` set in the environment also per rendered frame (the
-//! Gouraud raster at 1200 × 900).
+//! Gouraud raster at 1200 × 900), and per reading of the warnings after a
+//! lighting change (the face-clipping measure, which the viewer reads each
+//! frame).
 
 use relight_nearfield::face::LightFrame;
 use relight_nearfield::method::{NearfieldMethod, NearfieldOptions};
@@ -39,6 +41,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         best_prop = best_prop.min(m.propagate());
     }
     if std::env::var_os("RASTER").is_some() {
+        let mut best = f64::INFINITY;
+        let mut lit = scene.clone();
+        for _ in 0..steps {
+            lit.area_lights[0].center.x += 1e-3;
+            m.set_lighting(&lit, &NoProgress)?;
+            let t = Instant::now();
+            let w = m.warnings();
+            best = best.min(t.elapsed().as_secs_f64() * 1e3);
+            std::hint::black_box(w);
+        }
+        println!("warnings after a lighting change {best:.1} ms");
         let request = relight_render::method::FrameRequest::new(scene.camera);
         let mut best = f64::INFINITY;
         for _ in 0..steps * 10 {
