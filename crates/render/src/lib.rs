@@ -11,6 +11,7 @@ pub mod camera;
 pub mod cull;
 pub mod image;
 pub mod method;
+mod object_raster;
 pub mod progress;
 pub mod raster;
 pub mod reference;

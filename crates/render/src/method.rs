@@ -39,6 +39,7 @@
 //! in-scattered environment), which is part of what a method computes: there
 //! each method keeps its own.
 
+pub use crate::object_raster::ObjectRaster;
 use crate::raster::{CullMode, DrawCall, RasterOptions, Rasterizer};
 use crate::{Camera, Cancelled, Image, Progress, Scene};
 use glam::Vec3;
@@ -554,17 +555,7 @@ pub fn rasterize_objects<'a>(
     let mut camera = request.camera;
     camera.width *= request.aa;
     camera.height *= request.aa;
-    let draws: Vec<DrawCall> = scene
-        .objects
-        .iter()
-        .zip(closed.of(scene))
-        .enumerate()
-        .map(|(i, (o, closed))| {
-            DrawCall::new(&o.mesh.positions, &o.mesh.indices)
-                .with_object_id(i as u32)
-                .with_cull(crate::cull::cull_for_closed(closed.as_ref(), camera.eye))
-        })
-        .collect();
+    let draws = crate::object_raster::draws_of(scene, closed, &camera);
     let opts = RasterOptions::default().fit_depth(&camera, &draws);
     raster.rasterize(&camera, &draws, &opts)?;
     Ok((camera, draws))

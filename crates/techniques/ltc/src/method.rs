@@ -28,12 +28,11 @@ use crate::polygon::clamped_cosine_integral;
 use crate::table::lookup;
 use glam::{DVec3, Vec2, Vec3};
 use relight_geom::Mesh;
-use relight_render::cull::ClosedMeshes;
 use relight_render::method::{
-    FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
-    rasterize_objects,
+    FrameRequest, MethodError, ObjectRaster, Relighter, Rendered, SceneFeature, Support,
+    check_scene,
 };
-use relight_render::raster::{Background, Fragment, Rasterizer};
+use relight_render::raster::{Background, Fragment};
 use relight_render::{Image, Progress, Scene};
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -82,9 +81,9 @@ pub struct LtcMethod {
     objects: Vec<Prepared>,
     lights: Vec<Rect>,
     warnings: Vec<String>,
-    raster: Rasterizer,
-    /// Which meshes are closed (their back faces culled from outside).
-    closed: ClosedMeshes,
+    /// The visibility buffer, kept while the camera and meshes are (a
+    /// lighting change shades it again).
+    view: ObjectRaster,
     frame: Image,
     pending_lighting_ms: f64,
 }
@@ -117,8 +116,7 @@ impl LtcMethod {
             objects: Vec::new(),
             lights: Vec::new(),
             warnings: Vec::new(),
-            raster: Rasterizer::new(),
-            closed: ClosedMeshes::default(),
+            view: ObjectRaster::new(),
             frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
         })
@@ -303,7 +301,9 @@ impl Relighter for LtcMethod {
         }
         progress.check()?;
         let k = request.aa;
-        let (_, draws) = rasterize_objects(&mut self.raster, &mut self.closed, scene, request)
+        let (_, draws) = self
+            .view
+            .draw(scene, request)
             .map_err(|e| invalid("raster", e))?;
         let (objects, lights, specular) = (&self.objects, &self.lights, self.options.specular);
         let shader = |f: &Fragment| -> Vec3 {
@@ -321,7 +321,8 @@ impl Relighter for LtcMethod {
                 lights, &o.lobes, specular, f.position, n, f.normal, f.to_eye,
             )
         };
-        self.raster
+        self.view
+            .raster()
             .shade(
                 &draws,
                 shader,
@@ -329,9 +330,8 @@ impl Relighter for LtcMethod {
                 &mut self.frame,
             )
             .map_err(|e| invalid("raster", e))?;
-        Ok(Rendered::from_samples(
+        Ok(self.view.rendered(
             Cow::Borrowed(&self.frame),
-            &self.raster,
             k,
             std::mem::take(&mut self.pending_lighting_ms),
             t0,

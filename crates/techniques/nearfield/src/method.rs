@@ -67,12 +67,11 @@ use crate::transport::{Transport, bake_transport};
 use glam::Vec3;
 use rayon::prelude::*;
 use relight_geom::Mesh;
-use relight_render::cull::ClosedMeshes;
 use relight_render::method::{
-    FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
-    rasterize_objects,
+    FrameRequest, FrameWork, MethodError, ObjectRaster, Relighter, Rendered, SceneFeature, Support,
+    check_scene,
 };
-use relight_render::raster::{Background, Rasterizer};
+use relight_render::raster::Background;
 use relight_render::{AreaLight, Image, Progress, Scene, SceneBvh};
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -213,9 +212,9 @@ pub struct NearfieldMethod {
     /// when first asked for after each lighting change, so that a change
     /// (a light drag, a bench's move) costs only the propagation.
     lighting_warnings: std::sync::OnceLock<Vec<String>>,
-    raster: Rasterizer,
-    /// Which meshes are closed (their back faces culled from outside).
-    closed: ClosedMeshes,
+    /// The visibility buffer, kept while the camera and meshes are (a
+    /// lighting change shades it again).
+    view: ObjectRaster,
     frame: Image,
     pending_lighting_ms: f64,
     /// Times of the last lighting change: coefficients, propagation (ms).
@@ -392,8 +391,7 @@ impl NearfieldMethod {
             colors: Vec::new(),
             warnings: Vec::new(),
             lighting_warnings: std::sync::OnceLock::new(),
-            raster: Rasterizer::new(),
-            closed: ClosedMeshes::default(),
+            view: ObjectRaster::new(),
             frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
             last_times: [0.0; 2],
@@ -1049,10 +1047,13 @@ impl Relighter for NearfieldMethod {
         progress.check()?;
         self.view_is_baked = self.baked_eye.is_none_or(|e| e == request.camera.eye);
         let k = request.aa;
-        let (_, draws) = rasterize_objects(&mut self.raster, &mut self.closed, scene, request)
+        let (_, draws) = self
+            .view
+            .draw(scene, request)
             .map_err(|e| invalid("raster", e))?;
         let refs: Vec<&[Vec3]> = self.colors.iter().map(|c| &c[..]).collect();
-        self.raster
+        self.view
+            .raster()
             .shade_gouraud(
                 &draws,
                 &refs,
@@ -1060,9 +1061,8 @@ impl Relighter for NearfieldMethod {
                 &mut self.frame,
             )
             .map_err(|e| invalid("raster", e))?;
-        Ok(Rendered::from_samples(
+        Ok(self.view.rendered(
             Cow::Borrowed(&self.frame),
-            &self.raster,
             k,
             std::mem::take(&mut self.pending_lighting_ms),
             t0,

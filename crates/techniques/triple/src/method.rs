@@ -59,12 +59,11 @@ use crate::visibility::{bake_point_visibility, bake_vertex_visibility};
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use relight_geom::Mesh;
-use relight_render::cull::ClosedMeshes;
 use relight_render::method::{
-    FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
-    rasterize_objects,
+    FrameRequest, FrameWork, MethodError, ObjectRaster, Relighter, Rendered, SceneFeature, Support,
+    check_scene,
 };
-use relight_render::raster::{Background, Rasterizer};
+use relight_render::raster::Background;
 use relight_render::{Image, Progress, Scene, SceneBvh};
 use relight_sphere::{EnvMap, Frame};
 use relight_wavelet::WaveletError;
@@ -214,9 +213,9 @@ pub struct TripleMethod {
     fog: Option<FoggyLighting>,
     table: Option<LightTable>,
     world_from_env: Mat3,
-    raster: Rasterizer,
-    /// Which meshes are closed (their back faces culled from outside).
-    closed: ClosedMeshes,
+    /// The visibility buffer, kept while the camera and meshes are (a
+    /// lighting turn shades it again).
+    view: ObjectRaster,
     frame: Image,
     colors: Vec<Vec<Vec3>>,
     /// Per object, the vertices' functions of [`Shading::Interpolated`].
@@ -337,8 +336,7 @@ impl TripleMethod {
             fog: None,
             table: None,
             world_from_env: Mat3::IDENTITY,
-            raster: Rasterizer::new(),
-            closed: ClosedMeshes::default(),
+            view: ObjectRaster::new(),
             frame: Image::new(0, 0),
             colors: Vec::new(),
             vertex_fns: Vec::new(),
@@ -406,7 +404,7 @@ impl TripleMethod {
     /// Pixels the last frame covered.
     #[must_use]
     pub fn covered_pixels(&self) -> usize {
-        self.raster.gbuffer().covered_pixels()
+        self.view.raster().gbuffer().covered_pixels()
     }
 
     /// The lighting table, once lit.
@@ -1044,7 +1042,9 @@ impl Relighter for TripleMethod {
             .ok_or_else(|| stale("call prepare before render"))?;
         progress.check()?;
         let k = request.aa;
-        let (camera, draws) = rasterize_objects(&mut self.raster, &mut self.closed, scene, request)
+        let (camera, draws) = self
+            .view
+            .draw(scene, request)
             .map_err(|e| invalid("raster", e))?;
         let env = &scene.env;
         let env_from_world = scene.world_from_env.transpose();
@@ -1070,7 +1070,8 @@ impl Relighter for TripleMethod {
         let stride = table.padded;
         match self.options.shading {
             Shading::Pixel => {
-                self.raster
+                self.view
+                    .raster()
                     .shade(
                         &draws,
                         |frag| {
@@ -1127,7 +1128,7 @@ impl Relighter for TripleMethod {
                 self.vertex_fns
                     .resize_with(objects.len(), VertexFunctions::default);
                 mark_used_vertices(
-                    &self.raster.gbuffer().triangle,
+                    &self.view.raster().gbuffer().triangle,
                     objects,
                     &mut self.vertex_fns,
                 );
@@ -1141,9 +1142,10 @@ impl Relighter for TripleMethod {
                     .map(|(p, f)| f.tables_input(p))
                     .collect();
                 self.triangle_tables
-                    .build(&self.raster.gbuffer().triangle, &inputs, stride);
+                    .build(&self.view.raster().gbuffer().triangle, &inputs, stride);
                 let tables = &self.triangle_tables;
-                self.raster
+                self.view
+                    .raster()
                     .shade(
                         &draws,
                         |frag| {
@@ -1237,14 +1239,14 @@ impl Relighter for TripleMethod {
                     })
                     .collect();
                 let refs: Vec<&[Vec3]> = self.colors.iter().map(|c| &c[..]).collect();
-                self.raster
+                self.view
+                    .raster()
                     .shade_gouraud(&draws, &refs, background, &mut self.frame)
                     .map_err(|e| invalid("raster", e))?;
             }
         }
-        Ok(Rendered::from_samples(
+        Ok(self.view.rendered(
             Cow::Borrowed(&self.frame),
-            &self.raster,
             k,
             std::mem::take(&mut self.pending_lighting_ms),
             t0,
@@ -1259,7 +1261,7 @@ impl Relighter for TripleMethod {
     /// triangles, [`FMA_PER_CELL_INTERPOLATED`] per cell for the others.
     fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
         let table = self.table.as_ref()?;
-        let pixels = self.raster.gbuffer().covered_pixels();
+        let pixels = self.view.raster().gbuffer().covered_pixels();
         let vertices: usize = scene.objects.iter().map(|o| o.mesh.positions.len()).sum();
         let per_cell = match self.options.shading {
             Shading::Pixel => pixels * FMA_PER_CELL,
@@ -1267,7 +1269,7 @@ impl Relighter for TripleMethod {
             Shading::Interpolated => {
                 // Pixels of triangles with a tensor cost a fixed count;
                 // the others (visibility textures) the per-cell kernel.
-                let g = self.raster.gbuffer();
+                let g = self.view.raster().gbuffer();
                 let tensor_pixels = g
                     .triangle
                     .iter()

@@ -245,3 +245,30 @@ fn light_past_the_face_is_a_warning() {
     let w = one.warnings().join("\n");
     assert!(!w.contains("falls past"), "{w}");
 }
+
+/// A light move draws the next frame over the kept visibility buffer (the
+/// camera did not move): the same image, bit for bit, as a method whose
+/// first frame rasterizes it afresh.
+#[test]
+fn a_light_move_shades_the_kept_visibility_buffer() {
+    use relight_render::method::FrameRequest;
+    let s = scene();
+    let mut moved = s.clone();
+    moved.area_lights[0].center.x += 0.2;
+    let request = FrameRequest::new(s.camera);
+    let mut kept = method();
+    kept.prepare(&s, &NoProgress).unwrap();
+    let before = kept.render(&s, &request, &NoProgress).unwrap();
+    kept.set_lighting(&moved, &NoProgress).unwrap();
+    let after = kept.render(&moved, &request, &NoProgress).unwrap();
+    let mut fresh = method();
+    fresh.prepare(&s, &NoProgress).unwrap();
+    fresh.set_lighting(&moved, &NoProgress).unwrap();
+    let want = fresh.render(&moved, &request, &NoProgress).unwrap();
+    assert_ne!(
+        before.image.pixels, after.image.pixels,
+        "the move changed nothing"
+    );
+    assert_eq!(after.image.pixels, want.image.pixels);
+    assert_eq!(after.coverage, want.coverage);
+}
