@@ -555,12 +555,7 @@ fn image_rows(
     }
     rows.push(image_row(
         "image: nearfield 1 %/20 %, sources ranked by magnitude (default: area-weighted)",
-        judge.error(&magnitude_ranked_image(
-            &mut m,
-            &scene,
-            judge.request(),
-            progress,
-        )?),
+        judge.magnitude_ranked_error(&mut m, &scene, progress)?,
         None,
         ISSUE,
     ));
@@ -654,7 +649,7 @@ fn turned_rows(
     }
     rows.push(image_row(
         format!("image: light turned {DEG}° (bounding rectangle), nearfield 1 %/20 %, sources ranked by magnitude (default: area-weighted)"),
-        judge.error(&magnitude_ranked_image(m, &turned, judge.request(), progress)?),
+        judge.magnitude_ranked_error(m, &turned, progress)?,
         None,
         SOURCE,
     ));

@@ -12,7 +12,7 @@
 //! rows only in the vertex colours.
 
 use crate::method::NearfieldMethod;
-use crate::verify::{VerifyOptions, VerifyRow, fail, reference_render};
+use crate::verify::{VerifyOptions, VerifyRow, fail, magnitude_ranked_image, reference_render};
 use glam::Vec3;
 use relight_render::method::{FrameRequest, Relighter};
 use relight_render::reference::ReferenceImage;
@@ -66,11 +66,6 @@ impl ImageJudge {
         }
     }
 
-    /// The frame request the reference and the mask were drawn for.
-    pub(crate) fn request(&self) -> &FrameRequest {
-        &self.request
-    }
-
     /// Relative RMS of `image` against the reference over the object pixels.
     pub(crate) fn error(&self, image: &Image) -> f64 {
         image.relative_rms_error(&self.reference.image, Some(&self.mask))
@@ -100,6 +95,17 @@ impl ImageJudge {
         let r = m.render(scene, &self.request, progress).map_err(fail);
         m.replace_colors(saved);
         Ok(self.error(&r?.image))
+    }
+
+    /// The error of `m`'s frame at 1 %/20 % with its sources ranked by
+    /// magnitude (`m`'s own ranking restored after).
+    pub(crate) fn magnitude_ranked_error(
+        &self,
+        m: &mut NearfieldMethod,
+        scene: &Scene,
+        progress: &dyn Progress,
+    ) -> Result<f64, String> {
+        Ok(self.error(&magnitude_ranked_image(m, scene, &self.request, progress)?))
     }
 
     /// The reported row of the reference's noise σ_MC over the object

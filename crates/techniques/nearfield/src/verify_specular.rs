@@ -14,7 +14,7 @@ use crate::light::light_cells;
 use crate::method::{NearfieldMethod, NearfieldOptions};
 use crate::scenes::glossy_floor_and_sphere;
 use crate::specular::{ObjectKind, VertexBrdf, local_view, vertex_frame};
-use crate::verify::{VerifyOptions, VerifyRow, fail, magnitude_ranked_image};
+use crate::verify::{VerifyOptions, VerifyRow, fail};
 use crate::verify_judge::{ImageJudge, image_row};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -294,12 +294,7 @@ pub fn specular_rows(
     }
     rows.push(image_row(
         "glossy image: nearfield 1 %/20 %, sources ranked by magnitude (default: area-weighted)",
-        judge.error(&magnitude_ranked_image(
-            &mut m,
-            &scene,
-            judge.request(),
-            progress,
-        )?),
+        judge.magnitude_ranked_error(&mut m, &scene, progress)?,
         None,
         ISSUE,
     ));
