@@ -294,8 +294,9 @@ pub struct MethodFlags {
     /// [default: off].
     #[arg(long, value_name = "RES")]
     pub visibility_texture: Option<usize>,
-    /// How MIP texels of normal maps are shaded (ndf): none, unnormalized,
-    /// normalized, toksvig, lean, sh, vmf [default: sh].
+    /// How MIP texels of normal maps are shaded (ndf; sh: its filtering
+    /// mode, for normal-mapped Lambertian objects): none, unnormalized,
+    /// normalized, toksvig, lean, sh, vmf [default: ndf sh, sh none].
     #[arg(long)]
     pub normal_filter: Option<String>,
     /// The BRDF the ndf method's effective forms shade (ndf): lambert,

@@ -68,7 +68,7 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 30] = [
         "--visibility-texture",
         &[MethodKind::ShExp, MethodKind::Triple],
     ),
-    ("--normal-filter", &[MethodKind::Ndf]),
+    ("--normal-filter", &[MethodKind::Ndf, MethodKind::Sh]),
     ("--ndf-brdf", &[MethodKind::Ndf]),
     ("--lobes", &[MethodKind::Ndf]),
     ("--vmf-taps", &[MethodKind::Ndf]),
@@ -210,6 +210,10 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             }
             if let Some(w) = &f.window {
                 s.window = w.parse().map_err(|e| anyhow!("--window {w}: {e}"))?;
+            }
+            if let Some(v) = &f.normal_filter {
+                s.normal_filter = relight_ndf::NdfFilter::parse(v)
+                    .map_err(|e| anyhow!("--normal-filter: {e}"))?;
             }
         }
         MethodOptions::Wavelet(w) => {

@@ -207,3 +207,65 @@ fn r11_truncated_glb_error_is_words() {
         assert!(!err.contains(debug), "Debug output `{debug}` in: {err}");
     }
 }
+
+/// Issue 14's `relight render --method sh --normal-filter …`: the SH
+/// method's filtering mode renders (and changes the normal-mapped
+/// Lambertian pixels), `none` is plain normal mapping, and a method
+/// without the mode refuses the flag by name.
+#[test]
+fn sh_takes_a_normal_filter() {
+    let Some(map) = data("normalmaps/0001.png") else {
+        return;
+    };
+    let map = map.to_str().unwrap();
+    let render = |filter: Option<&str>, name: &str| -> Vec<glam::Vec3> {
+        let out = tmp(name);
+        let mut args = vec![
+            "-q",
+            "render",
+            "--mesh",
+            "torus",
+            "--brdf",
+            "lambert:0.8",
+            "--env",
+            "studio",
+            "--normal-map",
+            map,
+            "--size",
+            "64x40",
+            "--method",
+            "sh",
+            "--out",
+        ];
+        args.push(out.to_str().unwrap());
+        if let Some(f) = filter {
+            args.extend(["--normal-filter", f]);
+        }
+        let o = relight(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        relight_assets::read_image(&out.with_extension("exr"))
+            .unwrap()
+            .0
+            .pixels
+    };
+    let plain = render(None, "nf-plain.png");
+    assert_eq!(render(Some("none"), "nf-none.png"), plain);
+    let filtered = render(Some("sh"), "nf-sh.png");
+    let changed = filtered.iter().zip(&plain).filter(|(a, b)| a != b).count();
+    assert!(changed > 100, "{changed} pixels changed");
+    let out = tmp("nf-wavelet.png");
+    let o = relight(&[
+        "render",
+        "--mesh",
+        "torus",
+        "--env",
+        "studio",
+        "--normal-filter",
+        "sh",
+        "--method",
+        "wavelet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_one_line_error(&o, &["--normal-filter", "wavelet"]);
+}

@@ -54,7 +54,7 @@ pub mod vmf;
 
 pub use effective::{Baseline, NdfBrdf};
 pub use lean::{LeanPyramid, LeanTexel};
-pub use method::{NDF_METHOD_NAME, NdfFilter, NdfMethod, NdfOptions, VmfTaps};
+pub use method::{NDF_METHOD_NAME, NdfFilter, NdfMethod, NdfOptions, VmfTaps, colour_of};
 pub use pyramid::{VmfBakeOptions, VmfPyramid};
 pub use sh_ndf::ShNdfPyramid;
 

@@ -320,8 +320,13 @@ fn fingerprint(m: &NormalMap) -> u64 {
     h
 }
 
-/// The colour of `brdf` as `model × colour`, or why it is not.
-fn colour_of(brdf: &dyn relight_brdf::Brdf, model: NdfBrdf) -> Result<Vec3, String> {
+/// The colour of `brdf` as `model × colour`, or why it is not (probed at
+/// six direction pairs, 2 %): the test `prepare` makes of every object, and
+/// the SH method's filter mode of the objects it can filter.
+///
+/// # Errors
+/// Why the BRDF is not the model times a colour, one line.
+pub fn colour_of(brdf: &dyn relight_brdf::Brdf, model: NdfBrdf) -> Result<Vec3, String> {
     let z = Vec3::Z;
     let base = shade_lobe(model, z, 0.0, z, z);
     let c = brdf.eval(z, z) * z.z / base;

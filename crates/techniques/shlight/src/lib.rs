@@ -72,6 +72,7 @@
 
 pub mod bake;
 pub mod bench;
+mod filter;
 pub mod lit_scene;
 pub mod method;
 pub mod relight;

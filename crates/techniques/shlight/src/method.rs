@@ -29,8 +29,10 @@
 //! and [`FrameTimings::view_ms`] is the raster + shading time of the frame.
 
 use crate::bake::{BakeOptions, BrdfShTable};
+use crate::filter::Filtered;
 use crate::relight::{Background, check_meshes};
 use crate::{LitScene, NormalMap, ShLightError, ShRenderer, ShRotationMethod};
+use relight_ndf::NdfFilter;
 use relight_render::method::{
     FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
 };
@@ -67,6 +69,10 @@ pub struct ShOptions {
     /// Default [`WindowChoice::Auto`]: Sloan's deringing wherever a lobe
     /// would go negative at `order` bands, so no pixel is negative.
     pub window: WindowChoice,
+    /// Normal-map filtering of normal-mapped Lambertian objects
+    /// ([`crate::filter`]). Default [`NdfFilter::None`]: plain normal
+    /// mapping.
+    pub normal_filter: NdfFilter,
 }
 
 impl ShOptions {
@@ -84,6 +90,7 @@ impl Default for ShOptions {
             bake: BakeOptions::default(),
             beta_lim: f32::INFINITY,
             window: WindowChoice::Auto,
+            normal_filter: NdfFilter::None,
         }
     }
 }
@@ -99,6 +106,11 @@ pub struct ShMethod {
     image: Image,
     /// The last lighting change's ms, reported by the next frame.
     pending_lighting_ms: f64,
+    /// The filtering mode, when [`ShOptions::normal_filter`] has objects
+    /// to filter.
+    filtered: Option<Filtered>,
+    /// Normal-mapped objects the filter does not apply to, one line each.
+    filter_warnings: Vec<String>,
 }
 
 impl std::fmt::Debug for ShMethod {
@@ -144,6 +156,8 @@ impl ShMethod {
             state: None,
             image: Image::new(1, 1),
             pending_lighting_ms: 0.0,
+            filtered: None,
+            filter_warnings: Vec::new(),
         })
     }
 
@@ -206,7 +220,9 @@ impl Relighter for ShMethod {
     }
 
     fn warnings(&self) -> Vec<String> {
-        self.lobe_warnings()
+        let mut w = self.lobe_warnings();
+        w.extend(self.filter_warnings.iter().cloned());
+        w
     }
 
     fn supports(&self, feature: SceneFeature) -> Support {
@@ -229,6 +245,10 @@ impl Relighter for ShMethod {
         self.state = Some(
             LitScene::build(&self.renderer, scene, &needs_uvs, previous, progress).map_err(fail)?,
         );
+        (self.filtered, self.filter_warnings) = match self.options.normal_filter {
+            NdfFilter::None => (None, Vec::new()),
+            f => Filtered::prepare(f, scene, progress)?,
+        };
         self.set_lighting(scene, progress)?;
         Ok(())
     }
@@ -248,6 +268,9 @@ impl Relighter for ShMethod {
                 message: e.to_string(),
             })?;
         state.light(&self.renderer, scene, progress).map_err(fail)?;
+        if let Some(f) = self.filtered.as_mut() {
+            f.set_lighting(scene, progress)?;
+        }
         let ms = t.elapsed().as_secs_f64() * 1e3;
         self.pending_lighting_ms = ms;
         Ok(ms)
@@ -296,13 +319,17 @@ impl Relighter for ShMethod {
             )
             .map_err(fail)?;
         progress.check()?;
-        Ok(Rendered::from_samples(
+        let mut frame = Rendered::from_samples(
             Cow::Borrowed(&self.image),
             state.raster(),
             k,
             std::mem::take(&mut self.pending_lighting_ms),
             t,
-        ))
+        );
+        if let Some(f) = self.filtered.as_mut() {
+            f.composite(request, &mut frame, progress)?;
+        }
+        Ok(frame)
     }
 
     /// The last frame's covered samples at [`crate::shade`]'s count per

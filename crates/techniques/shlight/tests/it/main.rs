@@ -2,6 +2,7 @@
 //! dependency graph instead of one per file); each module is one former
 //! `tests/*.rs` file.
 
+mod filter;
 mod method;
 mod render;
 mod window;
