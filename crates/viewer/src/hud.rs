@@ -221,7 +221,7 @@ impl HudInfo {
                 } else {
                     ""
                 },
-                if self.method == MethodKind::Ndf {
+                if matches!(self.method, MethodKind::Ndf | MethodKind::Sh) {
                     "   n: normal filter"
                 } else {
                     ""
@@ -274,10 +274,11 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             w.ao
         ),
         MethodOptions::Sh(s) => format!(
-            "order {} ({} coefficients) · rotation {}{quality}",
+            "order {} ({} coefficients) · rotation {} · normal filter {}{quality}",
             s.order,
             s.order * s.order,
-            s.rotation
+            s.rotation,
+            s.normal_filter.name()
         ),
         MethodOptions::RadianceCache(r) => format!(
             "a {} · order {} · rotation {}{quality}",
@@ -583,9 +584,16 @@ mod tests {
         ] {
             assert!(help.contains(k), "{help}");
         }
-        assert!(!help.contains("n: normal filter"), "{help}");
-        // n cycles the normal filter of ndf only.
+        assert!(help.contains("n: normal filter"), "{help}");
+        // n cycles the normal filter of ndf and of sh's filtering mode.
+        v.select(0);
         assert!(!v.cycle_normal_filter());
+        v.select(1);
+        assert!(v.cycle_normal_filter());
+        match v.method_options() {
+            MethodOptions::Sh(o) => assert_eq!(o.normal_filter.name(), "unnormalized"),
+            _ => panic!("method 2 is sh"),
+        }
         v.select(5);
         let filter = |v: &Viewer| match v.method_options() {
             MethodOptions::Ndf(o) => o.filter.name(),

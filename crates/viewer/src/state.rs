@@ -334,16 +334,20 @@ impl Viewer {
         }
     }
 
-    /// Shows the ndf method's next normal filter (representation or
-    /// baseline, `NdfFilter::next_for`; the `n` key): the method is made and
-    /// prepared again with it. False, and nothing changes, when the method
-    /// shown is not ndf.
+    /// Shows the next normal filter (representation or baseline,
+    /// `NdfFilter::next_for`; the `n` key) of the ndf method, or of the sh
+    /// method's filtering mode (its normal-mapped Lambertian objects): the
+    /// method is made and prepared again with it. False, and nothing
+    /// changes, for another method.
     pub fn cycle_normal_filter(&mut self) -> bool {
         let slot = &mut self.slots[self.current];
-        let MethodOptions::Ndf(o) = &mut slot.options else {
-            return false;
-        };
-        o.filter = o.filter.next_for(o.brdf);
+        match &mut slot.options {
+            MethodOptions::Ndf(o) => o.filter = o.filter.next_for(o.brdf),
+            MethodOptions::Sh(o) => {
+                o.normal_filter = o.normal_filter.next_for(relight_ndf::NdfBrdf::Lambert);
+            }
+            _ => return false,
+        }
         slot.method = None;
         slot.refused = None;
         slot.warnings.clear();
