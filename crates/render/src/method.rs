@@ -537,30 +537,6 @@ pub fn same_meshes<'a>(
             .all(|(p, o)| std::sync::Arc::ptr_eq(p, &o.mesh))
 }
 
-/// Rasterizes every object of `scene` (object id = its index) into `raster`
-/// for `request`'s camera at `request.aa`² samples per pixel, with the depth
-/// range fitted to the draws and the back faces of closed meshes culled
-/// from outside them ([`crate::cull`]; `closed` is the caller's cache): the
-/// visibility buffer a rasterizing method then shades. Returns the
-/// supersampled camera and the draws.
-///
-/// # Errors
-/// The rasterizer's (image size, depth range).
-pub fn rasterize_objects<'a>(
-    raster: &mut Rasterizer,
-    closed: &mut crate::cull::ClosedMeshes,
-    scene: &'a Scene,
-    request: &FrameRequest,
-) -> Result<(crate::Camera, Vec<DrawCall<'a>>), crate::RasterError> {
-    let mut camera = request.camera;
-    camera.width *= request.aa;
-    camera.height *= request.aa;
-    let draws = crate::object_raster::draws_of(scene, closed, &camera);
-    let opts = RasterOptions::default().fit_depth(&camera, &draws);
-    raster.rasterize(&camera, &draws, &opts)?;
-    Ok((camera, draws))
-}
-
 /// True when `method` supports [`SceneFeature::Animation`]: prepared once on
 /// a moving scene, it renders every pose (module docs, *Animation*).
 #[must_use]

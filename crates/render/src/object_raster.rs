@@ -10,8 +10,8 @@
 //! keep their buffers the same way inside their own renderers).
 
 use crate::cull::ClosedMeshes;
-use crate::method::{CoverageCache, FrameRequest, Rendered, rasterize_objects};
-use crate::raster::{DrawCall, Rasterizer};
+use crate::method::{CoverageCache, FrameRequest, Rendered, same_meshes};
+use crate::raster::{DrawCall, RasterOptions, Rasterizer};
 use crate::{Camera, Image, RasterError, Scene};
 use relight_geom::Mesh;
 use std::borrow::Cow;
@@ -40,8 +40,9 @@ impl ObjectRaster {
 
     /// The draws of `scene`'s objects (object id = index) for `request`'s
     /// camera at `request.aa`² samples per pixel, and that supersampled
-    /// camera, with the visibility buffer rasterized for them
-    /// ([`rasterize_objects`]) unless it already is: same camera, same
+    /// camera, with the visibility buffer rasterized for them (depth range
+    /// fitted to the draws, back faces of closed meshes culled from outside
+    /// them, [`crate::cull`]) unless it already is: same camera, same
     /// meshes (by identity) as the buffer held.
     ///
     /// # Errors
@@ -54,28 +55,24 @@ impl ObjectRaster {
         let mut camera = request.camera;
         camera.width *= request.aa;
         camera.height *= request.aa;
+        let draws = draws_of(scene, &mut self.closed, &camera);
         let holds = self.held.as_ref().is_some_and(|(g, c, meshes)| {
             *g != 0
                 && *g == self.raster.generation()
                 && *c == camera
-                && meshes.len() == scene.objects.len()
-                && meshes
-                    .iter()
-                    .zip(&scene.objects)
-                    .all(|(m, o)| Arc::ptr_eq(m, &o.mesh))
+                && same_meshes(meshes.iter(), scene)
         });
-        if holds {
-            return Ok((camera, draws_of(scene, &mut self.closed, &camera)));
+        if !holds {
+            self.held = None;
+            let opts = RasterOptions::default().fit_depth(&camera, &draws);
+            self.raster.rasterize(&camera, &draws, &opts)?;
+            self.rasterizations += 1;
+            self.held = Some((
+                self.raster.generation(),
+                camera,
+                scene.objects.iter().map(|o| o.mesh.clone()).collect(),
+            ));
         }
-        self.held = None;
-        let (camera, draws) =
-            rasterize_objects(&mut self.raster, &mut self.closed, scene, request)?;
-        self.rasterizations += 1;
-        self.held = Some((
-            self.raster.generation(),
-            camera,
-            scene.objects.iter().map(|o| o.mesh.clone()).collect(),
-        ));
         Ok((camera, draws))
     }
 
@@ -112,12 +109,9 @@ impl ObjectRaster {
     }
 }
 
-/// The draw calls [`rasterize_objects`] makes, without rasterizing them.
-pub(crate) fn draws_of<'a>(
-    scene: &'a Scene,
-    closed: &mut ClosedMeshes,
-    camera: &Camera,
-) -> Vec<DrawCall<'a>> {
+/// One draw call per object of `scene` (object id = index), back faces of
+/// closed meshes culled from outside them.
+fn draws_of<'a>(scene: &'a Scene, closed: &mut ClosedMeshes, camera: &Camera) -> Vec<DrawCall<'a>> {
     scene
         .objects
         .iter()
