@@ -7,7 +7,12 @@
 //! `B_p = Σ_c L_p,c ρ_p,c V_p,c = Σ_{a,b,v} λ_a λ_b λ_v T[a][b][v]`
 //!
 //! exactly (the product is trilinear in the three functions), per RGB
-//! channel. A triangle's 27 terms cost `3·(9 + 27)` multiply-adds per cell
+//! channel. The 27 terms of that sum are only ten distinct cubic monomials
+//! `λ_i λ_j λ_k` (i ≤ j ≤ k, [`MONOMIALS`]), so a triangle keeps per channel
+//! the ten coefficients `C_m = Σ_{(a,b,v) sorts to m} T[a][b][v]`: the 27
+//! products of a cell go into ten sums instead of 27, a quarter of the
+//! memory and of the horizontal sums, and a pixel evaluates a cubic of ten
+//! terms. A triangle costs `3·(9 + 27)` multiply-adds per cell
 //! ([`FMA_PER_TRIANGLE_CELL`]), once per frame for each triangle some pixel
 //! shows; each pixel then costs [`FMA_PER_PIXEL`] whatever the number of
 //! cells, instead of [`crate::shade::FMA_PER_CELL_INTERPOLATED`] per cell.
@@ -17,14 +22,60 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
-use relight_render::raster::NO_TRIANGLE;
 
 /// Multiply-adds per cell of one triangle's tensor: per channel, nine
 /// `L_a ρ_b` products and 27 dot products with the visibility.
 pub const FMA_PER_TRIANGLE_CELL: usize = 3 * (9 + 27);
 
-/// Multiply-adds per pixel: nine `λ_a λ_b`, then 27 per channel.
-pub const FMA_PER_PIXEL: usize = 9 + 3 * 27;
+/// Multiply-adds per pixel: the six quadratic and ten cubic monomials,
+/// then ten per channel.
+pub const FMA_PER_PIXEL: usize = 6 + 10 + 3 * 10;
+
+/// The ten cubic monomials `λ_i λ_j λ_k`, i ≤ j ≤ k, of the barycentrics, in
+/// the order of a triangle's coefficients.
+pub const MONOMIALS: [[usize; 3]; 10] = [
+    [0, 0, 0],
+    [0, 0, 1],
+    [0, 0, 2],
+    [0, 1, 1],
+    [0, 1, 2],
+    [0, 2, 2],
+    [1, 1, 1],
+    [1, 1, 2],
+    [1, 2, 2],
+    [2, 2, 2],
+];
+
+/// Coefficients per triangle: ten per channel.
+const COEFFS: usize = 3 * MONOMIALS.len();
+
+/// `MONOMIAL_OF[a][b][v]`: the index in [`MONOMIALS`] of `(a, b, v)` sorted.
+const MONOMIAL_OF: [[[usize; 3]; 3]; 3] = monomial_of();
+
+const fn monomial_of() -> [[[usize; 3]; 3]; 3] {
+    let mut out = [[[0; 3]; 3]; 3];
+    let mut m = 0;
+    while m < MONOMIALS.len() {
+        let [i, j, k] = MONOMIALS[m];
+        // Every ordering of (i, j, k).
+        let perms = [
+            [i, j, k],
+            [i, k, j],
+            [j, i, k],
+            [j, k, i],
+            [k, i, j],
+            [k, j, i],
+        ];
+        let mut p = 0;
+        while p < perms.len() {
+            let [a, b, v] = perms[p];
+            out[a][b][v] = m;
+            p += 1;
+        }
+        m += 1;
+    }
+    out
+}
 
 /// One object's vertex functions (f32 rows of three channel planes of
 /// `padded` cells; visibility one plane per vertex, `None`: V ≡ 1).
@@ -44,9 +95,9 @@ pub struct TriangleTables {
     offsets: Vec<usize>,
     /// Per global triangle: its tensor's index, or `u32::MAX`.
     slot: Vec<u32>,
-    /// Per built triangle, `[channel][a][b][v]`; of the second BRDF after
-    /// them when an object has one (`second_base`).
-    terms: Vec<[f32; 81]>,
+    /// Per built triangle, `[channel][monomial]` ([`MONOMIALS`]); of the
+    /// second BRDF after them when an object has one (`second_base`).
+    terms: Vec<[f32; COEFFS]>,
     /// Where a triangle's second-BRDF tensor sits: `terms[second_base + slot]`.
     second_base: usize,
     /// Triangles built in the last frame.
@@ -72,31 +123,39 @@ impl TriangleTables {
         self.offsets.push(total);
         self.slot.clear();
         self.slot.resize(total, u32::MAX);
-        let mut list: Vec<(usize, usize)> = Vec::new();
+        // Mark the covered triangles, then number them in mesh order: the
+        // tensors then read the vertex functions in the mesh's order, not
+        // the screen's (rows revisit a triangle's vertices far apart).
+        const COVERED: u32 = 0;
         for &id in triangle_ids {
-            if id == NO_TRIANGLE {
+            // `NO_TRIANGLE` (u32::MAX) is past every slot.
+            if let Some(s) = self.slot.get_mut(id as usize) {
+                *s = COVERED;
+            }
+        }
+        let mut list: Vec<(usize, usize)> = Vec::new();
+        for (d, o) in objects.iter().enumerate() {
+            let range = self.offsets[d]..self.offsets[d + 1];
+            if o.is_none() {
+                self.slot[range].fill(u32::MAX);
                 continue;
             }
-            let id = id as usize;
-            if id >= total || self.slot[id] != u32::MAX {
-                continue;
+            for (tri, s) in self.slot[range].iter_mut().enumerate() {
+                if *s == COVERED {
+                    *s = list.len() as u32;
+                    list.push((d, tri));
+                }
             }
-            let d = self.offsets.partition_point(|&o| o <= id) - 1;
-            if objects[d].is_none() {
-                continue;
-            }
-            self.slot[id] = list.len() as u32;
-            list.push((d, id - self.offsets[d]));
         }
         let any_second = objects.iter().flatten().any(|o| o.second.is_some());
         self.built = list.len();
         self.second_base = if any_second { list.len() } else { 0 };
         // Every tensor of the frame is written whole below: the buffer only
-        // grows (zeroing 324 bytes per triangle each frame was ≈ 8 MB of
-        // `memset` at 512 × 384), and entries past this frame's are unread.
+        // grows (zeroing it each frame was megabytes of `memset` at
+        // 512 × 384), and entries past this frame's are unread.
         let needed = list.len() * if any_second { 2 } else { 1 };
         if self.terms.len() < needed {
-            self.terms.resize(needed, [0.0; 81]);
+            self.terms.resize(needed, [0.0; COEFFS]);
         }
         let (first, second) = self.terms[..needed].split_at_mut(list.len());
         let fma = fma_path();
@@ -131,7 +190,7 @@ impl TriangleTables {
                             };
                             tensor(&x, t, fma);
                         }
-                        None => *t = [0.0; 81],
+                        None => *t = [0.0; COEFFS],
                     }
                 });
         }
@@ -166,18 +225,30 @@ impl TriangleTables {
             s as usize
         };
         let t = &self.terms[k];
-        let lam = [l.x, l.y, l.z];
+        let q = [
+            l.x * l.x,
+            l.x * l.y,
+            l.x * l.z,
+            l.y * l.y,
+            l.y * l.z,
+            l.z * l.z,
+        ];
+        let mono = [
+            q[0] * l.x,
+            q[0] * l.y,
+            q[0] * l.z,
+            q[1] * l.y,
+            q[1] * l.z,
+            q[2] * l.z,
+            q[3] * l.y,
+            q[3] * l.z,
+            q[4] * l.z,
+            q[5] * l.z,
+        ];
         let mut out = [0.0f32; 3];
         for (ch, o) in out.iter_mut().enumerate() {
-            let mut sum = 0.0;
-            for a in 0..3 {
-                for b in 0..3 {
-                    let tv = &t[ch * 27 + a * 9 + b * 3..][..3];
-                    let inner = tv[0] * lam[0] + tv[1] * lam[1] + tv[2] * lam[2];
-                    sum += lam[a] * lam[b] * inner;
-                }
-            }
-            *o = sum;
+            let c = &t[ch * MONOMIALS.len()..][..MONOMIALS.len()];
+            *o = c.iter().zip(&mono).map(|(c, m)| c * m).sum();
         }
         Some(Vec3::from_array(out))
     }
@@ -201,7 +272,7 @@ fn fma_path() -> bool {
 /// through the AVX2 + FMA copy where `fma` ([`fma_path`]): the default
 /// x86-64 target has only 4-lane SSE and no fused multiply-add, and this loop
 /// was half of a 512 × 384 interpolated frame.
-fn tensor(x: &TensorInput<'_>, t: &mut [f32; 81], fma: bool) {
+fn tensor(x: &TensorInput<'_>, t: &mut [f32; COEFFS], fma: bool) {
     #[cfg(target_arch = "x86_64")]
     if fma {
         // SAFETY: AVX2 and FMA were detected at run time (`fma_path`).
@@ -228,7 +299,7 @@ struct TensorInput<'a> {
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn tensor_fma(x: &TensorInput<'_>, t: &mut [f32; 81]) {
+unsafe fn tensor_fma(x: &TensorInput<'_>, t: &mut [f32; COEFFS]) {
     tensor_body::<true>(x, t);
 }
 
@@ -238,56 +309,69 @@ fn madd<const F: bool>(a: f32, b: f32, c: f32) -> f32 {
     if F { a.mul_add(b, c) } else { a * b + c }
 }
 
-/// The tensor in 8-cell chunks: per channel and pair `(a, b)` the product
-/// `L_a ρ_b` once, then its dot products with the three visibilities
-/// (the [`FMA_PER_TRIANGLE_CELL`] count).
+/// The ten coefficients per channel (module docs) in 8-cell chunks: per
+/// chunk the three visibilities are loaded once for the channels, and per
+/// channel and pair `(a, b)` the product `L_a ρ_b` once, then its three
+/// multiply-adds with the visibilities into the monomials' sums (the
+/// [`FMA_PER_TRIANGLE_CELL`] count).
 #[inline(always)]
-fn tensor_body<const F: bool>(x: &TensorInput<'_>, t: &mut [f32; 81]) {
+fn tensor_body<const F: bool>(x: &TensorInput<'_>, t: &mut [f32; COEFFS]) {
     let &TensorInput {
         o,
         brdf,
         tri,
         padded,
     } = x;
+    debug_assert_eq!(padded % 8, 0, "cells are padded to whole chunks");
     let row = 3 * padded;
     let vis = o
         .vis
-        .map(|v| tri.map(|i| &v[i as usize * padded..(i as usize + 1) * padded]));
+        .map(|v| tri.map(|i| &v[i as usize * padded..][..padded]));
+    let chunk = |f: &[f32], s: usize| -> [f32; 8] { f[s..s + 8].try_into().expect("8 cells") };
+    t.fill(0.0);
     for ch in 0..3 {
-        for (a, &ia) in tri.iter().enumerate() {
-            let la = &o.light[ia as usize * row + ch * padded..][..padded];
-            for (b, &ib) in tri.iter().enumerate() {
-                let rb = &brdf[ib as usize * row + ch * padded..][..padded];
-                let out = &mut t[ch * 27 + a * 9 + b * 3..][..3];
-                match &vis {
-                    Some(v) => {
-                        let mut acc = [[0.0f32; 8]; 3];
-                        let chunks = la
-                            .chunks_exact(8)
-                            .zip(rb.chunks_exact(8))
-                            .zip(v[0].chunks_exact(8))
-                            .zip(v[1].chunks_exact(8))
-                            .zip(v[2].chunks_exact(8));
-                        for ((((l8, r8), v0), v1), v2) in chunks {
-                            for i in 0..8 {
-                                let lr = l8[i] * r8[i];
-                                acc[0][i] = madd::<F>(lr, v0[i], acc[0][i]);
-                                acc[1][i] = madd::<F>(lr, v1[i], acc[1][i]);
-                                acc[2][i] = madd::<F>(lr, v2[i], acc[2][i]);
+        let la = tri.map(|i| &o.light[i as usize * row + ch * padded..][..padded]);
+        let rb = tri.map(|i| &brdf[i as usize * row + ch * padded..][..padded]);
+        let out = &mut t[ch * MONOMIALS.len()..][..MONOMIALS.len()];
+        match &vis {
+            Some(v) => {
+                let mut acc = [[0.0f32; 8]; MONOMIALS.len()];
+                for s in (0..padded).step_by(8) {
+                    let (l8, r8, v8) = (
+                        la.map(|f| chunk(f, s)),
+                        rb.map(|f| chunk(f, s)),
+                        v.map(|f| chunk(f, s)),
+                    );
+                    for a in 0..3 {
+                        for b in 0..3 {
+                            let lr: [f32; 8] = std::array::from_fn(|i| l8[a][i] * r8[b][i]);
+                            for (w, vw) in v8.iter().enumerate() {
+                                let m = &mut acc[MONOMIAL_OF[a][b][w]];
+                                for i in 0..8 {
+                                    m[i] = madd::<F>(lr[i], vw[i], m[i]);
+                                }
                             }
                         }
-                        for k in 0..3 {
-                            out[k] = acc[k].iter().sum();
-                        }
                     }
-                    None => {
+                }
+                for (o, a) in out.iter_mut().zip(&acc) {
+                    *o = a.iter().sum();
+                }
+            }
+            // V ≡ 1: T[a][b][v] = Σ_c L_a ρ_b for every v.
+            None => {
+                for a in 0..3 {
+                    for b in 0..3 {
                         let mut acc = [0.0f32; 8];
-                        for (l8, r8) in la.chunks_exact(8).zip(rb.chunks_exact(8)) {
+                        for (l8, r8) in la[a].chunks_exact(8).zip(rb[b].chunks_exact(8)) {
                             for i in 0..8 {
                                 acc[i] = madd::<F>(l8[i], r8[i], acc[i]);
                             }
                         }
-                        out.fill(acc.iter().sum());
+                        let p: f32 = acc.iter().sum();
+                        for w in 0..3 {
+                            out[MONOMIAL_OF[a][b][w]] += p;
+                        }
                     }
                 }
             }
@@ -298,6 +382,7 @@ fn tensor_body<const F: bool>(x: &TensorInput<'_>, t: &mut [f32; 81]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use relight_render::raster::NO_TRIANGLE;
 
     /// One object's functions without a blend.
     fn functions<'a>(
@@ -398,7 +483,7 @@ mod tests {
         let indices = [[0u32, 2, 1]];
         for with_vis in [false, true] {
             let o = functions(&indices, &light, &brdf, with_vis.then_some(&vis[..]));
-            let (mut fast, mut slow) = ([0.0f32; 81], [0.0f32; 81]);
+            let (mut fast, mut slow) = ([0.0f32; COEFFS], [0.0f32; COEFFS]);
             let x = TensorInput {
                 o: &o,
                 brdf: &brdf,

@@ -149,6 +149,9 @@ fn madd<const F: bool>(a: f32, b: f32, c: f32) -> f32 {
     if F { a.mul_add(b, c) } else { a * b + c }
 }
 
+/// Taps [`blend_with`] keeps in registers; more go tap by tap through memory.
+const MAX_REGISTER_TAPS: usize = 8;
+
 #[inline(always)]
 fn blend_with<const F: bool, C: Cells>(
     cells: &C,
@@ -158,19 +161,58 @@ fn blend_with<const F: bool, C: Cells>(
     out: &mut [f32],
 ) {
     for (ch, o) in out.chunks_exact_mut(padded).take(3).enumerate() {
-        o.fill(0.0);
+        // Per tap its entry's offset and scaled weight, then per 8-cell
+        // chunk all taps into one accumulator (no read-modify-write of `o`
+        // per tap: the same sums, in the same order).
+        let mut live = [(0usize, 0.0f32); MAX_REGISTER_TAPS];
+        let mut n = 0;
         for t in taps.iter().filter(|t| t.weight != 0.0) {
             let base = t.offset as usize + ch * plane_stride;
-            let w = t.weight * cells.scale(base);
+            if n == MAX_REGISTER_TAPS {
+                n = usize::MAX;
+                break;
+            }
+            live[n] = (base, t.weight * cells.scale(base));
+            n += 1;
+        }
+        if n == usize::MAX {
+            blend_taps_in_memory::<F, C>(cells, taps, ch * plane_stride, o);
+        } else {
             for (b, o8) in o.chunks_exact_mut(8).enumerate() {
-                let s = cells.load8(base + 8 * b);
-                for i in 0..8 {
-                    o8[i] = madd::<F>(w, s[i], o8[i]);
+                let mut acc = [0.0f32; 8];
+                for &(base, w) in &live[..n] {
+                    let s = cells.load8(base + 8 * b);
+                    for i in 0..8 {
+                        acc[i] = madd::<F>(w, s[i], acc[i]);
+                    }
                 }
+                o8.copy_from_slice(&acc);
             }
         }
         if plane_stride < padded {
             o[plane_stride..].fill(0.0);
+        }
+    }
+}
+
+/// [`blend_with`]'s one channel `o` for more than [`MAX_REGISTER_TAPS`]
+/// taps, tap by tap (`shift`: the channel's plane offset).
+#[inline(never)]
+fn blend_taps_in_memory<const F: bool, C: Cells>(
+    cells: &C,
+    taps: &[Tap],
+    shift: usize,
+    o: &mut [f32],
+) {
+    o.fill(0.0);
+    for t in taps.iter().filter(|t| t.weight != 0.0) {
+        let base = t.offset as usize + shift;
+        let w = t.weight * cells.scale(base);
+        for (b, o8) in o.chunks_exact_mut(8).enumerate() {
+            let s = cells.load8(base + 8 * b);
+            for i in 0..8 {
+                o8[i] = madd::<F>(w, s[i], o8[i]);
+            }
         }
     }
 }
@@ -636,7 +678,8 @@ mod tests {
 
     /// A vertex function is the weighted sum of its entries' planes (every
     /// storage, plane scales folded in), zero past an unpadded plane's own
-    /// cells, and both copies agree.
+    /// cells, and both copies agree; also with more taps than
+    /// [`MAX_REGISTER_TAPS`].
     #[test]
     fn blend_function_sums_entries() {
         let (cells, padded) = (58, 64);
@@ -682,36 +725,46 @@ mod tests {
                 ),
             ),
         ] {
-            let mut taps = taps;
-            taps[0].offset = (3 * stride) as u32;
-            taps[2].offset = (9 * stride) as u32;
-            let mut fast = vec![f32::NAN; 3 * padded];
-            let mut slow = vec![f32::NAN; 3 * padded];
-            blend_function(&planes, &taps, stride, padded, &mut fast);
-            blend_function_portable(&planes, &taps, stride, padded, &mut slow);
-            for ch in 0..3 {
-                for c in 0..padded {
-                    let want = if c < stride.min(cells) || stride == padded {
-                        taps.iter()
-                            .map(|t| {
-                                t.weight * planes.get(t.offset as usize + ch * stride + c, stride)
-                            })
-                            .sum::<f32>()
-                    } else {
-                        0.0
-                    };
-                    let i = ch * padded + c;
-                    assert!(
-                        (slow[i] - want).abs() <= 1e-6,
-                        "{ch} {c}: {} vs {want}",
-                        slow[i]
-                    );
-                    assert!(
-                        (fast[i] - slow[i]).abs() <= 1e-6,
-                        "{ch} {c}: {} vs {}",
-                        fast[i],
-                        slow[i]
-                    );
+            for many in [false, true] {
+                let mut taps = taps.to_vec();
+                taps[0].offset = (3 * stride) as u32;
+                taps[2].offset = (9 * stride) as u32;
+                if many {
+                    taps.extend((0..=9).map(|k| Tap {
+                        offset: (k * stride) as u32,
+                        weight: 0.05 * k as f32 - 0.1,
+                    }));
+                    assert!(taps.len() > MAX_REGISTER_TAPS);
+                }
+                let mut fast = vec![f32::NAN; 3 * padded];
+                let mut slow = vec![f32::NAN; 3 * padded];
+                blend_function(&planes, &taps, stride, padded, &mut fast);
+                blend_function_portable(&planes, &taps, stride, padded, &mut slow);
+                for ch in 0..3 {
+                    for c in 0..padded {
+                        let want = if c < stride.min(cells) || stride == padded {
+                            taps.iter()
+                                .map(|t| {
+                                    t.weight
+                                        * planes.get(t.offset as usize + ch * stride + c, stride)
+                                })
+                                .sum::<f32>()
+                        } else {
+                            0.0
+                        };
+                        let i = ch * padded + c;
+                        assert!(
+                            (slow[i] - want).abs() <= 1e-6,
+                            "{ch} {c}: {} vs {want}",
+                            slow[i]
+                        );
+                        assert!(
+                            (fast[i] - slow[i]).abs() <= 1e-6,
+                            "{ch} {c}: {} vs {}",
+                            fast[i],
+                            slow[i]
+                        );
+                    }
                 }
             }
         }
