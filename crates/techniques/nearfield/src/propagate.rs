@@ -66,7 +66,8 @@
 //! colour; an RGB one runs the fuse per channel).
 //!
 //! The fuse sums one mask row (one `k1`) in registers, lanes over the `R`
-//! source rows (padded to 8), reading the transport scattered; `W` is kept
+//! source rows (padded to 8, 16, 24, 32 or 64; all of them at once), reading
+//! each entry's transport value once, scattered; `W` is kept
 //! `[c][r][k1]` so the dot runs along `k1` in independent lanes. Measured
 //! figures: `docs/nearfield.md` (`relight bench nearfield`).
 
@@ -674,8 +675,10 @@ fn shade_vertex_body(k: &Kernel, v: &VertexMap, sc: &mut VertexScratch) -> [f32;
     sc.row.resize(n, 0.0);
     sc.z.resize(rows * 3 * n, 0.0);
     // D^y's rows transposed, each k2's `R` values padded with zeros to
-    // whole vectors of LANES (the fuse's lanes).
-    let stride = rows.div_ceil(LANES) * LANES;
+    // whole vectors of LANES (the fuse's lanes): 1–4 vectors, or 8 (only an
+    // order-64 basis has more than 32 rows; fewer fuse copies, less code).
+    let blocks = rows.div_ceil(LANES);
+    let stride = if blocks <= 4 { blocks } else { MAX_BLOCKS } * LANES;
     sc.dyt.clear();
     sc.dyt.resize(n * stride, 0.0);
     // Step 1, and D^y's source rows transposed to [k2][r].
@@ -713,6 +716,87 @@ fn shade_vertex_body(k: &Kernel, v: &VertexMap, sc: &mut VertexScratch) -> [f32;
 /// Lanes of the fuse's vectors (`R` source rows padded to a multiple).
 const LANES: usize = 8;
 
+/// Blocks of [`LANES`] source rows at most: `R ≤ n ≤ 64`.
+const MAX_BLOCKS: usize = 8;
+
+/// The fuse's inputs: the mask, the transport (`C` blocks of `n²`,
+/// `k2 · n + k1`), `D^y` transposed (`NB · LANES` values per `k2`) and the
+/// `rows` source rows.
+struct Fuse<'a> {
+    mask: &'a MaskCounts,
+    transport: &'a [f32],
+    dyt: &'a [f32],
+    n: usize,
+    rows: usize,
+}
+
+impl Fuse<'_> {
+    /// `W_c[k1][r] = Σ_{(k1,k2) ∈ mask} D^y[i2_r][k2] T_c[k2][k1]` into `w`
+    /// (`[c][r][k1]`): per mask row (one `k1`) the sums over its entries in
+    /// registers, lanes over `r`, all `NB` blocks of rows at once, so each
+    /// entry's scattered transport value is read once (it was read once per
+    /// block: 5 %/40 % propagation −10 %, 20 %/70 % −17 %); stored once per
+    /// row. One or two blocks pair the entries into two register sets, so
+    /// that more chains hide the add latency (with one set, two blocks cost
+    /// the 1 %/1 % propagation 4 %); more blocks are chains enough.
+    #[inline(always)]
+    fn run<const C: usize, const NB: usize>(&self, w: &mut [f32]) {
+        let (n, rows, stride) = (self.n, self.rows, NB * LANES);
+        let nn = n * n;
+        let mask = self.mask;
+        for (i, &count) in mask.counts.iter().enumerate() {
+            if count == 0 {
+                continue;
+            }
+            let k1 = usize::from(mask.sa[i]);
+            let zero = mask.va[i] == 0.0;
+            let k2_of = |j: usize| if zero { j } else { usize::from(mask.sb[j]) };
+            let count = usize::from(count);
+            for ch in 0..C {
+                let col = &self.transport[ch * nn..(ch + 1) * nn];
+                let entry = |j: usize| -> (f32, &[f32]) {
+                    let k2 = k2_of(j);
+                    (col[k2 * n + k1], &self.dyt[k2 * stride..][..stride])
+                };
+                let mut acc = [[0.0f32; LANES]; NB];
+                let mut j = 0;
+                if NB <= 2 {
+                    // One or two blocks: entries in pairs into a second set,
+                    // so that more chains hide the add latency.
+                    let mut odd = [[0.0f32; LANES]; NB];
+                    while j + 1 < count {
+                        let ((ta, da), (tb, db)) = (entry(j), entry(j + 1));
+                        for b in 0..NB {
+                            for l in 0..LANES {
+                                acc[b][l] += da[b * LANES + l] * ta;
+                                odd[b][l] += db[b * LANES + l] * tb;
+                            }
+                        }
+                        j += 2;
+                    }
+                    for (a, o) in acc.iter_mut().zip(&odd) {
+                        for l in 0..LANES {
+                            a[l] += o[l];
+                        }
+                    }
+                }
+                while j < count {
+                    let (t, d) = entry(j);
+                    for (b, a) in acc.iter_mut().enumerate() {
+                        for l in 0..LANES {
+                            a[l] += d[b * LANES + l] * t;
+                        }
+                    }
+                    j += 1;
+                }
+                for r in 0..rows {
+                    w[(ch * rows + r) * n + k1] = acc[r / LANES][r % LANES];
+                }
+            }
+        }
+    }
+}
+
 /// The fuse and the dot of [`shade_vertex`] for a `C`-channel transport;
 /// `D^y` transposed in `sc.dyt` with `stride` (≥ `rows`, a multiple of
 /// [`LANES`]) values per `k2`.
@@ -724,57 +808,23 @@ fn fuse_dot<const C: usize>(
     transport: &[f32],
     sc: &mut VertexScratch,
 ) -> [f32; 3] {
-    let nn = n * n;
     // W stored transposed, `[c][r][k1]`, so the dot runs along k1 in lanes.
     sc.w.clear();
     sc.w.resize(C * rows * n, 0.0);
-    let mask = &sc.mask;
-    // W_c[k1][r] = Σ_{(k1,k2) ∈ mask} D^y[i2_r][k2] T_c[k2][k1], summed in
-    // `acc` (lanes over r) per k1 (one row of the mask) and stored once.
-    for (i, &count) in mask.counts.iter().enumerate() {
-        if count == 0 {
-            continue;
-        }
-        let k1 = usize::from(mask.sa[i]);
-        let zero = mask.va[i] == 0.0;
-        let k2_of = |j: usize| if zero { j } else { usize::from(mask.sb[j]) };
-        for ch in 0..C {
-            let t_of = |k2: usize| transport[ch * nn + k2 * n + k1];
-            for blk in 0..stride / LANES {
-                // Two register sums (even and odd entries), no store per
-                // entry: the entries' scattered transport reads overlap.
-                let (mut even, mut odd) = ([0.0f32; LANES], [0.0f32; LANES]);
-                let lanes = |k2: usize| -> &[f32; LANES] {
-                    let at = k2 * stride + blk * LANES;
-                    sc.dyt[at..at + LANES].try_into().expect("LANES values")
-                };
-                let count = usize::from(count);
-                let mut j = 0;
-                while j + 1 < count {
-                    let (ka, kb) = (k2_of(j), k2_of(j + 1));
-                    let (ta, tb) = (t_of(ka), t_of(kb));
-                    let (da, db) = (lanes(ka), lanes(kb));
-                    for l in 0..LANES {
-                        even[l] += da[l] * ta;
-                        odd[l] += db[l] * tb;
-                    }
-                    j += 2;
-                }
-                if j < count {
-                    let k2 = k2_of(j);
-                    let (t, d) = (t_of(k2), lanes(k2));
-                    for l in 0..LANES {
-                        even[l] += d[l] * t;
-                    }
-                }
-                for l in 0..LANES {
-                    let r = blk * LANES + l;
-                    if r < rows {
-                        sc.w[(ch * rows + r) * n + k1] = even[l] + odd[l];
-                    }
-                }
-            }
-        }
+    let f = Fuse {
+        mask: &sc.mask,
+        transport,
+        dyt: &sc.dyt,
+        n,
+        rows,
+    };
+    let w = &mut sc.w;
+    match stride / LANES {
+        1 => f.run::<C, 1>(w),
+        2 => f.run::<C, 2>(w),
+        3 => f.run::<C, 3>(w),
+        4 => f.run::<C, 4>(w),
+        _ => f.run::<C, MAX_BLOCKS>(w),
     }
     // Dot: B[c] = Σ_r Σ_k1 Z[r][c][k1] W_c[r][k1], along k1 in LANES
     // independent sums (one dependent chain per lane, not per product).
@@ -900,31 +950,39 @@ mod tests {
         let n = 16;
         let nn = n * n;
         let mut seed = 7u64;
-        // Source terms on a few rows, some rows with several terms.
-        let mut src = SourceTerms {
-            n,
-            ..SourceTerms::default()
-        };
-        for (i2, i1s) in [
-            (0u16, vec![0u16, 1, 5]),
-            (3, vec![2]),
-            (9, vec![0, 7, 8, 15]),
-        ] {
-            let at = src.terms.len() as u32;
-            for i1 in i1s {
-                src.terms.push(SourceTerm {
-                    i1,
-                    rgb: [noise(&mut seed), noise(&mut seed), noise(&mut seed)],
-                });
+        // Source terms on a few rows (one block of the fuse's lanes), some
+        // rows with several terms; then on twelve rows (two blocks).
+        let few: Vec<(u16, Vec<u16>)> =
+            vec![(0, vec![0, 1, 5]), (3, vec![2]), (9, vec![0, 7, 8, 15])];
+        let many: Vec<(u16, Vec<u16>)> = (0..12u16)
+            .map(|i2| (i2, (0..1 + i2 % 3).map(|k| (i2 * 5 + k * 3) % 16).collect()))
+            .collect();
+        let mut sources = Vec::new();
+        for rows in [few, many] {
+            let mut src = SourceTerms {
+                n,
+                ..SourceTerms::default()
+            };
+            for (i2, i1s) in rows {
+                let at = src.terms.len() as u32;
+                for i1 in i1s {
+                    src.terms.push(SourceTerm {
+                        i1,
+                        rgb: [noise(&mut seed), noise(&mut seed), noise(&mut seed)],
+                    });
+                }
+                src.rows.push((i2, at, src.terms.len() as u32));
             }
-            src.rows.push((i2, at, src.terms.len() as u32));
+            sources.push(src);
         }
         let transport: Vec<f32> = (0..3 * nn).map(|_| noise(&mut seed)).collect();
         let mut dx = vec![0.0f32; nn];
         let mut dy = vec![0.0f32; nn];
         let mut mask = MaskCounts::default();
         let mut pairs = Vec::new();
-        for (s, o) in [([0.6, 1.7], [0.1, -0.4]), ([3.2, 2.4], [-1.1, -0.9])] {
+        for (src, (s, o)) in sources.iter().flat_map(|src| {
+            [([0.6, 1.7], [0.1, -0.4]), ([3.2, 2.4], [-1.1, -0.9])].map(|so| (src, so))
+        }) {
             acc_matrix_fast(n, s[0], o[0], &mut dx);
             acc_matrix_fast(n, s[1], o[1], &mut dy);
             for m in [3, 40, 130, nn] {
@@ -952,7 +1010,7 @@ mod tests {
                         let mut sc = VertexScratch::default();
                         let kernel = Kernel {
                             primitives: &p,
-                            source: &src,
+                            source: src,
                             targets: m,
                         };
                         let vertex = VertexMap { s, o, transport: t };
