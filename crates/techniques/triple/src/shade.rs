@@ -149,7 +149,7 @@ fn madd<const F: bool>(a: f32, b: f32, c: f32) -> f32 {
     if F { a.mul_add(b, c) } else { a * b + c }
 }
 
-/// Taps [`blend_with`] keeps in registers; more go tap by tap through memory.
+/// Taps [`blend_with`] sums in registers per pass over a channel.
 const MAX_REGISTER_TAPS: usize = 8;
 
 #[inline(always)]
@@ -161,25 +161,29 @@ fn blend_with<const F: bool, C: Cells>(
     out: &mut [f32],
 ) {
     for (ch, o) in out.chunks_exact_mut(padded).take(3).enumerate() {
-        // Per tap its entry's offset and scaled weight, then per 8-cell
-        // chunk all taps into one accumulator (no read-modify-write of `o`
-        // per tap: the same sums, in the same order).
-        let mut live = [(0usize, 0.0f32); MAX_REGISTER_TAPS];
-        let mut n = 0;
-        for t in taps.iter().filter(|t| t.weight != 0.0) {
-            let base = t.offset as usize + ch * plane_stride;
-            if n == MAX_REGISTER_TAPS {
-                n = usize::MAX;
+        // Per pass up to MAX_REGISTER_TAPS taps' offsets and scaled weights,
+        // then per 8-cell chunk those taps into one accumulator (no
+        // read-modify-write of `o` per tap); a later pass (more taps) goes on
+        // from the stored sums: the same sums, in tap order.
+        let mut live_taps = taps.iter().filter(|t| t.weight != 0.0);
+        let mut first = true;
+        loop {
+            let mut live = [(0usize, 0.0f32); MAX_REGISTER_TAPS];
+            let mut n = 0;
+            for t in live_taps.by_ref().take(MAX_REGISTER_TAPS) {
+                let base = t.offset as usize + ch * plane_stride;
+                live[n] = (base, t.weight * cells.scale(base));
+                n += 1;
+            }
+            if n == 0 && !first {
                 break;
             }
-            live[n] = (base, t.weight * cells.scale(base));
-            n += 1;
-        }
-        if n == usize::MAX {
-            blend_taps_in_memory::<F, C>(cells, taps, ch * plane_stride, o);
-        } else {
             for (b, o8) in o.chunks_exact_mut(8).enumerate() {
-                let mut acc = [0.0f32; 8];
+                let mut acc = if first {
+                    [0.0f32; 8]
+                } else {
+                    o8.try_into().expect("8 cells")
+                };
                 for &(base, w) in &live[..n] {
                     let s = cells.load8(base + 8 * b);
                     for i in 0..8 {
@@ -188,31 +192,13 @@ fn blend_with<const F: bool, C: Cells>(
                 }
                 o8.copy_from_slice(&acc);
             }
+            first = false;
+            if n < MAX_REGISTER_TAPS {
+                break;
+            }
         }
         if plane_stride < padded {
             o[plane_stride..].fill(0.0);
-        }
-    }
-}
-
-/// [`blend_with`]'s one channel `o` for more than [`MAX_REGISTER_TAPS`]
-/// taps, tap by tap (`shift`: the channel's plane offset).
-#[inline(never)]
-fn blend_taps_in_memory<const F: bool, C: Cells>(
-    cells: &C,
-    taps: &[Tap],
-    shift: usize,
-    o: &mut [f32],
-) {
-    o.fill(0.0);
-    for t in taps.iter().filter(|t| t.weight != 0.0) {
-        let base = t.offset as usize + shift;
-        let w = t.weight * cells.scale(base);
-        for (b, o8) in o.chunks_exact_mut(8).enumerate() {
-            let s = cells.load8(base + 8 * b);
-            for i in 0..8 {
-                o8[i] = madd::<F>(w, s[i], o8[i]);
-            }
         }
     }
 }
