@@ -121,6 +121,102 @@ fn bilinear_taps_general(width: usize, height: usize, fx: f32, fy: f32) -> [(usi
     ]
 }
 
+/// [`bilinear_taps`] for `N` lookups at once, as structure of arrays, so
+/// that a caller's lane loop runs in vector registers (the scalar form's
+/// conversions and wrap branches cost more than its four texel reads).
+/// Lane `i` looks up a `size[0][i] × size[1][i]` texture at `(u, v)[i]`.
+/// Where [`BilinearLanes::exact`] is set, a lane's taps are exactly those
+/// of [`bilinear_taps`] (`index` row-major, `weight` in the same order;
+/// tested bit for bit); elsewhere — a coordinate beyond 2²³ texels, NaN, a
+/// size below 1, beyond 2²³ or with more than 2³² texels — the lane holds
+/// nothing meaningful and the caller asks [`bilinear_taps`].
+#[derive(Clone, Copy, Debug)]
+pub struct BilinearLanes<const N: usize> {
+    pub index: [[u32; N]; 4],
+    pub weight: [[f32; N]; 4],
+    pub exact: [bool; N],
+}
+
+impl<const N: usize> Default for BilinearLanes<N> {
+    fn default() -> Self {
+        Self {
+            index: [[0; N]; 4],
+            weight: [[0.0; N]; 4],
+            exact: [false; N],
+        }
+    }
+}
+
+impl<const N: usize> BilinearLanes<N> {
+    /// The taps of lanes `0..count` (see the type's docs): `size` the
+    /// textures' widths and heights in texels (as `f32`), `uv` the lookup
+    /// coordinates. Branch-free over lanes. The wrap `i mod n` is computed
+    /// in `f32`, `i − n ⌊i / n⌋` corrected by ± n, which is exact for the
+    /// integers below 2²⁴ it meets.
+    #[inline(always)]
+    pub fn compute(&mut self, size: [&[f32; N]; 2], uv: [&[f32; N]; 2], count: usize) {
+        const EXACT: f32 = 8_388_608.0;
+        /// `v` truncated, for `|v| < 2²³` (every caller's operand is
+        /// sanitised to that range first, so that the conversion is a plain
+        /// vector instruction instead of Rust's saturating `as`).
+        #[inline(always)]
+        fn trunc(v: f32) -> i32 {
+            debug_assert!(v.abs() < EXACT);
+            // SAFETY: finite and within i32's range (above).
+            unsafe { v.to_int_unchecked::<i32>() }
+        }
+        #[inline(always)]
+        fn floor(v: f32) -> f32 {
+            let t = trunc(v) as f32;
+            if t > v { t - 1.0 } else { t }
+        }
+        #[inline(always)]
+        fn wrap(i: f32, n: f32) -> f32 {
+            let a = i - n * floor(i / n);
+            let a = if a < 0.0 { a + n } else { a };
+            if a >= n { a - n } else { a }
+        }
+        for i in 0..count.min(N) {
+            let (w, h) = (size[0][i], size[1][i]);
+            let fx = uv[0][i] * w - 0.5;
+            let fy = uv[1][i] * h - 0.5;
+            // `&`, not `&&`: no branch, so that the loop vectorises.
+            let exact = (fx.abs() < EXACT)
+                & (fy.abs() < EXACT)
+                & (w >= 1.0)
+                & (h >= 1.0)
+                & (w < EXACT)
+                & (h < EXACT)
+                & (w * h <= 4_294_967_296.0);
+            self.exact[i] = exact;
+            // Off the fast path every operand is replaced by one in range
+            // (the lane's taps are then meaningless, as documented).
+            let (w, h, fx, fy) = if exact {
+                (w, h, fx, fy)
+            } else {
+                (1.0, 1.0, 0.0, 0.0)
+            };
+            let (ix, iy) = (floor(fx), floor(fy));
+            let (tx, ty) = (fx - ix, fy - iy);
+            let (xa, ya) = (wrap(ix, w), wrap(iy, h));
+            let xb = if xa + 1.0 == w { 0.0 } else { xa + 1.0 };
+            let yb = if ya + 1.0 == h { 0.0 } else { ya + 1.0 };
+            let wu = trunc(w) as u32;
+            let row = |y: f32| (trunc(y) as u32).wrapping_mul(wu);
+            let (ra, rb) = (row(ya), row(yb));
+            let (xa, xb) = (trunc(xa) as u32, trunc(xb) as u32);
+            self.index[0][i] = ra.wrapping_add(xa);
+            self.index[1][i] = ra.wrapping_add(xb);
+            self.index[2][i] = rb.wrapping_add(xa);
+            self.index[3][i] = rb.wrapping_add(xb);
+            self.weight[0][i] = (1.0 - tx) * (1.0 - ty);
+            self.weight[1][i] = tx * (1.0 - ty);
+            self.weight[2][i] = (1.0 - tx) * ty;
+            self.weight[3][i] = tx * ty;
+        }
+    }
+}
+
 /// A linear-RGB texture over uv (row 0 at the top, v down).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {
@@ -305,7 +401,7 @@ impl NormalMap {
     /// The bilinear blend of the four texels at `uv`, not renormalised: the
     /// direction of [`NormalMap::sample`] (or zero where that falls back to
     /// +z), for callers that normalise later anyway.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn blend(&self, uv: Vec2) -> Vec3 {
         let [a, b, c, d] = bilinear_taps(self.width, self.height, uv);
@@ -366,6 +462,69 @@ mod tests {
             );
         }
         assert_eq!(bilinear_taps(4, 4, Vec2::NAN)[0], (0, 1.0));
+    }
+
+    /// The lane form gives [`bilinear_taps`]' taps bit for bit wherever it
+    /// says `exact`, and says it for every coordinate of the fast path.
+    #[test]
+    fn bilinear_lanes_match_the_scalar_taps() {
+        const N: usize = 16;
+        let sizes = [(1, 1), (4, 8), (5, 3), (7, 1), (512, 512), (1000, 3)];
+        let mut lanes = BilinearLanes::<N>::default();
+        let mut k = 0u32;
+        let mut checked = 0;
+        for _ in 0..200 {
+            let mut size = [[0.0f32; N]; 2];
+            let mut uv = [[0.0f32; N]; 2];
+            let mut dims = [(0usize, 0usize); N];
+            for i in 0..N {
+                k += 1;
+                let t = k as f32 * 0.618_034;
+                let (w, h) = sizes[k as usize % sizes.len()];
+                dims[i] = (w, h);
+                size[0][i] = w as f32;
+                size[1][i] = h as f32;
+                let scale = [1.0, 9.0, 300.0, 3.0e5][k as usize % 4];
+                uv[0][i] = (t.fract() - 0.5) * scale;
+                uv[1][i] = (t * 1.7).sin() * scale + 0.25;
+                match k % 29 {
+                    0 => uv[0][i] = f32::NAN,
+                    1 => uv[1][i] = 1.0e9,
+                    2 => uv[0][i] = -0.0,
+                    3 => uv[1][i] = 1.0 - f32::EPSILON,
+                    _ => {}
+                }
+            }
+            lanes.compute([&size[0], &size[1]], [&uv[0], &uv[1]], N);
+            for i in 0..N {
+                let (w, h) = dims[i];
+                let (fx, fy) = (uv[0][i] * w as f32 - 0.5, uv[1][i] * h as f32 - 0.5);
+                let fast = fx.abs() < 8_388_608.0 && fy.abs() < 8_388_608.0;
+                assert_eq!(
+                    lanes.exact[i], fast,
+                    "lane {i}: {w}×{h} at {}, {}",
+                    uv[0][i], uv[1][i]
+                );
+                if !fast {
+                    continue;
+                }
+                let want = bilinear_taps(w, h, Vec2::new(uv[0][i], uv[1][i]));
+                for (j, (index, weight)) in want.into_iter().enumerate() {
+                    assert_eq!(
+                        lanes.index[j][i] as usize, index,
+                        "lane {i} tap {j}: {w}×{h} at {}, {}",
+                        uv[0][i], uv[1][i]
+                    );
+                    assert_eq!(
+                        lanes.weight[j][i].to_bits(),
+                        weight.to_bits(),
+                        "lane {i} tap {j}"
+                    );
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 2500, "only {checked} lanes on the fast path");
     }
 
     #[test]

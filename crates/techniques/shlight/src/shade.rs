@@ -22,8 +22,10 @@
 //!
 //! # Chunks
 //! A row's covered samples are shaded in chunks of [`CHUNK`]: each sample's
-//! vertex data and normal-map texels are gathered into [`Lanes`] (the
-//! scattered reads, one sample at a time); [`setup_lanes`] then computes the
+//! vertex data is gathered into [`Lanes`] (the scattered reads, one sample
+//! at a time; a triangle's vertices once per run of samples on it,
+//! [`Triangle`]); the normal-map taps of the whole chunk are computed across
+//! lanes and their texels read ([`Pass::blend_maps`]); [`setup_lanes`] then computes the
 //! normals, frames, view angles and `T` of the whole chunk across lanes (one
 //! branch-free loop over structure-of-arrays: 8-lane registers in the AVX2
 //! copy, instead of one sample's chain of square roots and divisions at a
@@ -49,6 +51,7 @@ use glam::{Mat3, Vec2, Vec3};
 use rayon::prelude::*;
 use relight_render::camera::CameraRays;
 use relight_render::raster::{GBuffer, NO_TRIANGLE, Rasterizer};
+use relight_render::texture::BilinearLanes;
 use relight_render::{Camera, Image};
 use relight_sh::fast::ROTATE_BATCH_MAX_ORDER;
 use relight_sh::rotation::{Rot3, ShRotation, rotate_z};
@@ -173,16 +176,86 @@ struct Sample {
     lam: Vec3,
 }
 
+/// The triangle [`Pass::gather`] last read: neighbouring samples of a row
+/// mostly share one, so its vertex data is read and differenced once per
+/// run. Attributes interpolate as `v₀ + b₁ (v₁ − v₀) + b₂ (v₂ − v₀)` with
+/// the rasterizer's barycentrics `(b₁, b₂)`.
+#[derive(Clone, Copy)]
+struct Triangle {
+    /// Draw and triangle index within it (`usize::MAX`: none yet).
+    d: usize,
+    t: usize,
+    verts: [usize; 3],
+    /// Vertex 0's attributes (normal, tangent, uv) and the edges to
+    /// vertices 1 and 2.
+    v0: [f32; 9],
+    e1: [f32; 9],
+    e2: [f32; 9],
+    /// Vertex 0's position, the edges, and their cross product (the
+    /// geometric normal, not unit).
+    p0: Vec3,
+    p_e1: Vec3,
+    p_e2: Vec3,
+    geo: Vec3,
+}
+
+impl Default for Triangle {
+    fn default() -> Self {
+        Self {
+            d: usize::MAX,
+            t: usize::MAX,
+            verts: [0; 3],
+            v0: [0.0; 9],
+            e1: [0.0; 9],
+            e2: [0.0; 9],
+            p0: Vec3::ZERO,
+            p_e1: Vec3::ZERO,
+            p_e2: Vec3::ZERO,
+            geo: Vec3::ZERO,
+        }
+    }
+}
+
+impl Triangle {
+    /// Triangle `t` of draw `d` (`draw`).
+    #[inline(always)]
+    fn of(draw: &DrawData, d: usize, t: usize) -> Self {
+        let verts = draw.triangles[t].map(|i| i as usize);
+        let [i0, i1, i2] = verts;
+        let (v0, v1, v2) = (draw.verts[i0], draw.verts[i1], draw.verts[i2]);
+        let (p0, p1, p2) = (draw.positions[i0], draw.positions[i1], draw.positions[i2]);
+        let (p_e1, p_e2) = (p1 - p0, p2 - p0);
+        Self {
+            d,
+            t,
+            verts,
+            v0,
+            e1: std::array::from_fn(|k| v1[k] - v0[k]),
+            e2: std::array::from_fn(|k| v2[k] - v0[k]),
+            p0,
+            p_e1,
+            p_e2,
+            geo: p_e1.cross(p_e2),
+        }
+    }
+}
+
 /// The chunk's samples between [`Pass::gather`] and [`Pass::place`], as
 /// structure of arrays so that [`setup_lanes`] runs across them.
 struct Lanes {
     sample: [Sample; CHUNK],
     /// In (world, not unit): the interpolated normal; the interpolated
     /// tangent (xyz, w = handedness); the normal map's texel blend (tangent
-    /// space, +z without a map); `eye − p`; the geometric normal.
+    /// space, +z without a map; [`Pass::blend_maps`]); `eye − p`; the
+    /// geometric normal.
     n: [[f32; CHUNK]; 3],
     t: [[f32; CHUNK]; 4],
     m: [[f32; CHUNK]; 3],
+    /// The interpolated uv, and the normal map's width and height in
+    /// texels (1 × 1 without a map), for [`Pass::blend_maps`].
+    uv: [[f32; CHUNK]; 2],
+    map_size: [[f32; CHUNK]; 2],
+    taps: BilinearLanes<CHUNK>,
     view: [[f32; CHUNK]; 3],
     geo: [[f32; CHUNK]; 3],
     /// Out: `cos θ_o`, `θ_o`, `cos φ_o`, `sin φ_o` of the view in `F_p`; the
@@ -199,15 +272,22 @@ struct Lanes {
 impl Lanes {
     /// Sample `i`'s inputs ([`Lanes`]' fields of the same names).
     #[inline(always)]
-    fn put(&mut self, i: usize, n: Vec3, t: glam::Vec4, m: Vec3, view: Vec3, geo: Vec3) {
+    fn put(&mut self, i: usize, n: Vec3, t: glam::Vec4, view: Vec3, geo: Vec3) {
         for c in 0..3 {
             self.n[c][i] = n[c];
-            self.m[c][i] = m[c];
             self.view[c][i] = view[c];
             self.geo[c][i] = geo[c];
         }
         for c in 0..4 {
             self.t[c][i] = t[c];
+        }
+    }
+
+    /// Sample `i`'s normal-map blend, tangent space (+z without a map).
+    #[inline(always)]
+    fn put_m(&mut self, i: usize, m: Vec3) {
+        for c in 0..3 {
+            self.m[c][i] = m[c];
         }
     }
 }
@@ -220,6 +300,9 @@ impl Default for Lanes {
             n: [z; 3],
             t: [z; 4],
             m: [z; 3],
+            uv: [z; 2],
+            map_size: [z; 2],
+            taps: BilinearLanes::default(),
             view: [z; 3],
             geo: [z; 3],
             cos_o: z,
@@ -370,13 +453,22 @@ fn dot3<const F: bool>(l0: &[f32], l1: &[f32], l2: &[f32], lam: Vec3, b: &[f32])
 /// [`dot3`] for the three output channels at once, in AVX2 registers:
 /// `out_c = ⟨Σ_j λ_j L_j^c, b_c⟩` over `k` coefficients, `L_j^c` at
 /// `light[j][c · nn..]` (vertex `j`'s lighting, `nn` coefficients per
-/// channel) and `b_c = b[c]` (one slice thrice for a rank-1 table). The
+/// channel) and `b_c = b[c]`; `MONO`: one transfer vector `b[0]` for all
+/// three channels (a rank-1 table), loaded once per 8 coefficients. The
 /// compiler pairs [`dot3`]'s eight lanes into 2-lane registers; written
 /// with intrinsics the pass's dot product takes a quarter of the
-/// instructions. The last `k mod 8` coefficients are masked loads.
+/// instructions. The three channels share one loop and one horizontal sum
+/// (three `hadd`s and one 128-bit add instead of three reductions). The
+/// last `k mod 8` coefficients are masked loads.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn dot3_rgb_avx2(light: [&[f32]; 3], nn: usize, k: usize, lam: Vec3, b: [&[f32]; 3]) -> [f32; 3] {
+fn dot3_rgb_avx2<const MONO: bool>(
+    light: [&[f32]; 3],
+    nn: usize,
+    k: usize,
+    lam: Vec3,
+    b: [&[f32]; 3],
+) -> [f32; 3] {
     use std::arch::x86_64::*;
     assert!(k <= nn && light.iter().all(|l| l.len() >= 3 * nn) && b.iter().all(|b| b.len() >= k));
     let (lx, ly, lz) = (
@@ -389,52 +481,77 @@ fn dot3_rgb_avx2(light: [&[f32]; 3], nn: usize, k: usize, lam: Vec3, b: [&[f32];
         _mm256_set1_epi32(rem),
         _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
     );
-    let mut out = [0.0f32; 3];
-    for (c, o) in out.iter_mut().enumerate() {
-        // SAFETY: every full load reads `i..i + 8 ≤ k` of a slice of at least
-        // `c · nn + k` (lighting) or `k` (transfer) values, checked above;
-        // the masked loads read only their first `k mod 8` lanes.
-        unsafe {
-            let p = [
+    // SAFETY: every full load reads `i..i + 8 ≤ k` of a slice of at least
+    // `c · nn + k` (lighting) or `k` (transfer) values, checked above; the
+    // masked loads read only their first `k mod 8` lanes.
+    unsafe {
+        let p = |c: usize| {
+            [
                 light[0].as_ptr().add(c * nn),
                 light[1].as_ptr().add(c * nn),
                 light[2].as_ptr().add(c * nn),
-            ];
-            let pb = b[c].as_ptr();
-            let mut acc = _mm256_setzero_ps();
-            let mut i = 0;
-            while i + 8 <= k {
+            ]
+        };
+        let p = [p(0), p(1), p(2)];
+        let pb = if MONO {
+            [b[0].as_ptr(); 3]
+        } else {
+            [b[0].as_ptr(), b[1].as_ptr(), b[2].as_ptr()]
+        };
+        let mut acc = [_mm256_setzero_ps(); 3];
+        let mut i = 0;
+        while i + 8 <= k {
+            let b0 = _mm256_loadu_ps(pb[0].add(i));
+            for c in 0..3 {
+                let bc = if MONO || c == 0 {
+                    b0
+                } else {
+                    _mm256_loadu_ps(pb[c].add(i))
+                };
                 let l = _mm256_fmadd_ps(
                     lx,
-                    _mm256_loadu_ps(p[0].add(i)),
+                    _mm256_loadu_ps(p[c][0].add(i)),
                     _mm256_fmadd_ps(
                         ly,
-                        _mm256_loadu_ps(p[1].add(i)),
-                        _mm256_mul_ps(lz, _mm256_loadu_ps(p[2].add(i))),
+                        _mm256_loadu_ps(p[c][1].add(i)),
+                        _mm256_mul_ps(lz, _mm256_loadu_ps(p[c][2].add(i))),
                     ),
                 );
-                acc = _mm256_fmadd_ps(l, _mm256_loadu_ps(pb.add(i)), acc);
-                i += 8;
+                acc[c] = _mm256_fmadd_ps(l, bc, acc[c]);
             }
-            if rem > 0 {
-                // No closure: it could be compiled outside these features.
-                let l = _mm256_fmadd_ps(
-                    lx,
-                    _mm256_maskload_ps(p[0].add(i), mask),
-                    _mm256_fmadd_ps(
-                        ly,
-                        _mm256_maskload_ps(p[1].add(i), mask),
-                        _mm256_mul_ps(lz, _mm256_maskload_ps(p[2].add(i), mask)),
-                    ),
-                );
-                acc = _mm256_fmadd_ps(l, _mm256_maskload_ps(pb.add(i), mask), acc);
-            }
-            let q = _mm_add_ps(_mm256_castps256_ps128(acc), _mm256_extractf128_ps::<1>(acc));
-            let q = _mm_add_ps(q, _mm_movehl_ps(q, q));
-            *o = _mm_cvtss_f32(_mm_add_ss(q, _mm_movehdup_ps(q)));
+            i += 8;
         }
+        if rem > 0 {
+            // No closure: it could be compiled outside these features.
+            let b0 = _mm256_maskload_ps(pb[0].add(i), mask);
+            for c in 0..3 {
+                let bc = if MONO || c == 0 {
+                    b0
+                } else {
+                    _mm256_maskload_ps(pb[c].add(i), mask)
+                };
+                let l = _mm256_fmadd_ps(
+                    lx,
+                    _mm256_maskload_ps(p[c][0].add(i), mask),
+                    _mm256_fmadd_ps(
+                        ly,
+                        _mm256_maskload_ps(p[c][1].add(i), mask),
+                        _mm256_mul_ps(lz, _mm256_maskload_ps(p[c][2].add(i), mask)),
+                    ),
+                );
+                acc[c] = _mm256_fmadd_ps(l, bc, acc[c]);
+            }
+        }
+        // [r01 r23 g01 g23 | r45 r67 g45 g67], [b01 b23 b01 b23 | …], then
+        // [r0123 g0123 b0123 b0123 | r4567 …]: the halves' sum is (r, g, b, b).
+        let rg = _mm256_hadd_ps(acc[0], acc[1]);
+        let bb = _mm256_hadd_ps(acc[2], acc[2]);
+        let h = _mm256_hadd_ps(rg, bb);
+        let q = _mm_add_ps(_mm256_castps256_ps128(h), _mm256_extractf128_ps::<1>(h));
+        let mut out = [0.0f32; 4];
+        _mm_storeu_ps(out.as_mut_ptr(), q);
+        [out[0], out[1], out[2]]
     }
-    out
 }
 
 /// The frame of `n` and `t` by Gram–Schmidt: the arithmetic of
@@ -649,6 +766,7 @@ impl Pass<'_> {
         let bary = &g.barycentrics[y * w..(y + 1) * w];
         let k = self.order * self.order;
         s.size_for(3 * k);
+        let mut tri = Triangle::default();
         let mut count = 0usize;
         for x in 0..row.len() {
             let id = ids[x];
@@ -676,7 +794,7 @@ impl Pass<'_> {
                 row[x] = Vec3::ZERO;
                 continue;
             };
-            self.gather::<F>(&mut s.lanes, count, rows.eye, d, t, bary[x], x);
+            self.gather::<F>(&mut s.lanes, &mut tri, count, rows.eye, (d, t), bary[x], x);
             count += 1;
             if count == CHUNK {
                 self.shade_chunk::<F>(s, rows, count, row);
@@ -689,43 +807,50 @@ impl Pass<'_> {
     }
 
     /// Lane `i` of `lanes`: covered sample `x` of draw `d`, triangle `t`,
-    /// its vertex data interpolated with the barycentrics `bary` and its
-    /// normal map's texels blended (the scattered reads, one sample at a
-    /// time; the arithmetic after them runs across lanes in [`setup_lanes`]).
+    /// its vertex data interpolated with the barycentrics `bary` (the
+    /// scattered reads, one sample at a time; the arithmetic after them runs
+    /// across lanes in [`Pass::blend_maps`] and [`setup_lanes`]).
+    /// The triangle's data is read once per run of samples on it
+    /// ([`Triangle`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn gather<const F: bool>(
         &self,
         lanes: &mut Lanes,
+        tri: &mut Triangle,
         i: usize,
         eye: Vec3,
-        d: usize,
-        t: usize,
+        (d, t): (usize, usize),
         bary: [f32; 2],
         x: usize,
     ) {
-        let draw = &self.draws[d];
-        let verts = draw.triangles[t].map(|i| i as usize);
-        let [i0, i1, i2] = verts;
-        let lam = Vec3::new(1.0 - bary[0] - bary[1], bary[0], bary[1]);
-        let (v0, v1, v2) = (&draw.verts[i0], &draw.verts[i1], &draw.verts[i2]);
+        if (tri.d, tri.t) != (d, t) {
+            *tri = Triangle::of(&self.draws[d], d, t);
+        }
+        let [b1, b2] = bary;
         // No closures here: one was left out of line, outside the caller's
         // `avx2,fma` features (its `mul_add` a libm call).
         let mut mix = [0.0f32; 9];
         for (k, m) in mix.iter_mut().enumerate() {
-            *m = madd::<F>(lam.x, v0[k], madd::<F>(lam.y, v1[k], lam.z * v2[k]));
+            *m = madd::<F>(b1, tri.e1[k], madd::<F>(b2, tri.e2[k], tri.v0[k]));
         }
-        let (p0, p1, p2) = (draw.positions[i0], draw.positions[i1], draw.positions[i2]);
-        let position = p0 * lam.x + p1 * lam.y + p2 * lam.z;
-        let geo = (p1 - p0).cross(p2 - p0);
+        let position = tri.p0 + tri.p_e1 * b1 + tri.p_e2 * b2;
         let view = eye - position;
-        let m = match self.normal_maps[d] {
-            Some(map) => map.blend(Vec2::new(mix[7], mix[8])),
-            None => Vec3::Z,
+        let size =
+            self.normal_maps[d].map_or([1.0; 2], |map| [map.width as f32, map.height as f32]);
+        for c in 0..2 {
+            lanes.uv[c][i] = mix[7 + c];
+            lanes.map_size[c][i] = size[c];
+        }
+        let lam = Vec3::new(1.0 - b1 - b2, b1, b2);
+        lanes.sample[i] = Sample {
+            x,
+            d,
+            verts: tri.verts,
+            lam,
         };
-        lanes.sample[i] = Sample { x, d, verts, lam };
-        let t = glam::Vec4::new(mix[3], mix[4], mix[5], mix[6]);
-        lanes.put(i, Vec3::new(mix[0], mix[1], mix[2]), t, m, view, geo);
+        let tangent = glam::Vec4::new(mix[3], mix[4], mix[5], mix[6]);
+        lanes.put(i, Vec3::new(mix[0], mix[1], mix[2]), tangent, view, tri.geo);
     }
 
     /// The chunk's `count` gathered samples: their frames across lanes
@@ -739,6 +864,7 @@ impl Pass<'_> {
         count: usize,
         row: &mut [Vec3],
     ) {
+        self.blend_maps(&mut s.lanes, count);
         setup_lanes(&mut s.lanes, count);
         let (mut pending, mut vectors, mut batched) = (0usize, 0usize, 0usize);
         for i in 0..count {
@@ -756,6 +882,32 @@ impl Pass<'_> {
             }
         }
         self.finish::<F>(s, pending, batched, row);
+    }
+
+    /// The normal-map blend of the chunk's first `count` samples
+    /// ([`NormalMap::blend`](relight_render::texture::NormalMap::blend) at
+    /// their uv, bit for bit): the taps across lanes
+    /// ([`BilinearLanes::compute`]), then the four texel reads of each
+    /// sample; a lane off the taps' fast path asks `blend` itself.
+    #[inline(always)]
+    fn blend_maps(&self, l: &mut Lanes, count: usize) {
+        l.taps.compute(
+            [&l.map_size[0], &l.map_size[1]],
+            [&l.uv[0], &l.uv[1]],
+            count,
+        );
+        for i in 0..count.min(CHUNK) {
+            let m = match self.normal_maps[l.sample[i].d] {
+                None => Vec3::Z,
+                Some(map) if l.taps.exact[i] => {
+                    let t = &map.texels;
+                    let tap = |j: usize| t[l.taps.index[j][i] as usize] * l.taps.weight[j][i];
+                    tap(0) + tap(1) + tap(2) + tap(3)
+                }
+                Some(map) => map.blend(Vec2::new(l.uv[0][i], l.uv[1][i])),
+            };
+            l.put_m(i, m);
+        }
     }
 
     /// The first half of lane `i` after [`setup_lanes`]: its transfer
@@ -896,7 +1048,13 @@ impl Pass<'_> {
                 debug_assert!(fma_path());
                 // SAFETY: `F` is the AVX2 + FMA copy of the pass, which
                 // `Pass::run` takes only where `fma_path` found both.
-                unsafe { dot3_rgb_avx2([l0, l1, l2], nn, k, lam, [bc(0), bc(1), bc(2)]) }
+                unsafe {
+                    if p.channels == 1 {
+                        dot3_rgb_avx2::<true>([l0, l1, l2], nn, k, lam, [bc(0); 3])
+                    } else {
+                        dot3_rgb_avx2::<false>([l0, l1, l2], nn, k, lam, [bc(0), bc(1), bc(2)])
+                    }
+                }
             } else {
                 std::array::from_fn(|c| {
                     let r = c * nn..c * nn + k;
@@ -953,7 +1111,8 @@ mod tests {
             } else {
                 geo * 2.0 + Vec3::new(r(), r(), r())
             };
-            lanes.put(i, n, tangent, map.blend(uv), view, geo);
+            lanes.put(i, n, tangent, view, geo);
+            lanes.put_m(i, map.blend(uv));
             let n_i = n.normalize();
             let wo = view.normalize();
             let s = if wo.dot(geo) < 0.0 { -1.0 } else { 1.0 };
