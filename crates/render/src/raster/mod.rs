@@ -41,7 +41,10 @@
 //!    Every per-pixel quantity is evaluated from per-triangle constants at
 //!    offsets from vertex 0 that are exact in f32, never stepped across a
 //!    strip boundary, so the result does not depend on the strip height or
-//!    the thread count (tested bit-for-bit).
+//!    the thread count (tested bit-for-bit). Where the CPU has AVX2 and FMA
+//!    the strips run a copy compiled for them (`Strip::draw_bins_avx2`: the
+//!    same arithmetic, as Rust contracts no multiply-add; tested bit for bit
+//!    against the portable copy).
 //! 4. **Shade** (parallel over rows): each covered pixel reads its triangle
 //!    id and barycentrics and interpolates per-vertex colours (Gouraud) or
 //!    attributes, world position and geometric normal for a per-pixel
@@ -73,6 +76,18 @@
 use crate::{Camera, CameraRays, Image};
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
+
+/// Whether this CPU runs the strip raster's AVX2 + FMA copy.
+fn avx2_fma() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
 
 /// Triangle id of a pixel that no triangle covers.
 pub const NO_TRIANGLE: u32 = u32::MAX;
@@ -752,6 +767,7 @@ impl Rasterizer {
         g.barycentrics.resize(width * height, [0.0; 2]);
         let rows = options.strip_height * width;
         let chunks = &self.chunks;
+        let avx2 = avx2_fma();
         g.depth
             .par_chunks_mut(rows)
             .zip(g.triangle.par_chunks_mut(rows))
@@ -771,17 +787,13 @@ impl Rasterizer {
                     y0,
                     y1,
                 };
-                for chunk in chunks {
-                    let first_id = triangle_offsets[chunk.draw as usize];
-                    for e in &chunk.bins[s] {
-                        if e.tag & CLIPPED_FLAG != 0 {
-                            let c = &chunk.clipped[(e.tag & !CLIPPED_FLAG) as usize];
-                            strip.draw_triangle(c.v, c.b, c.id);
-                        } else {
-                            strip.draw_triangle(e.v, [Vec3::X, Vec3::Y, Vec3::Z], first_id + e.tag);
-                        }
-                    }
+                #[cfg(target_arch = "x86_64")]
+                if avx2 {
+                    // SAFETY: AVX2 and FMA were detected at run time.
+                    unsafe { strip.draw_bins_avx2(chunks, triangle_offsets, s) };
+                    return;
                 }
+                strip.draw_bins(chunks, triangle_offsets, s);
             });
         self.generation = NEXT_GENERATION.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         Ok(stats)
@@ -1352,10 +1364,37 @@ struct Strip<'a> {
 }
 
 impl Strip<'_> {
+    /// Draws strip `s`'s bins of every chunk, in submission order.
+    #[inline(always)]
+    fn draw_bins(&mut self, chunks: &[Chunk], triangle_offsets: &[u32], s: usize) {
+        for chunk in chunks {
+            let first_id = triangle_offsets[chunk.draw as usize];
+            for e in &chunk.bins[s] {
+                if e.tag & CLIPPED_FLAG != 0 {
+                    let c = &chunk.clipped[(e.tag & !CLIPPED_FLAG) as usize];
+                    self.draw_triangle(c.v, c.b, c.id);
+                } else {
+                    self.draw_triangle(e.v, [Vec3::X, Vec3::Y, Vec3::Z], first_id + e.tag);
+                }
+            }
+        }
+    }
+
+    /// [`Strip::draw_bins`] compiled for AVX2 and FMA (the same arithmetic:
+    /// Rust contracts no multiply-add, so the buffers are bit-identical).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn draw_bins_avx2(&mut self, chunks: &[Chunk], triangle_offsets: &[u32], s: usize) {
+        self.draw_bins(chunks, triangle_offsets, s);
+    }
+
     /// Rasterizes one screen triangle (any orientation, non-zero area) into
     /// the strip: top-left rule, z-test `<`; `b[k]` are the barycentrics of
     /// vertex k on the original triangle (the identity unless clipped).
-    #[inline]
+    #[inline(always)]
     fn draw_triangle(&mut self, mut v: [ScreenVertex; 3], mut b: [Vec3; 3], id: u32) {
         let mut area = signed_area(&v);
         if area < 0 {

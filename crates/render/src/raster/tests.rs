@@ -539,6 +539,80 @@ fn strips_and_threads_do_not_change_the_result() {
     );
 }
 
+/// The AVX2 + FMA copy of the strip raster (taken by `rasterize` where
+/// the CPU has both) writes what the portable copy writes, bit for bit:
+/// every strip of a frame (with a near-clipped draw, so that clipped pieces
+/// are drawn too) is drawn again by `Strip::draw_bins` and compared.
+#[test]
+fn avx2_strip_raster_matches_the_portable_copy() {
+    if !avx2_fma() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI: no AVX2 + FMA on this CPU, so the fast copy is not tested"
+        );
+    }
+    let (positions, triangles, _) = torus_grid(60, 24);
+    // A floor reaching behind the eye: clipped against the near plane.
+    let floor = [
+        Vec3::new(-50.0, -0.5, 20.0),
+        Vec3::new(50.0, -0.5, 20.0),
+        Vec3::new(0.0, -0.5, -60.0),
+    ];
+    let draws = [
+        DrawCall::new(&positions, &triangles),
+        DrawCall::new(&floor, &[[0, 1, 2]]).with_object_id(1),
+    ];
+    let cam = Camera {
+        eye: Vec3::new(0.4, 1.2, 1.6),
+        target: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 60.0,
+        width: 173,
+        height: 97,
+        image_offset: glam::Vec2::ZERO,
+    };
+    let opts = RasterOptions {
+        strip_height: 16,
+        ..options()
+    };
+    let mut r = Rasterizer::new();
+    let stats = r.rasterize(&cam, &draws, &opts).unwrap();
+    assert!(stats.clipped > 0, "no clipped triangle: {stats:?}");
+    let (w, h) = (cam.width, cam.height);
+    let (mut depth, mut ids, mut bary) = (
+        vec![EMPTY_DEPTH; w * h],
+        vec![NO_TRIANGLE; w * h],
+        vec![[0.0f32; 2]; w * h],
+    );
+    let rows = opts.strip_height * w;
+    for (s, ((depth, ids), bary)) in depth
+        .chunks_mut(rows)
+        .zip(ids.chunks_mut(rows))
+        .zip(bary.chunks_mut(rows))
+        .enumerate()
+    {
+        let y0 = (s * opts.strip_height) as i64;
+        let mut strip = Strip {
+            y1: y0 + (depth.len() / w) as i64,
+            depth,
+            ids,
+            bary,
+            width: w as i64,
+            y0,
+        };
+        strip.draw_bins(&r.chunks, &r.triangle_offsets, s);
+    }
+    let g = r.gbuffer();
+    assert!(g.covered_pixels() > 2000);
+    assert_eq!(ids, g.triangle);
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&depth), bits(&g.depth));
+    assert_eq!(
+        bits(bary.as_flattened()),
+        bits(g.barycentrics.as_flattened())
+    );
+}
+
 #[test]
 fn gouraud_and_per_pixel_agree_and_background_follows_the_view_ray() {
     let (positions, triangles, _) = torus_grid(40, 16);
