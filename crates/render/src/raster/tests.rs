@@ -473,14 +473,9 @@ fn per_draw_culling_overrides_the_options() {
     assert_eq!(binned(&mut r, &[plain, culled], &options()), 1);
 }
 
-#[test]
-fn strips_and_threads_do_not_change_the_result() {
-    let (positions, triangles, uv) = torus_grid(60, 24);
-    let draws = [
-        DrawCall::new(&positions, &triangles).with_attributes(2, &uv),
-        DrawCall::new(&positions[..300], &triangles[..200]).with_object_id(1),
-    ];
-    let cam = Camera {
+/// A 173 × 97 view of `torus_grid` from above and in front.
+fn torus_camera() -> Camera {
+    Camera {
         eye: Vec3::new(0.4, 1.2, 1.6),
         target: Vec3::ZERO,
         up: Vec3::Y,
@@ -488,7 +483,17 @@ fn strips_and_threads_do_not_change_the_result() {
         width: 173,
         height: 97,
         image_offset: glam::Vec2::ZERO,
-    };
+    }
+}
+
+#[test]
+fn strips_and_threads_do_not_change_the_result() {
+    let (positions, triangles, uv) = torus_grid(60, 24);
+    let draws = [
+        DrawCall::new(&positions, &triangles).with_attributes(2, &uv),
+        DrawCall::new(&positions[..300], &triangles[..200]).with_object_id(1),
+    ];
+    let cam = torus_camera();
     let mut single = Rasterizer::new();
     let whole = RasterOptions {
         strip_height: cam.height,
@@ -562,15 +567,7 @@ fn avx2_strip_raster_matches_the_portable_copy() {
         DrawCall::new(&positions, &triangles),
         DrawCall::new(&floor, &[[0, 1, 2]]).with_object_id(1),
     ];
-    let cam = Camera {
-        eye: Vec3::new(0.4, 1.2, 1.6),
-        target: Vec3::ZERO,
-        up: Vec3::Y,
-        vfov_deg: 60.0,
-        width: 173,
-        height: 97,
-        image_offset: glam::Vec2::ZERO,
-    };
+    let cam = torus_camera();
     let opts = RasterOptions {
         strip_height: 16,
         ..options()
