@@ -156,12 +156,12 @@ impl<const N: usize> BilinearLanes<N> {
     #[inline(always)]
     pub fn compute(&mut self, size: [&[f32; N]; 2], uv: [&[f32; N]; 2], count: usize) {
         const EXACT: f32 = 8_388_608.0;
-        /// `v` truncated, for `|v| < 2²³` (every caller's operand is
-        /// sanitised to that range first, so that the conversion is a plain
-        /// vector instruction instead of Rust's saturating `as`).
+        /// `v` truncated, for `|v| ≤ 2²³` (every operand is sanitised to
+        /// that range first, so that the conversion is a plain vector
+        /// instruction instead of Rust's saturating `as`).
         #[inline(always)]
         fn trunc(v: f32) -> i32 {
-            debug_assert!(v.abs() < EXACT);
+            debug_assert!(v.abs() <= EXACT);
             // SAFETY: finite and within i32's range (above).
             unsafe { v.to_int_unchecked::<i32>() }
         }
@@ -492,6 +492,8 @@ mod tests {
                     1 => uv[1][i] = 1.0e9,
                     2 => uv[0][i] = -0.0,
                     3 => uv[1][i] = 1.0 - f32::EPSILON,
+                    // ⌊x⌋ = −2²³ (on a texture one texel wide).
+                    4 => uv[0][i] = -8_388_607.0,
                     _ => {}
                 }
             }
