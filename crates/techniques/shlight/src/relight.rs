@@ -281,12 +281,17 @@ pub(crate) struct Prepared {
     k: usize,
 }
 
-/// Vertices per run of [`Lit::relight_needed`]: the unit of its parallel
-/// split and of one batch rotation (up to three times as many vectors).
+/// Marked vertices per batch rotation of [`Lit::relight_needed`] (three
+/// times as many vectors).
 const RELIGHT_RUN: usize = 64;
 
+/// Vertices per parallel task of [`Lit::relight_needed`]: after a view
+/// change a few in a thousand are marked, and each batch should still be
+/// full (a batch of 64 vertices with two marked cost as much as a full one).
+const RELIGHT_SPAN: usize = 1024;
+
 /// One thread's buffers for a run of [`Lit::relight_needed`]: per marked
-/// vertex its index in the run and three rotations and channel vectors
+/// vertex its index in the span and three rotations and channel vectors
 /// (`order²` each) before and after the batch rotation (`dst` doubles as
 /// the scratch of the one-by-one path).
 struct RelightRun {
@@ -1137,8 +1142,10 @@ impl Lit {
     /// Rotates the lighting into the frame of every vertex marked
     /// [`STAMP_NEEDED`] (exact ZYZ: three Z rotations and two fixed sparse X
     /// matrices per channel) and stamps it; returns how many. Vertices go
-    /// in runs of [`RELIGHT_RUN`]: the marked ones of a run are rotated
-    /// together, three channel vectors each, by
+    /// in spans of [`RELIGHT_SPAN`] (the unit of the parallel split), whose
+    /// marked ones are rotated [`RELIGHT_RUN`] at a time, three channel
+    /// vectors each (full batches even where few are marked, as after a view
+    /// change), by
     /// [`relight_sh::fast::rotate_batch`] (eight vectors at a time, lanes
     /// across vectors, on a CPU with AVX2 and FMA) up to its order, one by
     /// one by [`ZyzRotation::apply`] above it.
@@ -1151,25 +1158,43 @@ impl Lit {
         let zyz = &self.vertex_zyz;
         let epoch = self.epoch;
         let batched = order <= ROTATE_BATCH_MAX_ORDER;
+        // The run's marked vertices, rotated together into `dst` (a span's
+        // lighting) and stamped.
+        let flush = |run: &mut RelightRun, n: usize, dst: &mut [f32], stamps: &[AtomicU32]| {
+            let vectors = 3 * n;
+            relight_sh::fast::rotate_batch(
+                order,
+                &run.rots[..vectors],
+                &run.src[..vectors * nn],
+                &mut run.dst[..vectors * nn],
+            )
+            .expect("order ≤ ROTATE_BATCH_MAX_ORDER and lengths sized by RelightRun");
+            for (j, &i) in run.index[..n].iter().enumerate() {
+                dst[i * 3 * nn..(i + 1) * 3 * nn]
+                    .copy_from_slice(&run.dst[j * 3 * nn..(j + 1) * 3 * nn]);
+                stamps[i].store(epoch, Ordering::Relaxed);
+            }
+        };
         let mut count = 0;
         for d in &mut self.draws {
             let (verts, stamp) = (&d.verts, &d.stamp);
             count += d
                 .light
-                .par_chunks_mut(3 * nn * RELIGHT_RUN)
+                .par_chunks_mut(3 * nn * RELIGHT_SPAN)
                 .zip(
                     verts
-                        .par_chunks(RELIGHT_RUN)
-                        .zip(stamp.par_chunks(RELIGHT_RUN)),
+                        .par_chunks(RELIGHT_SPAN)
+                        .zip(stamp.par_chunks(RELIGHT_SPAN)),
                 )
                 .map_init(
                     || RelightRun::new(nn),
                     |run, (dst, (verts, stamps))| {
-                        let mut n = 0;
+                        let (mut n, mut lit) = (0, 0);
                         for (i, (a, st)) in verts.iter().zip(stamps).enumerate() {
                             if st.load(Ordering::Relaxed) != STAMP_NEEDED {
                                 continue;
                             }
+                            lit += 1;
                             let f = Frame::from_normal_tangent(
                                 Vec3::new(a[0], a[1], a[2]),
                                 Vec3::new(a[3], a[4], a[5]),
@@ -1180,40 +1205,30 @@ impl Lit {
                                 f.y.to_array(),
                                 f.z.to_array(),
                             ]);
-                            let out = &mut dst[i * 3 * nn..(i + 1) * 3 * nn];
-                            if batched {
-                                for (c, l) in light.iter().enumerate() {
-                                    let j = 3 * n + c;
-                                    run.rots[j] = rot;
-                                    run.src[j * nn..(j + 1) * nn].copy_from_slice(&l[..nn]);
-                                }
-                                run.index[n] = i;
-                            } else {
+                            if !batched {
+                                let out = &mut dst[i * 3 * nn..(i + 1) * 3 * nn];
                                 for (l, o) in light.iter().zip(out.chunks_exact_mut(nn)) {
                                     zyz.apply(&rot, l, o, &mut run.dst);
                                 }
                                 st.store(epoch, Ordering::Relaxed);
+                                continue;
                             }
+                            for (c, l) in light.iter().enumerate() {
+                                let j = 3 * n + c;
+                                run.rots[j] = rot;
+                                run.src[j * nn..(j + 1) * nn].copy_from_slice(&l[..nn]);
+                            }
+                            run.index[n] = i;
                             n += 1;
-                        }
-                        if batched && n > 0 {
-                            let vectors = 3 * n;
-                            relight_sh::fast::rotate_batch(
-                                order,
-                                &run.rots[..vectors],
-                                &run.src[..vectors * nn],
-                                &mut run.dst[..vectors * nn],
-                            )
-                            .expect(
-                                "order ≤ ROTATE_BATCH_MAX_ORDER and lengths sized by RelightRun",
-                            );
-                            for (j, &i) in run.index[..n].iter().enumerate() {
-                                dst[i * 3 * nn..(i + 1) * 3 * nn]
-                                    .copy_from_slice(&run.dst[j * 3 * nn..(j + 1) * 3 * nn]);
-                                stamps[i].store(epoch, Ordering::Relaxed);
+                            if n == RELIGHT_RUN {
+                                flush(run, n, dst, stamps);
+                                n = 0;
                             }
                         }
-                        n
+                        if n > 0 {
+                            flush(run, n, dst, stamps);
+                        }
+                        lit
                     },
                 )
                 .sum::<usize>();
