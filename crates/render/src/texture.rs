@@ -401,7 +401,7 @@ impl NormalMap {
     /// The bilinear blend of the four texels at `uv`, not renormalised: the
     /// direction of [`NormalMap::sample`] (or zero where that falls back to
     /// +z), for callers that normalise later anyway.
-    #[inline(always)]
+    #[inline]
     #[must_use]
     pub fn blend(&self, uv: Vec2) -> Vec3 {
         let [a, b, c, d] = bilinear_taps(self.width, self.height, uv);
