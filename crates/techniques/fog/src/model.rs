@@ -21,6 +21,9 @@
 //!   L_a = L∞(eye) − e^{−T_vp} L∞(p) (see [`crate::special`]), where
 //!   L∞(x) = β I₀ e^{−T_xs} N(u, v) R(w(u), v) / (2π h), v = γ_x/2 from
 //!   tan v = sin γ / (1 + cos γ) (accurate 1 + cos γ near γ = π).
+//!   Seen from the eye, L∞(eye) depends on the ray only through γ, so it
+//!   is tabulated per light and frame ([`PreparedLight::eye_tail`]);
+//!   L∞(p) is evaluated per pixel.
 //! * Surface: I₀ k_d [e^{−T_sp} cos θ_s / D_sp² + β e^{−T_sp} G̃₀(T_sp, cos θ_s) / (2π D_sp)]
 //!   and the same with k_s, cosⁿθ′_s (θ′_s from the reflected view direction)
 //!   and G̃_n (β²/T_sp = β/D_sp avoids the 0/0 at β → 0).
@@ -37,7 +40,7 @@ use crate::FogError;
 use crate::fast;
 use crate::table::{FogTables, Interp, Table2};
 use glam::Vec3;
-use std::f32::consts::PI;
+use std::f32::consts::{FRAC_PI_2, PI};
 
 /// Smallest angle (radians) between the view ray and a light used by the
 /// airlight (see the module docs).
@@ -291,8 +294,15 @@ impl Lookup for Nearest {
     }
 }
 
+/// Intervals of [`PreparedLight::eye_tail`] (see there).
+pub const EYE_TAIL_INTERVALS: usize = 1024;
+
+/// How much finer [`PreparedLight::eye_tail`] samples v near the light
+/// than far from it (the constant K of its coordinate).
+pub const EYE_TAIL_REFINE: f32 = 32.0;
+
 /// A light with the per-frame constants of one eye position.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct PreparedLight {
     pub position: Vec3,
     pub intensity: Vec3,
@@ -304,6 +314,56 @@ pub struct PreparedLight {
     pub exp_t_sv: f32,
     /// MIN_ANGLE · D_sv: the smallest light-to-ray distance h used.
     pub h_min_sv: f32,
+    /// The eye's airlight tail e^{−T_sv} N(u, v) q R(w, v) (the first term
+    /// of eq. 3.16 without β / (2π h), see the module docs) at
+    /// [`EYE_TAIL_INTERVALS`] + 1 points of v = γ/2 ∈ [0, π/2].
+    ///
+    /// From the eye the light sits at the fixed distance D_sv, so the
+    /// offset along a view ray is D_sv cos γ and its distance from it
+    /// D_sv sin γ: the tail depends on the ray only through γ. Every pixel
+    /// and every background direction reads it from this table
+    /// ([`PreparedLight::eye_tail`]) instead of evaluating the kernel's
+    /// square root, three divisions and six 2D table taps.
+    ///
+    /// Near the light the tail changes over Δv ≈ 1/(2 β D_sv) (its
+    /// u = β D_sv sin γ runs through the tables' w), so the samples are
+    /// uniform in x = v + K c v / (v + c), c = 1/(2 β D_sv) clamped to
+    /// [10⁻⁴, 1], K = [`EYE_TAIL_REFINE`]: K + 1 times denser within ~c of
+    /// the light, about uniform beyond. Test `eye_tail_matches_the_kernel`
+    /// measures the interpolation error against the kernel. The table
+    /// samples the bilinear kernel in either [`Interp`] mode. Rays within
+    /// h_min of the light (< 10⁻⁴ rad, h clamped up) read it at their
+    /// clamped v.
+    pub eye_tail: Box<[f32]>,
+    /// c of [`PreparedLight::eye_tail`]'s coordinate.
+    pub eye_tail_c: f32,
+    /// K c of [`PreparedLight::eye_tail`]'s coordinate.
+    pub eye_tail_kc: f32,
+    /// [`EYE_TAIL_INTERVALS`] / x(π/2): table intervals per unit of x.
+    pub eye_tail_scale: f32,
+}
+
+impl PreparedLight {
+    /// [`PreparedLight::eye_tail`] interpolated at v = atan(s / (1 + c)),
+    /// s = min(h / D_sv, 1) and c = along / D_sv clamped to [−1, 1], with
+    /// 1 + c = s² / (1 − c) for c < 0 (the kernel's own v, accurate near
+    /// γ = π). The AVX2 kernels repeat this arithmetic lane by lane.
+    #[inline(always)]
+    #[must_use]
+    #[allow(clippy::manual_clamp)] // maps NaN to a bound
+    pub fn eye_tail(&self, along: f32, h: f32) -> f32 {
+        let inv_d = 1.0 / self.d_sv;
+        let s = (h * inv_d).min(1.0);
+        let c = (along * inv_d).max(-1.0).min(1.0);
+        let opc = if c >= 0.0 { 1.0 + c } else { s * s / (1.0 - c) };
+        let v = atan2_pos(s, opc.max(1e-30));
+        let x = (v + self.eye_tail_kc * v / (v + self.eye_tail_c)) * self.eye_tail_scale;
+        let x = x.max(0.0).min(EYE_TAIL_INTERVALS as f32);
+        let i = (x as usize).min(EYE_TAIL_INTERVALS - 1);
+        let f = x - i as f32;
+        let (t0, t1) = (self.eye_tail[i], self.eye_tail[i + 1]);
+        (t1 - t0) * f + t0
+    }
 }
 
 /// The per-(pixel, light) quantities of a surface pixel before the
@@ -461,16 +521,57 @@ impl<'a> FogModel<'a> {
                 }
                 let to_light = l.position - eye;
                 let d_sv = to_light.length().max(MIN_DISTANCE);
+                let exp_t_sv = (-self.beta * d_sv).exp();
+                let c = (0.5 / (self.beta * d_sv)).clamp(1e-4, 1.0);
+                let kc = EYE_TAIL_REFINE * c;
+                let x_max = FRAC_PI_2 + kc * FRAC_PI_2 / (FRAC_PI_2 + c);
                 Ok(PreparedLight {
                     position: l.position,
                     intensity: l.intensity,
                     to_light,
                     d_sv,
-                    exp_t_sv: (-self.beta * d_sv).exp(),
+                    exp_t_sv,
                     h_min_sv: (MIN_ANGLE * d_sv).max(MIN_DISTANCE),
+                    eye_tail: self.eye_tail_table(d_sv, exp_t_sv, c, kc, x_max),
+                    eye_tail_c: c,
+                    eye_tail_kc: kc,
+                    eye_tail_scale: EYE_TAIL_INTERVALS as f32 / x_max,
                 })
             })
             .collect()
+    }
+
+    /// [`PreparedLight::eye_tail`] of a light at distance `d_sv` from the
+    /// eye: the bilinear kernel at the v_k of x_k = k x_max / N (the
+    /// positive root of v² + (c + K c − x) v − x c = 0), γ = 2 v_k, offset
+    /// D_sv cos γ, distance D_sv sin γ.
+    fn eye_tail_table(&self, d_sv: f32, exp_t_sv: f32, c: f32, kc: f32, x_max: f32) -> Box<[f32]> {
+        let (c, kc) = (f64::from(c), f64::from(kc));
+        (0..=EYE_TAIL_INTERVALS)
+            .map(|k| {
+                let x = f64::from(x_max) * k as f64 / EYE_TAIL_INTERVALS as f64;
+                let b = c + kc - x;
+                let v = 0.5 * ((b * b + 4.0 * x * c).sqrt() - b);
+                let gamma = (2.0 * v).min(std::f64::consts::PI);
+                let (along, h) = (
+                    (f64::from(d_sv) * gamma.cos()) as f32,
+                    (f64::from(d_sv) * gamma.sin()).max(0.0) as f32,
+                );
+                let u = self.beta * h;
+                let w = u / (1.0 + u);
+                exp_t_sv * self.l_inf_kernel::<Bilinear>(d_sv, along, h, u, w)
+            })
+            .collect()
+    }
+
+    /// What [`PreparedLight::eye_tail`] interpolates, evaluated directly by
+    /// the bilinear kernel (the table's reference in tests): the eye's tail of
+    /// `light` for a ray whose offset along it is `along` and distance `h`.
+    #[must_use]
+    pub fn eye_tail_direct(&self, light: &PreparedLight, along: f32, h: f32) -> f32 {
+        let u = self.beta * h;
+        let w = u / (1.0 + u);
+        light.exp_t_sv * self.l_inf_kernel::<Bilinear>(light.d_sv, along, h, u, w)
     }
 
     /// Phase-weighted Σ_k w_k Rᵏ(w, v).
@@ -509,12 +610,10 @@ impl<'a> FogModel<'a> {
     /// Airlight to infinity (eq. 3.17) per unit intensity along unit `dir`
     /// from the eye (no surface).
     #[inline(always)]
-    pub fn air_inf<L: Lookup>(&self, light: &PreparedLight, dir: Vec3) -> f32 {
+    pub fn air_inf(&self, light: &PreparedLight, dir: Vec3) -> f32 {
         let along = light.to_light.dot(dir);
         let h = light.to_light.cross(dir).length().max(light.h_min_sv);
-        let u = self.beta * h;
-        let w = u / (1.0 + u);
-        light.exp_t_sv * self.l_inf_kernel::<L>(light.d_sv, along, h, u, w) * self.beta_2pi / h
+        light.eye_tail(along, h) * self.beta_2pi / h
     }
 
     /// The airlight difference of eq. 3.16 as two tails (see
@@ -533,7 +632,7 @@ impl<'a> FogModel<'a> {
         let h = h_raw.max(light.h_min_sv.min(MIN_ANGLE * d_sp).max(MIN_DISTANCE));
         let u = self.beta * h;
         let w = u / (1.0 + u);
-        let a = light.exp_t_sv * self.l_inf_kernel::<L>(light.d_sv, along, h, u, w);
+        let a = light.eye_tail(along, h);
         let b = exp_vp_sp * self.l_inf_kernel::<L>(d_sp, along_p, h, u, w);
         let k = self.beta_2pi / h;
         ((a - b).max(0.0) * k, b > CANCELLATION_RATIO * a, h)
@@ -559,7 +658,7 @@ impl<'a> FogModel<'a> {
         hit: Option<(Vec3, f32, f32)>,
     ) -> f32 {
         match hit {
-            None => self.air_inf::<L>(light, dir),
+            None => self.air_inf(light, dir),
             Some((p, d_vp, exp_t_vp)) => {
                 let along = light.to_light.dot(dir);
                 let h_raw = light.to_light.cross(dir).length();

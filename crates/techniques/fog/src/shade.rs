@@ -414,16 +414,7 @@ pub fn shade_background(
     if simd_ok(model) {
         let ctx = model.simd_ctx();
         // SAFETY: AVX2 and FMA are present and table sides are checked.
-        done = unsafe {
-            match model.interp {
-                Interp::Bilinear => {
-                    crate::simd::background::<false>(&ctx, lights, dx, dy, dz, r, g, b)
-                }
-                Interp::Nearest => {
-                    crate::simd::background::<true>(&ctx, lights, dx, dy, dz, r, g, b)
-                }
-            }
-        };
+        done = unsafe { crate::simd::background(&ctx, lights, dx, dy, dz, r, g, b) };
     }
     let end = dx
         .len()
@@ -433,7 +424,7 @@ pub fn shade_background(
         .min(g.len())
         .min(b.len());
     let done = done.min(end);
-    background_dispatch(
+    background(
         model,
         lights,
         &dx[done..end],
@@ -447,25 +438,7 @@ pub fn shade_background(
 
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn background_dispatch(
-    model: &FogModel,
-    lights: &[PreparedLight],
-    dx: &[f32],
-    dy: &[f32],
-    dz: &[f32],
-    r: &mut [f32],
-    g: &mut [f32],
-    b: &mut [f32],
-) {
-    match model.interp {
-        Interp::Bilinear => background::<Bilinear>(model, lights, dx, dy, dz, r, g, b),
-        Interp::Nearest => background::<Nearest>(model, lights, dx, dy, dz, r, g, b),
-    }
-}
-
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn background<L: Lookup>(
+fn background(
     model: &FogModel,
     lights: &[PreparedLight],
     dx: &[f32],
@@ -487,7 +460,7 @@ fn background<L: Lookup>(
     for light in lights {
         let li = light.intensity;
         for i in 0..m {
-            let a = model.air_inf::<L>(light, Vec3::new(dx[i], dy[i], dz[i]));
+            let a = model.air_inf(light, Vec3::new(dx[i], dy[i], dz[i]));
             r[i] += li.x * a;
             g[i] += li.y * a;
             b[i] += li.z * a;

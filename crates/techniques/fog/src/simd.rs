@@ -8,7 +8,8 @@
 #![allow(unsafe_op_in_unsafe_fn, clippy::too_many_arguments)]
 
 use crate::model::{
-    CANCELLATION_RATIO, GAUSS6_W, GAUSS6_X, MIN_ANGLE, MIN_DISTANCE, PreparedLight,
+    CANCELLATION_RATIO, EYE_TAIL_INTERVALS, GAUSS6_W, GAUSS6_X, MIN_ANGLE, MIN_DISTANCE,
+    PreparedLight,
 };
 use crate::shade::{MaterialConst, PixelBatch};
 use crate::table::{CORNER_SAMPLES, FogTables, Table2};
@@ -336,6 +337,47 @@ unsafe fn l_inf<const NEAREST: bool>(
     )
 }
 
+/// [`PreparedLight::eye_tail`], eight lanes (the same arithmetic).
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn eye_tail(light: &PreparedLight, along: __m256, h: __m256) -> __m256 {
+    let one = splat(1.0);
+    let inv_d = splat(1.0 / light.d_sv);
+    let s = _mm256_min_ps(_mm256_mul_ps(h, inv_d), one);
+    let c = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(along, inv_d), splat(-1.0)), one);
+    let back = _mm256_div_ps(_mm256_mul_ps(s, s), _mm256_sub_ps(one, c));
+    let ge = _mm256_cmp_ps(c, splat(0.0), _CMP_GE_OQ);
+    let opc = _mm256_max_ps(
+        _mm256_blendv_ps(back, _mm256_add_ps(one, c), ge),
+        splat(1e-30),
+    );
+    let v = atan2_pos(s, opc);
+    let x = _mm256_add_ps(
+        v,
+        _mm256_div_ps(
+            _mm256_mul_ps(splat(light.eye_tail_kc), v),
+            _mm256_add_ps(v, splat(light.eye_tail_c)),
+        ),
+    );
+    // max/min with the constant second: NaN → 0 (as the scalar lookup).
+    let x = _mm256_min_ps(
+        _mm256_max_ps(_mm256_mul_ps(x, splat(light.eye_tail_scale)), splat(0.0)),
+        splat(EYE_TAIL_INTERVALS as f32),
+    );
+    let i = _mm256_min_epi32(
+        _mm256_cvttps_epi32(x),
+        _mm256_set1_epi32(EYE_TAIL_INTERVALS as i32 - 1),
+    );
+    let f = _mm256_sub_ps(x, _mm256_cvtepi32_ps(i));
+    debug_assert_eq!(light.eye_tail.len(), EYE_TAIL_INTERVALS + 1);
+    let base = light.eye_tail.as_ptr();
+    // SAFETY: 0 ≤ i ≤ EYE_TAIL_INTERVALS − 1, the table has
+    // EYE_TAIL_INTERVALS + 1 entries.
+    let t0 = _mm256_i32gather_ps::<4>(base, i);
+    let t1 = _mm256_i32gather_ps::<4>(base.add(1), i);
+    _mm256_fmadd_ps(_mm256_sub_ps(t1, t0), f, t0)
+}
+
 /// Adds every light's complete model to pixels `start..start + m` of
 /// `lanes`, m = ⌊(end − start)/8⌋·8 (the caller does the rest); returns m.
 ///
@@ -391,8 +433,6 @@ pub(crate) unsafe fn surface_run_impl<const NEAREST: bool, const SURFACE: bool>(
             splat(light.to_light.y),
             splat(light.to_light.z),
         );
-        let inv_dsv = splat(1.0 / light.d_sv);
-        let exp_t_sv = splat(light.exp_t_sv);
         let h_min_sv = splat(light.h_min_sv);
         let li = light.intensity;
         let kd = [
@@ -437,7 +477,7 @@ pub(crate) unsafe fn surface_run_impl<const NEAREST: bool, const SURFACE: bool>(
             let u = _mm256_mul_ps(beta, h);
             let w = _mm256_div_ps(u, _mm256_add_ps(one, u));
             let e_vp = ld(&lanes.e_vp, i);
-            let a = _mm256_mul_ps(exp_t_sv, l_inf::<NEAREST>(ctx, inv_dsv, along, h, u, w));
+            let a = eye_tail(light, along, h);
             let b = _mm256_mul_ps(
                 _mm256_mul_ps(e_vp, e_sp),
                 l_inf::<NEAREST>(ctx, inv_d, along_p, h, u, w),
@@ -513,7 +553,7 @@ pub(crate) unsafe fn surface_run_impl<const NEAREST: bool, const SURFACE: bool>(
 /// # Safety
 /// As [`surface_run`].
 #[target_feature(enable = "avx2,fma")]
-pub unsafe fn background<const NEAREST: bool>(
+pub unsafe fn background(
     ctx: &Ctx,
     lights: &[PreparedLight],
     dx: &[f32],
@@ -532,17 +572,13 @@ pub unsafe fn background<const NEAREST: bool>(
         .min(b.len())
         / 8
         * 8;
-    let beta = splat(ctx.beta);
     let beta_2pi = splat(ctx.sigma_s / (2.0 * std::f32::consts::PI));
-    let one = splat(1.0);
     for light in lights {
         let (tx, ty, tz) = (
             splat(light.to_light.x),
             splat(light.to_light.y),
             splat(light.to_light.z),
         );
-        let inv_dsv = splat(1.0 / light.d_sv);
-        let exp_t_sv = splat(light.exp_t_sv);
         let h_min_sv = splat(light.h_min_sv);
         let li = light.intensity;
         let il = [splat(li.x), splat(li.y), splat(li.z)];
@@ -559,12 +595,7 @@ pub unsafe fn background<const NEAREST: bool>(
                 _mm256_fmadd_ps(cy, cy, _mm256_mul_ps(cz, cz)),
             ));
             let h = _mm256_max_ps(h_raw, h_min_sv);
-            let u = _mm256_mul_ps(beta, h);
-            let w = _mm256_div_ps(u, _mm256_add_ps(one, u));
-            let a = _mm256_mul_ps(
-                _mm256_mul_ps(exp_t_sv, l_inf::<NEAREST>(ctx, inv_dsv, along, h, u, w)),
-                _mm256_div_ps(beta_2pi, h),
-            );
+            let a = _mm256_mul_ps(eye_tail(light, along, h), _mm256_div_ps(beta_2pi, h));
             add_to(r, i, _mm256_mul_ps(il[0], a));
             add_to(g, i, _mm256_mul_ps(il[1], a));
             add_to(b, i, _mm256_mul_ps(il[2], a));
