@@ -485,11 +485,11 @@ impl FogRelighter {
             }
             let vframe = &*vframe;
             let rays = big.ray_frame();
-            image
-                .pixels
-                .par_chunks_mut(w)
-                .enumerate()
-                .for_each(|(y, row)| {
+            let beta = m.beta;
+            image.pixels.par_chunks_mut(w).enumerate().for_each_init(
+                SegmentRow::default,
+                |s, (y, row)| {
+                    s.clear();
                     // Neighbouring pixels of one triangle share its lookup,
                     // corners, side and vertex colours (the same values as
                     // fetched per pixel).
@@ -517,7 +517,8 @@ impl FogRelighter {
                                 let b = g.barycentrics[i];
                                 let lam = Vec3::new(1.0 - b[0] - b[1], b[0], b[1]);
                                 let e = c[0] * lam.x + c[1] * lam.y + c[2] * lam.z;
-                                *px += segment_at(p, b, e);
+                                let q = p[0] * lam.x + p[1] * lam.y + p[2] * lam.z;
+                                s.push(x, e, (q - eye).length());
                             }
                             None if !opengl => {
                                 *px += light.background(
@@ -528,7 +529,9 @@ impl FogRelighter {
                             None => {}
                         }
                     }
-                });
+                    s.add_segments(beta, ambient, row);
+                },
+            );
         } else if self.environment_image(scene, &big, progress)? {
             let env = &self.env_image;
             let r = &self.rasterizer;
@@ -550,6 +553,53 @@ impl FogRelighter {
                 });
         }
         Ok(image)
+    }
+}
+
+/// One image row's covered pixels for the view segment of the
+/// per-vertex environment pass: column, surface radiance L_s and
+/// distance D from the eye, gathered first so that the transmittances
+/// e^{−βD} are computed in one loop over the row (which vectorises,
+/// instead of a dependent polynomial chain per pixel between the scattered
+/// triangle lookups).
+#[derive(Default)]
+struct SegmentRow {
+    x: Vec<u32>,
+    radiance: Vec<Vec3>,
+    /// D, then e^{−βD} in place.
+    dist: Vec<f32>,
+}
+
+impl SegmentRow {
+    fn clear(&mut self) {
+        self.x.clear();
+        self.radiance.clear();
+        self.dist.clear();
+    }
+
+    fn push(&mut self, x: usize, radiance: Vec3, dist: f32) {
+        self.x.push(x as u32);
+        self.radiance.push(radiance);
+        self.dist.push(dist);
+    }
+
+    /// Adds e^{−βD} L_s + (1 − e^{−βD}) `ambient` (the view segment of
+    /// §3.6.4) to each gathered pixel of `row`; L_s alone where β ≤ 0.
+    fn add_segments(&mut self, beta: f32, ambient: Vec3, row: &mut [Vec3]) {
+        if beta <= 0.0 {
+            for (&x, &e) in self.x.iter().zip(&self.radiance) {
+                row[x as usize] += e;
+            }
+            return;
+        }
+        for d in &mut self.dist {
+            // The crate's polynomial e^x (≈ 1e-7 relative, as the
+            // point-light kernels' e^{−T_vp}) instead of libm's call.
+            *d = crate::fast::exp(-beta * *d);
+        }
+        for ((&x, &e), &f) in self.x.iter().zip(&self.radiance).zip(&self.dist) {
+            row[x as usize] += e * f + ambient * (1.0 - f);
+        }
     }
 }
 
