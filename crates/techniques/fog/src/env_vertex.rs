@@ -15,8 +15,9 @@
 //! 2. `B(θ_o)` from the BRDF's table ([`BrdfShTable::lookup_mono`], one
 //!    vector where the table is rank-1, else three), times the band window;
 //! 3. `B` rotated from the local frame to world (exact ZYZ: three Z
-//!    rotations and two fixed X matrices) and dotted with the world-frame
-//!    lighting `L′` ([`EnvLighting`]), three channels.
+//!    rotations and two fixed X matrices; a frame's sides go in batches of
+//!    [`TRANSFER_RUN`], [`VertexShader::transfer_run`]) and dotted with the
+//!    world-frame lighting `L′` ([`EnvLighting`]), three channels.
 //!
 //! So a lighting change rotates only the n² lighting coefficients (no
 //! per-vertex lighting), and a frame's work is O(visible vertices · n³)
@@ -32,6 +33,7 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use relight_render::Scene;
 use relight_render::raster::{NO_TRIANGLE, Rasterizer};
+use relight_sh::fast::ROTATE_BATCH_MAX_ORDER;
 use relight_sh::project::ShRgb;
 use relight_sh::rotation::{EulerZyz, IvanicRuedenberg, Rot3, ShRotation, ZyzRotation};
 use relight_shlight::{BrdfShTable, ChosenWindow, LightingFilter, ShLightError};
@@ -350,9 +352,26 @@ impl VertexShader {
         tmp: &mut [f32],
         bw: &mut [f32],
     ) -> usize {
+        let k = self.order * self.order;
+        let (channels, world_from_local) = self.local_transfer(obj, n, wo, b);
+        // Local (x, y, n) → world.
+        let e: EulerZyz<f32> = Rot3::from_mat3_unchecked(world_from_local).euler_zyz();
+        let bw = &mut bw[..channels * k];
+        for (src, dst) in b[..channels * k]
+            .chunks_exact(k)
+            .zip(bw.chunks_exact_mut(k))
+        {
+            self.zyz.apply_euler(&e, src, dst, &mut tmp[..k]);
+        }
+        channels
+    }
+
+    /// Steps 1–2: the windowed local-frame transfer `B(θ_o)` of object
+    /// `obj` into `b` (`order²` values per channel) and the frame's
+    /// world-from-local matrix (columns x, y, n); returns the channel count.
+    fn local_transfer(&self, obj: usize, n: Vec3, wo: Vec3, b: &mut [f32]) -> (usize, Mat3) {
         let tr = &self.transfers[obj];
-        let order = self.order;
-        let k = order * order;
+        let k = self.order * self.order;
         let c = n.dot(wo);
         let x = (wo - c * n)
             .try_normalize()
@@ -363,22 +382,99 @@ impl VertexShader {
         let channels = if mono.is_some() { 1 } else { 3 };
         let b = &mut b[..channels * k];
         if mono.is_some() {
-            tr.table.lookup_mono(c, order, b);
+            tr.table.lookup_mono(c, self.order, b);
         } else {
-            tr.table.lookup(c, order, b);
+            tr.table.lookup(c, self.order, b);
         }
         for ch in b.chunks_exact_mut(k) {
             for (v, h) in ch.iter_mut().zip(&tr.window) {
                 *v *= h;
             }
         }
-        // Local (x, y, n) → world.
-        let e: EulerZyz<f32> = Rot3::from_mat3_unchecked(Mat3::from_cols(x, y, n)).euler_zyz();
-        let bw = &mut bw[..channels * k];
-        for (src, dst) in b.chunks_exact(k).zip(bw.chunks_exact_mut(k)) {
-            self.zyz.apply_euler(&e, src, dst, &mut tmp[..k]);
+        (channels, Mat3::from_cols(x, y, n))
+    }
+
+    /// [`VertexShader::transfer`] of up to [`TRANSFER_RUN`] vertex sides
+    /// `(obj, n, wo)` at once, side `j` into `out[j · stride ..]`; their
+    /// vectors are turned to world together by
+    /// [`relight_sh::fast::rotate_batch`] (eight at a time, lanes across
+    /// vectors, on a CPU with AVX2 and FMA; the same ZYZ rotation as
+    /// [`VertexShader::transfer`] up to rounding, test
+    /// `batched_transfers_match_one_at_a_time`), one by one above its
+    /// largest order.
+    ///
+    /// # Panics
+    /// More than [`TRANSFER_RUN`] sides, or `out` shorter than
+    /// `sides.len() · stride` with `stride` < [`VertexShader::transfer_len`].
+    pub fn transfer_run(
+        &self,
+        sides: &[(usize, Vec3, Vec3)],
+        run: &mut TransferRun,
+        out: &mut [f32],
+        stride: usize,
+    ) {
+        assert!(sides.len() <= TRANSFER_RUN && stride >= self.transfer_len());
+        let k = self.order * self.order;
+        if self.order > ROTATE_BATCH_MAX_ORDER {
+            for (&(obj, n, wo), t) in sides.iter().zip(out.chunks_exact_mut(stride)) {
+                self.transfer_into(obj, n, wo, &mut run.b, &mut run.tmp, t);
+            }
+            return;
         }
-        channels
+        run.rots.clear();
+        run.channels.clear();
+        let mut vectors = 0;
+        for &(obj, n, wo) in sides {
+            let (ch, world_from_local) =
+                self.local_transfer(obj, n, wo, &mut run.src[vectors * k..]);
+            let r = Rot3::from_mat3_unchecked(world_from_local);
+            run.rots.extend(std::iter::repeat_n(r, ch));
+            run.channels.push(ch as u8);
+            vectors += ch;
+        }
+        relight_sh::fast::rotate_batch(
+            self.order,
+            &run.rots,
+            &run.src[..vectors * k],
+            &mut run.dst[..vectors * k],
+        )
+        .expect("order ≤ ROTATE_BATCH_MAX_ORDER and lengths sized by TransferRun");
+        let mut at = 0;
+        for (&ch, t) in run.channels.iter().zip(out.chunks_exact_mut(stride)) {
+            let len = usize::from(ch) * k;
+            t[..len].copy_from_slice(&run.dst[at..at + len]);
+            at += len;
+        }
+    }
+}
+
+/// Vertex sides whose transfers [`VertexShader::transfer_run`] turns in
+/// one batch.
+pub const TRANSFER_RUN: usize = 64;
+
+/// Per-thread buffers of [`VertexShader::transfer_run`].
+pub struct TransferRun {
+    rots: Vec<Rot3<f32>>,
+    channels: Vec<u8>,
+    src: Vec<f32>,
+    dst: Vec<f32>,
+    b: [f32; 3 * MAXN],
+    tmp: [f32; MAXN],
+}
+
+impl TransferRun {
+    /// Buffers for [`TRANSFER_RUN`] sides of three channels at the
+    /// largest order.
+    #[must_use]
+    pub fn new() -> Box<Self> {
+        Box::new(Self {
+            rots: Vec::with_capacity(3 * TRANSFER_RUN),
+            channels: Vec::with_capacity(TRANSFER_RUN),
+            src: vec![0.0; 3 * TRANSFER_RUN * MAXN],
+            dst: vec![0.0; 3 * TRANSFER_RUN * MAXN],
+            b: [0.0; 3 * MAXN],
+            tmp: [0.0; MAXN],
+        })
     }
 }
 
@@ -525,22 +621,38 @@ impl VertexFrame {
         let stride = self.stride.max(1);
         self.transfers.resize(self.sides.len() * stride, 0.0);
         let objects = &scene.objects;
+        let k = shader.order * shader.order;
+        self.colours.resize(self.sides.len(), Vec3::ZERO);
         self.sides
-            .par_iter()
-            .zip(self.transfers.par_chunks_mut(stride))
-            .with_min_len(256)
-            .map_init(Scratch::new, |s, (&(d, v, back), t)| {
-                let (d, v) = (d as usize, v as usize);
-                let mesh = &objects[d].mesh;
-                let p = mesh.positions[v];
-                let n = mesh.normals.get(v).copied().unwrap_or(Vec3::Z);
-                let n = n.normalize_or(Vec3::Z);
-                let wo = (eye - p).normalize_or(n);
-                let n = if back { -n } else { n };
-                let ch = shader.transfer(d, n, wo, s, t);
-                shader.apply(d, light, &t[..ch * shader.order * shader.order])
-            })
-            .collect_into_vec(&mut self.colours);
+            .par_chunks(TRANSFER_RUN)
+            .zip(self.transfers.par_chunks_mut(TRANSFER_RUN * stride))
+            .zip(self.colours.par_chunks_mut(TRANSFER_RUN))
+            .for_each_init(
+                || (TransferRun::new(), Vec::with_capacity(TRANSFER_RUN)),
+                |(run, items), ((sides, t), colours)| {
+                    items.clear();
+                    items.extend(sides.iter().map(|&(d, v, back)| {
+                        let (d, v) = (d as usize, v as usize);
+                        let mesh = &objects[d].mesh;
+                        let p = mesh.positions[v];
+                        let n = mesh.normals.get(v).copied().unwrap_or(Vec3::Z);
+                        let n = n.normalize_or(Vec3::Z);
+                        let wo = (eye - p).normalize_or(n);
+                        (d, if back { -n } else { n }, wo)
+                    }));
+                    shader.transfer_run(items, run, t, stride);
+                    for ((&(d, _, _), t), c) in
+                        items.iter().zip(t.chunks_exact(stride)).zip(colours)
+                    {
+                        let ch = if shader.transfers[d].table.mono_colour().is_some() {
+                            1
+                        } else {
+                            3
+                        };
+                        *c = shader.apply(d, light, &t[..ch * k]);
+                    }
+                },
+            );
         self.scatter();
         self.shaded = true;
     }

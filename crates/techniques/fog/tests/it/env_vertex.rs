@@ -6,7 +6,9 @@
 
 use glam::{Mat3, Vec3};
 use relight_brdf::BrdfSpec;
-use relight_fog::env_vertex::{EnvLighting, MIN_COS_VIEW, Scratch, VertexShader};
+use relight_fog::env_vertex::{
+    EnvLighting, MIN_COS_VIEW, Scratch, TRANSFER_RUN, TransferRun, VertexShader,
+};
 use relight_fog::render::floor_grid;
 use relight_fog::{EnvShading, FogOptions, FogRelighter};
 use relight_render::method::{FrameRequest, Relighter};
@@ -113,6 +115,66 @@ fn vertex_shade_equals_the_per_pixel_formula() {
             worst < 2e-4,
             "{spec}: per-vertex vs per-pixel formula {worst}"
         );
+    }
+}
+
+/// `VertexShader::transfer_run` (a batch of sides turned together, lanes
+/// across vectors where the CPU has AVX2) gives each side the transfer of
+/// `VertexShader::transfer` (one at a time): rank-1 and three-channel
+/// tables mixed in one batch, orders 3 and 6 (batched) and 8 (one by one),
+/// a full and a partial batch, a stride wider than a side needs.
+#[test]
+fn batched_transfers_match_one_at_a_time() {
+    for order in [3, 6, 8] {
+        let renderer = ShRenderer::new(order, ShRotationMethod::Exact).unwrap();
+        let (tables, windows): (Vec<_>, Vec<_>) = [
+            "phong:30@0.9,0.25,0.2",
+            "lambert:0.7",
+            "0.5*lambert:0.6+0.5*phong:12@0.9,0.2,0.1",
+        ]
+        .iter()
+        .map(|spec| {
+            let brdf = spec.parse::<BrdfSpec>().unwrap().build();
+            let table = renderer.table(&brdf, order, 0, &NoProgress).unwrap();
+            let window = renderer.window_of(&table, order).unwrap();
+            (table, window)
+        })
+        .unzip();
+        assert!(tables[0].mono_colour().is_some() && tables[2].mono_colour().is_none());
+        let shader = VertexShader::new(order, &tables, &windows).unwrap();
+        let stride = shader.transfer_len() + 5;
+        for count in [TRANSFER_RUN, 13] {
+            let sides: Vec<(usize, Vec3, Vec3)> = (0..count)
+                .map(|j| {
+                    let a = j as f32 * 0.83 + order as f32;
+                    let n = Vec3::new(
+                        a.sin() * (1.3 * a).cos(),
+                        a.cos(),
+                        a.sin() * (1.3 * a).sin(),
+                    )
+                    .normalize();
+                    let wo = (n + Vec3::new((2.1 * a).cos(), 0.4, (2.1 * a).sin())).normalize();
+                    (j % 3, n, wo)
+                })
+                .collect();
+            let mut run = TransferRun::new();
+            let mut out = vec![f32::NAN; count * stride];
+            shader.transfer_run(&sides, &mut run, &mut out, stride);
+            let mut s = Scratch::new();
+            let mut one = vec![0.0f32; shader.transfer_len()];
+            for (j, &(obj, n, wo)) in sides.iter().enumerate() {
+                let ch = shader.transfer(obj, n, wo, &mut s, &mut one);
+                let len = ch * order * order;
+                let got = &out[j * stride..j * stride + len];
+                let scale = one[..len].iter().fold(0.0f32, |m, v| m.max(v.abs()));
+                for (g, w) in got.iter().zip(&one[..len]) {
+                    assert!(
+                        (g - w).abs() <= 2e-5 * scale,
+                        "order {order}, side {j} of {count}: {g} vs {w} (scale {scale})"
+                    );
+                }
+            }
+        }
     }
 }
 
