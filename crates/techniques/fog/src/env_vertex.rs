@@ -81,7 +81,7 @@ fn dot(a: &[f32], b: &[f32]) -> f32 {
 
 /// The environment lighting of one lighting change in the world frame:
 /// the projection rotated by `world_from_env` (exact Ivanic–Ruedenberg)
-/// and filtered ([`LightingFilter`]: L′_lm = (direct + bands[l]) L_lm).
+/// and filtered ([`LightingFilter`]: L′_lm = (direct + bands\[l\]) L_lm).
 #[derive(Clone, Debug)]
 pub struct EnvLighting {
     order: usize,
