@@ -59,7 +59,7 @@ use std::sync::OnceLock;
 /// Largest order of the evaluation batch kernels (`eval_batch`,
 /// `shade_batch`, `shade_rgb_batch`): kept low because each batch order is
 /// one more eight-lane instantiation of a generated kernel (compile time).
-pub const BATCH_MAX_ORDER: usize = 4;
+pub const BATCH_MAX_ORDER: usize = 6;
 
 /// Largest order of [`rotate_batch`]: every generated rotation kernel
 /// ([`KERNEL_ROTATE_MAX_ORDER`]), as the per-pixel SH shading rotates order-6
@@ -967,6 +967,16 @@ macro_rules! with_eval8 {
             4 => {
                 const $nn: usize = 16;
                 let $k = |x, y, z, o: &mut [V8; 16]| kernels::eval_n4(x, y, z, o);
+                $body
+            }
+            5 => {
+                const $nn: usize = 25;
+                let $k = |x, y, z, o: &mut [V8; 25]| kernels::eval_n5(x, y, z, o);
+                $body
+            }
+            6 => {
+                const $nn: usize = 36;
+                let $k = |x, y, z, o: &mut [V8; 36]| kernels::eval_n6(x, y, z, o);
                 $body
             }
             _ => unreachable!("batch order checked against BATCH_MAX_ORDER"),
