@@ -170,6 +170,38 @@ impl EnvLighting {
         self.direct * seen
             + Vec3::new(dot(&sh[0], y), dot(&sh[1], y), dot(&sh[2], y)).max(Vec3::ZERO)
     }
+
+    /// [`EnvLighting::background`] of every direction of `dirs` (unit,
+    /// world), added to `out`: the filtered part of eight directions at a
+    /// time by [`relight_sh::fast::shade_rgb_batch`] (AVX2 lanes across
+    /// directions, up to its order; the same sums up to rounding), one by
+    /// one above it. `scratch` is resized as needed.
+    ///
+    /// # Panics
+    /// `out` shorter than `dirs`.
+    pub fn add_background(
+        &self,
+        env: &EnvMap,
+        dirs: &[[f32; 3]],
+        scratch: &mut Vec<[f32; 3]>,
+        out: &mut [Vec3],
+    ) {
+        assert!(out.len() >= dirs.len(), "add_background: output too short");
+        let batched = self.filtered.as_ref().is_some_and(|sh| {
+            scratch.resize(dirs.len(), [0.0; 3]);
+            relight_sh::fast::shade_rgb_batch(self.order, [&sh[0], &sh[1], &sh[2]], dirs, scratch)
+                .is_ok()
+        });
+        for (i, (d, o)) in dirs.iter().zip(out.iter_mut()).enumerate() {
+            let d = Vec3::from_array(*d);
+            *o += if batched {
+                self.direct * env.eval(self.env_from_world * d)
+                    + Vec3::from_array(scratch[i]).max(Vec3::ZERO)
+            } else {
+                self.background(env, d)
+            };
+        }
+    }
 }
 
 /// One object's transfer: its BRDF table and band window per coefficient.

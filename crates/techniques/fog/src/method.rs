@@ -495,7 +495,7 @@ impl FogRelighter {
                     // fetched per pixel).
                     let mut last = NO_TRIANGLE;
                     let mut tri_of: Option<([Vec3; 3], [Vec3; 3])> = None;
-                    for (x, px) in row.iter_mut().enumerate() {
+                    for x in 0..row.len() {
                         let i = y * w + x;
                         let id = g.triangle[i];
                         if id != last {
@@ -521,15 +521,13 @@ impl FogRelighter {
                                 s.push(x, e, (q - eye).length());
                             }
                             None if !opengl => {
-                                *px += light.background(
-                                    &scene.env,
-                                    rays.dir(x as f32 + 0.5, y as f32 + 0.5),
-                                );
+                                s.push_empty(x, rays.dir(x as f32 + 0.5, y as f32 + 0.5));
                             }
                             None => {}
                         }
                     }
                     s.add_segments(beta, ambient, row);
+                    s.add_background(light, &scene.env, row);
                 },
             );
         } else if self.environment_image(scene, &big, progress)? {
@@ -568,6 +566,12 @@ struct SegmentRow {
     radiance: Vec<Vec3>,
     /// D, then e^{−βD} in place.
     dist: Vec<f32>,
+    /// The empty pixels: columns, view directions, and the background's
+    /// filtered part and sums.
+    empty_x: Vec<u32>,
+    empty_dir: Vec<[f32; 3]>,
+    empty_sh: Vec<[f32; 3]>,
+    empty_sum: Vec<Vec3>,
 }
 
 impl SegmentRow {
@@ -575,6 +579,29 @@ impl SegmentRow {
         self.x.clear();
         self.radiance.clear();
         self.dist.clear();
+        self.empty_x.clear();
+        self.empty_dir.clear();
+    }
+
+    fn push_empty(&mut self, x: usize, dir: Vec3) {
+        self.empty_x.push(x as u32);
+        self.empty_dir.push(dir.to_array());
+    }
+
+    /// Adds the background ([`EnvLighting::add_background`]) to the
+    /// gathered empty pixels of `row`.
+    fn add_background(&mut self, light: &EnvLighting, env: &EnvMap, row: &mut [Vec3]) {
+        self.empty_sum.clear();
+        self.empty_sum.resize(self.empty_x.len(), Vec3::ZERO);
+        light.add_background(
+            env,
+            &self.empty_dir,
+            &mut self.empty_sh,
+            &mut self.empty_sum,
+        );
+        for (&x, &v) in self.empty_x.iter().zip(&self.empty_sum) {
+            row[x as usize] += v;
+        }
     }
 
     fn push(&mut self, x: usize, radiance: Vec3, dist: f32) {

@@ -178,6 +178,64 @@ fn batched_transfers_match_one_at_a_time() {
     }
 }
 
+/// `EnvLighting::add_background` (the filtered part of eight directions at
+/// a time) adds what `EnvLighting::background` gives each direction alone:
+/// orders 3 and 6 (batched) and 8 (one by one), a count that is not a
+/// multiple of eight, with and without a filter, a turned environment.
+#[test]
+fn batched_background_matches_one_at_a_time() {
+    let sky = EnvMap::from_fn(
+        Param::LatLong {
+            width: 32,
+            height: 16,
+        },
+        |d| Vec3::new(1.0 + d.y, 0.5 + 0.3 * d.x, 0.2 + d.z * d.z),
+    );
+    for order in [3, 6, 8] {
+        let k = order * order;
+        let light = ShRgb {
+            order,
+            channels: std::array::from_fn(|c| {
+                (0..k)
+                    .map(|i| (((i * 5 + 2 * c + 1) % 9) as f32 - 3.0) * 0.2)
+                    .collect()
+            }),
+            window: Window::None,
+        };
+        let filter = relight_shlight::LightingFilter {
+            direct: 0.6,
+            bands: (0..order).map(|l| 0.5 / (1.0 + l as f32)).collect(),
+        };
+        let turn = Mat3::from_rotation_y(0.7);
+        for f in [Some(&filter), None] {
+            let lighting = EnvLighting::new(&light, turn, f).unwrap();
+            let dirs: Vec<[f32; 3]> = (0..29)
+                .map(|j| {
+                    let a = j as f32 * 0.71;
+                    Vec3::new(
+                        a.sin() * (1.9 * a).cos(),
+                        a.cos(),
+                        a.sin() * (1.9 * a).sin(),
+                    )
+                    .normalize()
+                    .to_array()
+                })
+                .collect();
+            let mut out = vec![Vec3::splat(0.25); dirs.len()];
+            let mut scratch = Vec::new();
+            lighting.add_background(&sky, &dirs, &mut scratch, &mut out);
+            for (d, got) in dirs.iter().zip(&out) {
+                let want = lighting.background(&sky, Vec3::from_array(*d)) + Vec3::splat(0.25);
+                assert!(
+                    (*got - want).abs().max_element() <= 1e-5 * want.abs().max_element().max(1.0),
+                    "order {order}, filter {}: {got} vs {want}",
+                    f.is_some()
+                );
+            }
+        }
+    }
+}
+
 /// Below the horizon the transfer is read at the grazing cosine
 /// `MIN_COS_VIEW`, at the view's azimuth.
 #[test]
