@@ -837,6 +837,16 @@ pub fn coverage_from_ids(
 /// when a method does not report its own.
 pub const COVERAGE_SUBSAMPLES: usize = 4;
 
+/// Whether [`render_frame`] paints the shared background into every pixel
+/// of `scene`'s frames that no object covers (coverage 0): every scene
+/// without a participating medium. A method may then leave the samples of
+/// such pixels unshaded; methods that render a medium keep their own
+/// background (the foggy sky is part of their image).
+#[must_use]
+pub fn frame_paints_background(scene: &Scene) -> bool {
+    !scene.medium.is_some_and(|m| m.beta > 0.0)
+}
+
 /// One frame through the interface: [`Relighter::render`], then the coverage
 /// (the method's own, or rasterized at [`COVERAGE_SUBSAMPLES`]²) and the one
 /// background in every pixel no object covers. Methods that render a medium
@@ -858,8 +868,7 @@ pub fn render_frame(
         None => rasterize_coverage(scene, &request.camera, COVERAGE_SUBSAMPLES)
             .map_err(|e| MethodError::failed(method.name(), e))?,
     };
-    let fogged = scene.medium.is_some_and(|m| m.beta > 0.0);
-    if !fogged {
+    if frame_paints_background(scene) {
         fill_background(scene, &request.camera, &coverage, &mut out.image);
     }
     out.coverage = Some(coverage);

@@ -63,7 +63,7 @@ use rayon::prelude::*;
 use relight_geom::Mesh;
 use relight_render::method::{
     FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
-    coverage_of_raster,
+    coverage_of_raster, frame_paints_background,
 };
 use relight_render::raster::{NO_TRIANGLE, Rasterizer};
 use relight_render::{Camera, Image, Progress, Scene};
@@ -486,6 +486,21 @@ impl FogRelighter {
             let vframe = &*vframe;
             let rays = big.ray_frame();
             let beta = m.beta;
+            // `render_frame` paints every pixel no object touches: then only
+            // the empty samples of partly covered pixels need the
+            // environment here (none at one sample per pixel).
+            let painted = frame_paints_background(scene);
+            let h = big.height;
+            let partly_covered = |x: usize, y: usize| {
+                k > 1 && {
+                    let (bx, by) = (x / k * k, y / k * k);
+                    (by..(by + k).min(h)).any(|yy| {
+                        g.triangle[yy * w + bx..yy * w + (bx + k).min(w)]
+                            .iter()
+                            .any(|&t| t != NO_TRIANGLE)
+                    })
+                }
+            };
             image.pixels.par_chunks_mut(w).enumerate().for_each_init(
                 SegmentRow::default,
                 |s, (y, row)| {
@@ -520,7 +535,7 @@ impl FogRelighter {
                                 let q = p[0] * lam.x + p[1] * lam.y + p[2] * lam.z;
                                 s.push(x, e, (q - eye).length());
                             }
-                            None if !opengl => {
+                            None if !opengl && (!painted || partly_covered(x, y)) => {
                                 s.push_empty(x, rays.dir(x as f32 + 0.5, y as f32 + 0.5));
                             }
                             None => {}
