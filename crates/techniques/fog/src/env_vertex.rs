@@ -160,48 +160,66 @@ impl EnvLighting {
     #[must_use]
     pub fn background(&self, env: &EnvMap, d: Vec3) -> Vec3 {
         let seen = env.eval(self.env_from_world * d);
-        let Some(sh) = &self.filtered else {
-            return self.direct * seen;
-        };
-        let nn = self.order * self.order;
-        let mut y = [0.0f32; MAXN];
-        relight_sh::basis::eval_sh_into(self.order, d.to_array(), &mut y[..nn]);
-        let y = &y[..nn];
-        self.direct * seen
-            + Vec3::new(dot(&sh[0], y), dot(&sh[1], y), dot(&sh[2], y)).max(Vec3::ZERO)
+        match &self.filtered {
+            None => self.direct * seen,
+            Some(sh) => self.direct * seen + self.filtered_at(sh, d),
+        }
     }
 
     /// [`EnvLighting::background`] of every direction of `dirs` (unit,
-    /// world), added to `out`: the filtered part of eight directions at a
-    /// time by [`relight_sh::fast::shade_rgb_batch`] (AVX2 lanes across
+    /// world), added to `out`: the environment by
+    /// [`EnvMap::eval_many`] (lat-long lookups in blocks, bit for bit the
+    /// one-at-a-time lookup), the filtered part eight directions at a time
+    /// by [`relight_sh::fast::shade_rgb_batch`] (AVX2 lanes across
     /// directions, up to its order; the same sums up to rounding), one by
-    /// one above it. `scratch` is resized as needed.
+    /// one above it.
     ///
     /// # Panics
     /// `out` shorter than `dirs`.
     pub fn add_background(
         &self,
         env: &EnvMap,
-        dirs: &[[f32; 3]],
-        scratch: &mut Vec<[f32; 3]>,
+        dirs: &[Vec3],
+        scratch: &mut BackgroundScratch,
         out: &mut [Vec3],
     ) {
         assert!(out.len() >= dirs.len(), "add_background: output too short");
-        let batched = self.filtered.as_ref().is_some_and(|sh| {
-            scratch.resize(dirs.len(), [0.0; 3]);
-            relight_sh::fast::shade_rgb_batch(self.order, [&sh[0], &sh[1], &sh[2]], dirs, scratch)
-                .is_ok()
+        let n = dirs.len();
+        let BackgroundScratch { seen, dirs3, sh } = scratch;
+        seen.resize(n, Vec3::ZERO);
+        env.eval_many(self.env_from_world, dirs, seen);
+        let batched = self.filtered.as_ref().is_some_and(|f| {
+            dirs3.clear();
+            dirs3.extend(dirs.iter().map(|d| d.to_array()));
+            sh.resize(n, [0.0; 3]);
+            relight_sh::fast::shade_rgb_batch(self.order, [&f[0], &f[1], &f[2]], dirs3, sh).is_ok()
         });
-        for (i, (d, o)) in dirs.iter().zip(out.iter_mut()).enumerate() {
-            let d = Vec3::from_array(*d);
-            *o += if batched {
-                self.direct * env.eval(self.env_from_world * d)
-                    + Vec3::from_array(scratch[i]).max(Vec3::ZERO)
-            } else {
-                self.background(env, d)
-            };
+        for (i, o) in out[..n].iter_mut().enumerate() {
+            *o += self.direct * seen[i]
+                + match (&self.filtered, batched) {
+                    (None, _) => Vec3::ZERO,
+                    (Some(_), true) => Vec3::from_array(sh[i]).max(Vec3::ZERO),
+                    (Some(f), false) => self.filtered_at(f, dirs[i]),
+                };
         }
     }
+
+    /// max(0, the filtered part at `d`), one direction.
+    fn filtered_at(&self, sh: &[Vec<f32>; 3], d: Vec3) -> Vec3 {
+        let nn = self.order * self.order;
+        let mut y = [0.0f32; MAXN];
+        relight_sh::basis::eval_sh_into(self.order, d.to_array(), &mut y[..nn]);
+        let y = &y[..nn];
+        Vec3::new(dot(&sh[0], y), dot(&sh[1], y), dot(&sh[2], y)).max(Vec3::ZERO)
+    }
+}
+
+/// Per-thread buffers of [`EnvLighting::add_background`].
+#[derive(Default)]
+pub struct BackgroundScratch {
+    seen: Vec<Vec3>,
+    dirs3: Vec<[f32; 3]>,
+    sh: Vec<[f32; 3]>,
 }
 
 /// One object's transfer: its BRDF table and band window per coefficient.

@@ -51,7 +51,9 @@
 //! shading and the per-pixel passes — is the view change.
 
 use crate::FogError;
-use crate::env_vertex::{EnvLighting, EnvShading, VertexFrame, VertexShader, faces_eye};
+use crate::env_vertex::{
+    BackgroundScratch, EnvLighting, EnvShading, VertexFrame, VertexShader, faces_eye,
+};
 use crate::model::{FogMaterial, Phase, PointLight};
 use crate::render::{
     FogMode, FogObject, FogSettings, rasterize_objects, render_fog_into, shade_fog_raster,
@@ -584,8 +586,8 @@ struct SegmentRow {
     /// The empty pixels: columns, view directions, and the background's
     /// filtered part and sums.
     empty_x: Vec<u32>,
-    empty_dir: Vec<[f32; 3]>,
-    empty_sh: Vec<[f32; 3]>,
+    empty_dir: Vec<Vec3>,
+    empty_scratch: BackgroundScratch,
     empty_sum: Vec<Vec3>,
 }
 
@@ -600,7 +602,7 @@ impl SegmentRow {
 
     fn push_empty(&mut self, x: usize, dir: Vec3) {
         self.empty_x.push(x as u32);
-        self.empty_dir.push(dir.to_array());
+        self.empty_dir.push(dir);
     }
 
     /// Adds the background ([`EnvLighting::add_background`]) to the
@@ -611,7 +613,7 @@ impl SegmentRow {
         light.add_background(
             env,
             &self.empty_dir,
-            &mut self.empty_sh,
+            &mut self.empty_scratch,
             &mut self.empty_sum,
         );
         for (&x, &v) in self.empty_x.iter().zip(&self.empty_sum) {

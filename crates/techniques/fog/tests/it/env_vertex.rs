@@ -7,7 +7,7 @@
 use glam::{Mat3, Vec3};
 use relight_brdf::BrdfSpec;
 use relight_fog::env_vertex::{
-    EnvLighting, MIN_COS_VIEW, Scratch, TRANSFER_RUN, TransferRun, VertexShader,
+    BackgroundScratch, EnvLighting, MIN_COS_VIEW, Scratch, TRANSFER_RUN, TransferRun, VertexShader,
 };
 use relight_fog::render::floor_grid;
 use relight_fog::{EnvShading, FogOptions, FogRelighter};
@@ -178,7 +178,8 @@ fn batched_transfers_match_one_at_a_time() {
     }
 }
 
-/// `EnvLighting::add_background` (the filtered part of eight directions at
+/// `EnvLighting::add_background` (the environment by `EnvMap::eval_many`,
+/// the filtered part of eight directions at
 /// a time) adds what `EnvLighting::background` gives each direction alone:
 /// orders 3 and 6 (batched) and 8 (one by one), a count that is not a
 /// multiple of eight, with and without a filter, a turned environment.
@@ -209,7 +210,7 @@ fn batched_background_matches_one_at_a_time() {
         let turn = Mat3::from_rotation_y(0.7);
         for f in [Some(&filter), None] {
             let lighting = EnvLighting::new(&light, turn, f).unwrap();
-            let dirs: Vec<[f32; 3]> = (0..29)
+            let dirs: Vec<Vec3> = (0..29)
                 .map(|j| {
                     let a = j as f32 * 0.71;
                     Vec3::new(
@@ -218,14 +219,13 @@ fn batched_background_matches_one_at_a_time() {
                         a.sin() * (1.9 * a).sin(),
                     )
                     .normalize()
-                    .to_array()
                 })
                 .collect();
             let mut out = vec![Vec3::splat(0.25); dirs.len()];
-            let mut scratch = Vec::new();
+            let mut scratch = BackgroundScratch::default();
             lighting.add_background(&sky, &dirs, &mut scratch, &mut out);
             for (d, got) in dirs.iter().zip(&out) {
-                let want = lighting.background(&sky, Vec3::from_array(*d)) + Vec3::splat(0.25);
+                let want = lighting.background(&sky, *d) + Vec3::splat(0.25);
                 assert!(
                     (*got - want).abs().max_element() <= 1e-5 * want.abs().max_element().max(1.0),
                     "order {order}, filter {}: {got} vs {want}",
