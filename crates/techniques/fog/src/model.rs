@@ -343,6 +343,21 @@ pub struct PreparedLight {
     pub eye_tail_scale: f32,
 }
 
+/// The half angle of a light seen from a point at distance `1 / inv_d`
+/// from it, offset `along` along a ray and at distance `h` from it:
+/// (s = min(h / D, 1), 1 + cos γ (≥ 10⁻³⁰), v = γ/2 = atan(s / (1 + cos γ))),
+/// with cos γ = along / D clamped to [−1, 1] and 1 + cos γ = s² / (1 − cos γ)
+/// for cos γ < 0 (accurate near γ = π).
+#[inline(always)]
+#[allow(clippy::manual_clamp)] // maps NaN to a bound
+pub(crate) fn half_angle(inv_d: f32, along: f32, h: f32) -> (f32, f32, f32) {
+    let s = (h * inv_d).min(1.0);
+    let c = (along * inv_d).max(-1.0).min(1.0);
+    let opc = if c >= 0.0 { 1.0 + c } else { s * s / (1.0 - c) };
+    let opc = opc.max(1e-30);
+    (s, opc, atan2_pos(s, opc))
+}
+
 impl PreparedLight {
     /// [`PreparedLight::eye_tail`] interpolated at v = atan(s / (1 + c)),
     /// s = min(h / D_sv, 1) and c = along / D_sv clamped to [−1, 1], with
@@ -352,11 +367,7 @@ impl PreparedLight {
     #[must_use]
     #[allow(clippy::manual_clamp)] // maps NaN to a bound
     pub fn eye_tail(&self, along: f32, h: f32) -> f32 {
-        let inv_d = 1.0 / self.d_sv;
-        let s = (h * inv_d).min(1.0);
-        let c = (along * inv_d).max(-1.0).min(1.0);
-        let opc = if c >= 0.0 { 1.0 + c } else { s * s / (1.0 - c) };
-        let v = atan2_pos(s, opc.max(1e-30));
+        let (_, _, v) = half_angle(1.0 / self.d_sv, along, h);
         let x = (v + self.eye_tail_kc * v / (v + self.eye_tail_c)) * self.eye_tail_scale;
         let x = x.max(0.0).min(EYE_TAIL_INTERVALS as f32);
         let i = (x as usize).min(EYE_TAIL_INTERVALS - 1);
@@ -592,17 +603,10 @@ impl<'a> FogModel<'a> {
     /// distance `d` whose offset along the ray is `along`, with u = β h and
     /// w = u / (1 + u) of the (clamped) distance h from the ray.
     #[inline(always)]
-    #[allow(clippy::manual_clamp)] // maps NaN to a bound
     fn l_inf_kernel<L: Lookup>(&self, d: f32, along: f32, h: f32, u: f32, w: f32) -> f32 {
-        let inv_d = 1.0 / d;
-        let s = (h * inv_d).min(1.0);
-        let c = (along * inv_d).max(-1.0).min(1.0);
-        // 1 + cos γ, accurate near γ = π: sin²γ / (1 − cos γ).
-        let opc = if c >= 0.0 { 1.0 + c } else { s * s / (1.0 - c) };
-        let opc = opc.max(1e-30);
+        let (s, opc, v) = half_angle(1.0 / d, along, h);
         let cos2v = 0.5 * opc;
         let cosv = cos2v.sqrt();
-        let v = atan2_pos(s, opc);
         let q = self.tables.corner(u * s / opc);
         cos2v / (cosv + u) * q * self.tail_sum::<L>(w, v)
     }

@@ -358,6 +358,22 @@ unsafe fn add_to(v: &mut [f32], i: usize, x: __m256) {
     _mm256_storeu_ps(p, _mm256_add_ps(_mm256_loadu_ps(p), x));
 }
 
+/// [`crate::model::half_angle`], eight lanes: (s, 1 + cos γ, v).
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn half_angle(inv_d: __m256, along: __m256, h: __m256) -> (__m256, __m256, __m256) {
+    let one = splat(1.0);
+    let s = _mm256_min_ps(_mm256_mul_ps(h, inv_d), one);
+    let c = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(along, inv_d), splat(-1.0)), one);
+    let back = _mm256_div_ps(_mm256_mul_ps(s, s), _mm256_sub_ps(one, c));
+    let ge = _mm256_cmp_ps(c, splat(0.0), _CMP_GE_OQ);
+    let opc = _mm256_max_ps(
+        _mm256_blendv_ps(back, _mm256_add_ps(one, c), ge),
+        splat(1e-30),
+    );
+    (s, opc, atan2_pos(s, opc))
+}
+
 /// N(u, v) q R(w, v) of `l_inf_kernel`, eight lanes.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
@@ -369,18 +385,9 @@ unsafe fn l_inf<const NEAREST: bool>(
     u: __m256,
     w: __m256,
 ) -> __m256 {
-    let one = splat(1.0);
-    let s = _mm256_min_ps(_mm256_mul_ps(h, inv_d), one);
-    let c = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(along, inv_d), splat(-1.0)), one);
-    let back = _mm256_div_ps(_mm256_mul_ps(s, s), _mm256_sub_ps(one, c));
-    let ge = _mm256_cmp_ps(c, splat(0.0), _CMP_GE_OQ);
-    let opc = _mm256_max_ps(
-        _mm256_blendv_ps(back, _mm256_add_ps(one, c), ge),
-        splat(1e-30),
-    );
+    let (s, opc, v) = half_angle(inv_d, along, h);
     let cos2v = _mm256_mul_ps(splat(0.5), opc);
     let cosv = _mm256_sqrt_ps(cos2v);
-    let v = atan2_pos(s, opc);
     let q = corner(ctx.tables, _mm256_div_ps(_mm256_mul_ps(u, s), opc));
     let mut r = _mm256_setzero_ps();
     for (k, t) in ctx.phase.iter().zip(ctx.tails) {
@@ -396,17 +403,7 @@ unsafe fn l_inf<const NEAREST: bool>(
 #[inline]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn eye_tail(light: &PreparedLight, along: __m256, h: __m256) -> __m256 {
-    let one = splat(1.0);
-    let inv_d = splat(1.0 / light.d_sv);
-    let s = _mm256_min_ps(_mm256_mul_ps(h, inv_d), one);
-    let c = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(along, inv_d), splat(-1.0)), one);
-    let back = _mm256_div_ps(_mm256_mul_ps(s, s), _mm256_sub_ps(one, c));
-    let ge = _mm256_cmp_ps(c, splat(0.0), _CMP_GE_OQ);
-    let opc = _mm256_max_ps(
-        _mm256_blendv_ps(back, _mm256_add_ps(one, c), ge),
-        splat(1e-30),
-    );
-    let v = atan2_pos(s, opc);
+    let (_, _, v) = half_angle(splat(1.0 / light.d_sv), along, h);
     let x = _mm256_add_ps(
         v,
         _mm256_div_ps(
