@@ -984,58 +984,52 @@ macro_rules! with_eval8 {
     };
 }
 
-/// The order-`n` rotation kernel on eight vectors (`n ≤` [`ROTATE_BATCH_MAX_ORDER`]):
-/// matrices `m`, their ZYZ angles `e` (read from order 4 on).
+/// The rotation kernel of the order with `NN` = n² coefficients on eight
+/// vectors (`n ≤` [`ROTATE_BATCH_MAX_ORDER`]): matrices `m`, their ZYZ
+/// angles `e` (read from order 4 on). The arrays are the order's own size,
+/// so the batch loop copies nothing between its load, this kernel and its
+/// store.
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-unsafe fn rotate8(
-    n: usize,
-    m: &[[V8; 3]; 3],
-    e: &[V8; 6],
-    v: &[V8; ROTATE_BATCH_NN],
-    d: &mut [V8; ROTATE_BATCH_NN],
-) {
-    match n {
-        1 => kernels::rotate_n1(
-            m,
-            e,
-            (&v[..1]).try_into().expect("length"),
-            (&mut d[..1]).try_into().expect("length"),
-        ),
-        2 => kernels::rotate_n2(
-            m,
-            e,
-            (&v[..4]).try_into().expect("length"),
-            (&mut d[..4]).try_into().expect("length"),
-        ),
-        3 => kernels::rotate_n3(
-            m,
-            e,
-            (&v[..9]).try_into().expect("length"),
-            (&mut d[..9]).try_into().expect("length"),
-        ),
-        4 => kernels::rotate_n4(
-            m,
-            e,
-            (&v[..16]).try_into().expect("length"),
-            (&mut d[..16]).try_into().expect("length"),
-        ),
-        5 => kernels::rotate_n5(
-            m,
-            e,
-            (&v[..25]).try_into().expect("length"),
-            (&mut d[..25]).try_into().expect("length"),
-        ),
-        6 => kernels::rotate_n6(
-            m,
-            e,
-            (&v[..36]).try_into().expect("length"),
-            (&mut d[..36]).try_into().expect("length"),
-        ),
+unsafe fn rotate8<const NN: usize>(m: &[[V8; 3]; 3], e: &[V8; 6], v: &[V8; NN], d: &mut [V8; NN]) {
+    fn fit<'a, const A: usize, const B: usize>(
+        v: &'a [V8; A],
+        d: &'a mut [V8; A],
+    ) -> (&'a [V8; B], &'a mut [V8; B]) {
+        (
+            v.as_slice().try_into().expect("length"),
+            d.as_mut_slice().try_into().expect("length"),
+        )
+    }
+    match NN {
+        1 => {
+            let (v, d) = fit::<NN, 1>(v, d);
+            kernels::rotate_n1(m, e, v, d);
+        }
+        4 => {
+            let (v, d) = fit::<NN, 4>(v, d);
+            kernels::rotate_n2(m, e, v, d);
+        }
+        9 => {
+            let (v, d) = fit::<NN, 9>(v, d);
+            kernels::rotate_n3(m, e, v, d);
+        }
+        16 => {
+            let (v, d) = fit::<NN, 16>(v, d);
+            kernels::rotate_n4(m, e, v, d);
+        }
+        25 => {
+            let (v, d) = fit::<NN, 25>(v, d);
+            kernels::rotate_n5(m, e, v, d);
+        }
+        36 => {
+            let (v, d) = fit::<NN, 36>(v, d);
+            kernels::rotate_n6(m, e, v, d);
+        }
         _ => unreachable!("rotation batch order checked against ROTATE_BATCH_MAX_ORDER"),
     }
 }
@@ -1351,12 +1345,8 @@ pub(crate) unsafe fn rotate_batch_avx2(
                 [V8::splat(0.0); 6]
             };
             let mut b = [V8::splat(0.0); NN];
-            let mut pa = [V8::splat(0.0); ROTATE_BATCH_NN];
-            pa[..NN].copy_from_slice(&a);
-            let mut pb = [V8::splat(0.0); ROTATE_BATCH_NN];
             // SAFETY: the caller checked the features.
-            unsafe { rotate8(order, &m, &e, &pa, &mut pb) };
-            b.copy_from_slice(&pb[..NN]);
+            unsafe { rotate8::<NN>(&m, &e, &a, &mut b) };
             // SAFETY: as the load.
             unsafe { store_group(&b, dst, i0, count, &mut spill) };
         }
