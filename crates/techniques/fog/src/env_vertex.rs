@@ -154,6 +154,12 @@ impl EnvLighting {
         self.order
     }
 
+    /// Whether empty samples add a filtered SH part (a medium's PSF).
+    #[must_use]
+    pub fn is_filtered(&self) -> bool {
+        self.filtered.is_some()
+    }
+
     /// What an empty sample in world direction `d` (unit) shows:
     /// direct · env(d) + max(0, the filtered part at d), as the per-pixel
     /// path's background.
@@ -705,6 +711,12 @@ impl VertexFrame {
             );
         self.scatter();
         self.shaded = true;
+    }
+
+    /// Vertex sides the last [`VertexFrame::shade`] shaded.
+    #[must_use]
+    pub fn side_count(&self) -> usize {
+        self.sides.len()
     }
 
     /// Whether a [`VertexFrame::shade`] ran, so [`VertexFrame::relight`]

@@ -45,6 +45,7 @@ pub mod special;
 pub mod table;
 pub mod verify;
 pub mod volumetric;
+pub mod work;
 
 pub use bench::{BenchRow, bench_fog, bench_fog_scene};
 pub use env_vertex::EnvShading;

@@ -64,7 +64,7 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use relight_geom::Mesh;
 use relight_render::method::{
-    FrameRequest, FrameTimings, MethodError, Relighter, Rendered, SceneFeature, Support,
+    FrameRequest, FrameTimings, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support,
     coverage_of_raster, frame_paints_background,
 };
 use relight_render::raster::{NO_TRIANGLE, Rasterizer};
@@ -851,7 +851,53 @@ impl Relighter for FogRelighter {
                 .iter()
                 .chain(t.g.iter().map(|(_, g)| g))
                 .chain([&t.f]);
-            tables.map(|x| 4 * x.values().len() as u64).sum()
+            tables
+                .map(|x| 4 * (x.values().len() + x.quads().len()) as u64)
+                .sum()
+        })
+    }
+
+    /// The last frame's lane operations ([`crate::work`]) from its
+    /// visibility buffer: the point-light evaluations, the visible vertex
+    /// sides, the environment pass. `None` in the per-pixel environment and
+    /// OpenGL-fog modes (not counted) and before a frame. A lighting change
+    /// redoes the same work less the raster and the vertex transfers' turn,
+    /// so `lighting_fma` is the view change's count as an upper bound.
+    fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
+        let _ = request;
+        if self.opengl() || self.options.env_shading != EnvShading::PerVertex {
+            return None;
+        }
+        let lighting = self.lighting.as_ref()?;
+        let g = self.rasterizer.gbuffer();
+        let samples = g.triangle.len();
+        if samples == 0 {
+            return None;
+        }
+        let covered = g.triangle.iter().filter(|&&t| t != NO_TRIANGLE).count();
+        let empty = samples - covered;
+        let fogged = !frame_paints_background(scene);
+        let env = self.vertex.as_ref().zip(self.env_lighting.as_ref());
+        let env_order = env.map_or(0, |((shader, _), _)| shader.order());
+        let counts = crate::work::FrameCounts {
+            covered,
+            edge: if lighting.medium.radius.is_some() && !lighting.lights.is_empty() {
+                empty
+            } else {
+                0
+            },
+            background: if fogged { empty } else { 0 },
+            lights: lighting.lights.len(),
+            vertex_sides: env.map_or(0, |((_, frame), _)| frame.side_count()),
+            env_order,
+            x_nonzeros: relight_sh::rotation::ZyzRotation::<f32>::new(env_order.max(1))
+                .map_or(0, |z| z.x_nonzeros()),
+            filtered_background: env.is_some_and(|(_, light)| light.is_filtered()),
+        };
+        let ops = crate::work::frame_ops(&counts);
+        Some(FrameWork {
+            view_fma: ops,
+            lighting_fma: ops,
         })
     }
 }

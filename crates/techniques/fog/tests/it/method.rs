@@ -203,6 +203,40 @@ fn a_frame_without_a_medium_shades_only_the_empty_samples_it_shows() {
     }
 }
 
+/// The frame's work count (`Relighter::frame_work`, `relight_fog::work`)
+/// follows what the frame shaded: one light fewer removes exactly one
+/// light's evaluations of every covered sample and every ball-edge sample.
+#[test]
+fn frame_work_counts_the_light_evaluations() {
+    use relight_fog::work::{EDGE_EVAL_OPS, SURFACE_EVAL_OPS};
+    let mut works = Vec::new();
+    let mut covered = 0;
+    for lights in [2usize, 1] {
+        let mut s = scene(sky(1.0), fog(0.08, 0.7, 12.0));
+        s.point_lights.truncate(lights);
+        let mut m = FogRelighter::new(FogOptions::default()).unwrap();
+        m.prepare(&s, &NoProgress).unwrap();
+        let request = FrameRequest::new(s.camera);
+        assert!(m.frame_work(&s, &request).is_none(), "no frame yet");
+        let r = m.render(&s, &request, &NoProgress).unwrap();
+        covered = r
+            .coverage
+            .unwrap()
+            .coverage
+            .iter()
+            .filter(|&&c| c == 1.0)
+            .count();
+        works.push(m.frame_work(&s, &request).expect("counted").view_fma);
+    }
+    let empty = 40 * 24 - covered;
+    let one_light = covered as f64 * SURFACE_EVAL_OPS + empty as f64 * EDGE_EVAL_OPS;
+    assert!(covered > 100 && empty > 10, "{covered} covered");
+    assert!(
+        (works[0] - works[1] - one_light).abs() < 1e-6 * works[0],
+        "{works:?}: one light is {one_light}"
+    );
+}
+
 /// The environment part is kept between frames (`LitScene`): after each
 /// lighting change — the sky tipped over, the medium thickened, only a
 /// point light moved — a frame of the kept method equals that of a method
