@@ -571,12 +571,13 @@ impl FogRelighter {
     }
 }
 
-/// One image row's covered pixels for the view segment of the
-/// per-vertex environment pass: column, surface radiance L_s and
-/// distance D from the eye, gathered first so that the transmittances
-/// e^{−βD} are computed in one loop over the row (which vectorises,
-/// instead of a dependent polynomial chain per pixel between the scattered
-/// triangle lookups).
+/// One image row of the per-vertex environment pass, gathered before it
+/// is shaded: the covered pixels' columns, surface radiance L_s and
+/// distance D from the eye, so that the transmittances e^{−βD} are computed
+/// in one loop over the row (which vectorises, instead of a dependent
+/// polynomial chain per pixel between the scattered triangle lookups); the
+/// empty pixels' columns and view directions, so that their background is
+/// shaded in batches ([`EnvLighting::add_background`]).
 #[derive(Default)]
 struct SegmentRow {
     x: Vec<u32>,
@@ -600,31 +601,15 @@ impl SegmentRow {
         self.empty_dir.clear();
     }
 
-    fn push_empty(&mut self, x: usize, dir: Vec3) {
-        self.empty_x.push(x as u32);
-        self.empty_dir.push(dir);
-    }
-
-    /// Adds the background ([`EnvLighting::add_background`]) to the
-    /// gathered empty pixels of `row`.
-    fn add_background(&mut self, light: &EnvLighting, env: &EnvMap, row: &mut [Vec3]) {
-        self.empty_sum.clear();
-        self.empty_sum.resize(self.empty_x.len(), Vec3::ZERO);
-        light.add_background(
-            env,
-            &self.empty_dir,
-            &mut self.empty_scratch,
-            &mut self.empty_sum,
-        );
-        for (&x, &v) in self.empty_x.iter().zip(&self.empty_sum) {
-            row[x as usize] += v;
-        }
-    }
-
     fn push(&mut self, x: usize, radiance: Vec3, dist: f32) {
         self.x.push(x as u32);
         self.radiance.push(radiance);
         self.dist.push(dist);
+    }
+
+    fn push_empty(&mut self, x: usize, dir: Vec3) {
+        self.empty_x.push(x as u32);
+        self.empty_dir.push(dir);
     }
 
     /// Adds e^{−βD} L_s + (1 − e^{−βD}) `ambient` (the view segment of
@@ -643,6 +628,22 @@ impl SegmentRow {
         }
         for ((&x, &e), &f) in self.x.iter().zip(&self.radiance).zip(&self.dist) {
             row[x as usize] += e * f + ambient * (1.0 - f);
+        }
+    }
+
+    /// Adds the background ([`EnvLighting::add_background`]) to the
+    /// gathered empty pixels of `row`.
+    fn add_background(&mut self, light: &EnvLighting, env: &EnvMap, row: &mut [Vec3]) {
+        self.empty_sum.clear();
+        self.empty_sum.resize(self.empty_x.len(), Vec3::ZERO);
+        light.add_background(
+            env,
+            &self.empty_dir,
+            &mut self.empty_scratch,
+            &mut self.empty_sum,
+        );
+        for (&x, &v) in self.empty_x.iter().zip(&self.empty_sum) {
+            row[x as usize] += v;
         }
     }
 }
