@@ -469,7 +469,12 @@ impl VertexShader {
         out: &mut [f32],
         stride: usize,
     ) {
-        assert!(sides.len() <= TRANSFER_RUN && stride >= self.transfer_len());
+        assert!(
+            sides.len() <= TRANSFER_RUN
+                && stride >= self.transfer_len()
+                && out.len() >= sides.len() * stride,
+            "transfer_run: at most TRANSFER_RUN sides, stride ≥ transfer_len, out ≥ sides · stride"
+        );
         let k = self.order * self.order;
         if self.order > ROTATE_BATCH_MAX_ORDER {
             for (&(obj, n, wo), t) in sides.iter().zip(out.chunks_exact_mut(stride)) {
