@@ -362,7 +362,9 @@ impl PreparedLight {
     /// [`PreparedLight::eye_tail`] interpolated at v = atan(s / (1 + c)),
     /// s = min(h / D_sv, 1) and c = along / D_sv clamped to [−1, 1], with
     /// 1 + c = s² / (1 − c) for c < 0 (the kernel's own v, accurate near
-    /// γ = π). The AVX2 kernels repeat this arithmetic lane by lane.
+    /// γ = π), linearly between the samples around its coordinate x(v)
+    /// (see the field). The AVX2 kernels repeat this arithmetic lane by
+    /// lane.
     #[inline(always)]
     #[must_use]
     #[allow(clippy::manual_clamp)] // maps NaN to a bound
