@@ -140,11 +140,13 @@ impl PixelBatch {
     #[inline]
     pub fn push(&mut self, eye: Vec3, p: Vec3, n: Vec3, beta: f32) {
         self.push_point(p, n);
+        self.size_columns();
         self.prepare_one(self.len() - 1, eye, beta);
     }
 
     /// Appends `p` and its unit normal `n` without the view-dependent
-    /// fields; [`prepare`](Self::prepare) must run before shading them.
+    /// fields; [`prepare`](Self::prepare) sizes and fills those, and must
+    /// run before shading them.
     #[inline]
     pub fn push_point(&mut self, p: Vec3, n: Vec3) {
         self.px.push(p.x);
@@ -153,10 +155,17 @@ impl PixelBatch {
         self.nx.push(n.x);
         self.ny.push(n.y);
         self.nz.push(n.z);
+    }
+
+    /// Extends the view-dependent columns and the cancellation flags with
+    /// zeros to the pixel count (one resize per column for a run of
+    /// [`push_point`](Self::push_point)s, not a push per pixel each).
+    fn size_columns(&mut self) {
+        let n = self.len();
         for v in self.view_columns() {
-            v.push(0.0);
+            v.resize(n, 0.0);
         }
-        self.cancel.push(0);
+        self.cancel.resize(n, 0);
     }
 
     /// The view-dependent fields of pixels `start..` (added by
@@ -164,6 +173,7 @@ impl PixelBatch {
     /// `eye`, the normal flipped toward the viewer, the mirrored view
     /// direction, e^{−β D_vp}; the accumulators are zeroed.
     pub fn prepare(&mut self, eye: Vec3, beta: f32, start: usize) {
+        self.size_columns();
         let mut i = start.min(self.len());
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
