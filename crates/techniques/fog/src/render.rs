@@ -138,14 +138,32 @@ fn ray_hits(o: Vec3, d: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool {
 /// enclose `p` — the same answer as the crossing count, without it.
 #[must_use]
 pub fn enclosing_object(objects: &[FogObject], p: Vec3) -> Option<usize> {
-    objects.iter().position(|o| {
-        let (lo, hi) = o
-            .mesh
-            .positions
-            .iter()
-            .fold((Vec3::MAX, Vec3::MIN), |(lo, hi), q| {
-                (lo.min(*q), hi.max(*q))
-            });
+    enclosing_object_within(objects, &object_bounds(objects), p)
+}
+
+/// Each object's bounding box (lowest, highest corner).
+fn object_bounds(objects: &[FogObject]) -> Vec<(Vec3, Vec3)> {
+    objects
+        .iter()
+        .map(|o| {
+            o.mesh
+                .positions
+                .iter()
+                .fold((Vec3::MAX, Vec3::MIN), |(lo, hi), q| {
+                    (lo.min(*q), hi.max(*q))
+                })
+        })
+        .collect()
+}
+
+/// [`enclosing_object`] with the objects' [`object_bounds`] given (several
+/// points against the same objects scan their vertices once).
+fn enclosing_object_within(
+    objects: &[FogObject],
+    bounds: &[(Vec3, Vec3)],
+    p: Vec3,
+) -> Option<usize> {
+    objects.iter().zip(bounds).position(|(o, &(lo, hi))| {
         let outside = p.cmplt(lo).any() || p.cmpgt(hi).any();
         !outside && encloses(o, p)
     })
@@ -195,6 +213,11 @@ pub fn validate_lights(
     if !(beta.is_finite() && beta >= 0.0) {
         return Err(FogError::Beta { beta });
     }
+    let bounds = if check_inside && !lights.is_empty() {
+        object_bounds(objects)
+    } else {
+        Vec::new()
+    };
     for (index, l) in lights.iter().enumerate() {
         if !(l.intensity.is_finite() && l.intensity.min_element() >= 0.0) {
             return Err(FogError::Intensity {
@@ -208,7 +231,8 @@ pub fn validate_lights(
                 position: l.position.to_array(),
             });
         }
-        if check_inside && let Some(object) = enclosing_object(objects, l.position) {
+        if check_inside && let Some(object) = enclosing_object_within(objects, &bounds, l.position)
+        {
             return Err(FogError::LightInsideGeometry {
                 index,
                 position: l.position.to_array(),
