@@ -64,19 +64,36 @@ impl std::fmt::Debug for LitScene {
 }
 
 /// A 64-bit fingerprint of the map's parameterization and every texel's bits
-/// (FNV-1a over 32-bit words): equal maps give equal fingerprints.
+/// (FNV-1a over 32-bit words, in six interleaved streams folded at the
+/// end, with the texel count: one stream was a chain of dependent
+/// multiplies, ≈ 0.6 ms per lighting change of the default scene): equal
+/// maps give equal fingerprints.
 fn env_fingerprint(env: &EnvMap) -> u64 {
     const PRIME: u64 = 0x0000_0100_0000_01b3;
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    const BASIS: u64 = 0xcbf2_9ce4_8422_2325;
+    let fnv = |h: u64, w: u64| (h ^ w).wrapping_mul(PRIME);
+    let mut h = BASIS;
     for b in format!("{:?}", env.param).bytes() {
-        h = (h ^ u64::from(b)).wrapping_mul(PRIME);
+        h = fnv(h, u64::from(b));
     }
-    for t in &env.texels {
-        for c in t.to_array() {
-            h = (h ^ u64::from(c.to_bits())).wrapping_mul(PRIME);
+    // Two texels (six words) per step, one stream per word.
+    let mut lanes = [BASIS; 6];
+    let pairs = env.texels.chunks_exact(2);
+    let rest = pairs.remainder();
+    let word = |t: &glam::Vec3, k: usize| u64::from(t[k].to_bits());
+    for p in pairs {
+        for (k, l) in lanes.iter_mut().enumerate() {
+            *l = fnv(*l, word(&p[k / 3], k % 3));
         }
     }
-    h
+    for t in rest {
+        for (k, l) in lanes.iter_mut().take(3).enumerate() {
+            *l = fnv(*l, word(t, k));
+        }
+    }
+    lanes
+        .iter()
+        .fold(fnv(h, env.texels.len() as u64), |h, &l| fnv(h, l))
 }
 
 impl LitScene {
@@ -282,5 +299,42 @@ impl LitScene {
     #[must_use]
     pub fn windows(&self) -> &[ChosenWindow] {
         &self.lit.windows
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use relight_sphere::Param;
+
+    /// Equal maps give equal fingerprints; one texel's channel changed (in
+    /// each of the six streams and in an odd map's last texel), the size or
+    /// the parameterization changed, give another.
+    #[test]
+    fn env_fingerprint_follows_every_texel() {
+        let map = |w: usize| {
+            EnvMap::from_fn(
+                Param::LatLong {
+                    width: w,
+                    height: 3,
+                },
+                |d| Vec3::new(1.0 + d.x, 0.5 + d.y * d.y, 0.25 + d.z),
+            )
+        };
+        let base = map(7);
+        assert_eq!(env_fingerprint(&base), env_fingerprint(&map(7)));
+        let mut seen = vec![env_fingerprint(&base)];
+        for (t, c) in [(0, 0), (0, 2), (1, 1), (10, 0), (11, 2), (20, 1)] {
+            let mut m = base.clone();
+            m.texels[t][c] += 1e-3;
+            let f = env_fingerprint(&m);
+            assert!(!seen.contains(&f), "texel {t} channel {c}");
+            seen.push(f);
+        }
+        assert!(!seen.contains(&env_fingerprint(&map(8))));
+        let mut swapped = base.clone();
+        swapped.texels.swap(0, 1);
+        assert!(!seen.contains(&env_fingerprint(&swapped)));
     }
 }
