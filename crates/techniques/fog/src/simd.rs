@@ -1,8 +1,10 @@
 //! AVX2 + FMA kernels of [`crate::shade`]: eight pixels per step, one light
 //! at a time, the same arithmetic as [`crate::model::FogModel::surface_terms`]
-//! and [`crate::fast`] (tested to agree with the scalar path), table
-//! lookups by hardware gathers. Only compiled on x86-64 and only called
-//! after run-time feature detection.
+//! and [`crate::fast`] (tested to agree with the scalar path). Bilinear
+//! table lookups read each lane's cell with one 16-byte load
+//! ([`crate::table::Table2::quads`]) and 1D lookups a pair with one 8-byte
+//! load, transposed into lanes; nearest lookups gather. Only compiled on
+//! x86-64 and only called after run-time feature detection.
 
 #![cfg(target_arch = "x86_64")]
 #![allow(unsafe_op_in_unsafe_fn, clippy::too_many_arguments)]
