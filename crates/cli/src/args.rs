@@ -647,9 +647,10 @@ pub struct BenchArgs {
     /// `bench frames` only: run only the rows of these methods (repeatable).
     #[arg(long = "method", value_name = "NAME")]
     pub methods: Vec<String>,
-    /// Cap the vector instruction set of the SH kernels at this level, to time
-    /// the paths a CPU without AVX-512 (or AVX2) takes; default: the best
-    /// this CPU has. A level above the CPU's changes nothing.
+    /// Cap the vector instruction set of every run-time-selected kernel (SH,
+    /// rasterizer, fog, triple, near-field, NDF, SH exponentiation) at this
+    /// level, to time the paths a CPU without AVX-512 (or AVX2) takes;
+    /// default: the best this CPU has. A level above the CPU's changes nothing.
     #[arg(long, value_enum, value_name = "ISA")]
     pub isa: Option<IsaArg>,
     /// `bench sh` only: the peer kit's timings (a `.jsonl` file or its runs directory); adds a table of speedups with issue 17's targets.
@@ -657,14 +658,14 @@ pub struct BenchArgs {
     pub peers: Option<PathBuf>,
 }
 
-/// Vector instruction-set levels of the SH kernels (`relight_sh::Isa`).
+/// Vector instruction-set levels of the kernels (`relight_isa::Isa`).
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum IsaArg {
     /// The baseline target, no run-time-selected kernels.
     Portable,
-    /// AVX2 with FMA.
+    /// AVX2 with FMA and F16C.
     Avx2,
-    /// AVX-512F.
+    /// AVX-512F with AVX-512VL.
     Avx512,
 }
 

@@ -54,7 +54,8 @@ pub fn run(a: &BenchArgs, report: &Report, bar: &crate::progress::Bar) -> Result
     };
     report.table(
         &format!(
-            "relight bench frames (the viewer's frame path, ms, medians; machine_fraction of {MACHINE_GFMA} GFMA/s)"
+            "relight bench frames (the viewer's frame path, ms, medians; machine_fraction of {MACHINE_GFMA} GFMA/s; kernels: {})",
+            relight_sh::isa().name()
         ),
         &rows,
         &PLOTS,

@@ -103,7 +103,7 @@ pub fn bench(quick: bool, report: &Report, bar: &Bar) -> Result<()> {
         &format!(
             "relight bench radiance-cache (the paper's Table 1; times per single-channel rotation \
              including the ZYZ split / matrix build, as the paper's TPR = (RT − RT_ignore) / \
-             (3 · rotations); paper_us: 2006 CPU; pass = 10× faster; SH kernels: {})",
+             (3 · rotations); paper_us: 2006 CPU; pass = 10× faster; kernels: {})",
             relight_sh::isa().name()
         ),
         &rows,

@@ -81,7 +81,9 @@ pub mod convolve;
 pub mod fast;
 #[rustfmt::skip]
 pub mod generated;
-pub mod isa;
+/// The vector instruction set in use ([`relight_isa`], shared with every
+/// crate that has run-time-selected kernels).
+pub use relight_isa as isa;
 #[rustfmt::skip]
 pub(crate) mod kernels;
 pub mod kernels_gen;
@@ -106,8 +108,8 @@ pub use basis::{
     try_eval_sh, try_eval_sh_into,
 };
 pub use bench::{ShBenchRow, bench_sh};
-pub use isa::{Isa, detected_isa, isa, set_isa_limit};
 pub use real::Real;
+pub use relight_isa::{Isa, detected_isa, isa, set_isa_limit};
 
 /// One-paragraph statement of the coefficient convention, for tool output
 /// (`relight sh --help`, JSON headers).

@@ -140,17 +140,11 @@ unsafe fn lookups_avx2(
     lookups(texels, width, height, m, dirs, out);
 }
 
-/// Whether the AVX2 + FMA path runs here.
+/// Whether the AVX2 + FMA path runs here ([`relight_isa::avx2`]: the CPU
+/// has it and `--isa` allows it).
 #[must_use]
 pub(crate) fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    relight_isa::avx2()
 }
 
 /// The lat-long lookups of [`EnvMap::eval_many`]; `portable` forces the

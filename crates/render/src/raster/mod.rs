@@ -77,16 +77,9 @@ use crate::{Camera, CameraRays, Image};
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
-/// Whether this CPU runs the strip raster's AVX2 + FMA copy.
+/// Whether the strip raster's AVX2 + FMA copy runs ([`relight_isa::avx2`]).
 fn avx2_fma() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    relight_isa::avx2()
 }
 
 /// Triangle id of a pixel that no triangle covers.

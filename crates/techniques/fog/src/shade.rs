@@ -176,7 +176,7 @@ impl PixelBatch {
         self.size_columns();
         let mut i = start.min(self.len());
         #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+        if relight_isa::avx2() {
             // SAFETY: the CPU supports AVX2 and FMA; i ≤ len.
             i += unsafe { crate::simd::prepare(self, i, eye, beta) };
         }
@@ -306,9 +306,7 @@ pub fn shade_surface_run(
 /// Whether the AVX2 kernels may run: CPU support and i32-indexable tables.
 #[cfg(target_arch = "x86_64")]
 fn simd_ok(model: &FogModel) -> bool {
-    std::is_x86_feature_detected!("avx2")
-        && std::is_x86_feature_detected!("fma")
-        && model.max_table_size() <= crate::simd::MAX_GATHER_SIZE
+    relight_isa::avx2() && model.max_table_size() <= crate::simd::MAX_GATHER_SIZE
 }
 
 #[inline(always)]

@@ -720,7 +720,7 @@ mod tests {
     /// at scattered ones.
     #[test]
     fn cell_loads_equal_indexed_reads() {
-        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+        if !relight_isa::avx2() {
             assert!(
                 std::env::var_os("CI").is_none(),
                 "CI: no AVX2 + FMA on this CPU, so the loads are not tested"

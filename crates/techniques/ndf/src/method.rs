@@ -805,12 +805,10 @@ struct RowCtx<'a> {
     has_env: bool,
 }
 
-/// Whether the CPU has AVX2 and FMA (detected once).
+/// Whether the AVX2 + FMA kernels run ([`relight_isa::avx2`]).
 #[cfg(target_arch = "x86_64")]
 fn avx2_fma() -> bool {
-    use std::sync::OnceLock;
-    static HAS: OnceLock<bool> = OnceLock::new();
-    *HAS.get_or_init(|| is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"))
+    relight_isa::avx2()
 }
 
 /// The camera's unnormalized ray `D(px, py) = f + (px − cx) h_x + (py − cy) h_y`

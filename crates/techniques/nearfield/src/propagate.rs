@@ -138,15 +138,9 @@ impl Primitives {
     }
 }
 
+/// Whether the AVX2 kernels run ([`relight_isa::avx2`]).
 fn avx2_detected() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    relight_isa::avx2()
 }
 
 /// One axis of a vertex's affine map and its lazily evaluated primitives

@@ -396,35 +396,28 @@ impl LanePath {
     /// Every path, fastest first.
     pub const ALL: [Self; 3] = [Self::Avx512, Self::Avx2, Self::Portable];
 
-    /// Whether this CPU runs `self`.
+    /// Whether `self` may run here: the CPU has it and the process-wide
+    /// cap ([`relight_isa::set_isa_limit`]) allows it.
     #[must_use]
     pub fn supported(self) -> bool {
         match self {
             Self::Portable => true,
             #[cfg(target_arch = "x86_64")]
-            Self::Avx2 => {
-                std::arch::is_x86_feature_detected!("avx2")
-                    && std::arch::is_x86_feature_detected!("fma")
-            }
+            Self::Avx2 => relight_isa::avx2(),
             #[cfg(target_arch = "x86_64")]
-            Self::Avx512 => {
-                Self::Avx2.supported() && std::arch::is_x86_feature_detected!("avx512f")
-            }
+            Self::Avx512 => relight_isa::avx512(),
             #[cfg(not(target_arch = "x86_64"))]
             _ => false,
         }
     }
 
-    /// The path in use: the fastest this CPU has within [`relight_sh::isa`]'s
-    /// process-wide cap.
+    /// The path in use: the fastest that is [`supported`](Self::supported).
     #[must_use]
     pub fn current() -> Self {
-        use relight_sh::Isa;
-        match relight_sh::isa() {
-            Isa::Avx512 if Self::Avx512.supported() => Self::Avx512,
-            Isa::Avx512 | Isa::Avx2 if Self::Avx2.supported() => Self::Avx2,
-            _ => Self::Portable,
-        }
+        Self::ALL
+            .into_iter()
+            .find(|p| p.supported())
+            .unwrap_or(Self::Portable)
     }
 }
 

@@ -659,17 +659,11 @@ fn setup_lanes(l: &mut Lanes, count: usize) {
     }
 }
 
-/// Whether this CPU runs the pass's AVX2 + FMA copy ([`Pass::run`]).
+/// Whether the pass's AVX2 + FMA copy runs ([`Pass::run`],
+/// [`relight_isa::avx2`]).
 #[inline]
 pub(crate) fn fma_path() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    relight_isa::avx2()
 }
 
 /// What every row of one pass reads.

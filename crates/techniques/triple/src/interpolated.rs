@@ -254,18 +254,10 @@ impl TriangleTables {
     }
 }
 
-/// Whether this CPU runs [`tensor`]'s AVX2 + FMA copy (cached by the
-/// standard library).
+/// Whether [`tensor`]'s AVX2 + FMA copy runs ([`relight_isa::avx2`]).
 #[inline]
 fn fma_path() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    relight_isa::avx2()
 }
 
 /// `T[ch][a][b][v] = Σ_c L_a ρ_b V_v` of triangle `tri` (module docs),

@@ -252,12 +252,11 @@ mod x86 {
     use super::{AnyCells, Cells, F32Cells, Planes, Tap, U8Cells, Vec3, blend_with, with_vis};
     use std::arch::x86_64::{__m128i, _mm_loadu_si128, _mm256_cvtph_ps, _mm256_storeu_ps};
 
-    /// AVX2, FMA and F16C are present (cached by the standard library).
+    /// AVX2, FMA and F16C may run ([`relight_isa::avx2`], whose level
+    /// includes F16C).
     #[inline]
     pub(super) fn available() -> bool {
-        std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-            && std::arch::is_x86_feature_detected!("f16c")
+        relight_isa::avx2()
     }
 
     /// f16 planes converted eight at a time by `vcvtph2ps`; only built

@@ -1,11 +1,18 @@
-//! Which vector instruction set the SH kernels may use.
+//! Which vector instruction set the run-time-selected kernels may use.
 //!
-//! The kernels pick their path at run time from what the CPU offers
-//! (AVX-512F, AVX2 + FMA, or the portable baseline code). [`set_isa_limit`]
-//! caps that choice for the whole process, so that a bench can time — and a
-//! test can exercise — the paths a CPU without AVX-512 would take, on a
-//! machine that has it. Every path computes the same products (tested
-//! against each other); only speed changes.
+//! Every crate with a kernel compiled for more than the baseline target (the
+//! SH rotations and products, the rasterizer's strips, the fog, triple,
+//! near-field, NDF and SH-exponentiation kernels, the lat-long lookups)
+//! picks its path here, from what the CPU offers: AVX-512F, AVX2 + FMA, or
+//! the portable baseline code. [`set_isa_limit`] caps that choice for the
+//! whole process, so that a bench can time (`relight bench … --isa`), and
+//! a test can exercise, the paths a CPU without AVX-512 or AVX2 would take,
+//! on a machine that has them. Every path computes the same results within
+//! its kernel's tested tolerance; only speed changes.
+//!
+//! Invariant: a level is reported only where the CPU has every feature the
+//! kernels of that level are compiled with, so `avx2()` (or `avx512()`)
+//! being true is what makes calling such a kernel sound.
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -15,7 +22,8 @@ use std::sync::atomic::{AtomicU8, Ordering};
 pub enum Isa {
     /// The baseline target (SSE2 on x86-64), no run-time-selected kernels.
     Portable,
-    /// AVX2 with FMA.
+    /// AVX2 with FMA and F16C (every CPU with AVX2 so far has F16C; the
+    /// triple-product kernels convert half floats with it).
     Avx2,
     /// AVX-512F with AVX-512VL, AVX2 and FMA (the register-resident rotation
     /// kernels of [`crate::rotation`] and [`crate::taylor`], and the vector
@@ -55,7 +63,8 @@ fn detect() -> Isa {
     #[cfg(target_arch = "x86_64")]
     {
         let avx2 = std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma");
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("f16c");
         // The AVX-512 copies are compiled with VL, AVX2 and FMA as well
         // (256-bit masked operations, FMA scalars): a CPU with AVX-512F alone
         // (Knights Landing lacks VL) runs the AVX2 copies.
@@ -111,4 +120,54 @@ fn first_isa() -> Isa {
     let v = from_u8(LIMIT.load(Ordering::Relaxed)).min(detected_isa());
     EFFECTIVE.store(v as u8, Ordering::Relaxed);
     v
+}
+
+/// Whether the AVX2 + FMA (+ F16C) kernels may run: the CPU has them and
+/// the cap allows them. One relaxed load.
+#[inline]
+#[must_use]
+pub fn avx2() -> bool {
+    isa() >= Isa::Avx2
+}
+
+/// Whether the AVX-512 (F + VL, with AVX2 and FMA) kernels may run.
+#[inline]
+#[must_use]
+pub fn avx512() -> bool {
+    isa() >= Isa::Avx512
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Isa, avx2, avx512, detected_isa, isa, set_isa_limit};
+
+    /// The cap lowers the level and lifting it restores the detected one;
+    /// the flags follow (this test binary is the only user of the cap).
+    #[test]
+    fn the_cap_lowers_the_level_and_lifts_again() {
+        let detected = detected_isa();
+        assert_eq!(isa(), detected);
+        set_isa_limit(Isa::Portable);
+        assert_eq!(isa(), Isa::Portable);
+        assert!(!avx2() && !avx512());
+        set_isa_limit(Isa::Avx2);
+        assert_eq!(isa(), detected.min(Isa::Avx2));
+        assert_eq!(avx2(), detected >= Isa::Avx2);
+        assert!(!avx512());
+        set_isa_limit(Isa::Avx512);
+        assert_eq!(isa(), detected);
+        assert_eq!(avx512(), detected == Isa::Avx512);
+        for level in Isa::ALL {
+            assert_eq!(Isa::from_name(level.name()), Some(level));
+        }
+    }
+
+    /// CI runs on x86-64 machines with AVX2: there the vector paths are
+    /// the ones the suite exercises.
+    #[test]
+    fn ci_machines_have_avx2() {
+        if std::env::var_os("CI").is_some() && cfg!(target_arch = "x86_64") {
+            assert!(detected_isa() >= Isa::Avx2, "detected {:?}", detected_isa());
+        }
+    }
 }
