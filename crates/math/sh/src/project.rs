@@ -299,15 +299,65 @@ pub fn project_samples(
 
 /// Projects an environment map in any parameterization (exact texel solid
 /// angles), with the lat-long fast path where it applies, then applies `window`.
+///
+/// The map is read as piecewise constant (each texel its value over its
+/// whole solid angle). Where its texels are coarse for `order` bands
+/// ([`texel_subsamples`] > 1), each texel is split into `k × k` uv
+/// sub-rectangles, each with its exact solid angle, so that the harmonics
+/// are integrated over the texel rather than read at its centre: a constant
+/// 8 × 4 map projected by texel centres alone has band-2 coefficients of a
+/// few per cent of band 0, which the split removes.
 pub fn project_env(map: &EnvMap, order: usize, window: Window) -> Result<ShRgb, ShError> {
     check_order("order", order, MAX_ORDER)?;
     window.validate()?;
+    let k = texel_subsamples(&map.param, order);
     let mut out = match map.param {
+        _ if k > 1 => project_subsampled(map, order, k)?,
         Param::LatLong { .. } => LatLongProjector::new(map.param, order)?.project(&map.texels)?,
         p => project_samples(order, &p.directions(), &p.solid_angles(), &map.texels)?,
     };
     out.apply_window(window)?;
     Ok(out)
+}
+
+/// Sub-samples per texel side for [`project_env`] at `order` bands: 1 when
+/// the texel-centre rule is accurate, more for coarse maps. A texel spans
+/// `h ≈ π / √(texels / 2)` radians (a lat-long map's row height); the
+/// centre rule integrates a band-`l` harmonic over it with relative error
+/// about `(l h)² / 24`, so `k = ⌈(order · h) / 0.155⌉` keeps that below
+/// 10⁻³ for every band (capped at 32). Maps of 256 rows and more at order 8
+/// (every shipped probe) take 1, the centre rule unchanged.
+#[must_use]
+pub fn texel_subsamples(param: &Param, order: usize) -> usize {
+    let per_pi = (param.len() as f64 / 2.0).sqrt().max(1.0);
+    let h = std::f64::consts::PI / per_pi;
+    ((order as f64 * h / 0.155).ceil() as usize).clamp(1, 32)
+}
+
+/// [`project_env`]'s rule for coarse maps: every texel as `k × k` uv
+/// sub-rectangles, read at their centres with their exact solid angles.
+fn project_subsampled(map: &EnvMap, order: usize, k: usize) -> Result<ShRgb, ShError> {
+    let p = map.param;
+    let n = p.len() * k * k;
+    let (mut dirs, mut weights, mut values) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    for (i, &value) in map.texels.iter().enumerate().take(p.len()) {
+        let (lo, hi) = p.texel_uv_rect(i);
+        let step = (hi - lo) / k as f64;
+        for a in 0..k {
+            for b in 0..k {
+                let min = lo + step * glam::DVec2::new(a as f64, b as f64);
+                let max = min + step;
+                dirs.push(p.dir_from_uv((min + max) * 0.5).as_vec3());
+                weights.push(p.uv_rect_solid_angle(min, max) as f32);
+                values.push(value);
+            }
+        }
+    }
+    project_samples(order, &dirs, &weights, &values)
 }
 
 /// `∫ f y_i dω` of a scalar f64 function by a product quadrature rule.
@@ -1350,5 +1400,48 @@ mod tests {
         assert!(matches!(c.validate(), Err(ShError::NonFinite { .. })));
         c.order = 0;
         assert!(matches!(c.validate(), Err(ShError::OrderOutOfRange { .. })));
+    }
+
+    /// A coarse map is integrated over its texels: a constant 8 × 4
+    /// lat-long map (and a 3 × 3-per-face cube map) projects to band 0 alone,
+    /// and an 8 × 4 map's texels sum to their piecewise-constant integral.
+    /// Texel centres alone leave band 2 at a few per cent of band 0 on the
+    /// 8 × 4 map (the case that made shexp's ambient occlusion row fail).
+    /// Shipped probes (256 rows and more, order ≤ 8) keep the centre rule.
+    #[test]
+    fn coarse_maps_are_integrated_over_their_texels() {
+        for param in [
+            Param::LatLong {
+                width: 8,
+                height: 4,
+            },
+            Param::Cube { n: 3 },
+        ] {
+            let map = EnvMap::from_fn(param, |_| Vec3::splat(2.0));
+            assert!(texel_subsamples(&param, 6) > 1, "{param:?}");
+            let sh = project_env(&map, 6, Window::None).unwrap();
+            let want0 = 2.0 * (4.0 * std::f32::consts::PI).sqrt();
+            assert!(
+                (sh.channels[0][0] - want0).abs() < 1e-4 * want0,
+                "{param:?}"
+            );
+            for (i, c) in sh.channels[0].iter().enumerate().skip(1) {
+                assert!(c.abs() < 2e-4 * want0, "{param:?}: coefficient {i} = {c}");
+            }
+            // Texel centres alone alias the constant into band 2.
+            let centres =
+                project_samples(6, &param.directions(), &param.solid_angles(), &map.texels)
+                    .unwrap();
+            if matches!(param, Param::LatLong { .. }) {
+                assert!(centres.channels[0][6].abs() > 0.01 * want0, "{centres:?}");
+            }
+        }
+        for height in [256, 512, 1024] {
+            let param = Param::LatLong {
+                width: 2 * height,
+                height,
+            };
+            assert_eq!(texel_subsamples(&param, 8), 1, "{height} rows");
+        }
     }
 }
