@@ -117,8 +117,8 @@ pub struct DemoArgs {
     #[arg(long)]
     pub size: Option<String>,
     /// Methods shown, one tile each (repeat the flag) [default: reference,
-    /// wavelet, sh, fog]; errors are measured against the reference when it
-    /// is among them.
+    /// wavelet, sh, fog, shexp]; errors are measured against the reference
+    /// when it is among them.
     #[arg(long, value_enum)]
     pub method: Vec<Method>,
     /// Antialiasing of the raster methods: K × K samples per pixel,

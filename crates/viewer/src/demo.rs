@@ -16,6 +16,12 @@
 //!   shadows;
 //! * nothing when it cannot render the scene even so: a tile saying why.
 //!
+//! The shexp tile shows the sun's shadows soft, as an order-n visibility
+//! holds them (sphere sets of the blockers, SH exponentiation), and shades
+//! the metals as diffuse with their albedo; its notes say so (the method's
+//! own [`Relighter::warnings`](relight_render::method::Relighter::warnings),
+//! which every tile adds after rendering).
+//!
 //! # What the labels measure
 //! * **ms per frame**: a second frame at the tile's size and AA, after the
 //!   first (warm caches): [`FrameTimings::view_ms`], the view change a
@@ -55,15 +61,21 @@ pub const DEMO_AO_RAYS: u32 = 32;
 /// texels) bakes in seconds from a cold cache where the default n = 64
 /// takes most of the demo's budget.
 pub const DEMO_WAVELET_N: usize = 32;
+/// Cosine-weighted ray strata per side of the shexp tile's static
+/// visibility bake: 6 (36 rays per vertex, about the wavelet tile's
+/// [`DEMO_AO_RAYS`]); the method's default 12 (144 rays) spends about 10 s
+/// on the embedded scene's 209 K vertices.
+pub const DEMO_SHEXP_STRATA: usize = 6;
 /// The environment turn of the timed lighting change, degrees about +Y.
 pub const DEMO_LIGHT_TURN_DEG: f32 = 30.0;
 
 /// The methods of the demo, in tile order: the reference first (the judge).
-pub const DEMO_METHODS: [MethodKind; 4] = [
+pub const DEMO_METHODS: [MethodKind; 5] = [
     MethodKind::Reference,
     MethodKind::Wavelet,
     MethodKind::Sh,
     MethodKind::Fog,
+    MethodKind::ShExp,
 ];
 
 /// The demo's own settings of a method (on top of `options`, which carry the
@@ -79,6 +91,7 @@ pub fn apply_demo_defaults(options: &mut MethodOptions, user_set: &DemoUserSet) 
                 w.n = DEMO_WAVELET_N;
             }
         }
+        MethodOptions::ShExp(x) => x.bake_strata = DEMO_SHEXP_STRATA,
         _ => {}
     }
 }
@@ -234,6 +247,16 @@ fn render_tile(
         out = render_frame(method.as_mut(), scene, &request, progress)?;
         tile.frame_ms = out.timings.view_ms + out.timings.lighting_ms;
     }
+    // What the method itself says it approximated (e.g. a BRDF it shades as
+    // diffuse), after it saw the scene.
+    let own = format!("{kind}: ");
+    for w in method.warnings() {
+        // The tile and the log name the method already.
+        let w = w.strip_prefix(&own).map_or(w.clone(), str::to_string);
+        if !tile.notes.contains(&w) {
+            tile.notes.push(w);
+        }
+    }
     tile.rendered = Ok(out);
     Ok(tile)
 }
@@ -287,14 +310,21 @@ pub fn tile_cell(tile: &DemoTile) -> Cell {
     }
 }
 
-/// Notes the tiles print, shortened to the gist.
+/// Notes the tiles print, shortened to the gist (the log keeps them whole).
 fn shorten(note: &str) -> String {
-    note.strip_prefix("method ")
+    let note = note
+        .strip_prefix("method ")
         .map_or(note.to_string(), str::to_string)
         .replace(
             "renders visibility (shadows) approximately: per-vertex ambient occlusion × unshadowed radiance, wavelet-rotation-2006 §3 step 2",
             "shadows: per-vertex AO × unshadowed radiance (§3)",
-        )
+        );
+    // shexp's "object i: its BRDF is not Lambertian; shaded as diffuse with
+    // albedo (r, g, b)": the albedo does not fit a tile's line.
+    match note.split_once(": its BRDF is not Lambertian; shaded as diffuse") {
+        Some((object, _)) => format!("{object}: not Lambertian, shaded as diffuse"),
+        None => note,
+    }
 }
 
 /// The labelled sheet of `tiles` at `width × height` each.
@@ -351,7 +381,7 @@ mod tests {
             .collect();
         let mut logged = 0;
         let tiles = render_demo(&scene, &methods, 1, &NoProgress, &mut |_| logged += 1).unwrap();
-        assert_eq!(logged, 4);
+        assert_eq!(logged, DEMO_METHODS.len());
         let by = |k: MethodKind| tiles.iter().find(|t| t.method == k).unwrap();
         let reference = by(MethodKind::Reference);
         assert!(reference.rendered.is_ok() && reference.error.is_none());
@@ -372,13 +402,20 @@ mod tests {
             "{:?}",
             sh.notes
         );
-        for t in [wavelet, sh, by(MethodKind::Fog)] {
+        // shexp shades the metals as diffuse, and says so.
+        let shexp = by(MethodKind::ShExp);
+        assert!(
+            shexp.notes.iter().any(|n| n.contains("not Lambertian")),
+            "{:?}",
+            shexp.notes
+        );
+        for t in [wavelet, sh, by(MethodKind::Fog), shexp] {
             let e = t.error.expect("measured against the reference");
             assert!(e.is_finite() && e > 0.0 && e < 1.5, "{}: {e}", t.method);
             assert!(t.frame_ms > 0.0);
         }
         let sheet = demo_sheet(&tiles, w, h);
-        assert_eq!(sheet.tiles.len(), 4);
+        assert_eq!(sheet.tiles.len(), DEMO_METHODS.len());
         let cell = tile_cell(sh);
         assert!(cell.title.starts_with("sh") && cell.title.contains("ms/frame"));
         assert!(cell.details.iter().any(|l| l.text.contains("unshadowed")));

@@ -48,8 +48,9 @@ fn demo_writes_a_labelled_composite_and_an_exr_per_method() {
     let (sheet, _) =
         relight_assets::read_image(&png.with_extension("exr")).expect("demo.exr readable");
     let header = relight_viewer::sheet::header_height(96);
-    assert_eq!((sheet.width, sheet.height), (2 * 96, 2 * (header + 54)));
-    for method in ["reference", "wavelet", "sh", "fog"] {
+    // Five tiles, two columns.
+    assert_eq!((sheet.width, sheet.height), (2 * 96, 3 * (header + 54)));
+    for method in ["reference", "wavelet", "sh", "fog", "shexp"] {
         let exr = png.with_file_name(format!("demo-{method}.exr"));
         let (img, _) = relight_assets::read_image(&exr).expect("per-method EXR readable");
         assert_eq!((img.width, img.height), (96, 54), "{method}");
@@ -61,7 +62,7 @@ fn demo_writes_a_labelled_composite_and_an_exr_per_method() {
         );
     }
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(text.contains("4 tiles"), "{text}");
+    assert!(text.contains("5 tiles"), "{text}");
     assert!(
         std::fs::metadata(&png).unwrap().len() > 1000,
         "png too small"
