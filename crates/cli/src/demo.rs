@@ -132,8 +132,11 @@ pub fn demo(a: DemoArgs, bar: &Bar) -> Result<()> {
         .map(|t| method_exr(&png, t.method).display().to_string())
         .collect();
     println!(
-        "relight demo: {} tiles of {w}×{h}; wrote {} ({}×{}), {} and {} in {:.1} s",
-        tiles.len(),
+        "relight demo: {} of {w}×{h}; wrote {} ({}×{}), {} and {} in {:.1} s",
+        match tiles.len() {
+            1 => "1 tile".to_string(),
+            n => format!("{n} tiles"),
+        },
         png.display(),
         sheet.width,
         sheet.height,
