@@ -230,7 +230,17 @@ fn render_tile(
         Err(e) => return Err(e.into()),
     }
     let t = Instant::now();
-    method.prepare(scene, progress)?;
+    match method.prepare(scene, progress) {
+        Ok(()) => {}
+        // What the method finds wrong with this scene only when it looks
+        // closer (ndf: the objects' BRDF is not the one its options name) is
+        // that tile's message; the other tiles still render.
+        Err(e @ (MethodError::Unsupported { .. } | MethodError::InvalidOption { .. })) => {
+            tile.rendered = Err(e.to_string());
+            return Ok(tile);
+        }
+        Err(e) => return Err(e.into()),
+    }
     tile.prepare_s = t.elapsed().as_secs_f64();
     let aa = if kind == MethodKind::Reference { 1 } else { aa };
     let request = FrameRequest::new(scene.camera).with_aa(aa);
@@ -441,5 +451,22 @@ mod tests {
         assert!(why.contains("area lights"), "{why}");
         let cell = tile_cell(&tiles[0]);
         assert!(cell.image.is_err() && cell.title.contains("cannot render"));
+    }
+
+    /// A method that refuses the scene only at `prepare` (ndf: its BRDF
+    /// option is Lambert, the scene's metals are not) gets a tile saying
+    /// why; the demo goes on with the next method instead of stopping.
+    #[test]
+    fn a_refusal_at_prepare_is_that_tiles_message() {
+        let scene = demo_scene(32, 18);
+        let mut sh = MethodOptions::default_for(MethodKind::Sh);
+        if let MethodOptions::Sh(s) = &mut sh {
+            s.order = 2;
+        }
+        let methods = [MethodOptions::default_for(MethodKind::Ndf), sh];
+        let tiles = render_demo(&scene, &methods, 1, &NoProgress, &mut |_| {}).unwrap();
+        let why = tiles[0].rendered.as_ref().unwrap_err();
+        assert!(why.contains("ndf-brdf"), "{why}");
+        assert!(tiles[1].rendered.is_ok());
     }
 }
