@@ -17,7 +17,7 @@
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU8, Ordering};
 
-/// An instruction-set level of the SH kernels, lowest first.
+/// An instruction-set level of the run-time-selected kernels, lowest first.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Isa {
     /// The baseline target (SSE2 on x86-64), no run-time-selected kernels.
@@ -25,9 +25,10 @@ pub enum Isa {
     /// AVX2 with FMA and F16C (every CPU with AVX2 so far has F16C; the
     /// triple-product kernels convert half floats with it).
     Avx2,
-    /// AVX-512F with AVX-512VL, AVX2 and FMA (the register-resident rotation
-    /// kernels of [`crate::rotation`] and [`crate::taylor`], and the vector
-    /// bands of [`crate::fast`]'s rotation from order 4).
+    /// AVX-512F with AVX-512VL, AVX2 and FMA (`relight_sh`'s
+    /// register-resident rotation kernels of `rotation` and `taylor`, the
+    /// vector bands of `fast`'s rotation from order 4, and `relight_shexp`'s
+    /// lane kernels).
     Avx512,
 }
 
