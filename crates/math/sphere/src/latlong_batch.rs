@@ -140,13 +140,6 @@ unsafe fn lookups_avx2(
     lookups(texels, width, height, m, dirs, out);
 }
 
-/// Whether the AVX2 + FMA path runs here ([`relight_isa::avx2`]: the CPU
-/// has it and `--isa` allows it).
-#[must_use]
-pub(crate) fn has_avx2() -> bool {
-    relight_isa::avx2()
-}
-
 /// The lat-long lookups of [`EnvMap::eval_many`]; `portable` forces the
 /// baseline path (for tests).
 pub(crate) fn latlong_many(
@@ -159,7 +152,7 @@ pub(crate) fn latlong_many(
     portable: bool,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if !portable && has_avx2() {
+    if !portable && relight_isa::avx2() {
         // SAFETY: AVX2 and FMA were detected just above.
         unsafe { lookups_avx2(&env.texels, width, height, &env_from_world, dirs, out) };
         return;
@@ -256,7 +249,10 @@ mod tests {
             }
         }
         if std::env::var_os("CI").is_some() && cfg!(target_arch = "x86_64") {
-            assert!(has_avx2(), "CI machines have AVX2: the vector path ran");
+            assert!(
+                relight_isa::avx2(),
+                "CI machines have AVX2: the vector path ran"
+            );
         }
     }
 

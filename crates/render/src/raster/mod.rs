@@ -77,11 +77,6 @@ use crate::{Camera, CameraRays, Image};
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
-/// Whether the strip raster's AVX2 + FMA copy runs ([`relight_isa::avx2`]).
-fn avx2_fma() -> bool {
-    relight_isa::avx2()
-}
-
 /// Triangle id of a pixel that no triangle covers.
 pub const NO_TRIANGLE: u32 = u32::MAX;
 
@@ -760,7 +755,7 @@ impl Rasterizer {
         g.barycentrics.resize(width * height, [0.0; 2]);
         let rows = options.strip_height * width;
         let chunks = &self.chunks;
-        let avx2 = avx2_fma();
+        let avx2 = relight_isa::avx2();
         g.depth
             .par_chunks_mut(rows)
             .zip(g.triangle.par_chunks_mut(rows))

@@ -550,7 +550,7 @@ fn strips_and_threads_do_not_change_the_result() {
 /// are drawn too) is drawn again by `Strip::draw_bins` and compared.
 #[test]
 fn avx2_strip_raster_matches_the_portable_copy() {
-    if !avx2_fma() {
+    if !relight_isa::avx2() {
         assert!(
             std::env::var_os("CI").is_none(),
             "CI: no AVX2 + FMA on this CPU, so the fast copy is not tested"

@@ -780,7 +780,7 @@ impl NdfMethod {
     /// same image bit for bit (tested).
     fn render_row(&self, ctx: &RowCtx<'_>, y: usize, row: &mut [Vec3]) {
         #[cfg(target_arch = "x86_64")]
-        if self.simd && avx2_fma() {
+        if self.simd && relight_isa::avx2() {
             // SAFETY: the CPU has AVX2 and FMA (checked above).
             unsafe { self.row_avx2(ctx, y, row) };
             return;
@@ -803,12 +803,6 @@ struct RowCtx<'a> {
     eye: Vec3,
     scene: &'a Scene,
     has_env: bool,
-}
-
-/// Whether the AVX2 + FMA kernels run ([`relight_isa::avx2`]).
-#[cfg(target_arch = "x86_64")]
-fn avx2_fma() -> bool {
-    relight_isa::avx2()
 }
 
 /// The camera's unnormalized ray `D(px, py) = f + (px − cx) h_x + (py − cy) h_y`
@@ -1344,7 +1338,7 @@ mod tests {
     #[test]
     fn avx2_rows_are_the_portable_rows_bit_for_bit() {
         #[cfg(target_arch = "x86_64")]
-        if !avx2_fma() {
+        if !relight_isa::avx2() {
             assert!(
                 std::env::var_os("CI").is_none(),
                 "CI: this CPU lacks AVX2+FMA, so the fast row path is untested"

@@ -101,7 +101,7 @@ impl Primitives {
         }
         Self {
             n,
-            avx2: avx2_detected(),
+            avx2: relight_isa::avx2(),
             scale,
             shift,
             amp,
@@ -136,11 +136,6 @@ impl Primitives {
             *o = a * (0.5 - (sc * v - sh).abs()).max(0.0);
         }
     }
-}
-
-/// Whether the AVX2 kernels run ([`relight_isa::avx2`]).
-fn avx2_detected() -> bool {
-    relight_isa::avx2()
 }
 
 /// One axis of a vertex's affine map and its lazily evaluated primitives

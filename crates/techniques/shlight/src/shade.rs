@@ -659,13 +659,6 @@ fn setup_lanes(l: &mut Lanes, count: usize) {
     }
 }
 
-/// Whether the pass's AVX2 + FMA copy runs ([`Pass::run`],
-/// [`relight_isa::avx2`]).
-#[inline]
-pub(crate) fn fma_path() -> bool {
-    relight_isa::avx2()
-}
-
 /// What every row of one pass reads.
 struct Rows<'a> {
     g: &'a GBuffer,
@@ -682,7 +675,7 @@ struct Rows<'a> {
 impl Pass<'_> {
     /// Shades the visibility buffer of `raster` (rasterized for `camera`,
     /// supersampling included) into `out`. Rows run in parallel; on a CPU
-    /// with AVX2 and FMA ([`fma_path`]) through a copy of the row loop
+    /// with AVX2 and FMA ([`relight_isa::avx2`]) through a copy of the row loop
     /// compiled for them (8-lane fused dot products and lerps), elsewhere
     /// through the portable copy, unless `portable` forces it (tests).
     pub(crate) fn run(
@@ -709,7 +702,7 @@ impl Pass<'_> {
         } else {
             &triangle_offsets(self.draws)
         };
-        let fma = !portable && fma_path();
+        let fma = !portable && relight_isa::avx2();
         let batched =
             fma && self.order <= ROTATE_BATCH_MAX_ORDER && self.method != ShRotationMethod::None;
         let rows = Rows {
@@ -726,7 +719,7 @@ impl Pass<'_> {
             .for_each_init(Scratch::new, |s, (y, row)| {
                 #[cfg(target_arch = "x86_64")]
                 if fma {
-                    // SAFETY: AVX2 and FMA were detected at run time (`fma_path`).
+                    // SAFETY: AVX2 and FMA were detected at run time (`relight_isa::avx2`).
                     unsafe { self.row_fma(s, &rows, y, row) };
                     return;
                 }
@@ -1039,9 +1032,9 @@ impl Pass<'_> {
             };
             #[cfg(target_arch = "x86_64")]
             let out = if F {
-                debug_assert!(fma_path());
+                debug_assert!(relight_isa::avx2());
                 // SAFETY: `F` is the AVX2 + FMA copy of the pass, which
-                // `Pass::run` takes only where `fma_path` found both.
+                // `Pass::run` takes only where `relight_isa::avx2` allowed them.
                 unsafe {
                     if p.channels == 1 {
                         dot3_rgb_avx2::<true>([l0, l1, l2], nn, k, lam, [bc(0); 3])

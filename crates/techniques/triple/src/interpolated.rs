@@ -158,7 +158,7 @@ impl TriangleTables {
             self.terms.resize(needed, [0.0; COEFFS]);
         }
         let (first, second) = self.terms[..needed].split_at_mut(list.len());
-        let fma = fma_path();
+        let fma = relight_isa::avx2();
         first
             .par_iter_mut()
             .zip(&list)
@@ -254,20 +254,14 @@ impl TriangleTables {
     }
 }
 
-/// Whether [`tensor`]'s AVX2 + FMA copy runs ([`relight_isa::avx2`]).
-#[inline]
-fn fma_path() -> bool {
-    relight_isa::avx2()
-}
-
 /// `T[ch][a][b][v] = Σ_c L_a ρ_b V_v` of triangle `tri` (module docs),
-/// through the AVX2 + FMA copy where `fma` ([`fma_path`]): the default
+/// through the AVX2 + FMA copy where `fma` ([`relight_isa::avx2`]): the default
 /// x86-64 target has only 4-lane SSE and no fused multiply-add, and this loop
 /// was half of a 512 × 384 interpolated frame.
 fn tensor(x: &TensorInput<'_>, t: &mut [f32; COEFFS], fma: bool) {
     #[cfg(target_arch = "x86_64")]
     if fma {
-        // SAFETY: AVX2 and FMA were detected at run time (`fma_path`).
+        // SAFETY: AVX2 and FMA were detected at run time (`relight_isa::avx2`).
         unsafe { tensor_fma(x, t) };
         return;
     }
@@ -457,7 +451,7 @@ mod tests {
     /// itself).
     #[test]
     fn fma_tensor_matches_the_portable_tensor() {
-        if !fma_path() {
+        if !relight_isa::avx2() {
             assert!(
                 std::env::var_os("CI").is_none(),
                 "CI: no AVX2 + FMA on this CPU, so the fast tensor is not tested"

@@ -54,7 +54,7 @@ pub fn shade_point(
     stride: usize,
 ) -> Vec3 {
     #[cfg(target_arch = "x86_64")]
-    if x86::available() {
+    if relight_isa::avx2() {
         // SAFETY: the CPU has AVX2, FMA and F16C (checked just above).
         return unsafe { x86::shade_point(light, ltaps, brdf, btaps, vis, light_stride, stride) };
     }
@@ -103,7 +103,7 @@ pub fn blend_function(
     out: &mut [f32],
 ) {
     #[cfg(target_arch = "x86_64")]
-    if x86::available() {
+    if relight_isa::avx2() {
         // SAFETY: the CPU has AVX2, FMA and F16C (checked just above).
         return unsafe { x86::blend_function(planes, taps, plane_stride, padded, out) };
     }
@@ -251,13 +251,6 @@ use dispatch;
 mod x86 {
     use super::{AnyCells, Cells, F32Cells, Planes, Tap, U8Cells, Vec3, blend_with, with_vis};
     use std::arch::x86_64::{__m128i, _mm_loadu_si128, _mm256_cvtph_ps, _mm256_storeu_ps};
-
-    /// AVX2, FMA and F16C may run ([`relight_isa::avx2`], whose level
-    /// includes F16C).
-    #[inline]
-    pub(super) fn available() -> bool {
-        relight_isa::avx2()
-    }
 
     /// f16 planes converted eight at a time by `vcvtph2ps`; only built
     /// inside [`shade_point`], which runs with F16C.
@@ -514,7 +507,7 @@ mod tests {
     #[test]
     fn fast_kernel_matches_the_portable_one() {
         #[cfg(target_arch = "x86_64")]
-        if !x86::available() {
+        if !relight_isa::avx2() {
             assert!(
                 std::env::var_os("CI").is_none(),
                 "CI runs on a CPU without AVX2+FMA+F16C: the fast kernel is untested"
