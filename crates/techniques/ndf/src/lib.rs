@@ -29,6 +29,8 @@
 //!   shades zero) from the NDF's mean and covariance: correlated with the
 //!   light under a point light, the seen part of the NDF under environment
 //!   light.
+//! * [`seen_lanes`]: that environment mask for eight pixels at once, bit for
+//!   bit the scalar form, which the method's rows batch their SH pixels into.
 //!
 //! # Runtime
 //! [`method::NdfMethod`] (`--method ndf`) shades per pixel with the MIP
@@ -48,6 +50,7 @@ pub mod lean;
 pub mod mask;
 pub mod method;
 pub mod pyramid;
+pub mod seen_lanes;
 pub mod sh_ndf;
 pub mod verify;
 pub mod vmf;

@@ -341,8 +341,9 @@ pub fn seen_sh9_with(gamma: &[f32], mom: &ShMoments, wo: Vec3) -> ([f32; 9], f32
         }
         return (out, 0.0);
     }
-    let s = s2.sqrt();
-    let alpha = mu / s;
+    // One division: `1/s` scales `μ` and `C ω_o`.
+    let inv_s = 1.0 / s2.sqrt();
+    let alpha = mu * inv_s;
     // Beyond 6σ the share is 1 or 0 to 1e-9: the NDF itself, or nothing
     // (most pixels of a view that is not grazing).
     if alpha.abs() > 6.0 {
@@ -359,7 +360,7 @@ pub fn seen_sh9_with(gamma: &[f32], mom: &ShMoments, wo: Vec3) -> ([f32; 9], f32
         c[3] * wo.x + c[1] * wo.y + c[5] * wo.z,
         c[4] * wo.x + c[5] * wo.y + c[2] * wo.z,
     );
-    let g = cw / s;
+    let g = cw * inv_s;
     let e1 = m * cdf_a + g * pdf_a;
     // E[n nᵀ H] as [xx, yy, zz, xy, xz, yz].
     let second = |i: usize, j: usize, cij: f32| {
@@ -393,7 +394,7 @@ pub fn seen_sh9_with(gamma: &[f32], mom: &ShMoments, wo: Vec3) -> ([f32; 9], f32
 /// `±` the axes (`b_k = (y(e_k) − y(−e_k))/2`, `A_kk = (y(e_k) + y(−e_k))/2`)
 /// and at `±(e_j + e_k)/√2` (whose even part is `(A_jj + A_kk)/2 + A_jk`),
 /// so convention-free, computed once.
-fn quadratic_forms() -> &'static [[f32; 9]; 9] {
+pub(crate) fn quadratic_forms() -> &'static [[f32; 9]; 9] {
     static Q: std::sync::OnceLock<[[f32; 9]; 9]> = std::sync::OnceLock::new();
     Q.get_or_init(|| {
         let y = |d: Vec3| {
@@ -423,7 +424,7 @@ fn quadratic_forms() -> &'static [[f32; 9]; 9] {
 
 /// `∫ p_j(n) y_i(n) dn` for `p = xx, yy, zz, xy, xz, yz` and `i < 9`,
 /// exact (a product rule exact to degree 4), computed once.
-fn monomial_projections() -> &'static [[f32; 9]; 6] {
+pub(crate) fn monomial_projections() -> &'static [[f32; 9]; 6] {
     static P: std::sync::OnceLock<[[f32; 9]; 6]> = std::sync::OnceLock::new();
     P.get_or_init(|| {
         let rule = SphereQuadrature::for_degree(4);

@@ -13,6 +13,15 @@
 //! trilinear probes along the footprint's major axis, averaged — every
 //! representation filters linearly). [`NdfFilter`] picks the representation or a baseline.
 //!
+//! # A row's pixels
+//! Each pixel's shading has two halves: `NdfMethod::shade_prologue` (view
+//! direction, footprint, the NDF sampled) and `NdfMethod::shade_epilogue`
+//! (lighting). Under environment light an SH NDF also needs its view mask
+//! (`crate::mask::seen_sh9`), about a third of the pixel's cost one pixel
+//! at a time: a row defers those pixels to a `Batch` and takes eight
+//! masks at once ([`crate::seen_lanes`], vector code, the same bits) before
+//! their epilogues.
+//!
 //! # The BRDF
 //! The method shades the model of [`NdfOptions::brdf`] (the effective forms
 //! need to know it); each object's colour is read from its own BRDF
@@ -287,6 +296,10 @@ pub struct NdfMethod {
     /// triangle ([`TriangleConsts::flat`]); off only in the test that
     /// compares the two.
     flat_triangles: bool,
+    /// Whether SH NDF pixels under environment light take their view masks
+    /// eight at a time ([`crate::seen_lanes`]); off only in the test that
+    /// compares the two.
+    masks_in_lanes: bool,
     /// Whether rows may take the AVX2+FMA copy of the pixel loop
     /// ([`NdfMethod::render_row`]); off only in the test that compares the
     /// two.
@@ -392,6 +405,7 @@ impl NdfMethod {
             raster: Rasterizer::new(),
             pending_lighting_ms: 0.0,
             flat_triangles: true,
+            masks_in_lanes: true,
             simd: true,
             env_tail: LambertTail::default(),
             env_from_world: Mat3::IDENTITY,
@@ -424,10 +438,13 @@ impl NdfMethod {
             .clone()
     }
 
-    /// Shades one visible point (everything in the tangent frame).
+    /// Shading one visible point (everything in the tangent frame), first
+    /// half: its view direction and representation, its footprint's
+    /// NDF (an SH NDF's bands, or vMF lobes into `lobes`) and plain normal
+    /// mapping's share; `None` for a point seen from behind (black).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn shade(
+    fn shade_prologue(
         &self,
         o: &ObjectData,
         position: Vec3,
@@ -436,30 +453,19 @@ impl NdfMethod {
         hand: f32,
         uv: Vec2,
         fp: &Footprint,
-        env: &PixelEnv,
-        scene: &Scene,
-        has_env: bool,
         lobes: &mut [ShadeLobe; MAX_PIXEL_LOBES],
-    ) -> Vec3 {
+        out: &mut Prologue,
+    ) -> bool {
         let to_t = |v: Vec3| Vec3::new(v.dot(frame.x), hand * v.dot(frame.y), v.dot(frame.z));
         let wo = to_t((eye - position).normalize_or_zero());
         if wo.z <= 0.0 {
-            return Vec3::ZERO;
+            return false;
         }
-        let brdf = self.options.brdf;
         // J lobes (or every tap's, `VmfTaps::Mixture`) and a delta for plain
         // normal mapping's share, in the caller's scratch.
         let mut nl = 0;
         // Lambert reads bands 0–2 of the SH NDF, whatever its order.
-        let mut gamma = [0.0f32; 9];
-        // The representation at this pixel.
-        enum Rep {
-            Normal(Vec3),
-            Mean(Vec3),
-            Sh,
-            Vmf,
-            Lean(LeanTexel),
-        }
+        let gamma = &mut out.gamma;
         // Plain normal mapping's share (`Footprint::plain`), for our
         // representations (the baselines filter as engines do), mixed into
         // the pixel's NDF: `(1 − w)·NDF_pyramid + w·δ(n)` — SH coefficients
@@ -480,12 +486,14 @@ impl NdfMethod {
                 if let Some(sh) = &b.sh {
                     // Linear: the probes' mean is the footprint's NDF.
                     if sh.order == 3 {
-                        sh.sample_footprint(fp, &mut gamma);
+                        sh.sample_footprint(fp, gamma);
                     } else {
                         let mut all = [0.0f32; 64];
                         sh.sample_footprint(fp, &mut all);
                         gamma.copy_from_slice(&all[..9]);
                     }
+                } else {
+                    *gamma = [0.0; 9];
                 }
                 // Plain normal mapping's share stays apart: the view masks
                 // below take the NDF's moments, and a delta mixed into them
@@ -544,6 +552,42 @@ impl NdfMethod {
             ),
             (Some((_, b)), _) => Rep::Mean(b.mean.sample_footprint(fp)),
         };
+        out.wo = wo;
+        out.plain = plain;
+        out.rep = rep;
+        out.nl = nl;
+        true
+    }
+
+    /// The radiance of a [`Self::shade_prologue`]: environment light
+    /// (Lambert) and point lights, times the object's colour. `seen` holds
+    /// an SH NDF's moments and view mask when the caller took them for
+    /// several pixels at once ([`crate::seen_lanes`]); else they are taken
+    /// here, the same f32 operations.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn shade_epilogue(
+        &self,
+        o: &ObjectData,
+        position: Vec3,
+        frame: &Frame,
+        hand: f32,
+        p: &Prologue,
+        env: &PixelEnv,
+        scene: &Scene,
+        has_env: bool,
+        lobes: &[ShadeLobe; MAX_PIXEL_LOBES],
+        seen: Option<&ShSeen>,
+    ) -> Vec3 {
+        let Prologue {
+            wo,
+            plain,
+            ref rep,
+            ref gamma,
+            nl,
+        } = *p;
+        let to_t = |v: Vec3| Vec3::new(v.dot(frame.x), hand * v.dot(frame.y), v.dot(frame.z));
+        let brdf = self.options.brdf;
         let baseline = match self.options.filter {
             NdfFilter::Unnormalized => Baseline::Unnormalized,
             NdfFilter::Toksvig => Baseline::Toksvig,
@@ -551,9 +595,12 @@ impl NdfMethod {
         };
         // An SH NDF's moments (the view masks' input), once for the
         // environment and all point lights.
-        let moments = match rep {
-            Rep::Sh if (has_env && brdf == NdfBrdf::Lambert) || !scene.point_lights.is_empty() => {
-                crate::mask::ShMoments::of_sh(&gamma)
+        let moments = match (rep, seen) {
+            (Rep::Sh, Some(s)) => s.moments,
+            (Rep::Sh, None)
+                if (has_env && brdf == NdfBrdf::Lambert) || !scene.point_lights.is_empty() =>
+            {
+                crate::mask::ShMoments::of_sh(gamma)
             }
             _ => crate::mask::ShMoments {
                 mean: Vec3::Z,
@@ -575,7 +622,7 @@ impl NdfMethod {
             // `y` takes `c`; the arms give the step that gates it (1 for an
             // NDF, already masked) and bands 4–8 (`lambert_tail_env`, in
             // the environment's frame) of what the viewer sees.
-            let (seen, tail_sum) = match &rep {
+            let (seen, tail_sum) = match rep {
                 Rep::Normal(n) => {
                     relight_sh::eval_sh_into(3, n.to_array(), &mut y);
                     let h = facing(*n);
@@ -603,7 +650,10 @@ impl NdfMethod {
                 // normal mapping's share `w` is a delta with its own step.
                 Rep::Sh => {
                     let share;
-                    (y, share) = crate::mask::seen_sh9_with(&gamma, &moments, wo);
+                    (y, share) = match seen {
+                        Some(s) => (s.y, s.share),
+                        None => crate::mask::seen_sh9_with(gamma, &moments, wo),
+                    };
                     let mut t = if share > 0.0 {
                         share
                             * self
@@ -657,11 +707,11 @@ impl NdfMethod {
             // as a closure: a closure was not inlined, and its body (the
             // whole Blinn lobe loop) was then compiled for the baseline
             // target instead of the AVX2 copy of the pixel loop.
-            let fcos = match &rep {
+            let fcos = match rep {
                 Rep::Normal(n) => shade_lobe(brdf, *n, 0.0, wo, wi),
                 Rep::Mean(m) => shade_baseline(brdf, baseline, *m, wo, wi),
                 Rep::Sh => {
-                    let f = lambert_sh_dir_seen_with(&gamma, &moments, wo, wi);
+                    let f = lambert_sh_dir_seen_with(gamma, &moments, wo, wi);
                     match plain {
                         Some((n, w)) => {
                             f * (1.0 - w) + w * shade_lobe(NdfBrdf::Lambert, n, 0.0, wo, wi)
@@ -694,7 +744,16 @@ impl NdfMethod {
             mu: Vec3::Z,
             inv_kappa: 0.0,
         }; MAX_PIXEL_LOBES];
-        for (x, px) in row.iter_mut().enumerate() {
+        // SH NDF pixels under environment light leave their moments and
+        // view mask to a batch of `seen_lanes::LANES` (the costliest part of
+        // their shading, vectorized across pixels), finished when it fills.
+        let batching = self.masks_in_lanes
+            && ctx.has_env
+            && self.options.filter == NdfFilter::Sh
+            && self.options.brdf == NdfBrdf::Lambert;
+        let tables = crate::seen_lanes::SeenTables::get();
+        let mut batch = Batch::new();
+        for x in 0..row.len() {
             let Some((d, tri, lam)) = ctx.raster.barycentrics_at(ctx.draws, x, y) else {
                 continue;
             };
@@ -757,7 +816,11 @@ impl NdfMethod {
                     &pixel_env
                 }
             };
-            *px = self.shade(
+            // The prologue goes straight into the batch's next slot (a
+            // copy of it cost a store-forwarding stall per pixel); it is
+            // kept there only if deferred.
+            let slot = &mut batch.slots[batch.n];
+            if !self.shade_prologue(
                 o,
                 position,
                 ctx.eye,
@@ -765,12 +828,92 @@ impl NdfMethod {
                 hand,
                 uv,
                 &fp,
-                env,
+                &mut lobes,
+                &mut slot.p,
+            ) {
+                row[x] = Vec3::ZERO;
+                continue;
+            }
+            if batching && matches!(slot.p.rep, Rep::Sh) {
+                slot.x = x;
+                slot.object = d;
+                slot.position = position;
+                slot.frame = frame;
+                slot.hand = hand;
+                batch.commit(env, tc.flat.is_some().then_some((d, tri)));
+                if batch.n == crate::seen_lanes::LANES {
+                    self.finish_batch(&mut batch, &tables, ctx, row, &lobes);
+                }
+            } else {
+                row[x] = self.shade_epilogue(
+                    o,
+                    position,
+                    &frame,
+                    hand,
+                    &slot.p,
+                    env,
+                    ctx.scene,
+                    ctx.has_env,
+                    &lobes,
+                    None,
+                );
+            }
+        }
+        self.finish_batch(&mut batch, &tables, ctx, row, &lobes);
+    }
+
+    /// Shades a [`Batch`]'s pixels into `row`: their moments and view
+    /// masks in lanes ([`crate::seen_lanes`]), then each one's
+    /// [`Self::shade_epilogue`]; empties it.
+    #[inline(always)]
+    fn finish_batch(
+        &self,
+        batch: &mut Batch,
+        tables: &crate::seen_lanes::SeenTables,
+        ctx: &RowCtx<'_>,
+        row: &mut [Vec3],
+        lobes: &[ShadeLobe; MAX_PIXEL_LOBES],
+    ) {
+        use crate::seen_lanes::LANES;
+        if batch.n == 0 {
+            return;
+        }
+        // Unused lanes: γ = 0 (a delta's branch), ignored.
+        let mut gamma = [[0.0; LANES]; 9];
+        let mut wo = [[0.0; LANES]; 3];
+        for (l, d) in batch.slots[..batch.n].iter().enumerate() {
+            for (g, v) in gamma.iter_mut().zip(d.p.gamma) {
+                g[l] = v;
+            }
+            for (w, v) in wo.iter_mut().zip(d.p.wo.to_array()) {
+                w[l] = v;
+            }
+        }
+        let mut out = crate::seen_lanes::SeenLanes::default();
+        crate::seen_lanes::seen_sh9_lanes(tables, &gamma, &wo, &mut out);
+        for (l, d) in batch.slots[..batch.n].iter().enumerate() {
+            let (y, share) = out.seen(l);
+            let seen = ShSeen {
+                moments: out.moments(l),
+                y,
+                share,
+            };
+            row[d.x] = self.shade_epilogue(
+                &self.objects[d.object],
+                d.position,
+                &d.frame,
+                d.hand,
+                &d.p,
+                &batch.envs[d.env],
                 ctx.scene,
                 ctx.has_env,
-                &mut lobes,
+                lobes,
+                Some(&seen),
             );
         }
+        batch.n = 0;
+        batch.n_envs = 0;
+        batch.last_flat = None;
     }
 
     /// [`Self::row_body`], compiled for the CPU it runs on: an AVX2+FMA copy
@@ -792,6 +935,115 @@ impl NdfMethod {
     #[target_feature(enable = "avx2,fma")]
     unsafe fn row_avx2(&self, ctx: &RowCtx<'_>, y: usize, row: &mut [Vec3]) {
         self.row_body(ctx, y, row);
+    }
+}
+
+/// A pixel's representation ([`NdfMethod::shade_prologue`]).
+#[derive(Clone, Copy)]
+enum Rep {
+    Normal(Vec3),
+    Mean(Vec3),
+    /// An SH NDF, its bands 0–2 in [`Prologue::gamma`].
+    Sh,
+    /// A vMF mixture, its lobes in the caller's scratch.
+    Vmf,
+    Lean(LeanTexel),
+}
+
+/// What [`NdfMethod::shade_prologue`] hands [`NdfMethod::shade_epilogue`].
+#[derive(Clone, Copy)]
+struct Prologue {
+    /// The view direction, tangent frame.
+    wo: Vec3,
+    /// Plain normal mapping's normal and share (`Footprint::plain`).
+    plain: Option<(Vec3, f32)>,
+    rep: Rep,
+    /// [`Rep::Sh`]'s bands 0–2.
+    gamma: [f32; 9],
+    /// [`Rep::Vmf`]'s lobe count.
+    nl: usize,
+}
+
+/// An SH NDF's moments and environment view mask taken ahead
+/// ([`crate::seen_lanes`]).
+struct ShSeen {
+    moments: crate::mask::ShMoments,
+    y: [f32; 9],
+    share: f32,
+}
+
+/// An SH NDF pixel waiting for its view mask ([`NdfMethod::finish_batch`]):
+/// what its [`NdfMethod::shade_epilogue`] reads.
+#[derive(Clone, Copy)]
+struct Deferred {
+    /// Its column.
+    x: usize,
+    object: usize,
+    position: Vec3,
+    frame: Frame,
+    hand: f32,
+    /// Its lighting, [`Batch::envs`]`[env]`.
+    env: usize,
+    p: Prologue,
+}
+
+/// Up to [`crate::seen_lanes::LANES`] [`Deferred`] pixels of one row, and
+/// their lighting: one copy per flat triangle's run of pixels (a row
+/// crosses few), one per pixel elsewhere.
+struct Batch {
+    slots: [Deferred; crate::seen_lanes::LANES],
+    n: usize,
+    envs: [PixelEnv; crate::seen_lanes::LANES],
+    n_envs: usize,
+    /// The flat triangle (object, triangle) whose lighting is
+    /// `envs[n_envs − 1]`, if it came from one.
+    last_flat: Option<(usize, usize)>,
+}
+
+impl Batch {
+    /// An empty batch (its slots' contents are never read before written).
+    fn new() -> Self {
+        let env = PixelEnv {
+            lit: [0.0; 27],
+            env_from_tangent: Mat3::IDENTITY,
+            env_from_sh1: Mat3::IDENTITY,
+        };
+        let slot = Deferred {
+            x: 0,
+            object: 0,
+            position: Vec3::ZERO,
+            frame: Frame::from_z(Vec3::Z),
+            hand: 1.0,
+            env: 0,
+            p: Prologue {
+                wo: Vec3::Z,
+                plain: None,
+                rep: Rep::Sh,
+                gamma: [0.0; 9],
+                nl: 0,
+            },
+        };
+        Self {
+            slots: [slot; crate::seen_lanes::LANES],
+            n: 0,
+            envs: [env; crate::seen_lanes::LANES],
+            n_envs: 0,
+            last_flat: None,
+        }
+    }
+
+    /// Keeps the next slot, the pixel lit by `env`; `flat`: the flat
+    /// triangle it lies on, whose lighting the previous pixel may already
+    /// have stored.
+    #[inline(always)]
+    fn commit(&mut self, env: &PixelEnv, flat: Option<(usize, usize)>) {
+        if flat.is_none() || flat != self.last_flat || self.n_envs == 0 {
+            self.envs[self.n_envs] = *env;
+            self.n_envs += 1;
+            self.last_flat = flat;
+        }
+        self.slots[self.n].env = self.n_envs - 1;
+        self.n += 1;
     }
 }
 
@@ -930,6 +1182,7 @@ struct FlatTriangle {
 /// 9-term dot product per channel (`effective::lambert_sh_env` up to
 /// rounding), and the rotation from the tangent frame to the environment's
 /// frame, where the Lambert tail is looked up.
+#[derive(Clone, Copy)]
 struct PixelEnv {
     lit: [f32; 27],
     env_from_tangent: Mat3,
@@ -1332,6 +1585,34 @@ mod tests {
                 .map(|(p, q)| (*p - *q).abs().max_element())
                 .fold(0.0f32, f32::max);
             assert!(worst <= 1e-5 * peak, "{filter:?}: {worst} of peak {peak}");
+        }
+    }
+
+    #[test]
+    fn masks_in_lanes_shade_as_one_pixel_at_a_time() {
+        // The batched view masks (`seen_lanes`) against the scalar ones, bit
+        // for bit: under the sky with the scene's point light (whose mask
+        // reads the batch's moments), with the flat triangles' shared
+        // lighting and with per-pixel lighting.
+        let map = NormalMap::bumps(64, 4, 0.8);
+        let (scene, mut m) = prepared_plane(&map, NdfFilter::Sh, NdfBrdf::Lambert, true);
+        assert!(!scene.point_lights.is_empty());
+        let req = FrameRequest::new(scene.camera);
+        for flat in [true, false] {
+            m.flat_triangles = flat;
+            m.masks_in_lanes = true;
+            let lanes = m.render(&scene, &req, &NoProgress).expect("render");
+            m.masks_in_lanes = false;
+            let one = m.render(&scene, &req, &NoProgress).expect("render");
+            let lit = one.image.pixels.iter().filter(|p| p.max_element() > 0.0);
+            assert!(lit.count() > one.image.pixels.len() / 4);
+            for (p, q) in lanes.image.pixels.iter().zip(&one.image.pixels) {
+                assert_eq!(
+                    p.to_array().map(f32::to_bits),
+                    q.to_array().map(f32::to_bits),
+                    "flat {flat}: {p} vs {q}"
+                );
+            }
         }
     }
 
