@@ -312,6 +312,12 @@ pub struct MethodFlags {
     /// tens of lobes per pixel) [default: merge].
     #[arg(long)]
     pub vmf_taps: Option<String>,
+    /// How the sh filter masks a pixel's NDF from the eye under environment
+    /// light (ndf): `footprint` (one Gaussian for the footprint's NDF) or
+    /// `probes` (each footprint probe's NDF masked, then averaged: nearer at
+    /// grazing views, about 1.5× the frame time) [default: footprint].
+    #[arg(long)]
+    pub ndf_mask: Option<String>,
     /// Samples per texel side of the interpolated normal field the SH and
     /// vMF pyramids are built from (ndf): 1 (the texel normals), 2 or 4
     /// [default: 2].

@@ -27,7 +27,7 @@ pub fn kind_of(m: Method) -> MethodKind {
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 30] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 31] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
@@ -72,6 +72,7 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 30] = [
     ("--ndf-brdf", &[MethodKind::Ndf]),
     ("--lobes", &[MethodKind::Ndf]),
     ("--vmf-taps", &[MethodKind::Ndf]),
+    ("--ndf-mask", &[MethodKind::Ndf]),
     ("--ndf-supersample", &[MethodKind::Ndf]),
     ("--select", &[MethodKind::Triple]),
     ("--shading", &[MethodKind::Triple]),
@@ -107,6 +108,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.ndf_brdf.is_some(),
         f.lobes.is_some(),
         f.vmf_taps.is_some(),
+        f.ndf_mask.is_some(),
         f.ndf_supersample.is_some(),
         f.select.is_some(),
         f.shading.is_some(),
@@ -165,7 +167,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         error => "--error", rotation => "--rotation", window => "--window", n => "--n", ntess => "--ntess", terms => "--terms",
         ao => "--ao", cache => "--cache", fog => "--fog", exp => "--exp", spheres => "--spheres",
         visibility_texture => "--visibility-texture",
-        normal_filter => "--normal-filter", ndf_brdf => "--ndf-brdf", lobes => "--lobes", vmf_taps => "--vmf-taps", ndf_supersample => "--ndf-supersample",
+        normal_filter => "--normal-filter", ndf_brdf => "--ndf-brdf", lobes => "--lobes", vmf_taps => "--vmf-taps", ndf_mask => "--ndf-mask", ndf_supersample => "--ndf-supersample",
         select => "--select", shading => "--shading", twists => "--twists",
         storage => "--storage",
         source_terms => "--source-terms", source_ranking => "--source-ranking", target_terms => "--target-terms", face => "--face",

@@ -11,7 +11,7 @@ use anyhow::{Result, anyhow, bail};
 use relight_ndf::{NdfBrdf, NdfFilter, NdfOptions};
 
 /// Applies the ndf flags (`--normal-filter`, `--ndf-brdf`, `--lobes`,
-/// `--vmf-taps`, `--ndf-supersample`, `--order`).
+/// `--vmf-taps`, `--ndf-mask`, `--ndf-supersample`, `--order`).
 ///
 /// # Errors
 /// A bad flag value, naming the flag.
@@ -31,11 +31,24 @@ pub fn apply_flags(o: &mut NdfOptions, f: &MethodFlags) -> Result<()> {
     if let Some(t) = &f.vmf_taps {
         o.vmf_taps = t.parse().map_err(|e| anyhow!("--vmf-taps: {e}"))?;
     }
+    if let Some(m) = &f.ndf_mask {
+        o.probe_masks = match m.as_str() {
+            "footprint" => false,
+            "probes" => true,
+            _ => bail!("--ndf-mask: `{m}`: expected footprint or probes"),
+        };
+    }
     if let Some(s) = f.ndf_supersample {
         o.supersample = s;
     }
     if let Some(n) = f.order {
         o.order = n;
+    }
+    if f.ndf_mask.is_some() && o.filter != NdfFilter::Sh {
+        bail!(
+            "--ndf-mask: applies to the sh filter (--normal-filter sh), not {}",
+            o.filter.name()
+        );
     }
     if f.vmf_taps.is_some() && o.filter != NdfFilter::Vmf {
         bail!(
@@ -301,6 +314,27 @@ mod tests {
         };
         let e = apply_flags(&mut o, &bad).unwrap_err();
         assert!(e.to_string().contains("expected merge or mixture"), "{e}");
+    }
+
+    /// `--ndf-mask` picks the sh filter's mask; a bad value or another
+    /// filter is an error naming the flag.
+    #[test]
+    fn ndf_mask_sets_the_sh_filters_probe_masks() {
+        let flags = |filter: &str, mask: &str| MethodFlags {
+            normal_filter: Some(filter.into()),
+            ndf_mask: Some(mask.into()),
+            ..MethodFlags::default()
+        };
+        let mut o = NdfOptions::default();
+        assert!(!o.probe_masks);
+        apply_flags(&mut o, &flags("sh", "probes")).unwrap();
+        assert!(o.probe_masks);
+        apply_flags(&mut o, &flags("sh", "footprint")).unwrap();
+        assert!(!o.probe_masks);
+        let e = apply_flags(&mut o, &flags("sh", "each")).unwrap_err();
+        assert!(e.to_string().starts_with("--ndf-mask: `each`"), "{e}");
+        let e = apply_flags(&mut o, &flags("vmf", "probes")).unwrap_err();
+        assert!(e.to_string().starts_with("--ndf-mask: applies"), "{e}");
     }
 
     /// Small tiles are enlarged to a readable width and laid out two per

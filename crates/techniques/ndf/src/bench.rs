@@ -151,25 +151,43 @@ pub fn bench_ndf(
         );
     }
     let blinn = NdfBrdf::Blinn { s: 64.0 };
-    for (filter, vmf_taps, brdf, env, target) in [
+    for (filter, vmf_taps, probe_masks, brdf, env, target) in [
         (
             NdfFilter::Sh,
             VmfTaps::Merge,
+            false,
             NdfBrdf::Lambert,
             true,
             Some((1e3 / 60.0, "SH Lambert ≥ 60 fps at 512²")),
         ),
+        // The sh filter's quality mode: the view mask per footprint probe.
+        (
+            NdfFilter::Sh,
+            VmfTaps::Merge,
+            true,
+            NdfBrdf::Lambert,
+            true,
+            None,
+        ),
         (
             NdfFilter::Vmf,
             VmfTaps::Merge,
+            false,
             blinn,
             false,
             Some((1e3 / 25.0, "vMF J=6, one light ≥ 25 fps at 512²")),
         ),
         // The quality mode: what keeping every tap's lobes costs.
-        (NdfFilter::Vmf, VmfTaps::Mixture, blinn, false, None),
-        (NdfFilter::Toksvig, VmfTaps::Merge, blinn, false, None),
-        (NdfFilter::Lean, VmfTaps::Merge, blinn, false, None),
+        (NdfFilter::Vmf, VmfTaps::Mixture, false, blinn, false, None),
+        (
+            NdfFilter::Toksvig,
+            VmfTaps::Merge,
+            false,
+            blinn,
+            false,
+            None,
+        ),
+        (NdfFilter::Lean, VmfTaps::Merge, false, blinn, false, None),
     ] {
         let mut scene = crate::verify::horizon_plane_scene(map, brdf, image, 16.0);
         if env {
@@ -186,6 +204,7 @@ pub fn bench_ndf(
             filter,
             brdf,
             vmf_taps,
+            probe_masks,
             ..NdfOptions::default()
         })?;
         m.prepare(&scene, &NoProgress)?;
@@ -203,11 +222,14 @@ pub fn bench_ndf(
         rows.push(
             NdfBenchRow {
                 what: "frame".into(),
-                representation: match vmf_taps {
-                    VmfTaps::Mixture => {
+                representation: match (vmf_taps, probe_masks) {
+                    (VmfTaps::Mixture, _) => {
                         format!("{}, taps as a mixture ({})", filter.name(), brdf.label())
                     }
-                    VmfTaps::Merge => format!("{} ({})", filter.name(), brdf.label()),
+                    (VmfTaps::Merge, true) => {
+                        format!("{}, mask per probe ({})", filter.name(), brdf.label())
+                    }
+                    (VmfTaps::Merge, false) => format!("{} ({})", filter.name(), brdf.label()),
                 },
                 size: image,
                 ms,

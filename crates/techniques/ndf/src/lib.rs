@@ -29,8 +29,9 @@
 //!   shades zero) from the NDF's mean and covariance: correlated with the
 //!   light under a point light, the seen part of the NDF under environment
 //!   light.
-//! * [`seen_lanes`]: that environment mask for eight pixels at once, bit for
-//!   bit the scalar form, which the method's rows batch their SH pixels into.
+//! * [`seen_lanes`]: that environment mask for eight NDFs at once (pixels,
+//!   or with `NdfOptions::probe_masks` their footprints' probes), bit for bit
+//!   the scalar form, which the method's rows batch their SH pixels into.
 //!
 //! # Runtime
 //! [`method::NdfMethod`] (`--method ndf`) shades per pixel with the MIP
@@ -469,13 +470,26 @@ impl Footprint {
     #[inline(always)]
     #[must_use]
     pub fn level_weights(&self, levels: usize) -> ([(usize, f32); 2], usize) {
+        self.level_weights_times(levels, 1.0 / self.count as f32)
+    }
+
+    /// [`Self::level_weights`] of one probe (without the probes' `1/count`):
+    /// a probe's own trilinear sample.
+    #[inline(always)]
+    #[must_use]
+    pub fn probe_level_weights(&self, levels: usize) -> ([(usize, f32); 2], usize) {
+        self.level_weights_times(levels, 1.0)
+    }
+
+    /// The trilinear levels' weights times `w`.
+    #[inline(always)]
+    fn level_weights_times(&self, levels: usize, w: f32) -> ([(usize, f32); 2], usize) {
         let top = (levels - 1) as f32;
         let lod = self.lod.clamp(0.0, top);
         // `lod ≥ 0` (or NaN, which casts to 0 either way): truncation is
         // the floor, without a `floorf` call.
         let k0 = lod as usize;
         let t = lod - k0 as f32;
-        let w = 1.0 / self.count as f32;
         let first = (k0, (1.0 - t) * w);
         if t > 0.0 && k0 + 1 < levels {
             ([first, (k0 + 1, t * w)], 2)
@@ -513,6 +527,57 @@ impl Footprint {
                 }
             }
         }
+    }
+
+    /// [`Self::visit_level`] a probe at a time: `add(probe, taps)` with the
+    /// probe's four bilinear taps `(texel, weight × wk)`, in order.
+    #[inline(always)]
+    pub fn visit_level_probes(
+        &self,
+        dims: (usize, usize),
+        wk: f32,
+        mut add: impl FnMut(usize, [(usize, f32); 4]),
+    ) {
+        let taps = self.level_taps(dims, wk);
+        for (p, t) in taps[..self.count].iter().enumerate() {
+            add(p, *t);
+        }
+    }
+
+    /// Each probe's four bilinear taps on one level of size `dims`, weights
+    /// times `wk` (the first [`Self::count`] are set): [`Self::visit_level`]'s
+    /// taps, the same products. [`Self::visit_level_probes`] calls its
+    /// visitor once, where a visitor called from three branches was left out
+    /// of line (outside the caller's AVX2 copy).
+    #[inline(always)]
+    fn level_taps(&self, dims: (usize, usize), wk: f32) -> [[(usize, f32); 4]; MAX_PROBES] {
+        let (lw, lh) = dims;
+        let mut out = [[(0, 0.0); 4]; MAX_PROBES];
+        if lw.is_power_of_two() && lh.is_power_of_two() {
+            #[cfg(target_arch = "x86_64")]
+            if let Some((index, weight)) = sse2::probe_taps_pow2(&self.probes, lw, lh, wk) {
+                for (p, o) in out.iter_mut().enumerate().take(self.count) {
+                    for (t, tap) in o.iter_mut().enumerate() {
+                        *tap = (index[t][p] as usize, weight[t][p]);
+                    }
+                }
+                return out;
+            }
+            for (o, p) in out.iter_mut().zip(self.probes()) {
+                *o = taps_pow2(lw, lh, *p);
+                for (_, w) in o.iter_mut() {
+                    *w *= wk;
+                }
+            }
+        } else {
+            for (o, p) in out.iter_mut().zip(self.probes()) {
+                *o = taps(lw, lh, *p);
+                for (_, w) in o.iter_mut() {
+                    *w *= wk;
+                }
+            }
+        }
+        out
     }
 
     /// Visits every texel tap of the footprint: `add(level, texel, weight)`

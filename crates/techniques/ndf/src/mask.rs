@@ -321,25 +321,61 @@ fn seen_share_of(mx: f32, my: f32, vx: f32, vy: f32, c: f32) -> f32 {
 #[inline(always)]
 #[must_use]
 pub fn seen_sh9(gamma: &[f32], wo: Vec3) -> ([f32; 9], f32) {
-    seen_sh9_with(gamma, &ShMoments::of_sh(gamma), wo)
+    seen_sh9_with(&ShMoments::of_sh(gamma), wo)
 }
 
-/// [`seen_sh9`] with `gamma`'s moments already taken
-/// (`ShMoments::of_sh(gamma)`, shared with the point lights' mask).
+/// [`seen_sh9`] with the NDF's moments already taken
+/// (`ShMoments::of_sh(gamma)`): [`seen_moments`], then
+/// [`sh9_of_seen_moments`].
 #[inline(always)]
 #[must_use]
-pub fn seen_sh9_with(gamma: &[f32], mom: &ShMoments, wo: Vec3) -> ([f32; 9], f32) {
+pub fn seen_sh9_with(mom: &ShMoments, wo: Vec3) -> ([f32; 9], f32) {
+    let (e, share) = seen_moments(mom, wo);
+    (sh9_of_seen_moments(&e), share)
+}
+
+/// The moments of the part of an NDF (of moments `mom`) that faces `wo`
+/// ([`seen_sh9`]'s model): `E[n H]` (x y z) then `E[n nᵀ H]` (xx, yy, zz,
+/// xy, xz, yz), and the share `E[H]`. Linear in the seen part, so a
+/// footprint's probes average them before [`sh9_of_seen_moments`]. Where
+/// every normal faces the viewer (a delta in front, or `α > 6`) they are
+/// the NDF's own `(m, C + m mᵀ)`, and zero where none does.
+#[inline(always)]
+#[must_use]
+pub fn seen_moments(mom: &ShMoments, wo: Vec3) -> ([f32; 9], f32) {
     let m = mom.mean;
+    let c = &mom.cov;
     let mu = m.dot(wo);
-    let s2 = mom.cov_form(wo, wo);
-    let mut out = [0.0f32; 9];
+    // `C ω_o`, whose dot with ω_o is `cov_form(ω_o, ω_o)`.
+    let cw = Vec3::new(
+        c[0] * wo.x + c[3] * wo.y + c[4] * wo.z,
+        c[3] * wo.x + c[1] * wo.y + c[5] * wo.z,
+        c[4] * wo.x + c[5] * wo.y + c[2] * wo.z,
+    );
+    let s2 = wo.x * cw.x + wo.y * cw.y + wo.z * cw.z;
+    let whole = |front: bool| {
+        if front {
+            (
+                [
+                    m.x,
+                    m.y,
+                    m.z,
+                    c[0] + m.x * m.x,
+                    c[1] + m.y * m.y,
+                    c[2] + m.z * m.z,
+                    c[3] + m.x * m.y,
+                    c[4] + m.x * m.z,
+                    c[5] + m.y * m.z,
+                ],
+                1.0,
+            )
+        } else {
+            ([0.0; 9], 0.0)
+        }
+    };
     // A delta, or a spread too small for f32 moments to resolve.
     if s2 <= 1e-10 {
-        if mu > 0.0 {
-            out.copy_from_slice(&gamma[..9]);
-            return (out, 1.0);
-        }
-        return (out, 0.0);
+        return whole(mu > 0.0);
     }
     // One division: `1/s` scales `μ` and `C ω_o`.
     let inv_s = 1.0 / s2.sqrt();
@@ -347,46 +383,49 @@ pub fn seen_sh9_with(gamma: &[f32], mom: &ShMoments, wo: Vec3) -> ([f32; 9], f32
     // Beyond 6σ the share is 1 or 0 to 1e-9: the NDF itself, or nothing
     // (most pixels of a view that is not grazing).
     if alpha.abs() > 6.0 {
-        if alpha > 0.0 {
-            out.copy_from_slice(&gamma[..9]);
-            return (out, 1.0);
-        }
-        return (out, 0.0);
+        return whole(alpha > 0.0);
     }
     let (cdf_a, pdf_a) = crate::effective::normal_cdf_pdf(alpha);
-    let c = &mom.cov;
-    let cw = Vec3::new(
-        c[0] * wo.x + c[3] * wo.y + c[4] * wo.z,
-        c[3] * wo.x + c[1] * wo.y + c[5] * wo.z,
-        c[4] * wo.x + c[5] * wo.y + c[2] * wo.z,
-    );
     let g = cw * inv_s;
-    let e1 = m * cdf_a + g * pdf_a;
     // E[n nᵀ H] as [xx, yy, zz, xy, xz, yz].
     let second = |i: usize, j: usize, cij: f32| {
         (cij + m[i] * m[j]) * cdf_a + (m[i] * g[j] + g[i] * m[j]) * pdf_a
             - g[i] * g[j] * alpha * pdf_a
     };
-    let e2 = [
-        second(0, 0, c[0]),
-        second(1, 1, c[1]),
-        second(2, 2, c[2]),
-        second(0, 1, c[3]),
-        second(0, 2, c[4]),
-        second(1, 2, c[5]),
-    ];
+    (
+        [
+            m.x * cdf_a + g.x * pdf_a,
+            m.y * cdf_a + g.y * pdf_a,
+            m.z * cdf_a + g.z * pdf_a,
+            second(0, 0, c[0]),
+            second(1, 1, c[1]),
+            second(2, 2, c[2]),
+            second(0, 1, c[3]),
+            second(0, 2, c[4]),
+            second(1, 2, c[5]),
+        ],
+        cdf_a,
+    )
+}
+
+/// Bands 0–2 of a seen part from its [`seen_moments`]: `γ'_i = b_i·E[n H] +
+/// tr(A_i E[n nᵀ H])` ([`seen_sh9`]'s model).
+#[inline(always)]
+#[must_use]
+pub fn sh9_of_seen_moments(e: &[f32; 9]) -> [f32; 9] {
+    let mut out = [0.0f32; 9];
     for (o, q) in out.iter_mut().zip(quadratic_forms()) {
-        *o = q[0] * e1.x
-            + q[1] * e1.y
-            + q[2] * e1.z
-            + q[3] * e2[0]
-            + q[4] * e2[1]
-            + q[5] * e2[2]
-            + q[6] * e2[3]
-            + q[7] * e2[4]
-            + q[8] * e2[5];
+        *o = q[0] * e[0]
+            + q[1] * e[1]
+            + q[2] * e[2]
+            + q[3] * e[3]
+            + q[4] * e[4]
+            + q[5] * e[5]
+            + q[6] * e[6]
+            + q[7] * e[7]
+            + q[8] * e[8];
     }
-    (out, cdf_a)
+    out
 }
 
 /// `y_i(n) = b·n + nᵀ A n` on the unit sphere for `i < 9`, as

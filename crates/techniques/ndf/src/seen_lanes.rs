@@ -1,20 +1,21 @@
-//! [`crate::mask::seen_sh9`] for [`LANES`] pixels at once: the environment
-//! light's view mask of an SH NDF, the part of a pixel's frame that cost
-//! the most (about 30 % of an SH Lambert frame, one pixel at a time, in
-//! scalar code between table lookups).
+//! [`crate::mask::seen_sh9`]'s two steps for [`LANES`] NDFs at once: the
+//! environment light's view mask of an SH NDF, the part of a pixel's frame
+//! that cost the most (about 30 % of an SH Lambert frame, one pixel at a
+//! time, in scalar code between table lookups).
 //!
-//! The pixels' inputs are stored by coefficient (`gamma[i][lane]`), and
-//! every step is a loop over the lanes with no branch and no call, which
-//! the compiler turns into 8-wide (AVX2) or 2 × 4-wide (SSE2) vector code;
-//! the scalar form's early returns (a delta, `|α| > 6`) become selects at
-//! the end. Each lane computes the same f32 operations in the same order
-//! as [`crate::mask::ShMoments::of_sh`] then
-//! [`crate::mask::seen_sh9_with`] (the exponential is
-//! [`crate::effective::exp_neg`] in both), so a lane equals the scalar
-//! form bit for bit (tested), and both copies of the pixel loop give the
-//! same image.
-
-use crate::mask::ShMoments;
+//! [`seen_moments_lanes`] takes each NDF's moments and its seen part's
+//! moments (one lane per NDF: a footprint's probes each get a lane, and the
+//! method averages a pixel's probes' moments), [`sh9_of_seen_moments_lanes`]
+//! turns moments into bands 0–2 (one lane per pixel). Inputs are stored by
+//! coefficient (`gamma[i][lane]`), and every step is a loop over the lanes
+//! with no branch and no call, which the compiler turns into 8-wide (AVX2)
+//! or 2 × 4-wide (SSE2) vector code; the scalar form's early returns (a
+//! delta, `|α| > 6`) become selects. Each lane computes the same f32
+//! operations in the same order as [`crate::mask::ShMoments::of_sh`],
+//! [`crate::mask::seen_moments`] and [`crate::mask::sh9_of_seen_moments`]
+//! (the exponential is [`crate::effective::exp_neg`] in both), so a lane
+//! equals the scalar form bit for bit (tested), and both copies of the
+//! pixel loop give the same image.
 
 /// Pixels per call.
 pub const LANES: usize = 8;
@@ -47,47 +48,6 @@ impl SeenTables {
     }
 }
 
-/// What [`seen_sh9_lanes`] gives per lane: the seen bands 0–2, their share
-/// of the NDF, and the NDF's moments (for point lights' masks).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct SeenLanes {
-    /// `γ'_i` per lane ([`crate::mask::seen_sh9`]'s first value).
-    pub y: [Lanes; 9],
-    /// `P(n·ω_o > 0)` per lane.
-    pub share: Lanes,
-    /// `E[n]` per lane, x y z.
-    pub mean: [Lanes; 3],
-    /// `Cov[n]` per lane, `xx, yy, zz, xy, xz, yz`.
-    pub cov: [Lanes; 6],
-}
-
-impl SeenLanes {
-    /// Lane `l`'s moments.
-    #[inline(always)]
-    #[must_use]
-    pub fn moments(&self, l: usize) -> ShMoments {
-        let mut cov = [0.0; 6];
-        for (c, v) in cov.iter_mut().zip(&self.cov) {
-            *c = v[l];
-        }
-        ShMoments {
-            mean: glam::Vec3::new(self.mean[0][l], self.mean[1][l], self.mean[2][l]),
-            cov,
-        }
-    }
-
-    /// Lane `l`'s seen bands and share.
-    #[inline(always)]
-    #[must_use]
-    pub fn seen(&self, l: usize) -> ([f32; 9], f32) {
-        let mut y = [0.0; 9];
-        for (y, v) in y.iter_mut().zip(&self.y) {
-            *y = v[l];
-        }
-        (y, self.share[l])
-    }
-}
-
 /// `v[l] = f(l)` over the lanes.
 #[inline(always)]
 fn lanes(f: impl Fn(usize) -> f32) -> Lanes {
@@ -98,21 +58,29 @@ fn lanes(f: impl Fn(usize) -> f32) -> Lanes {
     v
 }
 
-/// [`crate::mask::seen_sh9`] of `gamma` (bands 0–2 by coefficient: lane
-/// `l`'s NDF is `gamma[·][l]`) seen from `wo` (x y z by lane, the tangent
-/// frame), into `out`. Lanes a caller does not use may hold any finite
-/// values.
+/// [`crate::mask::ShMoments::of_sh`] then [`crate::mask::seen_moments`] of
+/// `gamma` (bands 0–2 by coefficient: lane `l`'s NDF is `gamma[·][l]`) seen
+/// from `wo` (x y z by lane, the tangent frame): the seen part's moments
+/// into `e` and its share into `share`. Lanes a caller does not use may
+/// hold any finite values.
 #[inline(always)]
-pub fn seen_sh9_lanes(t: &SeenTables, gamma: &[Lanes; 9], wo: &[Lanes; 3], out: &mut SeenLanes) {
+pub fn seen_moments_lanes(
+    t: &SeenTables,
+    gamma: &[Lanes; 9],
+    wo: &[Lanes; 3],
+    e: &mut [Lanes; 9],
+    share: &mut Lanes,
+) {
     let g = gamma;
     // `ShMoments::of_sh`: the mean from band 1, then E[n nᵀ] from bands 0, 2.
     let k = 4.0 * std::f32::consts::PI / 3.0;
-    for (a, m) in t.axes.iter().zip(&mut out.mean) {
+    let mut m = [[0.0; LANES]; 3];
+    for (a, m) in t.axes.iter().zip(&mut m) {
         *m = lanes(|l| (g[1][l] * a[0] + g[2][l] * a[1] + g[3][l] * a[2]) * k);
     }
-    let m = out.mean;
     let pairs = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
-    for ((row, &(i, j)), c) in t.proj.iter().zip(&pairs).zip(&mut out.cov) {
+    let mut c = [[0.0; LANES]; 6];
+    for ((row, &(i, j)), c) in t.proj.iter().zip(&pairs).zip(&mut c) {
         *c = lanes(|l| {
             let mut band2 = 0.0;
             for q in 4..9 {
@@ -121,18 +89,17 @@ pub fn seen_sh9_lanes(t: &SeenTables, gamma: &[Lanes; 9], wo: &[Lanes; 3], out: 
             (g[0][l] * row[0] + band2) - m[i][l] * m[j][l]
         });
     }
-    let c = out.cov;
-    // `seen_sh9_with`.
+    // `mask::seen_moments`.
     let mu = lanes(|l| m[0][l] * wo[0][l] + m[1][l] * wo[1][l] + m[2][l] * wo[2][l]);
-    // `C ω_o`, whose dot with ω_o is `ShMoments::cov_form(ω_o, ω_o)`.
     let cw = [
         lanes(|l| c[0][l] * wo[0][l] + c[3][l] * wo[1][l] + c[4][l] * wo[2][l]),
         lanes(|l| c[3][l] * wo[0][l] + c[1][l] * wo[1][l] + c[5][l] * wo[2][l]),
         lanes(|l| c[4][l] * wo[0][l] + c[5][l] * wo[1][l] + c[2][l] * wo[2][l]),
     ];
     let s2 = lanes(|l| wo[0][l] * cw[0][l] + wo[1][l] * cw[1][l] + wo[2][l] * cw[2][l]);
-    // The scalar form's `s2 ≤ 1e-10` (a delta) and `|α| > 6` returns:
-    // the whole NDF where the mean faces the viewer, nothing elsewhere.
+    // The scalar form's `s2 ≤ 1e-10` (a delta) and `|α| > 6` returns: the
+    // whole NDF where the mean faces the viewer, nothing elsewhere (1, 0;
+    // −1: neither).
     let inv_s = lanes(|l| 1.0 / s2[l].max(1e-10).sqrt());
     let alpha = lanes(|l| mu[l] * inv_s[l]);
     let whole = lanes(|l| {
@@ -172,45 +139,54 @@ pub fn seen_sh9_lanes(t: &SeenTables, gamma: &[Lanes; 9], wo: &[Lanes; 3], out: 
         lanes(|l| cw[1][l] * inv_s[l]),
         lanes(|l| cw[2][l] * inv_s[l]),
     ];
-    let mut e1 = [[0.0; LANES]; 3];
-    for (i, e) in e1.iter_mut().enumerate() {
-        *e = lanes(|l| m[i][l] * cdf[l] + gg[i][l] * pdf[l]);
-    }
-    let mut e2 = [[0.0; LANES]; 6];
-    for (p, e) in e2.iter_mut().enumerate() {
-        let (i, j) = pairs[p];
+    // Values computed first, then plain `if` selects: blends, not branches.
+    for (i, e) in e.iter_mut().take(3).enumerate() {
+        let v = lanes(|l| m[i][l] * cdf[l] + gg[i][l] * pdf[l]);
         *e = lanes(|l| {
+            let w = whole[l];
+            let kept = if w > 0.5 { m[i][l] } else { 0.0 };
+            if w < -0.5 { v[l] } else { kept }
+        });
+    }
+    for (p, e) in e.iter_mut().skip(3).enumerate() {
+        let (i, j) = pairs[p];
+        let v = lanes(|l| {
             (c[p][l] + m[i][l] * m[j][l]) * cdf[l]
                 + (m[i][l] * gg[j][l] + gg[i][l] * m[j][l]) * pdf[l]
                 - gg[i][l] * gg[j][l] * alpha[l] * pdf[l]
         });
-    }
-    for ((y, q), gi) in out.y.iter_mut().zip(&t.quad).zip(g) {
-        let v = lanes(|l| {
-            q[0] * e1[0][l]
-                + q[1] * e1[1][l]
-                + q[2] * e1[2][l]
-                + q[3] * e2[0][l]
-                + q[4] * e2[1][l]
-                + q[5] * e2[2][l]
-                + q[6] * e2[3][l]
-                + q[7] * e2[4][l]
-                + q[8] * e2[5][l]
-        });
-        // Selects of values already computed: blends, not branches.
-        *y = lanes(|l| {
+        let all = lanes(|l| c[p][l] + m[i][l] * m[j][l]);
+        *e = lanes(|l| {
             let w = whole[l];
-            let kept = if w > 0.5 { gi[l] } else { 0.0 };
+            let kept = if w > 0.5 { all[l] } else { 0.0 };
             if w < -0.5 { v[l] } else { kept }
         });
     }
-    out.share = lanes(|l| if whole[l] >= 0.0 { whole[l] } else { cdf[l] });
+    *share = lanes(|l| if whole[l] >= 0.0 { whole[l] } else { cdf[l] });
+}
+
+/// [`crate::mask::sh9_of_seen_moments`] by lanes: `y[i][l]` from `e[·][l]`.
+#[inline(always)]
+pub fn sh9_of_seen_moments_lanes(t: &SeenTables, e: &[Lanes; 9], y: &mut [Lanes; 9]) {
+    for (y, q) in y.iter_mut().zip(&t.quad) {
+        *y = lanes(|l| {
+            q[0] * e[0][l]
+                + q[1] * e[1][l]
+                + q[2] * e[2][l]
+                + q[3] * e[3][l]
+                + q[4] * e[4][l]
+                + q[5] * e[5][l]
+                + q[6] * e[6][l]
+                + q[7] * e[7][l]
+                + q[8] * e[8][l]
+        });
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mask::{ShMoments, seen_sh9_with};
+    use crate::mask::{ShMoments, seen_moments, sh9_of_seen_moments};
     use glam::Vec3;
 
     /// NDFs from deltas (one normal), narrow and broad clusters, and
@@ -226,6 +202,7 @@ mod tests {
         };
         let t = SeenTables::get();
         let mut branches = [0usize; 3];
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         for batch in 0..400 {
             let mut gamma = [[0.0; LANES]; 9];
             let mut wo = [[0.0; LANES]; 3];
@@ -254,21 +231,22 @@ mod tests {
                 }
                 scalar_in.push((g, w));
             }
-            let mut out = SeenLanes::default();
-            seen_sh9_lanes(&t, &gamma, &wo, &mut out);
+            let mut e = [[0.0; LANES]; 9];
+            let mut share = [0.0; LANES];
+            seen_moments_lanes(&t, &gamma, &wo, &mut e, &mut share);
+            let mut y = [[0.0; LANES]; 9];
+            sh9_of_seen_moments_lanes(&t, &e, &mut y);
             for (l, (g, w)) in scalar_in.iter().enumerate() {
-                let mom = ShMoments::of_sh(g);
-                assert_eq!(out.moments(l), mom, "batch {batch} lane {l}: moments");
-                let (y, share) = seen_sh9_with(g, &mom, *w);
-                let (ly, lshare) = out.seen(l);
-                assert_eq!(
-                    (ly.map(f32::to_bits), lshare.to_bits()),
-                    (y.map(f32::to_bits), share.to_bits()),
-                    "batch {batch} lane {l}: {ly:?} {lshare} vs {y:?} {share}"
-                );
-                let branch = if share == 1.0 {
+                let (se, ss) = seen_moments(&ShMoments::of_sh(g), *w);
+                let le: Vec<f32> = e.iter().map(|v| v[l]).collect();
+                let ly: Vec<f32> = y.iter().map(|v| v[l]).collect();
+                assert_eq!(bits(&le), bits(&se), "batch {batch} lane {l}: moments");
+                assert_eq!(share[l].to_bits(), ss.to_bits(), "batch {batch} lane {l}");
+                let sy = sh9_of_seen_moments(&se);
+                assert_eq!(bits(&ly), bits(&sy), "batch {batch} lane {l}: bands");
+                let branch = if ss == 1.0 {
                     0
-                } else if share == 0.0 {
+                } else if ss == 0.0 {
                     1
                 } else {
                     2

@@ -169,6 +169,36 @@ impl ShNdfPyramid {
         }
     }
 
+    /// Each probe's own bands 0–2 into `out[p]` for `p < fp.count` (its
+    /// trilinear sample, not divided by the count; any order, bands 0–2 read).
+    /// Their mean is [`Self::sample_footprint`]'s (to rounding); the
+    /// method masks each probe's NDF on its own (`crate::method`, module
+    /// docs), since the mask is not linear in the NDF.
+    #[inline(always)]
+    pub fn sample_probes9(&self, fp: &crate::Footprint, out: &mut [[f32; 9]; crate::MAX_PROBES]) {
+        let nn = self.order * self.order;
+        for o in out.iter_mut().take(fp.count) {
+            *o = [0.0; 9];
+        }
+        let (lv, count) = fp.probe_level_weights(self.levels.len());
+        for &(k, wk) in &lv[..count] {
+            let l = &self.levels[k];
+            fp.visit_level_probes((l.width, l.height), wk, |p, taps| {
+                // The probe's four taps summed in registers, then added.
+                let mut a = [0.0f32; 9];
+                for (i, w) in taps {
+                    let c = &l.coeffs[i * nn..i * nn + 9];
+                    for j in 0..9 {
+                        a[j] += c[j] * w;
+                    }
+                }
+                for (o, a) in out[p].iter_mut().zip(a) {
+                    *o += a;
+                }
+            });
+        }
+    }
+
     /// [`Self::sample`] for order 3 (9 coefficients per texel).
     #[inline]
     fn sample9(&self, uv: glam::Vec2, lod: f32) -> [f32; 9] {

@@ -191,20 +191,25 @@ pub fn screen(
                     pass: target.map(|t| error <= t),
                 });
             };
+            let render_with =
+                |filter: NdfFilter, vmf_taps: VmfTaps, probe_masks: bool, aa: usize| {
+                    let mut m = NdfMethod::new(NdfOptions {
+                        filter,
+                        brdf,
+                        vmf_taps,
+                        probe_masks,
+                        ..NdfOptions::default()
+                    })?;
+                    m.prepare(&scene, progress)?;
+                    render_frame(
+                        &mut m,
+                        &scene,
+                        &FrameRequest::new(scene.camera).with_aa(aa),
+                        progress,
+                    )
+                };
             let render_taps = |filter: NdfFilter, vmf_taps: VmfTaps, aa: usize| {
-                let mut m = NdfMethod::new(NdfOptions {
-                    filter,
-                    brdf,
-                    vmf_taps,
-                    ..NdfOptions::default()
-                })?;
-                m.prepare(&scene, progress)?;
-                render_frame(
-                    &mut m,
-                    &scene,
-                    &FrameRequest::new(scene.camera).with_aa(aa),
-                    progress,
-                )
+                render_with(filter, vmf_taps, false, aa)
             };
             let render = |filter: NdfFilter, aa: usize| render_taps(filter, VmfTaps::Merge, aa);
             let plain = render(NdfFilter::None, 8)?;
@@ -255,6 +260,24 @@ pub fn screen(
                     error: Some(e),
                     target,
                 });
+                if filter == NdfFilter::Sh && light == ScreenLight::Sky {
+                    // The sh filter's quality mode: the environment's view
+                    // mask per footprint probe (`NdfOptions::probe_masks`).
+                    let img = render_with(filter, VmfTaps::Merge, true, 1)?;
+                    let e = img.image.relative_rms_error(&reference.image, Some(&mask));
+                    row(
+                        "sh, mask per probe",
+                        e,
+                        Some(SCREEN_TARGET),
+                        "issue 14: screen ≤ 5 %",
+                    );
+                    tiles.push(ScreenTile {
+                        label: "sh, mask per probe".into(),
+                        image: img.image,
+                        error: Some(e),
+                        target: Some(SCREEN_TARGET),
+                    });
+                }
                 if filter == NdfFilter::Vmf {
                     // The same lobes without the merge: what the merge costs.
                     let img = render_taps(filter, VmfTaps::Mixture, 1)?;
