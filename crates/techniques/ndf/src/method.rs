@@ -896,67 +896,62 @@ impl NdfMethod {
         if batch.n == 0 {
             return;
         }
-        // One lane per NDF: a pixel's footprint, or with `probe_masks` each
-        // of its probes (≤ MAX_PROBES per pixel), in chunks of LANES.
-        const CHUNKS: usize = crate::MAX_PROBES;
-        let mut gamma = [[[0.0; LANES]; 9]; CHUNKS];
-        let mut wo = [[[0.0; LANES]; 3]; CHUNKS];
-        let mut items = 0;
-        for d in &batch.slots[..batch.n] {
-            let ndfs = if d.p.probes == 0 {
-                std::slice::from_ref(&d.p.gamma)
-            } else {
-                &d.p.probe_gamma[..d.p.probes]
-            };
-            for g in ndfs {
-                let (c, k) = (items / LANES, items % LANES);
-                for (gi, v) in gamma[c].iter_mut().zip(g) {
-                    gi[k] = *v;
-                }
-                for (w, v) in wo[c].iter_mut().zip(d.p.wo.to_array()) {
-                    w[k] = v;
-                }
-                items += 1;
-            }
-        }
-        // Unused lanes of the last chunk: γ = 0 (a delta's branch), ignored.
-        let mut e = [[[0.0; LANES]; 9]; CHUNKS];
-        let mut share = [[0.0; LANES]; CHUNKS];
-        for c in 0..items.div_ceil(LANES) {
-            crate::seen_lanes::seen_moments_lanes(
-                tables,
-                &gamma[c],
-                &wo[c],
-                &mut e[c],
-                &mut share[c],
-            );
-        }
-        // Each pixel's NDF's moments, or its probes' mean in
-        // `seen_of_probes`' order, one lane per pixel.
-        let mut e_pixel = [[0.0; LANES]; 9];
-        let mut share_pixel = [0.0; LANES];
-        let mut item = 0;
+        // One lane per pixel, one plane per probe: plane `j` holds each
+        // pixel's probe `j` (with `probe_masks`; else plane 0 holds the
+        // footprint's NDF). Lanes past a pixel's probes keep γ = 0 (a
+        // delta's branch) and are not read.
+        const PLANES: usize = crate::MAX_PROBES;
+        let mut gamma = [[[0.0; LANES]; 9]; PLANES];
+        let mut wo = [[0.0; LANES]; 3];
+        let mut probes = [0usize; LANES];
+        let mut planes = 1;
         for (l, d) in batch.slots[..batch.n].iter().enumerate() {
+            for (w, v) in wo.iter_mut().zip(d.p.wo.to_array()) {
+                w[l] = v;
+            }
+            probes[l] = d.p.probes;
             if d.p.probes == 0 {
-                let (c, k) = (item / LANES, item % LANES);
-                for (ep, ei) in e_pixel.iter_mut().zip(&e[c]) {
-                    ep[l] = ei[k];
+                for (g, v) in gamma[0].iter_mut().zip(d.p.gamma) {
+                    g[l] = v;
                 }
-                share_pixel[l] = share[c][k];
-                item += 1;
                 continue;
             }
-            let inv_n = 1.0 / d.p.probes as f32;
-            let mut sum = 0.0;
-            for _ in 0..d.p.probes {
-                let (c, k) = (item / LANES, item % LANES);
-                for (ep, ei) in e_pixel.iter_mut().zip(&e[c]) {
-                    ep[l] += ei[k] * inv_n;
+            planes = planes.max(d.p.probes);
+            for (plane, pg) in gamma.iter_mut().zip(&d.p.probe_gamma[..d.p.probes]) {
+                for (g, v) in plane.iter_mut().zip(pg) {
+                    g[l] = *v;
                 }
-                sum += share[c][k] * inv_n;
-                item += 1;
             }
-            share_pixel[l] = sum;
+        }
+        let mut e_pixel = [[0.0; LANES]; 9];
+        let mut share_pixel = [0.0; LANES];
+        if !self.options.probe_masks {
+            crate::seen_lanes::seen_moments_lanes(
+                tables,
+                &gamma[0],
+                &wo,
+                &mut e_pixel,
+                &mut share_pixel,
+            );
+        } else {
+            // Each pixel's probes' mean, in `seen_of_probes`' order: a
+            // plane past a pixel's probes leaves its sums as they are.
+            let inv_n: [f32; LANES] = std::array::from_fn(|l| 1.0 / probes[l].max(1) as f32);
+            let mut e = [[0.0; LANES]; 9];
+            let mut share = [0.0; LANES];
+            for (j, plane) in gamma.iter().enumerate().take(planes) {
+                crate::seen_lanes::seen_moments_lanes(tables, plane, &wo, &mut e, &mut share);
+                for (ep, ej) in e_pixel.iter_mut().zip(&e) {
+                    for l in 0..LANES {
+                        let sum = ep[l] + ej[l] * inv_n[l];
+                        ep[l] = if j < probes[l] { sum } else { ep[l] };
+                    }
+                }
+                for l in 0..LANES {
+                    let sum = share_pixel[l] + share[l] * inv_n[l];
+                    share_pixel[l] = if j < probes[l] { sum } else { share_pixel[l] };
+                }
+            }
         }
         let mut y = [[0.0; LANES]; 9];
         crate::seen_lanes::sh9_of_seen_moments_lanes(tables, &e_pixel, &mut y);
