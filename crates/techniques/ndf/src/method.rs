@@ -584,9 +584,9 @@ impl NdfMethod {
 
     /// The radiance of a [`Self::shade_prologue`]: environment light
     /// (Lambert) and point lights, times the object's colour. `seen` holds
-    /// an SH NDF's moments and view mask when the caller took them for
-    /// several pixels at once ([`crate::seen_lanes`]); else they are taken
-    /// here, the same f32 operations.
+    /// an SH NDF's environment view mask when the caller took it for
+    /// several pixels at once ([`crate::seen_lanes`]); else it is taken
+    /// here ([`seen_of_probes`]), the same f32 operations.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn shade_epilogue(
@@ -762,9 +762,9 @@ impl NdfMethod {
             mu: Vec3::Z,
             inv_kappa: 0.0,
         }; MAX_PIXEL_LOBES];
-        // SH NDF pixels under environment light leave their moments and
-        // view mask to a batch of `seen_lanes::LANES` (the costliest part of
-        // their shading, vectorized across pixels), finished when it fills.
+        // SH NDF pixels under environment light leave their view masks to
+        // a batch of `seen_lanes::LANES` (the costliest part of their
+        // shading, vectorized across pixels), finished when it fills.
         let batching = self.masks_in_lanes
             && ctx.has_env
             && self.options.filter == NdfFilter::Sh
@@ -936,7 +936,10 @@ impl NdfMethod {
         } else {
             // Each pixel's probes' mean, in `seen_of_probes`' order: a
             // plane past a pixel's probes leaves its sums as they are.
-            let inv_n: [f32; LANES] = std::array::from_fn(|l| 1.0 / probes[l].max(1) as f32);
+            let mut inv_n = [0.0f32; LANES];
+            for (v, n) in inv_n.iter_mut().zip(probes) {
+                *v = 1.0 / n.max(1) as f32;
+            }
             let mut e = [[0.0; LANES]; 9];
             let mut share = [0.0; LANES];
             for (j, plane) in gamma.iter().enumerate().take(planes) {
