@@ -308,8 +308,13 @@ pub fn settings(options: &MethodOptions, frame: &Frame) -> String {
             x.spheres
         ),
         MethodOptions::Ndf(n) => format!(
-            "normal filter {} · {} · {} lobes{quality}",
+            "normal filter {}{} · {} · {} lobes{quality}",
             n.filter.name(),
+            if n.probe_masks {
+                ", mask per probe"
+            } else {
+                ""
+            },
             n.brdf.label(),
             n.vmf.lobes
         ),
@@ -599,9 +604,16 @@ mod tests {
             MethodOptions::Ndf(o) => o.filter.name(),
             _ => "not ndf",
         };
-        assert_eq!(filter(&v), "sh");
+        let probes = |v: &Viewer| match v.method_options() {
+            MethodOptions::Ndf(o) => o.probe_masks,
+            _ => false,
+        };
+        assert_eq!((filter(&v), probes(&v)), ("sh", false));
+        // The sh filter comes again with a mask per footprint probe.
         assert!(v.cycle_normal_filter());
-        assert_eq!(filter(&v), "vmf");
+        assert_eq!((filter(&v), probes(&v)), ("sh", true));
+        assert!(v.cycle_normal_filter());
+        assert_eq!((filter(&v), probes(&v)), ("vmf", false));
         assert!(v.cycle_normal_filter());
         assert_eq!(filter(&v), "none");
         let ndf_help = HudInfo {
@@ -618,6 +630,15 @@ mod tests {
         v.select(4);
         let r = v.frame(48, 27, false, &NoProgress).unwrap();
         assert_eq!(meter.observe(&v, &r), ErrorReading::IsReference);
+        let probe_masks = MethodOptions::Ndf(relight_ndf::NdfOptions {
+            probe_masks: true,
+            ..relight_ndf::NdfOptions::default()
+        });
+        let line = settings(&probe_masks, &r);
+        assert!(
+            line.starts_with("normal filter sh, mask per probe ·"),
+            "{line}"
+        );
         v.select(1);
         let f2 = v.frame(48, 27, false, &NoProgress).unwrap();
         match meter.observe(&v, &f2) {

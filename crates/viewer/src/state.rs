@@ -337,12 +337,20 @@ impl Viewer {
     /// Shows the next normal filter (representation or baseline,
     /// `NdfFilter::next_for`; the `n` key) of the ndf method, or of the sh
     /// method's filtering mode (its normal-mapped Lambertian objects): the
-    /// method is made and prepared again with it. False, and nothing
-    /// changes, for another method.
+    /// method is made and prepared again with it. The ndf method's sh filter
+    /// comes twice, with the footprint's view mask and then with a mask per
+    /// probe (`NdfOptions::probe_masks`). False, and nothing changes, for
+    /// another method.
     pub fn cycle_normal_filter(&mut self) -> bool {
         let slot = &mut self.slots[self.current];
         match &mut slot.options {
-            MethodOptions::Ndf(o) => o.filter = o.filter.next_for(o.brdf),
+            MethodOptions::Ndf(o) if o.filter == relight_ndf::NdfFilter::Sh && !o.probe_masks => {
+                o.probe_masks = true;
+            }
+            MethodOptions::Ndf(o) => {
+                o.probe_masks = false;
+                o.filter = o.filter.next_for(o.brdf);
+            }
             MethodOptions::Sh(o) => {
                 o.normal_filter = o.normal_filter.next_for(relight_ndf::NdfBrdf::Lambert);
             }
