@@ -171,6 +171,13 @@ pub(crate) fn normal_cdf_pdf(x: f32) -> (f32, f32) {
     if x.abs() > 6.0 {
         return (if x > 0.0 { 1.0 } else { 0.0 }, 0.0);
     }
+    normal_cdf_pdf_within_6(x)
+}
+
+/// [`normal_cdf_pdf`] for `|x| ≤ 6`, without the branch: a loop over lanes
+/// that calls it vectorizes (`crate::seen_lanes`).
+#[inline(always)]
+pub(crate) fn normal_cdf_pdf_within_6(x: f32) -> (f32, f32) {
     let z = x.abs() * std::f32::consts::FRAC_1_SQRT_2;
     let k = 1.0 / (1.0 + 0.327_591_1 * z);
     let poly = k

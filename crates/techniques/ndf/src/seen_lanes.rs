@@ -116,21 +116,7 @@ pub fn seen_moments_lanes(
     let mut cdf = [0.0; LANES];
     let mut pdf = [0.0; LANES];
     for l in 0..LANES {
-        let x = alpha[l].clamp(-6.0, 6.0);
-        let z = x.abs() * std::f32::consts::FRAC_1_SQRT_2;
-        let kk = 1.0 / (1.0 + 0.327_591_1 * z);
-        let poly = kk
-            * (0.254_829_6
-                + kk * (-0.284_496_74
-                    + kk * (1.421_413_7 + kk * (-1.453_152_1 + kk * 1.061_405_4))));
-        let e = crate::effective::exp_neg(z * z);
-        let erf = 1.0 - poly * e;
-        cdf[l] = if x >= 0.0 {
-            0.5 * (1.0 + erf)
-        } else {
-            0.5 * (1.0 - erf)
-        };
-        pdf[l] = e * (0.5 * std::f32::consts::FRAC_2_SQRT_PI * std::f32::consts::FRAC_1_SQRT_2);
+        (cdf[l], pdf[l]) = crate::effective::normal_cdf_pdf_within_6(alpha[l].clamp(-6.0, 6.0));
     }
     // No `array::map` or `from_fn` here: a closure they fail to inline is
     // compiled for the baseline target, outside the caller's AVX2 copy.
