@@ -529,28 +529,13 @@ impl Footprint {
         }
     }
 
-    /// [`Self::visit_level`] a probe at a time: `add(probe, taps)` with the
-    /// probe's four bilinear taps `(texel, weight × wk)`, in order.
-    #[inline(always)]
-    pub fn visit_level_probes(
-        &self,
-        dims: (usize, usize),
-        wk: f32,
-        mut add: impl FnMut(usize, [(usize, f32); 4]),
-    ) {
-        let taps = self.level_taps(dims, wk);
-        for (p, t) in taps[..self.count].iter().enumerate() {
-            add(p, *t);
-        }
-    }
-
     /// Each probe's four bilinear taps on one level of size `dims`, weights
     /// times `wk` (the first [`Self::count`] are set): [`Self::visit_level`]'s
-    /// taps, the same products. [`Self::visit_level_probes`] calls its
-    /// visitor once, where a visitor called from three branches was left out
-    /// of line (outside the caller's AVX2 copy).
+    /// taps, the same products, a probe at a time. An array, not a visitor:
+    /// a visitor closure was left out of line (outside the caller's AVX2
+    /// copy, 17 % of a frame with a mask per probe).
     #[inline(always)]
-    fn level_taps(&self, dims: (usize, usize), wk: f32) -> [[(usize, f32); 4]; MAX_PROBES] {
+    pub fn level_taps(&self, dims: (usize, usize), wk: f32) -> [[(usize, f32); 4]; MAX_PROBES] {
         let (lw, lh) = dims;
         let mut out = [[(0, 0.0); 4]; MAX_PROBES];
         if lw.is_power_of_two() && lh.is_power_of_two() {

@@ -183,19 +183,20 @@ impl ShNdfPyramid {
         let (lv, count) = fp.probe_level_weights(self.levels.len());
         for &(k, wk) in &lv[..count] {
             let l = &self.levels[k];
-            fp.visit_level_probes((l.width, l.height), wk, |p, taps| {
+            let taps = fp.level_taps((l.width, l.height), wk);
+            for (o, taps) in out.iter_mut().zip(&taps[..fp.count]) {
                 // The probe's four taps summed in registers, then added.
                 let mut a = [0.0f32; 9];
-                for (i, w) in taps {
+                for &(i, w) in taps {
                     let c = &l.coeffs[i * nn..i * nn + 9];
                     for j in 0..9 {
                         a[j] += c[j] * w;
                     }
                 }
-                for (o, a) in out[p].iter_mut().zip(a) {
+                for (o, a) in o.iter_mut().zip(a) {
                     *o += a;
                 }
-            });
+            }
         }
     }
 
