@@ -408,6 +408,18 @@ mod tests {
         }
         let mut out = vec![0u32; w * h];
         to_display(&img, &mut out);
+        // The portable copy gives the same words as the AVX2 one (where the
+        // CPU has it, `to_display` took that).
+        let mut portable = vec![0u32; w * h];
+        state::to_display_on(&img, &mut portable, false);
+        assert_eq!(portable, out);
+        if relight_isa::avx2() {
+            let mut vector = vec![0u32; w * h];
+            state::to_display_on(&img, &mut vector, true);
+            assert_eq!(vector, out);
+        } else if std::env::var_os("CI").is_some() {
+            panic!("CI: this CPU lacks AVX2, so the AVX2 copy went untested");
+        }
         let tone = relight_assets::ToneMap::default();
         let byte = |x: f32| {
             let y = tone.apply(x);
