@@ -1353,6 +1353,75 @@ pub(crate) unsafe fn rotate_batch_avx2(
     });
 }
 
+/// [`rotate_shared_batch`] in AVX2 lanes: per group of eight items the
+/// matrices are transposed in and their ZYZ angles found once, each shared
+/// source broadcast (the same lane values [`load_group`] gives copies of
+/// it), and the lanes stored straight into their items' slots of `dst`.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA; lengths as [`rotate_shared_batch`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn rotate_shared_batch_avx2<const C: usize>(
+    order: usize,
+    rots: &[Rot3<f32>],
+    srcs: [&[f32]; C],
+    dst: &mut [f32],
+) {
+    let count = rots.len();
+    with_nn!(order, |NN| {
+        assert!(
+            srcs.iter().all(|s| s.len() >= NN) && dst.len() == count * C * NN,
+            "rotate_shared_batch_avx2 lengths"
+        );
+        let mut a = [[V8::splat(0.0); NN]; C];
+        for (a, s) in a.iter_mut().zip(srcs) {
+            for (v, &x) in a.iter_mut().zip(s) {
+                *v = V8::splat(x);
+            }
+        }
+        let mut spill = [0.0f32; 8 * NN];
+        let (base, sp) = (dst.as_mut_ptr(), spill.as_mut_ptr());
+        for i0 in (0..count).step_by(8) {
+            let item = |j: usize| (i0 + j).min(count - 1);
+            let mrows: [*const f32; 8] =
+                std::array::from_fn(|j| rots[item(j)].m.as_flattened().as_ptr());
+            // SAFETY: each row is a whole matrix (9 f32) of an item < count.
+            let mf: [V8; 9] = unsafe { load_rows(mrows) };
+            let m = [
+                [mf[0], mf[1], mf[2]],
+                [mf[3], mf[4], mf[5]],
+                [mf[6], mf[7], mf[8]],
+            ];
+            let e = if order >= 4 {
+                // SAFETY: the caller checked the features.
+                unsafe { euler_of_lanes(&m) }
+            } else {
+                [V8::splat(0.0); 6]
+            };
+            let cnt = 8.min(count - i0);
+            for (c, a) in a.iter().enumerate() {
+                let mut b = [V8::splat(0.0); NN];
+                // SAFETY: the caller checked the features.
+                unsafe { rotate8::<NN>(&m, &e, a, &mut b) };
+                let drows: [*mut f32; 8] = std::array::from_fn(|j| {
+                    // SAFETY: item i0 + j < count has its NN slots at
+                    // ((i0 + j)·C + c)·NN inside `dst`; `spill` holds 8 rows.
+                    unsafe {
+                        if j < cnt {
+                            base.add(((i0 + j) * C + c) * NN)
+                        } else {
+                            sp.add(j * NN)
+                        }
+                    }
+                });
+                // SAFETY: disjoint rows of NN f32 each (above).
+                unsafe { store_rows(&b, drows) };
+            }
+        }
+    });
+}
+
 /// Portable batch evaluation: [`eval_one_portable`] per direction (coefficient-major output).
 pub(crate) fn eval_batch_portable(order: usize, dirs: &[[f32; 3]], out: &mut [f32]) {
     let (nn, count) = (order * order, dirs.len());
@@ -1532,6 +1601,69 @@ pub fn rotate_batch(
     }
     rotate_batch_portable(order, rots, src, dst);
     Ok(())
+}
+
+/// Rotates `C` vectors shared by every item (`srcs`, each at least
+/// `order²` long: the world lighting's colour channels, say) by each item's
+/// rotation: item `i`'s copy of `srcs[c]` into `dst[(i·C + c)·order²..]`.
+/// The same values as [`rotate_batch`] with each rotation repeated `C`
+/// times and the sources copied per item, bit for bit, without those
+/// copies: on a CPU with AVX2 and FMA, at orders up to
+/// [`ROTATE_BATCH_MAX_ORDER`], eight items run at a time with the sources
+/// broadcast across the lanes, each group's ZYZ angles found once for its
+/// `C` vectors and the lanes stored straight into `dst`; elsewhere
+/// [`rotate_one_portable`] per item and vector.
+///
+/// # Errors
+/// As [`rotate_batch`]; [`ShError::LengthMismatch`] unless every source
+/// holds `order²` values and `dst.len() == rots.len() · C · order²`.
+pub fn rotate_shared_batch<const C: usize>(
+    order: usize,
+    rots: &[Rot3<f32>],
+    srcs: [&[f32]; C],
+    dst: &mut [f32],
+) -> Result<(), ShError> {
+    check_order(
+        "order (fast::rotate_shared_batch)",
+        order,
+        ROTATE_BATCH_MAX_ORDER,
+    )?;
+    let nn = order * order;
+    for s in srcs {
+        check_len("rotate_shared_batch src", order, s.len().min(nn), nn)?;
+    }
+    check_len(
+        "rotate_shared_batch dst",
+        order,
+        dst.len(),
+        rots.len() * C * nn,
+    )?;
+    if rots.is_empty() {
+        return Ok(());
+    }
+    #[cfg(target_arch = "x86_64")]
+    if batch_path() == BatchPath::Avx2Fma {
+        // SAFETY: AVX2 and FMA were detected; lengths checked above.
+        unsafe { rotate_shared_batch_avx2(order, rots, srcs, dst) };
+        return Ok(());
+    }
+    rotate_shared_batch_portable(order, rots, srcs, dst);
+    Ok(())
+}
+
+/// [`rotate_shared_batch`] one item and vector at a time.
+pub(crate) fn rotate_shared_batch_portable<const C: usize>(
+    order: usize,
+    rots: &[Rot3<f32>],
+    srcs: [&[f32]; C],
+    dst: &mut [f32],
+) {
+    let nn = order * order;
+    for (r, out) in rots.iter().zip(dst.chunks_exact_mut(C * nn)) {
+        for (s, o) in srcs.iter().zip(out.chunks_exact_mut(nn)) {
+            rotate_one_portable(order, &r.m, &s[..nn], o);
+        }
+    }
 }
 
 /// Applies `taylor` (Křivánek et al.'s approximate rotation) to every vector:

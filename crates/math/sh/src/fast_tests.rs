@@ -658,3 +658,50 @@ fn taylor_batch_matches_apply_per_item() {
         }
     }
 }
+
+/// `rotate_shared_batch` is `rotate_batch` with each rotation repeated per
+/// shared source and the sources copied, bit for bit, on both paths, at
+/// item counts that leave partial groups of eight; every slot is written.
+#[test]
+fn shared_sources_rotate_as_copied_ones() {
+    let avx = avx2_or_skip();
+    for n in 1..=ROTATE_BATCH_MAX_ORDER {
+        let nn = n * n;
+        let srcs = vecs(n, 3, 31);
+        for take in [1, 7, 8, 9, 19] {
+            // `rots` appends its edge cases (β at 0 and π) after `take`.
+            let mut rs = rots(take, 40 + take as u64);
+            if take < 8 {
+                rs.truncate(take);
+            }
+            let count = rs.len();
+            let rep: Vec<Rot3<f32>> = rs.iter().flat_map(|r| [*r; 3]).collect();
+            let copied: Vec<f32> = (0..count).flat_map(|_| srcs.concat()).collect();
+            let shared = [srcs[0].as_slice(), &srcs[1], &srcs[2]];
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let mut want = vec![0.0f32; count * 3 * nn];
+            rotate_batch_portable(n, &rep, &copied, &mut want);
+            let mut got = vec![f32::NAN; count * 3 * nn];
+            rotate_shared_batch_portable(n, &rs, shared, &mut got);
+            assert_eq!(bits(&got), bits(&want), "portable n={n} count={count}");
+            #[cfg(target_arch = "x86_64")]
+            if avx {
+                // SAFETY: checked above.
+                unsafe { rotate_batch_avx2(n, &rep, &copied, &mut want) };
+                got.fill(f32::NAN);
+                // SAFETY: checked above; lengths as rotate_shared_batch's.
+                unsafe { rotate_shared_batch_avx2(n, &rs, shared, &mut got) };
+                assert_eq!(bits(&got), bits(&want), "AVX2 n={n} count={count}");
+            }
+            let _ = avx;
+            got.fill(f32::NAN);
+            rotate_shared_batch(n, &rs, shared, &mut got).expect("lengths");
+            assert_eq!(bits(&got), bits(&want), "dispatch n={n} count={count}");
+        }
+    }
+    let rs = rots(2, 9);
+    let s = [0.0f32; 9];
+    assert!(rotate_shared_batch(3, &rs, [&s[..8]], &mut [0.0; 18]).is_err());
+    assert!(rotate_shared_batch(3, &rs, [&s[..]], &mut [0.0; 17]).is_err());
+    assert!(rotate_shared_batch(0, &rs, [&s[..]], &mut []).is_err());
+}

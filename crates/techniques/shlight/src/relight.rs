@@ -291,13 +291,14 @@ const RELIGHT_RUN: usize = 64;
 const RELIGHT_SPAN: usize = 1024;
 
 /// One thread's buffers for a run of [`Lit::relight_needed`]: per marked
-/// vertex its index in the span and three rotations and channel vectors
-/// (`order²` each) before and after the batch rotation (`dst` doubles as
-/// the scratch of the one-by-one path).
+/// vertex its index in the span, its rotation, and its three channel
+/// vectors (`order²` each) after the batch rotation (`dst` doubles as the
+/// scratch of the one-by-one path). The sources are the world lighting's
+/// channels themselves, shared by every vertex
+/// ([`relight_sh::fast::rotate_shared_batch`]).
 struct RelightRun {
     index: [usize; RELIGHT_RUN],
     rots: Vec<Rot3<f32>>,
-    src: Vec<f32>,
     dst: Vec<f32>,
 }
 
@@ -307,9 +308,8 @@ impl RelightRun {
             index: [0; RELIGHT_RUN],
             rots: vec![
                 Rot3::new_unchecked([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-                3 * RELIGHT_RUN
+                RELIGHT_RUN
             ],
-            src: vec![0.0; 3 * RELIGHT_RUN * nn],
             dst: vec![0.0; 3 * RELIGHT_RUN * nn],
         }
     }
@@ -1145,10 +1145,11 @@ impl Lit {
     /// in spans of [`RELIGHT_SPAN`] (the unit of the parallel split), whose
     /// marked ones are rotated [`RELIGHT_RUN`] at a time, three channel
     /// vectors each (full batches even where few are marked, as after a view
-    /// change), by
-    /// [`relight_sh::fast::rotate_batch`] (eight vectors at a time, lanes
-    /// across vectors, on a CPU with AVX2 and FMA) up to its order, one by
-    /// one by [`ZyzRotation::apply`] above it.
+    /// change), by [`relight_sh::fast::rotate_shared_batch`] (eight vertices
+    /// at a time, lanes across vertices, on a CPU with AVX2 and FMA: one set
+    /// of angles per vertex for its three channels, the world lighting
+    /// broadcast, not copied per vertex) up to its order, one by one by
+    /// [`ZyzRotation::apply`] above it.
     fn relight_needed(&mut self) -> usize {
         let Some(light) = &self.world_light else {
             return 0;
@@ -1160,13 +1161,13 @@ impl Lit {
         let batched = order <= ROTATE_BATCH_MAX_ORDER;
         // The run's marked vertices, rotated together into `dst` (a span's
         // lighting) and stamped.
+        let channels = [&light[0][..nn], &light[1][..nn], &light[2][..nn]];
         let flush = |run: &mut RelightRun, n: usize, dst: &mut [f32], stamps: &[AtomicU32]| {
-            let vectors = 3 * n;
-            relight_sh::fast::rotate_batch(
+            relight_sh::fast::rotate_shared_batch(
                 order,
-                &run.rots[..vectors],
-                &run.src[..vectors * nn],
-                &mut run.dst[..vectors * nn],
+                &run.rots[..n],
+                channels,
+                &mut run.dst[..3 * n * nn],
             )
             .expect("order ≤ ROTATE_BATCH_MAX_ORDER and lengths sized by RelightRun");
             for (j, &i) in run.index[..n].iter().enumerate() {
@@ -1213,11 +1214,7 @@ impl Lit {
                                 st.store(epoch, Ordering::Relaxed);
                                 continue;
                             }
-                            for (c, l) in light.iter().enumerate() {
-                                let j = 3 * n + c;
-                                run.rots[j] = rot;
-                                run.src[j * nn..(j + 1) * nn].copy_from_slice(&l[..nn]);
-                            }
+                            run.rots[n] = rot;
                             run.index[n] = i;
                             n += 1;
                             if n == RELIGHT_RUN {
