@@ -519,10 +519,21 @@ pub fn lambert_sh_dir_seen_with(
 #[must_use]
 pub fn mean_normal_of_sh(gamma: &[f32]) -> Vec3 {
     let axes = band1_axes();
-    let axis =
-        |y: &[f32; 3]| (gamma[1] * y[0] + gamma[2] * y[1] + gamma[3] * y[2]) * (4.0 * PI / 3.0);
-    Vec3::new(axis(&axes[0]), axis(&axes[1]), axis(&axes[2]))
+    let k = 4.0 * PI / 3.0;
+    let [(ix, jx), (iy, jy), (iz, jz)] = AXIS_TERMS;
+    Vec3::new(
+        gamma[ix] * axes[0][jx] * k,
+        gamma[iy] * axes[1][jy] * k,
+        gamma[iz] * axes[2][jz] * k,
+    )
 }
+
+/// Which band-1 coefficient each axis of [`mean_normal_of_sh`] reads:
+/// `(index in γ, index in its row of band1_axes)` for x, y, z. Band 1 is
+/// `y`, `z`, `x` (relight-sh's order), so each axis meets one non-zero
+/// entry; the others are exactly zero (tested), and their products added
+/// nothing.
+pub(crate) const AXIS_TERMS: [(usize, usize); 3] = [(3, 2), (1, 0), (2, 1)];
 
 /// Band 1 at the three axes, evaluated once (the same products as three
 /// evaluations per call).

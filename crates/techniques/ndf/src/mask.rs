@@ -213,15 +213,18 @@ impl ShMoments {
     pub fn of_sh(gamma: &[f32]) -> Self {
         let p = monomial_projections();
         let mean = crate::effective::mean_normal_of_sh(gamma);
-        let mut second = [0.0f32; 6];
-        for (s, row) in second.iter_mut().zip(p) {
-            // Bands 0 and 2 only (band 1 of an even monomial is zero).
-            let mut band2 = 0.0;
-            for i in 4..9 {
-                band2 += gamma[i] * row[i];
-            }
-            *s = gamma[0] * row[0] + band2;
-        }
+        // Bands 0 and 2 only (band 1 of an even monomial is zero), and of
+        // those the entries of `PROJ_TERMS`, written out (the lanes of
+        // `crate::seen_lanes` compute the same f32 operations).
+        let g = gamma;
+        let second = [
+            g[0] * p[0][0] + g[6] * p[0][6] + g[8] * p[0][8],
+            g[0] * p[1][0] + g[6] * p[1][6] + g[8] * p[1][8],
+            g[0] * p[2][0] + g[6] * p[2][6],
+            g[4] * p[3][4],
+            g[7] * p[4][7],
+            g[5] * p[5][5],
+        ];
         let m = mean;
         Self {
             mean,
@@ -413,20 +416,47 @@ pub fn seen_moments(mom: &ShMoments, wo: Vec3) -> ([f32; 9], f32) {
 #[inline(always)]
 #[must_use]
 pub fn sh9_of_seen_moments(e: &[f32; 9]) -> [f32; 9] {
-    let mut out = [0.0f32; 9];
-    for (o, q) in out.iter_mut().zip(quadratic_forms()) {
-        *o = q[0] * e[0]
-            + q[1] * e[1]
-            + q[2] * e[2]
-            + q[3] * e[3]
-            + q[4] * e[4]
-            + q[5] * e[5]
-            + q[6] * e[6]
-            + q[7] * e[7]
-            + q[8] * e[8];
-    }
-    out
+    // The entries of `QUAD_TERMS`, written out.
+    let q = quadratic_forms();
+    [
+        e[3] * q[0][3] + e[4] * q[0][4] + e[5] * q[0][5],
+        e[1] * q[1][1],
+        e[2] * q[2][2],
+        e[0] * q[3][0],
+        e[6] * q[4][6],
+        e[8] * q[5][8],
+        e[3] * q[6][3] + e[4] * q[6][4] + e[5] * q[6][5],
+        e[7] * q[7][7],
+        e[3] * q[8][3] + e[4] * q[8][4],
+    ]
 }
+
+/// The entries of each row of [`monomial_projections`] (xx, yy, zz, xy,
+/// xz, yz) that symmetry leaves non-zero: band 0 and `Y_20`, `Y_22` for the
+/// squares (`zz` has no `Y_22`), one band-2 function for each product.
+/// The others are zero but for quadrature noise below 1e-7 (the test that
+/// reads this list), and [`ShMoments::of_sh`] and [`crate::seen_lanes`]
+/// read only these, written out: about a fifth of the mask's operations
+/// were multiplies by those zeros.
+#[cfg(test)]
+const PROJ_TERMS: [&[usize]; 6] = [&[0, 6, 8], &[0, 6, 8], &[0, 6], &[4], &[7], &[5]];
+
+/// The entries of each row of [`quadratic_forms`] that are not zero
+/// (below 1e-7 in the others, tested), in order: `y_0` from the trace,
+/// band 1 from the mean, band 2 from the second moments; what
+/// [`sh9_of_seen_moments`] and [`crate::seen_lanes`] read.
+#[cfg(test)]
+const QUAD_TERMS: [&[usize]; 9] = [
+    &[3, 4, 5],
+    &[1],
+    &[2],
+    &[0],
+    &[6],
+    &[8],
+    &[3, 4, 5],
+    &[7],
+    &[3, 4],
+];
 
 /// `y_i(n) = b·n + nᵀ A n` on the unit sphere for `i < 9`, as
 /// `[b_x, b_y, b_z, A_xx, A_yy, A_zz, 2A_xy, 2A_xz, 2A_yz]`: from `y_i` at
@@ -487,4 +517,42 @@ pub(crate) fn monomial_projections() -> &'static [[f32; 9]; 6] {
         }
         acc.map(|row| row.map(|v| v as f32))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The entries the sparse products skip are zero: quadrature noise below
+    /// 1e-7 in the two tables, exactly zero at the axes.
+    #[test]
+    fn skipped_table_entries_are_zero() {
+        let skipped = |rows: &[[f32; 9]], terms: &[&[usize]]| {
+            rows.iter()
+                .zip(terms)
+                .flat_map(|(r, t)| (0..9).filter(|i| !t.contains(i)).map(|i| r[i].abs()))
+                .fold(0.0f32, f32::max)
+        };
+        assert!(skipped(monomial_projections(), &PROJ_TERMS) < 1e-7);
+        assert!(skipped(quadratic_forms(), &QUAD_TERMS) < 1e-7);
+        // And the kept ones are not (each carries a lobe of the result).
+        for (rows, terms) in [
+            (&monomial_projections()[..], &PROJ_TERMS[..]),
+            (&quadratic_forms()[..], &QUAD_TERMS[..]),
+        ] {
+            for (r, t) in rows.iter().zip(terms) {
+                assert!(t.iter().all(|&i| r[i].abs() > 0.1), "{r:?} {t:?}");
+            }
+        }
+        let axes = crate::effective::band1_axes();
+        for (row, (_, j)) in axes.iter().zip(crate::effective::AXIS_TERMS) {
+            for (k, v) in row.iter().enumerate() {
+                assert_eq!(*v == 0.0, k != j, "{axes:?}");
+            }
+        }
+        // Band 1 is y, z, x: γ index 1 + the row entry.
+        for (i, j) in crate::effective::AXIS_TERMS {
+            assert_eq!(i, j + 1);
+        }
+    }
 }

@@ -75,19 +75,24 @@ pub fn seen_moments_lanes(
     // `ShMoments::of_sh`: the mean from band 1, then E[n nᵀ] from bands 0, 2.
     let k = 4.0 * std::f32::consts::PI / 3.0;
     let mut m = [[0.0; LANES]; 3];
-    for (a, m) in t.axes.iter().zip(&mut m) {
-        *m = lanes(|l| (g[1][l] * a[0] + g[2][l] * a[1] + g[3][l] * a[2]) * k);
+    for ((a, m), (i, j)) in t.axes.iter().zip(&mut m).zip(crate::effective::AXIS_TERMS) {
+        *m = lanes(|l| g[i][l] * a[j] * k);
     }
     let pairs = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+    // `ShMoments::of_sh`'s sparse rows (`mask::PROJ_TERMS`), written out:
+    // a loop over an index list kept these lanes from vectorizing.
+    let p = &t.proj;
+    let second = [
+        lanes(|l| g[0][l] * p[0][0] + g[6][l] * p[0][6] + g[8][l] * p[0][8]),
+        lanes(|l| g[0][l] * p[1][0] + g[6][l] * p[1][6] + g[8][l] * p[1][8]),
+        lanes(|l| g[0][l] * p[2][0] + g[6][l] * p[2][6]),
+        lanes(|l| g[4][l] * p[3][4]),
+        lanes(|l| g[7][l] * p[4][7]),
+        lanes(|l| g[5][l] * p[5][5]),
+    ];
     let mut c = [[0.0; LANES]; 6];
-    for ((row, &(i, j)), c) in t.proj.iter().zip(&pairs).zip(&mut c) {
-        *c = lanes(|l| {
-            let mut band2 = 0.0;
-            for q in 4..9 {
-                band2 += g[q][l] * row[q];
-            }
-            (g[0][l] * row[0] + band2) - m[i][l] * m[j][l]
-        });
+    for ((c, s), &(i, j)) in c.iter_mut().zip(&second).zip(&pairs) {
+        *c = lanes(|l| s[l] - m[i][l] * m[j][l]);
     }
     // `mask::seen_moments`.
     let mu = lanes(|l| m[0][l] * wo[0][l] + m[1][l] * wo[1][l] + m[2][l] * wo[2][l]);
@@ -154,19 +159,20 @@ pub fn seen_moments_lanes(
 /// [`crate::mask::sh9_of_seen_moments`] by lanes: `y[i][l]` from `e[·][l]`.
 #[inline(always)]
 pub fn sh9_of_seen_moments_lanes(t: &SeenTables, e: &[Lanes; 9], y: &mut [Lanes; 9]) {
-    for (y, q) in y.iter_mut().zip(&t.quad) {
-        *y = lanes(|l| {
-            q[0] * e[0][l]
-                + q[1] * e[1][l]
-                + q[2] * e[2][l]
-                + q[3] * e[3][l]
-                + q[4] * e[4][l]
-                + q[5] * e[5][l]
-                + q[6] * e[6][l]
-                + q[7] * e[7][l]
-                + q[8] * e[8][l]
-        });
-    }
+    // `mask::sh9_of_seen_moments`' sparse rows (`mask::QUAD_TERMS`),
+    // written out as there.
+    let q = &t.quad;
+    *y = [
+        lanes(|l| e[3][l] * q[0][3] + e[4][l] * q[0][4] + e[5][l] * q[0][5]),
+        lanes(|l| e[1][l] * q[1][1]),
+        lanes(|l| e[2][l] * q[2][2]),
+        lanes(|l| e[0][l] * q[3][0]),
+        lanes(|l| e[6][l] * q[4][6]),
+        lanes(|l| e[8][l] * q[5][8]),
+        lanes(|l| e[3][l] * q[6][3] + e[4][l] * q[6][4] + e[5][l] * q[6][5]),
+        lanes(|l| e[7][l] * q[7][7]),
+        lanes(|l| e[3][l] * q[8][3] + e[4][l] * q[8][4]),
+    ];
 }
 
 #[cfg(test)]
