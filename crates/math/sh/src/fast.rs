@@ -1273,11 +1273,48 @@ unsafe fn load_group<const NN: usize>(
     i0: usize,
 ) -> ([V8; 9], [V8; NN]) {
     let item = |j: usize| (i0 + j).min(rots.len() - 1);
-    let mrows: [*const f32; 8] = std::array::from_fn(|j| rots[item(j)].m.as_flattened().as_ptr());
     let vrows: [*const f32; 8] = std::array::from_fn(|j| src[item(j) * NN..].as_ptr());
-    // SAFETY: every row pointer is a whole matrix (9 f32) or vector (NN f32)
-    // of an item ≤ rots.len() − 1.
-    unsafe { (load_rows(mrows), load_rows(vrows)) }
+    // SAFETY: every row pointer is a whole vector (NN f32) of an item
+    // ≤ rots.len() − 1; the caller's features and `i0` as `load_rots`.
+    unsafe { (load_rots(rots, i0), load_rows(vrows)) }
+}
+
+/// The matrices of items `i0 .. i0 + 8` as lanes (nine lane vectors,
+/// row-major); past the end the last item repeats.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA; `i0 < rots.len()`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn load_rots(rots: &[Rot3<f32>], i0: usize) -> [V8; 9] {
+    let item = |j: usize| (i0 + j).min(rots.len() - 1);
+    let mrows: [*const f32; 8] = std::array::from_fn(|j| rots[item(j)].m.as_flattened().as_ptr());
+    // SAFETY: every row pointer is a whole matrix (9 f32) of an item.
+    unsafe { load_rows(mrows) }
+}
+
+/// The 3 × 3 lanes of nine loaded matrix rows and, from order 4, their ZYZ
+/// angles ([`euler_of_lanes`]; below it the kernels read the matrix alone).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn rotation_lanes(mf: &[V8; 9], order: usize) -> ([[V8; 3]; 3], [V8; 6]) {
+    let m = [
+        [mf[0], mf[1], mf[2]],
+        [mf[3], mf[4], mf[5]],
+        [mf[6], mf[7], mf[8]],
+    ];
+    let e = if order >= 4 {
+        // SAFETY: the caller checked the features.
+        unsafe { euler_of_lanes(&m) }
+    } else {
+        [V8::splat(0.0); 6]
+    };
+    (m, e)
 }
 
 /// Stores lanes `v` as items `i0 .. i0 + 8` of `dst`; lanes past `count`
@@ -1295,15 +1332,37 @@ unsafe fn store_group<const NN: usize>(
     count: usize,
     spill: &mut [f32],
 ) {
+    // SAFETY: as `store_group_at` with items NN apart.
+    unsafe { store_group_at(v, dst, i0, count, spill, NN, 0) };
+}
+
+/// [`store_group`] into items `stride` floats apart, lane `j` at
+/// `dst[(i0 + j)·stride + offset ..]` (one of an item's several vectors).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA; `offset + NN ≤ stride`,
+/// `dst.len() ≥ count · stride`, `i0 < count`, `spill` 8 rows of `NN`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn store_group_at<const NN: usize>(
+    v: &[V8; NN],
+    dst: &mut [f32],
+    i0: usize,
+    count: usize,
+    spill: &mut [f32],
+    stride: usize,
+    offset: usize,
+) {
     let cnt = 8.min(count - i0);
     let base = dst.as_mut_ptr();
     let sp = spill.as_mut_ptr();
     let drows: [*mut f32; 8] = std::array::from_fn(|j| {
-        // SAFETY: `(i0 + j)·NN + NN ≤ dst.len()` for j < cnt; `spill` holds
-        // 8 rows of NN.
+        // SAFETY: `(i0 + j)·stride + offset + NN ≤ dst.len()` for j < cnt;
+        // `spill` holds 8 rows of NN.
         unsafe {
             if j < cnt {
-                base.add((i0 + j) * NN)
+                base.add((i0 + j) * stride + offset)
             } else {
                 sp.add(j * NN)
             }
@@ -1333,17 +1392,8 @@ pub(crate) unsafe fn rotate_batch_avx2(
         for i0 in (0..count).step_by(8) {
             // SAFETY: the caller checked the features and lengths.
             let (mf, a) = unsafe { load_group::<NN>(rots, src, i0) };
-            let m = [
-                [mf[0], mf[1], mf[2]],
-                [mf[3], mf[4], mf[5]],
-                [mf[6], mf[7], mf[8]],
-            ];
-            let e = if order >= 4 {
-                // SAFETY: the caller checked the features.
-                unsafe { euler_of_lanes(&m) }
-            } else {
-                [V8::splat(0.0); 6]
-            };
+            // SAFETY: the caller checked the features.
+            let (m, e) = unsafe { rotation_lanes(&mf, order) };
             let mut b = [V8::splat(0.0); NN];
             // SAFETY: the caller checked the features.
             unsafe { rotate8::<NN>(&m, &e, &a, &mut b) };
@@ -1381,42 +1431,16 @@ unsafe fn rotate_shared_batch_avx2<const C: usize>(
             }
         }
         let mut spill = [0.0f32; 8 * NN];
-        let (base, sp) = (dst.as_mut_ptr(), spill.as_mut_ptr());
         for i0 in (0..count).step_by(8) {
-            let item = |j: usize| (i0 + j).min(count - 1);
-            let mrows: [*const f32; 8] =
-                std::array::from_fn(|j| rots[item(j)].m.as_flattened().as_ptr());
-            // SAFETY: each row is a whole matrix (9 f32) of an item < count.
-            let mf: [V8; 9] = unsafe { load_rows(mrows) };
-            let m = [
-                [mf[0], mf[1], mf[2]],
-                [mf[3], mf[4], mf[5]],
-                [mf[6], mf[7], mf[8]],
-            ];
-            let e = if order >= 4 {
-                // SAFETY: the caller checked the features.
-                unsafe { euler_of_lanes(&m) }
-            } else {
-                [V8::splat(0.0); 6]
-            };
-            let cnt = 8.min(count - i0);
+            // SAFETY: the caller checked the features; i0 < count.
+            let (m, e) = unsafe { rotation_lanes(&load_rots(rots, i0), order) };
             for (c, a) in a.iter().enumerate() {
                 let mut b = [V8::splat(0.0); NN];
                 // SAFETY: the caller checked the features.
                 unsafe { rotate8::<NN>(&m, &e, a, &mut b) };
-                let drows: [*mut f32; 8] = std::array::from_fn(|j| {
-                    // SAFETY: item i0 + j < count has its NN slots at
-                    // ((i0 + j)·C + c)·NN inside `dst`; `spill` holds 8 rows.
-                    unsafe {
-                        if j < cnt {
-                            base.add(((i0 + j) * C + c) * NN)
-                        } else {
-                            sp.add(j * NN)
-                        }
-                    }
-                });
-                // SAFETY: disjoint rows of NN f32 each (above).
-                unsafe { store_rows(&b, drows) };
+                // SAFETY: item i's vector c is at (i·C + c)·NN, inside `dst`
+                // (its length checked above).
+                unsafe { store_group_at(&b, dst, i0, count, &mut spill, C * NN, c * NN) };
             }
         }
     });
