@@ -87,6 +87,7 @@ fn apply_area_light_flags(a: &SceneArgs, scene: &mut Scene) -> Result<()> {
             world_from_light: relight_scene::rotation_from_yaw_pitch_roll([0.0, 90.0, 0.0]),
             intensity: Vec3::ONE,
             texture: None,
+            light_field: None,
         },
     };
     if let Some(c) = center {
@@ -118,6 +119,11 @@ fn apply_area_light_flags(a: &SceneArgs, scene: &mut Scene) -> Result<()> {
         };
     }
     if let Some(p) = &a.light_texture {
+        ensure!(
+            light.light_field.is_none(),
+            "--light-texture {}: this area light has a light field, whose views give its radiance (edit [area_light.light_field] instead)",
+            p.display()
+        );
         let (tex, warnings) =
             relight_scene::load_texture(p).map_err(|e| anyhow!("--light-texture: {e}"))?;
         warn_all(&warnings);

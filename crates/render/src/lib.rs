@@ -10,6 +10,7 @@ pub mod bvh;
 pub mod camera;
 pub mod cull;
 pub mod image;
+pub mod light_field;
 pub mod method;
 mod object_raster;
 pub mod progress;
@@ -23,6 +24,7 @@ pub mod verify_row;
 
 pub use camera::{Camera, CameraRays};
 pub use image::Image;
+pub use light_field::LightField;
 pub use method::{
     Coverage, FrameRequest, FrameTimings, MethodError, Noise, Relighter, Rendered, SceneFeature,
     Support, check_scene, render_frame,

@@ -57,6 +57,9 @@ pub enum SceneFeature {
     PointLights,
     /// Textured rectangular area lights.
     AreaLights,
+    /// Area lights whose radiance also varies with direction (light fields,
+    /// [`crate::LightField`]).
+    LightFields,
     /// A homogeneous participating medium.
     Medium,
     /// Binary visibility: shadows.
@@ -75,10 +78,11 @@ pub enum SceneFeature {
 
 impl SceneFeature {
     /// Every feature, in a fixed order.
-    pub const ALL: [SceneFeature; 8] = [
+    pub const ALL: [SceneFeature; 9] = [
         Self::Environment,
         Self::PointLights,
         Self::AreaLights,
+        Self::LightFields,
         Self::Medium,
         Self::Visibility,
         Self::NormalMaps,
@@ -93,6 +97,7 @@ impl SceneFeature {
             Self::Environment => "environment lighting",
             Self::PointLights => "point lights",
             Self::AreaLights => "area lights",
+            Self::LightFields => "area-light light fields (radiance varying with direction)",
             Self::Medium => "a participating medium",
             Self::Visibility => "visibility (shadows)",
             Self::NormalMaps => "normal maps",
@@ -110,6 +115,7 @@ impl SceneFeature {
                 Self::Environment => scene.has_environment(),
                 Self::PointLights => !scene.point_lights.is_empty(),
                 Self::AreaLights => !scene.area_lights.is_empty(),
+                Self::LightFields => scene.area_lights.iter().any(|l| l.light_field.is_some()),
                 Self::Medium => scene.medium.is_some_and(|m| m.beta > 0.0),
                 Self::Visibility => scene.visibility,
                 Self::NormalMaps => scene.objects.iter().any(|o| o.normal_map.is_some()),
@@ -597,7 +603,7 @@ fn area_lights_seen(scene: &Scene, o: Vec3, d: Vec3) -> Vec3 {
         .area_lights
         .iter()
         .filter(|l| d.dot(l.normal()) < 0.0)
-        .filter_map(|l| l.intersect(o, d, 0.0).map(|(_, uv)| l.radiance_at(uv)))
+        .filter_map(|l| l.intersect(o, d, 0.0).map(|(_, uv)| l.radiance(uv, d)))
         .sum()
 }
 
@@ -914,6 +920,7 @@ mod tests {
             world_from_light: Mat3::IDENTITY,
             intensity: Vec3::splat(5.0),
             texture: None,
+            light_field: None,
         });
         let coverage = Coverage {
             width: w,

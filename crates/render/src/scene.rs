@@ -19,6 +19,7 @@
 //!   `texture(uv) × intensity`.
 
 use crate::Camera;
+use crate::light_field::LightField;
 use crate::texture::{NormalMap, Texture};
 use glam::{Affine3A, Mat3, Quat, Vec2, Vec3};
 use relight_brdf::Brdf;
@@ -202,6 +203,10 @@ pub struct AreaLight {
     pub intensity: Vec3,
     /// Optional radiance texture (linear RGB), multiplied by `intensity`.
     pub texture: Option<Arc<Texture>>,
+    /// Optional radiance by point *and* emitted direction (a light field,
+    /// sun-thesis §4.5.3), multiplied by `intensity`; it replaces `texture`
+    /// (scene files refuse both, [`Self::radiance`] ignores `texture` then).
+    pub light_field: Option<Arc<LightField>>,
 }
 
 impl AreaLight {
@@ -235,13 +240,43 @@ impl AreaLight {
         )
     }
 
-    /// Emitted radiance at `uv` towards the `+ẑ` side.
+    /// Emitted radiance at `uv` towards the `+ẑ` side, whatever the
+    /// direction: exact for a light without a light field; with one, its
+    /// views' mean ([`LightField::mean_view`], uniform over the slope
+    /// square), which only consumers that refuse
+    /// [`SceneFeature::LightFields`](crate::method::SceneFeature) or need a
+    /// direction-free proposal (importance sampling) may use.
     #[must_use]
     pub fn radiance_at(&self, uv: Vec2) -> Vec3 {
+        if let Some(lf) = &self.light_field {
+            let views = lf.views() * lf.views();
+            let sum: Vec3 = (0..views)
+                .map(|i| lf.view(i % lf.views(), i / lf.views()).sample(uv))
+                .sum();
+            return sum / views as f32 * self.intensity;
+        }
         match &self.texture {
             Some(t) => t.sample(uv) * self.intensity,
             None => self.intensity,
         }
+    }
+
+    /// Radiance arriving along `wi` (unit, from the receiver towards the
+    /// light) from the light's point at `uv`: [`Self::radiance_at`] without
+    /// a light field, else the field's view for the emitted direction `−wi`
+    /// ([`LightField::radiance`]). Zero from behind the emitting side.
+    #[must_use]
+    pub fn radiance(&self, uv: Vec2, wi: Vec3) -> Vec3 {
+        let Some(lf) = &self.light_field else {
+            return self.radiance_at(uv);
+        };
+        let m = self.world_from_light;
+        let cos = -wi.dot(m.z_axis);
+        if cos <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let slope = Vec2::new(-wi.dot(m.x_axis), -wi.dot(m.y_axis)) / cos;
+        lf.radiance(uv, slope) * self.intensity
     }
 
     /// Ray–rectangle intersection: the distance `t > t_min` along `d` (unit)
@@ -261,9 +296,18 @@ impl AreaLight {
         ((0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y)).then_some((t, uv))
     }
 
-    /// Total emitted power Φ = π ∫ L dA (Lambertian emitter), per channel.
+    /// Total emitted power Φ = ∫∫ L cos θ dω dA per channel: π ∫ L dA for
+    /// the Lambertian emitter, with a light field each view's mean times its
+    /// projected solid angle ([`LightField::projected_solid_angle`]).
     #[must_use]
     pub fn power(&self) -> Vec3 {
+        if let Some(lf) = &self.light_field {
+            let a = lf.views();
+            let sum: Vec3 = (0..a * a)
+                .map(|i| lf.view(i % a, i / a).mean() * lf.projected_solid_angle(i % a, i / a))
+                .sum();
+            return sum * self.intensity * self.area();
+        }
         let mean = self.texture.as_ref().map_or(Vec3::ONE, |t| t.mean());
         mean * self.intensity * (std::f32::consts::PI * self.area())
     }
@@ -433,6 +477,7 @@ mod tests {
             world_from_light: Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
             intensity: Vec3::ONE,
             texture: None,
+            light_field: None,
         };
         for uv in [
             Vec2::new(0.1, 0.9),

@@ -168,7 +168,23 @@ pub struct AreaLightDesc {
     pub rotate: Option<[f32; 3]>,
     pub intensity: Rgb,
     pub texture: Option<String>,
+    pub light_field: Option<LightFieldDesc>,
 }
+
+/// `[area_light.light_field]`: radiance by direction too
+/// (`relight_render::LightField`): `tiles` (an image of `views × views`
+/// tiles) or `builtin` ([`LIGHT_FIELD_BUILTINS`]).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightFieldDesc {
+    pub tiles: Option<String>,
+    pub builtin: Option<String>,
+    pub views: usize,
+    pub extent: f32,
+}
+
+/// Names accepted by `[area_light.light_field] builtin`.
+pub const LIGHT_FIELD_BUILTINS: [&str; 1] = ["prism"];
 
 /// `[medium]`.
 #[derive(Clone, Debug, Deserialize)]

@@ -16,12 +16,13 @@
 use crate::check::Ctx;
 use crate::file::{
     AreaLightDesc, DEFAULT_AREA_UP, DEFAULT_AREA_UP_VERTICAL, DEFAULT_LIGHT_COLOR,
-    DEFAULT_MEDIUM_ALBEDO, DEFAULT_MEDIUM_RADIUS, MediumDesc, PointLightDesc, VERTICAL_NORMAL_COS,
+    DEFAULT_MEDIUM_ALBEDO, DEFAULT_MEDIUM_RADIUS, LIGHT_FIELD_BUILTINS, LightFieldDesc, MediumDesc,
+    PointLightDesc, VERTICAL_NORMAL_COS,
 };
 use crate::textures::load_texture;
 use crate::{SceneError, rotation_from_yaw_pitch_roll};
 use glam::{Mat3, Vec3};
-use relight_render::{AreaLight, Medium, PointLight};
+use relight_render::{AreaLight, LightField, Medium, PointLight, Texture};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -107,13 +108,78 @@ pub(crate) fn area_light(
         }
         None => None,
     };
+    let (texture, light_field) = match &d.light_field {
+        None => (texture, None),
+        Some(lf) => {
+            let field = light_field(cx, key, lf, texture, &resolve, warnings)?;
+            (None, Some(Arc::new(field)))
+        }
+    };
     Ok(AreaLight {
         center,
         size,
         world_from_light,
         intensity,
         texture,
+        light_field,
     })
+}
+
+/// `[area_light.light_field]`: tiles read from a file, or a built-in field
+/// over the light's `texture` (white without one).
+fn light_field(
+    cx: Ctx,
+    key: &str,
+    d: &LightFieldDesc,
+    texture: Option<Arc<Texture>>,
+    resolve: &impl Fn(&str) -> std::path::PathBuf,
+    warnings: &mut Vec<String>,
+) -> Result<LightField, SceneError> {
+    let k = format!("{key}.light_field");
+    let extent = cx.positive(&format!("{k}.extent"), d.extent)?;
+    if !(1..=64).contains(&d.views) {
+        return Err(cx.err(
+            &format!("{k}.views"),
+            format!("must be 1…64 views per axis (got {})", d.views),
+        ));
+    }
+    match (&d.tiles, &d.builtin) {
+        (Some(tiles), None) => {
+            if texture.is_some() {
+                return Err(cx.err(
+                    &format!("{key}.texture"),
+                    "a light with `light_field.tiles` takes its radiance from the tiles; drop `texture`",
+                ));
+            }
+            let tk = format!("{k}.tiles");
+            let path = resolve(tiles);
+            let (image, w) =
+                load_texture(Path::new(&path)).map_err(|source| SceneError::Texture {
+                    context: cx.context(&tk),
+                    source,
+                })?;
+            warnings.extend(w);
+            LightField::from_tiles(&image, d.views, extent).map_err(|e| cx.err(&tk, e))
+        }
+        (None, Some(name)) if name == "prism" => {
+            let base = match texture {
+                Some(t) => (*t).clone(),
+                None => Texture::constant(Vec3::ONE).expect("white is a valid texel"),
+            };
+            Ok(LightField::prism(&base, d.views, extent))
+        }
+        (None, Some(name)) => Err(cx.err(
+            &format!("{k}.builtin"),
+            format!(
+                "unknown built-in light field `{name}` (built-ins: {})",
+                LIGHT_FIELD_BUILTINS.join(", ")
+            ),
+        )),
+        _ => Err(cx.err(
+            &k,
+            "give exactly one of `tiles` (an image of views × views tiles) and `builtin`",
+        )),
+    }
 }
 
 pub(crate) fn medium(cx: Ctx, d: &MediumDesc) -> Result<Medium, SceneError> {
@@ -151,6 +217,7 @@ mod tests {
             rotate,
             intensity: Rgb([1.0; 3]),
             texture: None,
+            light_field: None,
         }
     }
 

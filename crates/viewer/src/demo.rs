@@ -441,6 +441,7 @@ mod tests {
             world_from_light: glam::Mat3::from_cols(glam::Vec3::X, glam::Vec3::Z, -glam::Vec3::Y),
             intensity: glam::Vec3::ONE,
             texture: None,
+            light_field: None,
         });
         let mut sh = MethodOptions::default_for(MethodKind::Sh);
         if let MethodOptions::Sh(s) = &mut sh {

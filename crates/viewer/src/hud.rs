@@ -246,6 +246,7 @@ fn light_line(viewer: &Viewer) -> Option<String> {
     };
     let c = l.center;
     let texture = match viewer.light_edit().texture {
+        _ if l.light_field.is_some() => "light field (its views)",
         crate::light::LightTexture::Scene if l.texture.is_none() => "none",
         t => t.name(),
     };

@@ -162,14 +162,17 @@ impl Default for LightEdit {
 }
 
 impl LightEdit {
-    /// `light` (as loaded) with this edit.
+    /// `light` (as loaded) with this edit. A light with a light field keeps
+    /// it: its views are its texture (the HUD says so).
     #[must_use]
     pub fn apply(&self, light: &AreaLight, textures: &LightTextures) -> AreaLight {
         let mut l = light.clone();
         let axes = light.world_from_light;
         l.center += axes.x_axis * self.offset.x + axes.y_axis * self.offset.y;
         l.size *= self.scale;
-        if let Some(t) = textures.get(self.texture) {
+        if let Some(t) = textures.get(self.texture)
+            && l.light_field.is_none()
+        {
             l.texture = Some(t.clone());
         }
         l

@@ -339,3 +339,30 @@ fn verify_methods_quick_has_a_row_per_method_and_scene_and_the_fog_gate_passes()
         assert_eq!(g["pass"], true, "fog gate fails: {g}");
     }
 }
+
+/// A light field (`examples/light-field.toml`): `nearfield` renders it close
+/// to the reference, and a method that cannot is a one-line error naming
+/// itself and the feature.
+#[test]
+fn light_fields_reach_nearfield_and_the_reference_and_others_refuse_them() {
+    let scene = "../../examples/light-field.toml --size 64x40";
+    let reference = rendered(
+        &format!("{scene} --method reference --spp 256"),
+        "lf-reference.png",
+    );
+    let nearfield = rendered(&format!("{scene} --method nearfield"), "lf-nearfield.png");
+    let e = compared(&nearfield, &reference, "object");
+    assert!(e < 0.15, "nearfield vs reference on the light field: {e}");
+    for method in ["ltc", "shexp"] {
+        let out = relight(&[
+            "-q",
+            "render",
+            "../../examples/light-field.toml",
+            "--method",
+            method,
+            "--out",
+            tmp("lf-refused.png").to_str().unwrap(),
+        ]);
+        assert_clean_error(&out, &[method, "light fields"]);
+    }
+}

@@ -139,6 +139,7 @@ pub fn bench_reference(width: usize, height: usize, spp: u32) -> Vec<ReferenceBe
         world_from_light: Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
         intensity: Vec3::splat(10.0),
         texture: None,
+        light_field: None,
     });
     let mut fog = lit.clone();
     fog.medium = Some(Medium {

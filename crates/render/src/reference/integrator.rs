@@ -118,7 +118,7 @@ impl<'a> Tracer<'a> {
                 && t < t_end
                 && d.dot(a.normal()) < 0.0
             {
-                l += a.radiance_at(uv) * self.transmittance(o, d, t);
+                l += a.radiance(uv, d) * self.transmittance(o, d, t);
             }
         }
         l

@@ -151,7 +151,7 @@ pub(crate) fn area_light_sample(l: &AreaLight, x: Vec3, u: Vec2) -> Option<Light
     Some(LightSample {
         wi,
         dist: r,
-        value: l.radiance_at(u),
+        value: l.radiance(u, wi),
         pdf: r2 / (l.area() * cos_l),
     })
 }

@@ -30,7 +30,8 @@
 //!   `I cos / d²` times transmittance, with a shadow ray when visibility is on.
 //!   They are not seen directly (a delta has no image).
 //! * **Area lights** ([`AreaLight`](crate::AreaLight), one-sided textured
-//!   rectangles): emit `radiance_at(uv)` from their `+ẑ` side, nothing from
+//!   rectangles): emit `radiance(uv, wi)` (a light field's view for the
+//!   direction, [`crate::LightField`]) from their `+ẑ` side, nothing from
 //!   the back. They are **luminaires only: they do not occlude** — shadow
 //!   rays, camera rays and scattered rays pass through them, picking up
 //!   their emission on the front side. The camera sees them (attenuated).

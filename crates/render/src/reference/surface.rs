@@ -419,7 +419,7 @@ fn direct_light_with(
         // A sample in a cell the light only partly covers may miss it.
         if let Some((t, uv)) = a.intersect(o, wi, 0.0) {
             let pdf_l = area_light_pdf(a, wi, t);
-            let le = a.radiance_at(uv);
+            let le = a.radiance(uv, wi);
             if pdf_l > 0.0 && le != Vec3::ZERO && tr.unoccluded(o, wi, t * (1.0 - 1e-4), rays) {
                 l += rho * le * (tr.transmittance(o, wi, t) * power3(pdf_w, pdf_l, pdf_sc) / pdf_w);
             }
@@ -465,7 +465,7 @@ fn direct_light_with(
                 {
                     let pdf_l = area_light_pdf(a, wi, t);
                     if pdf_l > 0.0 {
-                        let le = a.radiance_at(uv);
+                        let le = a.radiance(uv, wi);
                         let w = match faces {
                             Some(f) => power3(pdf, pdf_l, f[i].pdf(wi)),
                             None => strategy.bsdf_weight(pdf, pdf_l),

@@ -152,7 +152,9 @@ pub struct LightGrid {
 }
 
 impl LightGrid {
-    /// Box-averages `light` at order `m` (≥ 1).
+    /// Box-averages `light` at order `m` (≥ 1). A light field gives its
+    /// views' mean ([`AreaLight::radiance_at`]): a proposal only, as the
+    /// estimator weighs each sample by the radiance in its direction.
     #[must_use]
     pub fn of(light: &AreaLight, m: usize) -> Self {
         let m = m.max(1);

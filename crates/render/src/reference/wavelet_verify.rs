@@ -71,6 +71,7 @@ pub fn glossy_scene(width: usize, height: usize) -> Scene {
         world_from_light: Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
         intensity: Vec3::splat(2.0),
         texture: Some(Arc::new(test_texture(64))),
+        light_field: None,
     });
     s
 }

@@ -299,6 +299,7 @@ fn lit_foggy_scene(size: usize) -> relight_render::Scene {
         world_from_light: Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
         intensity: Vec3::splat(3.0),
         texture: None,
+        light_field: None,
     });
     scene.medium = Some(Medium {
         beta: 0.3,

@@ -73,6 +73,7 @@ fn wall_lights(radiance: f32, inset: f32) -> Vec<AreaLight> {
                 world_from_light: Mat3::from_cols(x, y, z),
                 intensity: Vec3::splat(radiance),
                 texture: None,
+                light_field: None,
             });
         }
     }

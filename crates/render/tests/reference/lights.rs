@@ -37,6 +37,7 @@ pub fn plane_under_rectangle(rho: f32, radiance: f32, size: usize) -> (Scene, Ve
         world_from_light: Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
         intensity: Vec3::splat(radiance),
         texture: None,
+        light_field: None,
     };
     let corners: Vec<Vec3> = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
         .iter()
@@ -241,6 +242,7 @@ fn area_light_is_seen_from_the_front_only() {
         world_from_light: Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
         intensity: Vec3::splat(3.0),
         texture: Some(tex),
+        light_field: None,
     };
     let env = 0.5;
     for (eye, front) in [
@@ -322,4 +324,113 @@ fn lighting_that_misses_the_objects_is_warned() {
     assert!(dark.lighting_warnings().is_empty());
     black_texture.env = constant_env(0.5);
     assert!(black_texture.lighting_warnings().is_empty());
+}
+
+/// A light field (`relight_render::LightField`, two views along x̂: red
+/// towards −x̂, blue towards +x̂) over a Lambert plane: each receiving point
+/// gets red from the part of the rectangle on its +x̂ side and blue from the
+/// rest (the emitted slope along x̂ is the receiver's offset from the light
+/// point, at unit depth), Lambert's edge sum on each part per channel. And
+/// a field whose views all equal one texture renders exactly as that
+/// texture (same seed, same image).
+#[test]
+fn light_field_views_light_the_sides_they_face() {
+    let (mut scene, _) = plane_under_rectangle(0.8, 1.0, 24);
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let red = Texture::constant(Vec3::X).unwrap();
+    let blue = Texture::constant(Vec3::Z).unwrap();
+    let field =
+        relight_render::LightField::try_new(2, 50.0, vec![red.clone(), blue.clone(), red, blue])
+            .unwrap();
+    scene.area_lights[0].light_field = Some(Arc::new(field));
+    let light = scene.area_lights[0].clone();
+    // Receiver on the plane right below the light's centre: red from the
+    // +x̂ half, which it sees along −x̂ emission.
+    let below = Vec3::new(light.center.x, 0.0, light.center.z);
+    let towards_right_half = (light.point_at(Vec2::new(0.9, 0.5)) - below).normalize();
+    assert_eq!(
+        light.radiance(Vec2::new(0.9, 0.5), towards_right_half),
+        Vec3::X
+    );
+    let towards_left_half = (light.point_at(Vec2::new(0.1, 0.5)) - below).normalize();
+    assert_eq!(
+        light.radiance(Vec2::new(0.1, 0.5), towards_left_half),
+        Vec3::Z
+    );
+    assert_eq!(
+        light.radiance(Vec2::new(0.1, 0.5), -towards_left_half),
+        Vec3::ZERO,
+        "behind"
+    );
+
+    let o = ReferenceOptions {
+        spp: 64,
+        pass_spp: 64,
+        seed: 5,
+        ..ReferenceOptions::default()
+    };
+    let r = render_reference(&scene, &o, &NoProgress).unwrap();
+    let mask = object_mask(&scene, 0);
+    let (mut sum, mut closed, mut var) = ([0.0f64; 2], [0.0f64; 2], [0.0f64; 2]);
+    for i in 0..w * h {
+        if !mask[i] {
+            continue;
+        }
+        // Per 4 × 4 sub-pixel receiver: the split of the rectangle at its
+        // x̂ offset (in uv), red from the +x̂ part, blue from the rest.
+        let mut exact = [0.0f64; 2];
+        for j in 0..16 {
+            let (o, d) = scene.camera.ray(
+                (i % w) as f32 + ((j % 4) as f32 + 0.5) / 4.0,
+                (i / w) as f32 + ((j / 4) as f32 + 0.5) / 4.0,
+            );
+            let x = o + d * (-o.y / d.y);
+            let cut = light
+                .uv_of(Vec3::new(x.x, light.center.y, light.center.z))
+                .x;
+            let part = |u0: f32, u1: f32| {
+                let (u0, u1) = (u0.clamp(0.0, 1.0), u1.clamp(0.0, 1.0));
+                if u1 <= u0 {
+                    return 0.0;
+                }
+                let c: Vec<Vec3> = [(u0, 0.0), (u1, 0.0), (u1, 1.0), (u0, 1.0)]
+                    .iter()
+                    .map(|&(u, v)| light.point_at(Vec2::new(u, v)))
+                    .collect();
+                0.8 / PI * polygon_irradiance(x, Vec3::Y, &c) / 16.0
+            };
+            exact[0] += part(cut, 1.0);
+            exact[1] += part(0.0, cut);
+        }
+        let p = r.image.pixels[i];
+        for (c, (value, exact)) in [(p.x, exact[0]), (p.z, exact[1])].into_iter().enumerate() {
+            sum[c] += f64::from(value);
+            closed[c] += exact;
+            // The reported error is luminance's; a channel's is about it
+            // over the channel's luminance weight (Rec. 709: 0.2126 red,
+            // 0.0722 blue) where that channel dominates.
+            let weight = [0.2126, 0.0722][c];
+            var[c] += (f64::from(r.std_error[i]) / weight).powi(2);
+        }
+        assert!(p.y.abs() < 1e-6, "no green emitted");
+    }
+    for c in 0..2 {
+        let bias = (sum[c] - closed[c]) / closed[c];
+        let sigma = var[c].sqrt() / closed[c];
+        eprintln!("light field channel {c}: MC − closed form {bias:+.2e} ± {sigma:.1e}");
+        assert!(closed[c] > 1.0, "both sides lit");
+        assert!(bias.abs() < 4.0 * sigma + 1e-3, "channel {c}: bias {bias}");
+    }
+
+    // Identical views: the textured light, bit for bit.
+    let tex = Arc::new(Texture::stripes_and_spot(16, 0.3, 2.0));
+    scene.area_lights[0].light_field = None;
+    scene.area_lights[0].texture = Some(tex.clone());
+    let plain = render_reference(&scene, &o, &NoProgress).unwrap();
+    scene.area_lights[0].texture = None;
+    scene.area_lights[0].light_field = Some(Arc::new(
+        relight_render::LightField::try_new(2, 1e4, vec![(*tex).clone(); 4]).unwrap(),
+    ));
+    let field = render_reference(&scene, &o, &NoProgress).unwrap();
+    assert_eq!(plain.image.pixels, field.image.pixels);
 }

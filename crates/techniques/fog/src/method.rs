@@ -663,6 +663,7 @@ impl Relighter for FogRelighter {
                 Support::Full
             }
             SceneFeature::AreaLights
+            | SceneFeature::LightFields
             | SceneFeature::Visibility
             | SceneFeature::NormalMaps
             | SceneFeature::SpatiallyVaryingBrdf

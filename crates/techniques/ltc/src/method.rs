@@ -216,6 +216,7 @@ impl Relighter for LtcMethod {
             | SceneFeature::Medium
             | SceneFeature::NormalMaps
             | SceneFeature::SpatiallyVaryingBrdf
+            | SceneFeature::LightFields
             | SceneFeature::Animation => Support::No,
         }
     }

@@ -19,13 +19,14 @@
 //! |---|---|
 //! | [`face`] | the face parameterisation and the vertex → texture affine map |
 //! | [`light`] | the light's standard-basis coefficients, source compression |
+//! | [`light_field`] | a light whose radiance varies with direction (eq. 4.37): 4D coefficients, per-slice propagation |
 //! | [`transport`] | per-vertex Lambert × visibility transport bake |
 //! | [`specular`] | per-vertex fixed-view specular (BRDF × cosine × visibility) transport bake, BRDF classification |
 //! | [`cache`] | the transport bake on disk: versioned, checksummed, keyed |
 //! | [`propagate`] | the fused per-vertex kernel: ACC rows from shared primitives, target mask (eq. 4.38), propagation and dot product |
 //! | [`rotate`] | a light turned in its plane, re-rasterised into its bounding rectangle |
 //! | [`method`] | the `nearfield` [`relight_render::method::Relighter`] |
-//! | [`verify`], [`verify_specular`], [`bench`] | `relight verify/bench nearfield` rows (the glossy scene's in `verify_specular`) |
+//! | [`verify`], [`verify_specular`], [`verify_light_field`], [`bench`] | `relight verify/bench nearfield` rows (the glossy scene's in `verify_specular`) |
 //!
 //! Figures measured by `relight verify nearfield` and `relight bench
 //! nearfield` are in `docs/nearfield.md`.
@@ -34,6 +35,7 @@ pub mod bench;
 pub mod cache;
 pub mod face;
 pub mod light;
+pub mod light_field;
 pub mod method;
 pub mod propagate;
 pub mod rotate;
@@ -42,6 +44,7 @@ pub mod specular;
 pub mod transport;
 pub mod verify;
 mod verify_judge;
+pub mod verify_light_field;
 pub mod verify_specular;
 
 pub use light::Ranking;

@@ -188,18 +188,7 @@ pub fn support_width(i: usize) -> f64 {
 #[must_use]
 pub fn compress(light: &LightCoeffs, fraction: f64, ranking: Ranking) -> SourceTerms {
     let n = light.n;
-    let keep = count_of(fraction, n);
-    let mut idx: Vec<(f64, usize)> = (0..n * n)
-        .map(|k| {
-            let m: f64 = light.c.iter().map(|c| c[k].abs()).sum();
-            let w = match ranking {
-                Ranking::Magnitude => 1.0,
-                Ranking::AreaWeighted => (support_width(k % n) * support_width(k / n)).sqrt(),
-            };
-            (m * w, k)
-        })
-        .filter(|(m, _)| *m > 0.0)
-        .collect();
+    let mut idx = ranked(light, ranking, 1.0);
     idx.sort_by(|a, b| {
         b.0.total_cmp(&a.0)
             .then_with(|| coarse_key(a.1 % n, a.1 / n).cmp(&coarse_key(b.1 % n, b.1 / n)))
@@ -209,13 +198,41 @@ pub fn compress(light: &LightCoeffs, fraction: f64, ranking: Ranking) -> SourceT
         let dc = idx.remove(p);
         idx.insert(0, dc);
     }
-    idx.truncate(keep);
-    idx.sort_by_key(|&(_, k)| (k / n, k % n));
+    idx.truncate(count_of(fraction, n));
+    let kept: Vec<usize> = idx.iter().map(|&(_, k)| k).collect();
+    terms_of(light, kept)
+}
+
+/// `(score, k)` of every non-zero coefficient of `light`: its magnitude
+/// summed over the channels, times the support weight of `ranking` and
+/// `weight` (unsorted).
+#[must_use]
+pub fn ranked(light: &LightCoeffs, ranking: Ranking, weight: f64) -> Vec<(f64, usize)> {
+    let n = light.n;
+    (0..n * n)
+        .map(|k| {
+            let m: f64 = light.c.iter().map(|c| c[k].abs()).sum();
+            let w = match ranking {
+                Ranking::Magnitude => 1.0,
+                Ranking::AreaWeighted => (support_width(k % n) * support_width(k / n)).sqrt(),
+            };
+            (m * w * weight, k)
+        })
+        .filter(|(m, _)| *m > 0.0)
+        .collect()
+}
+
+/// The coefficients `kept` (indices `i2 · n + i1`, any order) of `light`
+/// as source terms, grouped by row.
+#[must_use]
+pub fn terms_of(light: &LightCoeffs, mut kept: Vec<usize>) -> SourceTerms {
+    let n = light.n;
+    kept.sort_by_key(|&k| (k / n, k % n));
     let mut out = SourceTerms {
         n,
         ..SourceTerms::default()
     };
-    for &(_, k) in &idx {
+    for k in kept {
         let (i1, i2) = (k % n, k / n);
         if out.rows.last().is_none_or(|r| r.0 as usize != i2) {
             let at = out.terms.len() as u32;

@@ -56,6 +56,7 @@
 use crate::cache::{BakeKey, CacheError};
 use crate::face::{FACE_CLIPPING_WARNING, LightFrame, face_clipping};
 use crate::light::{LightCoeffs, Ranking, SourceTerms, compress, count_of};
+use crate::light_field::{FieldScratch, FieldSource, shade_vertex_field};
 use crate::propagate::{
     Kernel, Primitives, VertexMap, VertexScratch, prefetch, shade_fma, shade_rgb_fma, shade_vertex,
 };
@@ -160,6 +161,9 @@ struct LitLight {
     /// turned light's bounding rectangle); `None`: not set yet (black).
     frame: Option<LightFrame>,
     source: SourceTerms,
+    /// A light field's coefficients (eq. 4.37, [`crate::light_field`]),
+    /// which replace `source` for this light.
+    field: Option<FieldSource>,
 }
 
 /// Offset along the normal (scene units, relative to `1 + |c|`) within
@@ -252,6 +256,36 @@ fn the_lights(scene: &Scene) -> Result<&[AreaLight], MethodError> {
         [] => Err(invalid("scene", "needs an [[area_light]] (it has none)")),
         ls => Ok(ls),
     }
+}
+
+/// Light `index` can be relit: a light field needs a power-of-two view
+/// count (its angular Haar basis) and cannot be turned in its baked plane
+/// (the turn would turn its directions too, which the re-rasterised
+/// bounding rectangle of [`crate::rotate`] does not do).
+fn check_light_field(index: usize, light: &AreaLight, turned: bool) -> Result<(), MethodError> {
+    let Some(lf) = &light.light_field else {
+        return Ok(());
+    };
+    let a = lf.views();
+    if !a.is_power_of_two() {
+        return Err(invalid(
+            "scene",
+            format!(
+                "area light {}: a light field of {a} × {a} views; the angular Haar basis needs a power of two per axis",
+                index + 1
+            ),
+        ));
+    }
+    if turned {
+        return Err(invalid(
+            "scene",
+            format!(
+                "area light {}: a light field turned in its plane away from the light it was baked for; bake for the turned light (prepare again)",
+                index + 1
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// One warning per light that drops, past the face of some vertex in front
@@ -569,6 +603,16 @@ impl NearfieldMethod {
         &self.lights[0].source
     }
 
+    /// The angular slices light `index`'s field keeps (0 without a field,
+    /// [`crate::light_field`]).
+    #[must_use]
+    pub fn field_slices(&self, index: usize) -> usize {
+        self.lights
+            .get(index)
+            .and_then(|l| l.field.as_ref())
+            .map_or(0, |f| f.terms.len())
+    }
+
     /// Changes the compression (takes effect at the next `set_lighting`).
     pub fn set_compression(&mut self, source_terms: f64, target_terms: f64) {
         self.options.source_terms = source_terms;
@@ -862,6 +906,22 @@ impl NearfieldMethod {
         let t = Instant::now();
         let o = &self.options;
         let (n, coarse) = (o.order, o.light_order.unwrap_or(o.order).min(o.order));
+        if let Some(lf) = &light.light_field {
+            // `set_lighting` refuses a turned light field and a view count
+            // that is not a power of two (`check_light_field`).
+            let field = FieldSource::of(
+                light,
+                lf,
+                [n, coarse],
+                o.face,
+                o.source_terms,
+                o.source_ranking,
+            );
+            self.lights[index].field = field.ok();
+            self.lights[index].source = SourceTerms::default();
+            return t.elapsed().as_secs_f64() * 1e3;
+        }
+        self.lights[index].field = None;
         let coeffs = match turn {
             None => LightCoeffs::of_at(light, n, coarse),
             Some(turn) => LightCoeffs::of_cells(&turn.cells(light, coarse), n, coarse),
@@ -880,8 +940,8 @@ impl NearfieldMethod {
         let m = self.target_count();
         let nn = n * n;
         let prims = Primitives::new(n);
-        // Per light with a frame: its kernel, frame and plane.
-        let lit: Vec<(Kernel, LightFrame, &PlaneBake)> = self
+        // Per light with a frame: its kernel, frame, plane and light field.
+        let lit: Vec<(Kernel, LightFrame, &PlaneBake, Option<&FieldSource>)> = self
             .lights
             .iter()
             .filter_map(|l| {
@@ -890,7 +950,12 @@ impl NearfieldMethod {
                     source: &l.source,
                     targets: m,
                 };
-                Some((kernel, l.frame?, self.planes.get(l.plane)?))
+                Some((
+                    kernel,
+                    l.frame?,
+                    self.planes.get(l.plane)?,
+                    l.field.as_ref(),
+                ))
             })
             .collect();
         self.colors = self
@@ -906,9 +971,9 @@ impl NearfieldMethod {
                 (0..verts)
                     .into_par_iter()
                     .with_min_len(256)
-                    .map_init(VertexScratch::default, |sc, v| {
+                    .map_init(<(VertexScratch, FieldScratch)>::default, |(sc, fs), v| {
                         let mut b = Vec3::ZERO;
-                        for (kernel, frame, plane) in &lit {
+                        for (kernel, frame, plane, field) in &lit {
                             let Some((s, o)) = frame.affine(frame.local(p.mesh.positions[v]), face)
                             else {
                                 continue;
@@ -919,7 +984,13 @@ impl NearfieldMethod {
                                 prefetch(next);
                             }
                             let vertex = VertexMap { s, o, transport: t };
-                            b += Vec3::from(shade_vertex(kernel, &vertex, sc)).max(Vec3::ZERO);
+                            let lit = match field {
+                                None => shade_vertex(kernel, &vertex, sc),
+                                Some(f) => {
+                                    shade_vertex_field(&prims, f, m, &vertex, channels, sc, fs)
+                                }
+                            };
+                            b += Vec3::from(lit).max(Vec3::ZERO);
                         }
                         if channels == 3 {
                             return b;
@@ -948,10 +1019,16 @@ impl NearfieldMethod {
                     .lights
                     .iter()
                     .map(|l| {
-                        if t.channels == 3 {
-                            shade_rgb_fma(&l.source, m)
-                        } else {
-                            shade_fma(&l.source, m)
+                        let shade = |s: &SourceTerms| {
+                            if t.channels == 3 {
+                                shade_rgb_fma(s, m)
+                            } else {
+                                shade_fma(s, m)
+                            }
+                        };
+                        match &l.field {
+                            None => shade(&l.source),
+                            Some(f) => f.shade_fma(t.channels, shade),
                         }
                     })
                     .sum();
@@ -969,6 +1046,7 @@ impl Relighter for NearfieldMethod {
     fn supports(&self, feature: SceneFeature) -> Support {
         match feature {
             SceneFeature::AreaLights
+            | SceneFeature::LightFields
             | SceneFeature::Visibility
             | SceneFeature::SpatiallyVaryingBrdf => Support::Full,
             SceneFeature::Environment
@@ -1006,6 +1084,9 @@ impl Relighter for NearfieldMethod {
                 invalid("scene", "the lights do not match the bake made for them")
             })?,
         };
+        for (i, (light, (_, turn))) in lights.iter().zip(&plan).enumerate() {
+            check_light_field(i, light, turn.is_some())?;
+        }
         let mut coeffs_ms = 0.0;
         for (i, (light, (_, turn))) in lights.iter().zip(&plan).enumerate() {
             progress.check()?;

@@ -7,7 +7,7 @@ use glam::{Mat3, Vec2, Vec3};
 use relight_brdf::Lambert;
 use relight_geom::shapes::{plane, uv_sphere_at};
 use relight_render::texture::Texture;
-use relight_render::{AreaLight, Camera, Object, Scene};
+use relight_render::{AreaLight, Camera, LightField, Object, Scene};
 use relight_sphere::{EnvMap, Param};
 use std::sync::Arc;
 
@@ -28,6 +28,7 @@ pub fn ceiling_light(center: Vec3, size: Vec2, intensity: f32) -> AreaLight {
         world_from_light: Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
         intensity: Vec3::splat(intensity),
         texture: Some(Arc::new(test_texture(64))),
+        light_field: None,
     }
 }
 
@@ -139,6 +140,7 @@ pub fn floor_and_sphere_three_lights(
         world_from_light: Mat3::from_cols(Vec3::Z, -Vec3::X, -Vec3::Y),
         intensity: Vec3::new(2.0, 1.8, 1.5),
         texture: None,
+        light_field: None,
     });
     s.area_lights.push(AreaLight {
         center: Vec3::new(-2.2, 0.8, 0.0),
@@ -147,6 +149,27 @@ pub fn floor_and_sphere_three_lights(
         world_from_light: Mat3::from_cols(-Vec3::Z, Vec3::Y, Vec3::X),
         intensity: Vec3::splat(2.5),
         texture: Some(Arc::new(test_texture(32))),
+        light_field: None,
     });
+    s
+}
+
+/// [`floor_and_sphere`] with its light's texture seen through the built-in
+/// prism light field ([`LightField::prism`]) of `views²` views over slopes
+/// `[−extent, extent]²`; extent 2 puts the views' edges on the face cells
+/// of face 4 at the floor (depth 1.6) for every power-of-two order ≥ views.
+#[must_use]
+pub fn floor_and_sphere_light_field(
+    floor: usize,
+    segments: usize,
+    [width, height]: [usize; 2],
+    visibility: bool,
+    views: usize,
+    extent: f32,
+) -> Scene {
+    let mut s = floor_and_sphere(floor, segments, width, height, visibility);
+    let light = &mut s.area_lights[0];
+    let base = light.texture.take().expect("the ceiling light is textured");
+    light.light_field = Some(Arc::new(LightField::prism(&base, views, extent)));
     s
 }

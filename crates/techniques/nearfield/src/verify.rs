@@ -41,6 +41,24 @@ pub fn face_quadrature(
     })
 }
 
+/// [`face_quadrature`] with a radiance that depends on the direction too:
+/// `radiance(uv, ω)`, `ω` the unit world direction from the vertex towards
+/// the light (a light field, [`relight_render::AreaLight::radiance`]).
+#[must_use]
+pub fn face_quadrature_directional(
+    frame: &LightFrame,
+    face: f64,
+    p: Vec3,
+    nrm: Vec3,
+    samples: usize,
+    radiance: &(dyn Fn(Vec2, Vec3) -> Vec3 + Sync),
+    bvh: Option<&SceneBvh>,
+) -> Vec3 {
+    face_quadrature_general(frame, face, p, nrm, samples, radiance, bvh, |w| {
+        Vec3::splat(nrm.dot(w).max(0.0))
+    })
+}
+
 /// `∫_face L ρ V dω` at a vertex: [`face_quadrature`] with the weight
 /// `ρ(ω)` of each unit world direction (reflectance × cosine, zero below
 /// the horizon, where a sample is skipped) in place of the cosine; `nrm`
@@ -53,6 +71,23 @@ pub(crate) fn face_quadrature_with(
     nrm: Vec3,
     samples: usize,
     radiance: &(dyn Fn(Vec2) -> Vec3 + Sync),
+    bvh: Option<&SceneBvh>,
+    weight: impl Fn(Vec3) -> Vec3,
+) -> Vec3 {
+    let radiance = |uv: Vec2, _: Vec3| radiance(uv);
+    face_quadrature_general(frame, face, p, nrm, samples, &radiance, bvh, weight)
+}
+
+/// [`face_quadrature_with`] with `radiance(uv, ω)` (as
+/// [`face_quadrature_directional`]).
+#[allow(clippy::too_many_arguments)]
+fn face_quadrature_general(
+    frame: &LightFrame,
+    face: f64,
+    p: Vec3,
+    nrm: Vec3,
+    samples: usize,
+    radiance: &(dyn Fn(Vec2, Vec3) -> Vec3 + Sync),
     bvh: Option<&SceneBvh>,
     weight: impl Fn(Vec3) -> Vec3,
 ) -> Vec3 {
@@ -88,14 +123,15 @@ pub(crate) fn face_quadrature_with(
             {
                 continue;
             }
-            sum += radiance(Vec2::new(u1 as f32, u2 as f32)) * rho / (len * len * len);
+            sum += radiance(Vec2::new(u1 as f32, u2 as f32), d / len) * rho / (len * len * len);
         }
     }
     sum * (face * face * h1 * h2) as f32
 }
 
 /// `∫_light L cos V dω` at a vertex by `samples²` midpoints over the
-/// light's area (no face: the whole light), true texture.
+/// light's area (no face: the whole light), true texture (a light field's
+/// view by direction, [`AreaLight::radiance`]).
 #[must_use]
 pub fn area_quadrature(
     light: &AreaLight,
@@ -146,7 +182,7 @@ pub(crate) fn area_quadrature_with(
             {
                 continue;
             }
-            sum += light.radiance_at(uv) * rho * (cl / r2);
+            sum += light.radiance(uv, w) * rho * (cl / r2);
         }
     }
     sum * da
@@ -209,7 +245,7 @@ impl VerifyOptions {
 
 /// Relative error figures of `got` against `want` per vertex: (max over
 /// vertices with `want ≥ 5 %` of the largest, pooled relative RMS).
-fn vertex_errors(got: &[Vec3], want: &[Vec3]) -> (f64, f64) {
+pub(crate) fn vertex_errors(got: &[Vec3], want: &[Vec3]) -> (f64, f64) {
     let top = want.iter().map(|w| w.max_element()).fold(0.0f32, f32::max);
     let (mut num, mut den, mut max) = (0.0f64, 0.0f64, 0.0f64);
     for (g, w) in got.iter().zip(want) {
@@ -418,6 +454,7 @@ pub fn verify_rows(
         rows.extend(three_lights_rows(opts, progress)?);
     }
     rows.extend(crate::verify_specular::specular_rows(opts, progress)?);
+    rows.extend(crate::verify_light_field::light_field_rows(opts, progress)?);
     Ok(rows)
 }
 
@@ -426,7 +463,7 @@ pub fn verify_rows(
 /// (`face: None`), or by `(1.5 samples)²` over its footprint on the face of
 /// side `face` ([`face_quadrature`], the light's own frame); shadows by
 /// `bvh`.
-fn exact_vertex_colors(
+pub(crate) fn exact_vertex_colors(
     scene: &Scene,
     albedos: &[Vec3],
     bvh: &SceneBvh,
@@ -448,13 +485,13 @@ fn exact_vertex_colors(
                         .iter()
                         .map(|l| match face {
                             None => area_quadrature(l, p, nn, samples, Some(bvh)),
-                            Some(f) => face_quadrature(
+                            Some(f) => face_quadrature_directional(
                                 &LightFrame::of(l),
                                 f,
                                 p,
                                 nn,
                                 samples * 3 / 2,
-                                &|uv| l.radiance_at(uv),
+                                &|uv, wi| l.radiance(uv, wi),
                                 Some(bvh),
                             ),
                         })
@@ -584,7 +621,7 @@ fn image_rows(
 /// The error ladder's first rungs for `m`'s scene (Lambertian, shadows):
 /// each vertex lit exactly by every light (area quadrature), then only
 /// through each light's face, both drawn through `m`'s raster.
-fn exact_rungs(
+pub(crate) fn exact_rungs(
     judge: &ImageJudge,
     m: &mut NearfieldMethod,
     scene: &Scene,

@@ -413,6 +413,7 @@ mod tests {
             world_from_light: Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
             intensity: Vec3::new(3.0, 2.0, 1.0),
             texture: tex,
+            light_field: None,
         }
     }
 

@@ -1261,6 +1261,7 @@ impl Relighter for ShExpMethod {
             | SceneFeature::Animation
             | SceneFeature::AreaLights => Support::Full,
             SceneFeature::PointLights
+            | SceneFeature::LightFields
             | SceneFeature::Medium
             | SceneFeature::NormalMaps
             | SceneFeature::SpatiallyVaryingBrdf => Support::No,

@@ -204,6 +204,7 @@ pub fn ceiling_light() -> AreaLight {
         texture: Some(Arc::new(
             Texture::try_new(4, 2, texels).expect("valid texture"),
         )),
+        light_field: None,
     }
 }
 

@@ -230,6 +230,7 @@ impl Relighter for ShMethod {
             SceneFeature::Environment | SceneFeature::NormalMaps => Support::Full,
             SceneFeature::PointLights
             | SceneFeature::AreaLights
+            | SceneFeature::LightFields
             | SceneFeature::Medium
             | SceneFeature::Visibility
             | SceneFeature::SpatiallyVaryingBrdf

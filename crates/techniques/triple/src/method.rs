@@ -804,9 +804,10 @@ impl Relighter for TripleMethod {
             SceneFeature::Environment | SceneFeature::Visibility | SceneFeature::Medium => {
                 Support::Full
             }
-            SceneFeature::PointLights | SceneFeature::AreaLights | SceneFeature::Animation => {
-                Support::No
-            }
+            SceneFeature::PointLights
+            | SceneFeature::AreaLights
+            | SceneFeature::LightFields
+            | SceneFeature::Animation => Support::No,
             SceneFeature::NormalMaps => match self.options.shading {
                 Shading::Pixel => Support::Full,
                 Shading::Vertex | Shading::Interpolated => Support::No,

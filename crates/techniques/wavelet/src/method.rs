@@ -306,6 +306,7 @@ impl Relighter for WaveletMethod {
             SceneFeature::Visibility
             | SceneFeature::PointLights
             | SceneFeature::AreaLights
+            | SceneFeature::LightFields
             | SceneFeature::Medium
             | SceneFeature::NormalMaps
             | SceneFeature::SpatiallyVaryingBrdf

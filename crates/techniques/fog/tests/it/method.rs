@@ -443,6 +443,7 @@ fn unsupported_features_are_check_scene_errors() {
         world_from_light: glam::Mat3::from_cols(Vec3::X, Vec3::Z, -Vec3::Y),
         intensity: Vec3::ONE,
         texture: None,
+        light_field: None,
     });
     for (s, feature) in [
         (shadows, SceneFeature::Visibility),

@@ -2,6 +2,7 @@
 //! topic (`cargo test -p relight-nearfield --test it <topic>::`).
 
 mod cache;
+mod light_field;
 mod lights;
 mod method;
 mod rotation;

@@ -60,6 +60,7 @@ fn bounding_rectangle_holds_the_turned_light() {
         world_from_light: baked,
         intensity: Vec3::ONE,
         texture: None,
+        light_field: None,
     };
     let mut inside = 0;
     for j in 0..20 {
