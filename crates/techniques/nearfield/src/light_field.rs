@@ -50,7 +50,7 @@ use crate::light::{
     support_width, terms_of,
 };
 use crate::propagate::{Kernel, Primitives, VertexMap, VertexScratch, shade_vertex};
-use relight_affine::standard::{forward_2d, inverse_2d, level_rank};
+use relight_affine::standard::{forward_1d, forward_2d, inverse_1d, inverse_2d, level_rank};
 use relight_render::{AreaLight, LightField};
 
 /// Midpoint samples per face cell for the angular atoms' cell means.
@@ -73,7 +73,80 @@ pub struct FieldSource {
     wx: Vec<f32>,
     /// The same along t₂: `[j₂ · n + c₂]`.
     wy: Vec<f32>,
+    /// The angular atoms along t₁ as operators on coefficients, `[j₁]`.
+    ox: Vec<AxisOp>,
+    /// The same along t₂, `[j₂]`.
+    oy: Vec<AxisOp>,
     n: usize,
+}
+
+/// Multiplication by one angular atom's face-cell means `w` along one face
+/// axis, as an operator on the `n` Haar coefficients (`H diag(w) H⁻¹`).
+///
+/// When `w` is constant on the `c` dyadic blocks of `n/c` cells (the views'
+/// edges on face cells), the operator is block diagonal: a wavelet finer
+/// than the blocks (index `k ≥ c`) lies inside one block and is only
+/// scaled by its value; the `c` coarser atoms are constant on blocks, so
+/// their product is too, a `c × c` matrix among them. Otherwise (`c = n`)
+/// the slice takes the pixel domain.
+#[derive(Clone, Debug, PartialEq)]
+enum AxisOp {
+    Blocks {
+        c: usize,
+        /// `[k · c + k']`: coarse coefficient `k` of the product from coarse
+        /// coefficient `k'`.
+        coarse: Vec<f32>,
+        /// `[k]`, `k ≥ c`: the value of `w` on the block holding atom `k`.
+        fine: Vec<f32>,
+    },
+    Pixels,
+}
+
+/// Coarse block counts up to which [`AxisOp::Blocks`] beats the pixel
+/// domain (`c² n` against about `5 n²` per axis).
+const MAX_BLOCKS: usize = 8;
+
+impl AxisOp {
+    /// The operator of cell means `w` (`n` of them, a power of two).
+    fn of(w: &[f32]) -> Self {
+        let n = w.len();
+        let Some(c) = (0..=n.ilog2())
+            .map(|b| 1usize << b)
+            .find(|&c| w.chunks_exact(n / c).all(|b| b.iter().all(|&x| x == b[0])))
+            .filter(|&c| c <= MAX_BLOCKS.min(n / 2))
+        else {
+            return Self::Pixels;
+        };
+        let block = |k: usize| w[k * (n / c)];
+        // Column k' of the coarse matrix: atom k' at order c to block
+        // values, times w's, back to coefficients.
+        let mut coarse = vec![0.0f32; c * c];
+        let (mut v, mut tmp) = (vec![0.0f64; c], vec![0.0f64; c]);
+        for k2 in 0..c {
+            v.fill(0.0);
+            v[k2] = 1.0;
+            inverse_1d(&mut v, &mut tmp);
+            for (b, x) in v.iter_mut().enumerate() {
+                *x *= f64::from(block(b));
+            }
+            forward_1d(&mut v, &mut tmp);
+            for k in 0..c {
+                coarse[k * c + k2] = v[k] as f32;
+            }
+        }
+        // Atom k ≥ c of level l and offset t covers cells
+        // [t n/2^l, (t+1) n/2^l), inside block ⌊t c/2^l⌋.
+        let fine = (0..n)
+            .map(|k| {
+                if k < c {
+                    return 0.0;
+                }
+                let level = 1usize << k.ilog2();
+                block((k - level) * c / level)
+            })
+            .collect();
+        Self::Blocks { c, coarse, fine }
+    }
 }
 
 /// The value of 1D atom `j` (the layout of [`relight_affine::standard`]: 0
@@ -209,10 +282,14 @@ impl FieldSource {
             }
             w
         };
+        let (wx, wy) = (means(-1.0), means(1.0));
+        let ops = |w: &[f32]| w.chunks_exact(n).map(AxisOp::of).collect();
         Ok(Self {
             terms,
-            wx: means(-1.0),
-            wy: means(1.0),
+            ox: ops(&wx),
+            oy: ops(&wy),
+            wx,
+            wy,
             n,
         })
     }
@@ -261,6 +338,7 @@ impl FieldSource {
 pub struct FieldScratch {
     pixels: Vec<f64>,
     grid: Vec<f64>,
+    u: Vec<f32>,
     g: Vec<f32>,
 }
 
@@ -282,35 +360,37 @@ pub fn shade_vertex_field(
     let nn = n * n;
     debug_assert_eq!(v.transport.len(), channels * nn);
     fs.pixels.clear();
-    fs.pixels.extend(v.transport.iter().map(|&x| f64::from(x)));
-    for c in 0..channels {
-        inverse_2d(&mut fs.pixels[c * nn..(c + 1) * nn], n);
-    }
     fs.grid.resize(nn, 0.0);
     fs.g.resize(channels * nn, 0.0);
+    fs.u.resize(nn, 0.0);
     let mut b = [0.0f32; 3];
     for term in &field.terms {
-        let (wx, wy) = (
-            &field.wx[term.j[0] * n..(term.j[0] + 1) * n],
-            &field.wy[term.j[1] * n..(term.j[1] + 1) * n],
-        );
-        for c in 0..channels {
-            let pix = &fs.pixels[c * nn..(c + 1) * nn];
-            for (c2, (row, src)) in fs
-                .grid
-                .chunks_exact_mut(n)
-                .zip(pix.chunks_exact(n))
-                .enumerate()
-            {
-                let y = f64::from(wy[c2]);
-                for ((g, &p), &x) in row.iter_mut().zip(src).zip(wx) {
-                    *g = p * f64::from(x) * y;
+        if let (
+            AxisOp::Blocks {
+                c: cx,
+                coarse: kx,
+                fine: fx,
+            },
+            AxisOp::Blocks {
+                c: cy,
+                coarse: ky,
+                fine: fy,
+            },
+        ) = (&field.ox[term.j[0]], &field.oy[term.j[1]])
+        {
+            for c in 0..channels {
+                let t = &v.transport[c * nn..(c + 1) * nn];
+                let g = &mut fs.g[c * nn..(c + 1) * nn];
+                apply_blocks(n, [*cx, *cy], [kx, ky], [fx, fy], t, &mut fs.u, g);
+            }
+        } else {
+            if fs.pixels.is_empty() {
+                fs.pixels.extend(v.transport.iter().map(|&x| f64::from(x)));
+                for c in 0..channels {
+                    inverse_2d(&mut fs.pixels[c * nn..(c + 1) * nn], n);
                 }
             }
-            forward_2d(&mut fs.grid, n);
-            for (g, &x) in fs.g[c * nn..(c + 1) * nn].iter_mut().zip(&fs.grid) {
-                *g = x as f32;
-            }
+            pixel_slice(field, term.j, channels, fs);
         }
         let kernel = Kernel {
             primitives,
@@ -330,9 +410,139 @@ pub fn shade_vertex_field(
     b
 }
 
+/// `G = M_y T M_xᵀ` for block operators ([`AxisOp::Blocks`]) on one
+/// channel's coefficients `t` (`[k₂ · n + k₁]`): along t₁ within each row
+/// into `u`, then along t₂ across rows into `g`.
+#[allow(clippy::too_many_arguments)]
+fn apply_blocks(
+    n: usize,
+    [cx, cy]: [usize; 2],
+    [kx, ky]: [&[f32]; 2],
+    [fx, fy]: [&[f32]; 2],
+    t: &[f32],
+    u: &mut [f32],
+    g: &mut [f32],
+) {
+    for (urow, trow) in u.chunks_exact_mut(n).zip(t.chunks_exact(n)) {
+        for k in 0..cx {
+            urow[k] = kx[k * cx..(k + 1) * cx]
+                .iter()
+                .zip(&trow[..cx])
+                .map(|(a, b)| a * b)
+                .sum();
+        }
+        for ((o, &x), &f) in urow[cx..].iter_mut().zip(&trow[cx..]).zip(&fx[cx..]) {
+            *o = x * f;
+        }
+    }
+    for k in 0..cy {
+        let grow = &mut g[k * n..(k + 1) * n];
+        grow.fill(0.0);
+        for (k2, &a) in ky[k * cy..(k + 1) * cy].iter().enumerate() {
+            for (o, &x) in grow.iter_mut().zip(&u[k2 * n..(k2 + 1) * n]) {
+                *o += a * x;
+            }
+        }
+    }
+    for k in cy..n {
+        let f = fy[k];
+        for (o, &x) in g[k * n..(k + 1) * n].iter_mut().zip(&u[k * n..(k + 1) * n]) {
+            *o = x * f;
+        }
+    }
+}
+
+/// `G_j = Haar(w_j ⊙ pixels(T))` per channel into `fs.g`, from the
+/// transport's pixels in `fs.pixels` (the general path, any view grid).
+fn pixel_slice(field: &FieldSource, j: [usize; 2], channels: usize, fs: &mut FieldScratch) {
+    let n = field.n;
+    let nn = n * n;
+    let (wx, wy) = (
+        &field.wx[j[0] * n..(j[0] + 1) * n],
+        &field.wy[j[1] * n..(j[1] + 1) * n],
+    );
+    for c in 0..channels {
+        let pix = &fs.pixels[c * nn..(c + 1) * nn];
+        for (c2, (row, src)) in fs
+            .grid
+            .chunks_exact_mut(n)
+            .zip(pix.chunks_exact(n))
+            .enumerate()
+        {
+            let y = f64::from(wy[c2]);
+            for ((g, &p), &x) in row.iter_mut().zip(src).zip(wx) {
+                *g = p * f64::from(x) * y;
+            }
+        }
+        forward_2d(&mut fs.grid, n);
+        for (g, &x) in fs.g[c * nn..(c + 1) * nn].iter_mut().zip(&fs.grid) {
+            *g = x as f32;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::atom;
+    use super::{AxisOp, apply_blocks, atom};
+    use relight_affine::standard::{forward_2d, inverse_2d};
+
+    /// The block operators give what the pixel domain gives (`Haar(w_y w_x ⊙
+    /// pixels(T))`), for block-constant weights at several coarse levels,
+    /// and weights that are not block-constant take the pixel path.
+    #[test]
+    fn block_operators_equal_the_pixel_domain() {
+        let n = 32;
+        let mut seed = 7u32;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+        };
+        let t: Vec<f32> = (0..n * n).map(|_| rnd()).collect();
+        let blocks =
+            |c: usize, vals: &[f32]| -> Vec<f32> { (0..n).map(|i| vals[i * c / n]).collect() };
+        let cases = [
+            (blocks(1, &[1.0]), blocks(2, &[2.0, -2.0])),
+            (
+                blocks(4, &[0.0, 2.0, -2.0, 0.0]),
+                blocks(8, &[1.0, 1.0, 0.0, 3.0, -3.0, 0.0, 1.0, 1.0]),
+            ),
+            (blocks(2, &[0.5, 0.0]), blocks(4, &[-1.0, 1.0, 0.25, 0.0])),
+        ];
+        for (wx, wy) in cases {
+            let (ox, oy) = (AxisOp::of(&wx), AxisOp::of(&wy));
+            let (
+                AxisOp::Blocks {
+                    c: cx,
+                    coarse: kx,
+                    fine: fx,
+                },
+                AxisOp::Blocks {
+                    c: cy,
+                    coarse: ky,
+                    fine: fy,
+                },
+            ) = (&ox, &oy)
+            else {
+                panic!("block-constant weights are blocks");
+            };
+            let (mut u, mut g) = (vec![0.0; n * n], vec![0.0; n * n]);
+            apply_blocks(n, [*cx, *cy], [kx, ky], [fx, fy], &t, &mut u, &mut g);
+            let mut pix: Vec<f64> = t.iter().map(|&x| f64::from(x)).collect();
+            inverse_2d(&mut pix, n);
+            for (i, p) in pix.iter_mut().enumerate() {
+                *p *= f64::from(wx[i % n] * wy[i / n]);
+            }
+            forward_2d(&mut pix, n);
+            let worst = g
+                .iter()
+                .zip(&pix)
+                .map(|(a, b)| (f64::from(*a) - b).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 1e-5, "c = ({cx}, {cy}): off by {worst}");
+        }
+        let ramp: Vec<f32> = (0..n).map(|i| i as f32).collect();
+        assert_eq!(AxisOp::of(&ramp), AxisOp::Pixels);
+    }
 
     #[test]
     fn atoms_are_orthonormal_and_positive_first() {

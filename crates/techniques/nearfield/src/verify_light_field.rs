@@ -33,7 +33,6 @@ const SOURCE: &str = "sun-thesis-2008 §4.5.3, eq. 4.37 (optional in issue 13: r
 /// the method represents exactly, so that a comparison isolates the
 /// transport's and the angular atoms' discretisation. A light without a
 /// field: its texture box-averaged.
-#[must_use]
 pub fn boxed_field_radiance(light: &AreaLight, n: usize) -> impl Fn(Vec2, Vec3) -> Vec3 + Sync {
     let (a, views) = match &light.light_field {
         Some(lf) => {
