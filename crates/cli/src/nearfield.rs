@@ -207,6 +207,11 @@ pub fn bench(a: &BenchArgs, report: &Report, bar: &Bar) -> Result<()> {
         "relight bench nearfield: several lights (one bake per light plane, one propagation per light; propagation alone, both threads, wall clock)",
         &b.lights,
         &[],
+    )?;
+    report.table(
+        "relight bench nearfield: a light field (eq. 4.37; 4 × 4 views, one kernel per kept angular slice) against the plain textured light on the same bake (propagation alone, both threads, wall clock)",
+        &b.light_fields,
+        &[],
     )
 }
 

@@ -6,7 +6,9 @@
 //! lights").
 
 use crate::method::{NearfieldMethod, NearfieldOptions};
-use crate::scenes::{floor_and_sphere, floor_and_sphere_three_lights};
+use crate::scenes::{
+    floor_and_sphere, floor_and_sphere_light_field, floor_and_sphere_three_lights,
+};
 use relight_render::method::{FrameRequest, MethodError, Relighter};
 use relight_render::{NoProgress, Progress};
 use serde::Serialize;
@@ -114,6 +116,28 @@ pub struct LightsRow {
     pub ratio: f64,
 }
 
+/// A light field on the first scene ([`floor_and_sphere_light_field`],
+/// 4 × 4 prism views, shadows): one propagation against the plain light's
+/// on the same bake ([`crate::light_field`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct LightFieldRow {
+    pub scene: String,
+    pub vertices: usize,
+    /// Slope extent and whether the views fall on face cells (block
+    /// operators) or not (pixel domain).
+    pub views: String,
+    pub compression: String,
+    /// Angular slices kept, of 16.
+    pub slices: usize,
+    pub fma_per_vertex: f64,
+    /// The propagation, both threads, wall clock (ms).
+    pub propagate_ms: f64,
+    /// The plain textured light's, same bake and compression (ms).
+    pub plain_ms: f64,
+    /// `propagate_ms / plain_ms`.
+    pub ratio: f64,
+}
+
 /// Everything `relight bench nearfield` prints.
 #[derive(Clone, Debug)]
 pub struct NearfieldBench {
@@ -121,6 +145,7 @@ pub struct NearfieldBench {
     pub rows: Vec<BenchRow>,
     pub bakes: Vec<BakeRow>,
     pub lights: Vec<LightsRow>,
+    pub light_fields: Vec<LightFieldRow>,
 }
 
 /// Settings of [`bench_nearfield`].
@@ -291,11 +316,58 @@ pub fn bench_nearfield(
         }
     }
     let lights = bench_lights(opts, progress)?;
+    let light_fields = bench_light_fields(opts, progress)?;
     Ok(NearfieldBench {
         rows,
         bakes,
         lights,
+        light_fields,
     })
+}
+
+/// [`LightFieldRow`]s: views on and off face cells, at 1 %/20 % and with
+/// 4× the source terms.
+fn bench_light_fields(
+    opts: &BenchOptions,
+    progress: &dyn Progress,
+) -> Result<Vec<LightFieldRow>, MethodError> {
+    let Some(&(floor, seg)) = opts.scenes.first() else {
+        return Ok(Vec::new());
+    };
+    let size = [opts.width, opts.height];
+    let plain = floor_and_sphere(floor, seg, opts.width, opts.height, true);
+    let verts: usize = plain.objects.iter().map(|o| o.mesh.positions.len()).sum();
+    let mut p = NearfieldMethod::new(NearfieldOptions::default())?;
+    p.prepare(&plain, progress)?;
+    let mut rows = Vec::new();
+    for (extent, on_cells) in [
+        (2.0f32, "views on face cells"),
+        (1.7, "views off face cells"),
+    ] {
+        let scene = floor_and_sphere_light_field(floor, seg, size, true, 4, extent);
+        let mut m = NearfieldMethod::new(NearfieldOptions::default())?;
+        m.prepare(&scene, progress)?;
+        for s in [0.01, 0.04] {
+            m.set_compression(s, 0.20);
+            m.set_lighting(&scene, &NoProgress)?;
+            p.set_compression(s, 0.20);
+            p.set_lighting(&plain, &NoProgress)?;
+            let field_ms = min_ms(opts.repeats, || m.propagate());
+            let plain_ms = min_ms(opts.repeats, || p.propagate());
+            rows.push(LightFieldRow {
+                scene: "floor+sphere, prism light field 4 × 4".into(),
+                vertices: verts,
+                views: format!("extent {extent}: {on_cells}"),
+                compression: format!("{:.0} %/20 %", s * 100.0),
+                slices: m.field_slices(0),
+                fma_per_vertex: m.propagate_fma() / verts as f64,
+                propagate_ms: field_ms,
+                plain_ms,
+                ratio: field_ms / plain_ms,
+            });
+        }
+    }
+    Ok(rows)
 }
 
 /// [`LightsRow`]s at 1 %/20 % and 5 %/40 %.

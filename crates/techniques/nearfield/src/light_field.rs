@@ -307,18 +307,31 @@ impl FieldSource {
     }
 
     /// Operations of one [`shade_vertex_field`] call on a transport of
-    /// `channels`: the transport's inverse transform, per slice the
-    /// weighting and forward transform (`≈ 4 n²` per 2D Haar transform) and
-    /// the kernel (`shade`, the kernel's own count).
+    /// `channels`: per slice `G_j` (block operators: `n c_x² + n c_y² + 2n²`;
+    /// the pixel domain: the weighting and a forward transform, `≈ 5 n²`,
+    /// after one inverse transform of the transport, `≈ 4 n²`) and the
+    /// kernel (`shade`, the kernel's own count).
     #[must_use]
     pub fn shade_fma(&self, channels: usize, shade: impl Fn(&SourceTerms) -> usize) -> usize {
-        let nn = self.n * self.n;
+        let (n, nn) = (self.n, self.n * self.n);
+        let mut pixels = false;
         let slices: usize = self
             .terms
             .iter()
-            .map(|t| channels * 5 * nn + shade(&t.source))
+            .map(|t| {
+                let g = match (&self.ox[t.j[0]], &self.oy[t.j[1]]) {
+                    (AxisOp::Blocks { c: cx, .. }, AxisOp::Blocks { c: cy, .. }) => {
+                        n * (cx * cx + cy * cy) + 2 * nn
+                    }
+                    _ => {
+                        pixels = true;
+                        5 * nn
+                    }
+                };
+                channels * g + shade(&t.source)
+            })
             .sum();
-        channels * 4 * nn + slices
+        slices + if pixels { channels * 4 * nn } else { 0 }
     }
 
     /// The angular level rank of the coarsest kept slice's finer axis (for
@@ -365,25 +378,12 @@ pub fn shade_vertex_field(
     fs.u.resize(nn, 0.0);
     let mut b = [0.0f32; 3];
     for term in &field.terms {
-        if let (
-            AxisOp::Blocks {
-                c: cx,
-                coarse: kx,
-                fine: fx,
-            },
-            AxisOp::Blocks {
-                c: cy,
-                coarse: ky,
-                fine: fy,
-            },
-        ) = (&field.ox[term.j[0]], &field.oy[term.j[1]])
-        {
-            for c in 0..channels {
-                let t = &v.transport[c * nn..(c + 1) * nn];
-                let g = &mut fs.g[c * nn..(c + 1) * nn];
-                apply_blocks(n, [*cx, *cy], [kx, ky], [fx, fy], t, &mut fs.u, g);
-            }
-        } else {
+        let (ox, oy) = (&field.ox[term.j[0]], &field.oy[term.j[1]]);
+        let blocks = (0..channels).all(|c| {
+            let t = &v.transport[c * nn..(c + 1) * nn];
+            apply_blocks(n, [ox, oy], t, &mut fs.u, &mut fs.g[c * nn..(c + 1) * nn])
+        });
+        if !blocks {
             if fs.pixels.is_empty() {
                 fs.pixels.extend(v.transport.iter().map(|&x| f64::from(x)));
                 for c in 0..channels {
@@ -412,17 +412,25 @@ pub fn shade_vertex_field(
 
 /// `G = M_y T M_xᵀ` for block operators ([`AxisOp::Blocks`]) on one
 /// channel's coefficients `t` (`[k₂ · n + k₁]`): along t₁ within each row
-/// into `u`, then along t₂ across rows into `g`.
-#[allow(clippy::too_many_arguments)]
-fn apply_blocks(
-    n: usize,
-    [cx, cy]: [usize; 2],
-    [kx, ky]: [&[f32]; 2],
-    [fx, fy]: [&[f32]; 2],
-    t: &[f32],
-    u: &mut [f32],
-    g: &mut [f32],
-) {
+/// into `u`, then along t₂ across rows into `g`. False, with nothing
+/// written, unless both operators are blocks.
+fn apply_blocks(n: usize, [ox, oy]: [&AxisOp; 2], t: &[f32], u: &mut [f32], g: &mut [f32]) -> bool {
+    let (
+        AxisOp::Blocks {
+            c: cx,
+            coarse: kx,
+            fine: fx,
+        },
+        AxisOp::Blocks {
+            c: cy,
+            coarse: ky,
+            fine: fy,
+        },
+    ) = (ox, oy)
+    else {
+        return false;
+    };
+    let (cx, cy) = (*cx, *cy);
     for (urow, trow) in u.chunks_exact_mut(n).zip(t.chunks_exact(n)) {
         for k in 0..cx {
             urow[k] = kx[k * cx..(k + 1) * cx]
@@ -450,6 +458,7 @@ fn apply_blocks(
             *o = x * f;
         }
     }
+    true
 }
 
 /// `G_j = Haar(w_j ⊙ pixels(T))` per channel into `fs.g`, from the
@@ -510,23 +519,11 @@ mod tests {
         ];
         for (wx, wy) in cases {
             let (ox, oy) = (AxisOp::of(&wx), AxisOp::of(&wy));
-            let (
-                AxisOp::Blocks {
-                    c: cx,
-                    coarse: kx,
-                    fine: fx,
-                },
-                AxisOp::Blocks {
-                    c: cy,
-                    coarse: ky,
-                    fine: fy,
-                },
-            ) = (&ox, &oy)
-            else {
-                panic!("block-constant weights are blocks");
-            };
             let (mut u, mut g) = (vec![0.0; n * n], vec![0.0; n * n]);
-            apply_blocks(n, [*cx, *cy], [kx, ky], [fx, fy], &t, &mut u, &mut g);
+            assert!(
+                apply_blocks(n, [&ox, &oy], &t, &mut u, &mut g),
+                "block-constant weights are blocks"
+            );
             let mut pix: Vec<f64> = t.iter().map(|&x| f64::from(x)).collect();
             inverse_2d(&mut pix, n);
             for (i, p) in pix.iter_mut().enumerate() {
@@ -538,7 +535,7 @@ mod tests {
                 .zip(&pix)
                 .map(|(a, b)| (f64::from(*a) - b).abs())
                 .fold(0.0, f64::max);
-            assert!(worst < 1e-5, "c = ({cx}, {cy}): off by {worst}");
+            assert!(worst < 1e-5, "{ox:?} × {oy:?}: off by {worst}");
         }
         let ramp: Vec<f32> = (0..n).map(|i| i as f32).collect();
         assert_eq!(AxisOp::of(&ramp), AxisOp::Pixels);

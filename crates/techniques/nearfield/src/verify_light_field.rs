@@ -24,7 +24,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use relight_render::method::Relighter;
 use relight_render::verify_row::row;
-use relight_render::{AreaLight, Progress};
+use relight_render::{AreaLight, Progress, Scene};
 
 const SOURCE: &str = "sun-thesis-2008 §4.5.3, eq. 4.37 (optional in issue 13: reported)";
 
@@ -74,6 +74,21 @@ pub fn boxed_field_radiance(light: &AreaLight, n: usize) -> impl Fn(Vec2, Vec3) 
     }
 }
 
+/// The method with every source and target term, prepared for `scene`.
+fn prepared_uncompressed(
+    scene: &Scene,
+    progress: &dyn Progress,
+) -> Result<NearfieldMethod, String> {
+    let mut m = NearfieldMethod::new(NearfieldOptions {
+        source_terms: 1.0,
+        target_terms: 1.0,
+        ..NearfieldOptions::default()
+    })
+    .map_err(fail)?;
+    m.prepare(scene, progress).map_err(fail)?;
+    Ok(m)
+}
+
 /// The rows (module docs).
 ///
 /// # Errors
@@ -89,13 +104,7 @@ pub(crate) fn light_field_rows(
         (1.7, "views off face cells"),
     ] {
         let scene = floor_and_sphere_light_field(opts.floor, opts.segments, size, false, 4, extent);
-        let mut m = NearfieldMethod::new(NearfieldOptions {
-            source_terms: 1.0,
-            target_terms: 1.0,
-            ..NearfieldOptions::default()
-        })
-        .map_err(fail)?;
-        m.prepare(&scene, progress).map_err(fail)?;
+        let m = prepared_uncompressed(&scene, progress)?;
         let light = &scene.area_lights[0];
         let frame = LightFrame::of(light);
         let radiance = boxed_field_radiance(light, m.options().order);
@@ -147,13 +156,7 @@ pub(crate) fn light_field_rows(
         return Ok(rows);
     }
     let scene = floor_and_sphere_light_field(opts.floor, opts.segments, size, true, 4, 2.0);
-    let mut m = NearfieldMethod::new(NearfieldOptions {
-        source_terms: 1.0,
-        target_terms: 1.0,
-        ..NearfieldOptions::default()
-    })
-    .map_err(fail)?;
-    m.prepare(&scene, progress).map_err(fail)?;
+    let mut m = prepared_uncompressed(&scene, progress)?;
     let (judge, frame0) = ImageJudge::new(&mut m, &scene, opts, 23, progress)?;
     rows.push(judge.noise_row("light field: "));
     let [e_gouraud, e_face] = exact_rungs(&judge, &mut m, &scene, opts, progress)?;
