@@ -426,3 +426,87 @@ fn file_warnings_name_the_file_once() {
         }
     }
 }
+
+/// `[area_light.light_field]`: tiles from an image (views mapped with σ_y
+/// upwards) or the built-in prism; each bad combination names its key.
+#[test]
+fn light_fields_load_and_bad_ones_name_their_key() {
+    let dir = common::temp_dir("light-field");
+    // 2 × 2 tiles of 2 × 2 texels; tile (column c, row r) = (c, r, 1) / 4.
+    let px: Vec<Vec3> = (0..16)
+        .map(|i| Vec3::new(((i % 4) / 2) as f32, ((i / 4) / 2) as f32, 1.0) / 4.0)
+        .collect();
+    relight_assets::write_exr(&dir.join("tiles.exr"), 4, 4, &px).unwrap();
+    relight_assets::write_exr(&dir.join("odd.exr"), 3, 3, &px[..9]).unwrap();
+    let light = |body: &str| {
+        format!(
+            "{SPHERE}[[area_light]]\ncenter = [0, 2, 0]\nsize = [1, 1]\nnormal = [0, -1, 0]\nintensity = 2\n{body}"
+        )
+    };
+    let text = light("[area_light.light_field]\ntiles = \"tiles.exr\"\nviews = 2\nextent = 1.5\n");
+    let l = load_scene_text(&text, &dir.join("ok.toml"), Some((8, 8)))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let a = &l.scene.area_lights[0];
+    let lf = a.light_field.as_ref().expect("a light field");
+    assert!(a.texture.is_none());
+    assert_eq!((lf.views(), lf.extent()), (2, 1.5));
+    // View (a_x, a_y) is tile (column a_x, row 1 − a_y).
+    for (ax, ay) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+        let want = Vec3::new(ax as f32, (1 - ay) as f32, 1.0) / 4.0;
+        assert!(
+            lf.view(ax, ay)
+                .texels
+                .iter()
+                .all(|t| (*t - want).abs().max_element() < 1e-3)
+        );
+    }
+    let text = light(
+        "texture = \"tiles.exr\"\n[area_light.light_field]\nbuiltin = \"prism\"\nviews = 4\nextent = 2\n",
+    );
+    let l = load_scene_text(&text, &dir.join("ok.toml"), Some((8, 8)))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        l.scene.area_lights[0].light_field.as_ref().unwrap().views(),
+        4
+    );
+
+    let key = "area_light[1].light_field";
+    let lf = |body: &str| light(&format!("[area_light.light_field]\n{body}"));
+    check_in(
+        Some(&dir),
+        &lf("tiles = \"odd.exr\"\nviews = 2\nextent = 1"),
+        &format!("{key}.tiles"),
+        "2 × 2 equal tiles",
+    );
+    check_in(
+        Some(&dir),
+        &lf("tiles = \"none.exr\"\nviews = 2\nextent = 1"),
+        &format!("{key}.tiles"),
+        "none.exr",
+    );
+    check(
+        &lf("builtin = \"prism\"\nviews = 0\nextent = 1"),
+        &format!("{key}.views"),
+        "1…64",
+    );
+    check(
+        &lf("builtin = \"prism\"\nviews = 2\nextent = 0"),
+        &format!("{key}.extent"),
+        "> 0",
+    );
+    check(
+        &lf("builtin = \"rainbow\"\nviews = 2\nextent = 1"),
+        &format!("{key}.builtin"),
+        "prism",
+    );
+    check(&lf("views = 2\nextent = 1"), key, "exactly one of");
+    check_in(
+        Some(&dir),
+        &light(
+            "texture = \"tiles.exr\"\n[area_light.light_field]\ntiles = \"tiles.exr\"\nviews = 2\nextent = 1\n",
+        ),
+        "area_light[1].texture",
+        "drop `texture`",
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
