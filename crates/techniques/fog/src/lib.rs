@@ -19,10 +19,10 @@
 //! 5. [`psf`]: the airlight point-spread function (eq. 3.30–3.32), its zonal
 //!    SH coefficients and the convolutions of environment maps and BRDFs
 //!    (eq. 3.34–3.37).
-//! 6. [`volumetric`]: the Monte Carlo ground truth (single and multiple
-//!    scattering, surfaces, shadow rays through the medium).
-//! 7. [`verify`] and [`mod@bench`]: `relight verify fog` / `relight bench fog`.
-//! 8. [`method`]: [`FogRelighter`], the method interface's `fog` — point
+//! 6. [`verify`] and [`mod@bench`]: `relight verify fog` / `relight bench fog`
+//!    (the Monte Carlo ground truth is the reference renderer's,
+//!    `relight_render::reference`, sampled along the same rays).
+//! 7. [`method`]: [`FogRelighter`], the method interface's `fog` — point
 //!    lights by the analytic model plus the environment by its
 //!    PSF-convolved foggy version (§3.6.4), for a whole scene.
 //!
@@ -44,7 +44,6 @@ mod simd;
 pub mod special;
 pub mod table;
 pub mod verify;
-pub mod volumetric;
 pub mod work;
 
 pub use bench::{BenchRow, bench_fog, bench_fog_scene};

@@ -28,8 +28,9 @@
 //!   instead ([`crate::special`]) and has no such cancellation (`airlight`).
 //! * `glow_single` (gate, issue 10: relative RMS ≤ 2σ_MC + 0.5 %): glow
 //!   images (a light in front of a square camera, [`GlowSetup`]) of the
-//!   analytic airlight vs the single-scattering Monte Carlo of
-//!   [`crate::volumetric`] along the pixel-centre rays, T_sv = 0.25 … 25;
+//!   analytic airlight vs the reference renderer's single-scattering Monte
+//!   Carlo (`relight_render::reference::with_ray_sampler`, the same estimator
+//!   as every reference pixel) along the pixel-centre rays, T_sv = 0.25 … 25;
 //!   `mean_error` the relative RMS (it includes the MC noise), `max_error`
 //!   the RMS over the brightest pixel, `noise` the MC's own relative
 //!   standard error σ_MC. The paper pairs T_sv ∈ (0.25, 25) with
@@ -54,18 +55,24 @@
 //!   below 0.05 for γ ≥ 5° and below 0.02 for γ ≥ 20°; the normalised error
 //!   E/(T e^{−T}) beside it as a report.
 
-use crate::model::{FogMaterial, FogModel, Phase, PointLight, airlight_model, airlight_paper_f};
+use crate::model::{FogModel, Phase, PointLight, airlight_model, airlight_paper_f};
 use crate::psf::psf_factorization_error;
 use crate::special::airlight_eq35;
 use crate::table::{FogTables, Interp};
-use crate::volumetric::{Transport, VolumetricScene};
 use glam::Vec3;
 use rayon::prelude::*;
-use relight_render::Camera;
 use relight_render::bvh::SceneBvh;
+use relight_render::reference::{MediumMode, ReferenceOptions, with_ray_sampler};
 use relight_render::sampling::Rng;
+use relight_render::{Camera, Medium, Object, Scene};
 use relight_sh::quadrature::gauss_legendre;
+use relight_sphere::{EnvMap, Param};
 use std::f64::consts::PI;
+use std::sync::Arc;
+
+/// Optical depth of the open glows' medium ball (`GlowSetup::walls` `None`):
+/// the light past it is below `e^{−OPEN_DEPTH}` of what it was.
+pub const OPEN_DEPTH: f32 = 40.0;
 
 /// Bins of the angle γ from the source in the `glow_multiple` profile.
 pub const PROFILE_BINS: usize = 6;
@@ -269,7 +276,8 @@ pub struct GlowSetup {
     pub res: usize,
     /// Monte Carlo samples per pixel.
     pub spp: u32,
-    pub transport: Transport,
+    /// The reference's path classes: the analytic model's (single) or all.
+    pub transport: MediumMode,
     pub seed: u64,
     /// `Some(k)`: a black sphere of radius k·D_sv about the eye closes the
     /// medium, so every view ray ends at T_vp = k·T_sv and light scattered
@@ -286,7 +294,7 @@ impl GlowSetup {
     /// The paper's pairing (walls at 2 D_sv), 40° field of view, 24² pixels,
     /// 256 samples per pixel, albedo 1.
     #[must_use]
-    pub fn new(t_sv: f32, transport: Transport) -> Self {
+    pub fn new(t_sv: f32, transport: MediumMode) -> Self {
         Self {
             t_sv,
             res: 24,
@@ -320,7 +328,7 @@ pub struct GlowError {
 }
 
 /// The analytic airlight (bilinear tables; the finite-segment airlight of
-/// eq. 3.16 when walls close the medium) against the volumetric Monte Carlo
+/// eq. 3.16 when walls close the medium) against the reference's Monte Carlo
 /// of `g.transport`, both along each pixel-centre ray.
 #[must_use]
 pub fn glow_error(tables: &FogTables, g: &GlowSetup) -> GlowError {
@@ -354,47 +362,82 @@ pub fn glow_error(tables: &FogTables, g: &GlowSetup) -> GlowError {
     let Ok(pl) = model.prepare_lights(camera.eye, &[light]) else {
         return nan;
     };
-    let lights = [light];
-    let wall_mesh = g
-        .walls
-        .map(|k| relight_geom::shapes::uv_sphere_at(camera.eye, k * d_sv, 96, 48));
-    let bvh = wall_mesh.as_ref().map(|m| SceneBvh::build(&[m]));
-    let black = [FogMaterial::lambert(Vec3::ZERO)];
-    let scene = VolumetricScene {
-        bvh: bvh.as_ref(),
-        materials: &black,
-        lights: &lights,
+    // The judge: the reference renderer's own estimator along the same
+    // rays, on the scene the glow describes (black walls, a black sky, the
+    // medium filling the walls' ball, or, open, a ball so deep that what
+    // lies past it is below e^{−OPEN_DEPTH}).
+    let walls = g.walls.map(|k| {
+        Arc::new(relight_geom::shapes::uv_sphere_at(
+            camera.eye,
+            k * d_sv,
+            96,
+            48,
+        ))
+    });
+    let bvh = walls.as_ref().map(|m| SceneBvh::build(&[m.as_ref()]));
+    let Ok(black) = relight_brdf::Lambert::new(Vec3::ZERO) else {
+        return nan;
+    };
+    let objects = walls
+        .iter()
+        .map(|m| Object::new(m.clone(), Arc::new(black)))
+        .collect();
+    let sky = EnvMap::from_fn(
+        Param::LatLong {
+            width: 8,
+            height: 4,
+        },
+        |_| Vec3::ZERO,
+    );
+    let mut scene = Scene::new(objects, sky, camera);
+    scene.visibility = true;
+    scene.point_lights.push(relight_render::PointLight::new(
+        light.position,
+        light.intensity,
+    ));
+    scene.medium = Some(Medium {
         beta,
         albedo: g.albedo,
-        phase: &phase,
+        radius: g.walls.map_or(OPEN_DEPTH / beta, |k| 1.01 * k * d_sv),
+    });
+    let options = ReferenceOptions {
+        medium_mode: g.transport,
+        ..ReferenceOptions::default()
     };
     let to_light = light.position.normalize();
     // (analytic, MC mean, MC variance of the mean, γ).
-    let px: Vec<(f64, f64, f64, f64)> = (0..res * res)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = (i % res, i / res);
-            let (o, d) = camera.ray(x as f32 + 0.5, y as f32 + 0.5);
-            let hit = bvh
-                .as_ref()
-                .and_then(|b| b.intersect(o, d, 0.0, f32::INFINITY));
-            let analytic = f64::from(match hit {
-                None => model.airlight(&pl[0], d, None),
-                Some(h) => model.airlight(&pl[0], d, Some((o + h.t * d, h.t, (-beta * h.t).exp()))),
-            });
-            let mut rng = Rng::for_sample(g.seed, i as u64, 0);
-            let (mut s, mut s2) = (0.0f64, 0.0f64);
-            for _ in 0..spp {
-                let v = f64::from(scene.radiance_sample(o, d, g.transport, &mut rng).x);
-                s += v;
-                s2 += v * v;
-            }
-            let mean = s / f64::from(spp);
-            let var = (s2 / f64::from(spp) - mean * mean).max(0.0) / f64::from(spp);
-            let gamma = f64::from(d.dot(to_light).clamp(-1.0, 1.0)).acos();
-            (analytic, mean, var, gamma)
-        })
-        .collect();
+    let sampled = with_ray_sampler(&scene, &options, |sampler| {
+        (0..res * res)
+            .into_par_iter()
+            .map(|i| {
+                let (x, y) = (i % res, i / res);
+                let (o, d) = camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+                let hit = bvh
+                    .as_ref()
+                    .and_then(|b| b.intersect(o, d, 0.0, f32::INFINITY));
+                let analytic = f64::from(match hit {
+                    None => model.airlight(&pl[0], d, None),
+                    Some(h) => {
+                        model.airlight(&pl[0], d, Some((o + h.t * d, h.t, (-beta * h.t).exp())))
+                    }
+                });
+                let mut rng = Rng::for_sample(g.seed, i as u64, 0);
+                let (mut s, mut s2) = (0.0f64, 0.0f64);
+                for _ in 0..spp {
+                    let v = f64::from(sampler.sample(o, d, &mut rng).x);
+                    s += v;
+                    s2 += v * v;
+                }
+                let mean = s / f64::from(spp);
+                let var = (s2 / f64::from(spp) - mean * mean).max(0.0) / f64::from(spp);
+                let gamma = f64::from(d.dot(to_light).clamp(-1.0, 1.0)).acos();
+                (analytic, mean, var, gamma)
+            })
+            .collect::<Vec<(f64, f64, f64, f64)>>()
+    });
+    let Ok(px) = sampled else {
+        return nan;
+    };
     let num: f64 = px.iter().map(|(a, m, _, _)| (a - m).powi(2)).sum();
     let den: f64 = px.iter().map(|(_, m, _, _)| m * m).sum();
     let var: f64 = px.iter().map(|(_, _, v, _)| v).sum();
@@ -522,11 +565,11 @@ pub fn verify_fog(quick: bool) -> Vec<VerifyRow> {
     } else {
         (24, 1024, 512)
     };
-    let multiple = Transport::Multiple { max_bounces: 0 };
+    let multiple = MediumMode::MultipleScattering;
     for &t in &[0.25f32, 0.5, 1.0, 2.0, 5.0, 10.0, 25.0] {
         let base = GlowSetup {
             res,
-            ..GlowSetup::new(t, Transport::Single)
+            ..GlowSetup::new(t, MediumMode::SingleScattering)
         };
         // Gated: single scattering, the paper's pairing T_vp = 2 T_sv.
         let single = glow_error(
@@ -566,7 +609,7 @@ pub fn verify_fog(quick: bool) -> Vec<VerifyRow> {
                     &tables,
                     &GlowSetup {
                         spp: spp_m,
-                        transport: Transport::Single,
+                        transport: MediumMode::SingleScattering,
                         ..setup
                     },
                 );
