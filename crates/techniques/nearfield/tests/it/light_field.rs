@@ -5,7 +5,9 @@
 
 use glam::Vec3;
 use relight_nearfield::face::LightFrame;
-use relight_nearfield::scenes::{floor_and_sphere, floor_and_sphere_light_field};
+use relight_nearfield::scenes::{
+    floor_and_sphere, floor_and_sphere_light_field, glossy_floor_and_sphere,
+};
 use relight_nearfield::verify::face_quadrature_directional;
 use relight_nearfield::verify_light_field::boxed_field_radiance;
 use relight_nearfield::{NearfieldMethod, NearfieldOptions};
@@ -60,6 +62,76 @@ fn a_field_of_equal_views_relights_as_its_texture() {
             .fold(0.0, f32::max);
         assert!(top > 0.1 && worst < 1e-4 * top, "off by {worst} of {top}");
     }
+}
+
+/// The glossy scene (an RGB fixed-view transport on the sphere, one
+/// channel on the floor): a field of equal views relights as its texture
+/// there too, and a field whose views differ sums its slices per channel
+/// (the prism's warm and cool sides reach the sphere's RGB transport).
+#[test]
+fn a_field_relights_rgb_transports() {
+    let plain = glossy_floor_and_sphere(8, 8, 32, 24, false);
+    let tex = plain.area_lights[0].texture.clone().unwrap();
+    let mut equal = plain.clone();
+    equal.area_lights[0].texture = None;
+    equal.area_lights[0].light_field = Some(Arc::new(
+        LightField::try_new(4, 2.0, vec![(*tex).clone(); 16]).unwrap(),
+    ));
+    // Two views over slopes far past the face: nothing is cut.
+    let mut wide = equal.clone();
+    wide.area_lights[0].light_field = Some(Arc::new(
+        LightField::try_new(2, 100.0, vec![(*tex).clone(); 4]).unwrap(),
+    ));
+    let a = colors(&plain, full());
+    let b = colors(&wide, full());
+    let top = a
+        .iter()
+        .flatten()
+        .map(|c| c.max_element())
+        .fold(0.0, f32::max);
+    let worst = a
+        .iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0, f32::max);
+    assert!(top > 0.05 && worst < 1e-4 * top, "off by {worst} of {top}");
+    // The aligned 4 × 4 field of equal views takes the block operators on
+    // the RGB transport too, and matches the plain light on the sphere's
+    // top, whose face holds the whole light inside the field's extent.
+    let c = colors(&equal, full());
+    let top_vertex = (0..c[0].len())
+        .max_by(|&i, &j| {
+            let y = |k: usize| equal.objects[0].mesh.positions[k].y;
+            y(i).total_cmp(&y(j))
+        })
+        .unwrap();
+    let (x, y) = (a[0][top_vertex], c[0][top_vertex]);
+    assert!(
+        (x - y).abs().max_element() < 1e-4 * x.max_element(),
+        "{x} vs {y}"
+    );
+    let sphere_top = c[0].iter().map(|c| c.max_element()).fold(0.0, f32::max);
+    assert!(sphere_top > 0.01, "the RGB sphere is lit");
+    // A prism field tints the RGB sphere's two sides differently.
+    let mut prism = plain.clone();
+    let base = prism.area_lights[0].texture.take().unwrap();
+    prism.area_lights[0].light_field = Some(Arc::new(LightField::prism(&base, 4, 2.0)));
+    let p = colors(&prism, full());
+    let sphere = &prism.objects[0].mesh;
+    let centre = sphere.positions.iter().copied().sum::<Vec3>() / sphere.positions.len() as f32;
+    let (mut left, mut right) = (Vec3::ZERO, Vec3::ZERO);
+    for (q, c) in sphere.positions.iter().zip(&p[0]) {
+        if q.x < centre.x - 0.2 {
+            left += *c;
+        } else if q.x > centre.x + 0.2 {
+            right += *c;
+        }
+    }
+    assert!(
+        left.x / left.z > right.x / right.z,
+        "warm on the left, cool on the right: {left} {right}"
+    );
 }
 
 /// Uncompressed, the floor's vertices against face-clipped quadrature of
