@@ -169,6 +169,16 @@ impl Tri {
     }
 }
 
+/// A [`SceneBvh`]'s tree without its meshes ([`SceneBvh::into_parts`]).
+#[derive(Clone, Debug)]
+pub struct BvhParts {
+    /// Triangles per mesh, the guard of [`SceneBvh::from_parts`].
+    triangles: Vec<usize>,
+    bvh: CwBvh,
+    tris: Vec<Tri>,
+    ids: Vec<(u32, u32)>,
+}
+
 /// A BVH over every triangle of a set of meshes (the objects of a [`Scene`]).
 #[derive(Debug)]
 pub struct SceneBvh<'a> {
@@ -237,6 +247,38 @@ impl<'a> SceneBvh<'a> {
             tris,
             ids,
         }
+    }
+
+    /// The built tree without the borrow of its meshes, for a caller that
+    /// keeps the meshes alive across frames (by `Arc`) and lends them again
+    /// with [`Self::from_parts`] instead of building again.
+    #[must_use]
+    pub fn into_parts(self) -> BvhParts {
+        BvhParts {
+            triangles: self.meshes.iter().map(|m| m.indices.len()).collect(),
+            bvh: self.bvh,
+            tris: self.tris,
+            ids: self.ids,
+        }
+    }
+
+    /// The BVH of `parts` over `meshes`, which must be the meshes it was
+    /// built from, in the same order and unchanged; `None` when their count
+    /// or triangle counts differ (a cheap guard, not a proof: the caller
+    /// vouches for identity).
+    #[must_use]
+    pub fn from_parts(meshes: Vec<&'a Mesh>, parts: BvhParts) -> Option<Self> {
+        let same = meshes.len() == parts.triangles.len()
+            && meshes
+                .iter()
+                .zip(&parts.triangles)
+                .all(|(m, &n)| m.indices.len() == n);
+        same.then(|| Self {
+            meshes,
+            bvh: parts.bvh,
+            tris: parts.tris,
+            ids: parts.ids,
+        })
     }
 
     /// The meshes, in object order.

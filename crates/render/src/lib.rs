@@ -38,7 +38,7 @@ pub use scene::{Animation, AreaLight, BrdfBlend, Keyframe, Medium, Object, Point
 pub use texture::{NormalMap, Texture, TextureError};
 pub use verify_row::VerifyRow;
 
-pub use bvh::{Hit, SceneBvh, ShadingPoint, ambient_occlusion, vertex_ambient_occlusion};
+pub use bvh::{BvhParts, Hit, SceneBvh, ShadingPoint, ambient_occlusion, vertex_ambient_occlusion};
 pub use reference::{
     EnvLight, LightSampling, MediumMode, RadianceEstimate, ReferenceBenchRow, ReferenceError,
     ReferenceImage, ReferenceOptions, ReferenceRenderer, bench_reference, reference_radiance_at,

@@ -20,13 +20,14 @@ use super::integrator::Tracer;
 use super::lights::{EnvLight, Lights};
 use super::render::{Accumulator, validate};
 use super::{ReferenceError, ReferenceOptions, validate_scene};
-use crate::bvh::SceneBvh;
+use crate::bvh::{BvhParts, SceneBvh};
 use crate::method::{
     COVERAGE_SUBSAMPLES, Coverage, FrameRequest, FrameTimings, MethodError, Noise, Relighter,
     Rendered, SceneFeature, Support, rasterize_coverage,
 };
 use crate::{AreaLight, Camera, Progress, Scene};
 use glam::{Mat3, Vec2, Vec3};
+use relight_geom::Mesh;
 use relight_sphere::Param;
 use std::sync::Arc;
 use std::time::Instant;
@@ -37,6 +38,11 @@ pub struct ReferenceRenderer {
     /// Its settings (every default in [`ReferenceOptions::default`]).
     pub options: ReferenceOptions,
     running: Option<(FrameKey, Accumulator, Coverage)>,
+    /// The last BVH and the meshes it was built over, held so that no other
+    /// mesh can take their addresses: reused while a scene's objects are
+    /// the same `Arc`s (every pass of a still view, every lighting change).
+    bvh: Option<(Vec<Arc<Mesh>>, BvhParts)>,
+    bvh_builds: usize,
 }
 
 impl ReferenceRenderer {
@@ -46,7 +52,16 @@ impl ReferenceRenderer {
         Self {
             options,
             running: None,
+            bvh: None,
+            bvh_builds: 0,
         }
+    }
+
+    /// BVH builds so far (a scene whose meshes are the same `Arc`s as the
+    /// last frame's reuses its BVH).
+    #[must_use]
+    pub fn bvh_builds(&self) -> usize {
+        self.bvh_builds
     }
 
     /// Samples per pixel of the running estimate (0 before the first frame).
@@ -191,13 +206,28 @@ impl Relighter for ReferenceRenderer {
             opts.spp
         };
         if until > acc.spp {
-            let bvh = SceneBvh::from_scene(scene);
+            let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
+            let cached = self.bvh.take().and_then(|(held, parts)| {
+                let same = held.len() == scene.objects.len()
+                    && held
+                        .iter()
+                        .zip(&scene.objects)
+                        .all(|(h, o)| Arc::ptr_eq(h, &o.mesh));
+                same.then(|| SceneBvh::from_parts(meshes.clone(), parts))
+                    .flatten()
+            });
+            let bvh = cached.unwrap_or_else(|| {
+                self.bvh_builds += 1;
+                SceneBvh::build(&meshes)
+            });
             let light = EnvLight::new(&scene.env, opts.env_filter);
             let wavelet = super::render::wavelet_lights(scene, &opts);
             let tracer = Tracer::new(scene, &bvh, Lights::new(scene, &light), &opts)
                 .with_wavelet(wavelet.as_ref());
             acc.add_samples(&tracer, scene, &camera, &opts, until, progress)
                 .map_err(method_error)?;
+            let held = scene.objects.iter().map(|o| o.mesh.clone()).collect();
+            self.bvh = Some((held, bvh.into_parts()));
         }
         let r = acc.image();
         self.running = Some((key, acc, coverage.clone()));

@@ -701,3 +701,56 @@ fn masked_noise_floor_matches_two_seeds() {
     assert!((a.rms_relative_std_error_over(&all) - a.rms_relative_std_error).abs() < 1e-9);
     assert_eq!(a.rms_relative_std_error_over(&[]), 0.0);
 }
+
+/// The method keeps its BVH while the scene's meshes are the same `Arc`s
+/// (the passes of a still view, a lighting change) and builds it again for
+/// new meshes; every image is the one a fresh renderer makes.
+#[test]
+fn the_reference_reuses_its_bvh_only_for_the_same_meshes() {
+    let scene = lit_foggy_scene(10);
+    let o = ReferenceOptions {
+        spp: 4,
+        pass_spp: 2,
+        seed: 9,
+        ..ReferenceOptions::default()
+    };
+    let fresh = |s: &relight_render::Scene| {
+        let mut f = ReferenceRenderer::new(o);
+        f.prepare(s, &NoProgress).unwrap();
+        f.render(s, &FrameRequest::new(s.camera), &NoProgress)
+            .unwrap()
+            .image
+    };
+    let mut m = ReferenceRenderer::new(o);
+    m.prepare(&scene, &NoProgress).unwrap();
+    let mut req = FrameRequest::new(scene.camera);
+    req.progressive = true;
+    let mut last = None;
+    for _ in 0..2 {
+        last = Some(m.render(&scene, &req, &NoProgress).unwrap().image);
+    }
+    assert_eq!(m.bvh_builds(), 1, "passes of one view share the BVH");
+    assert_eq!(last.unwrap().pixels, fresh(&scene).pixels);
+    // A lighting change: the same meshes.
+    let mut lit = scene.clone();
+    lit.world_from_env = Mat3::from_rotation_y(0.7);
+    m.set_lighting(&lit, &NoProgress).unwrap();
+    let img = m
+        .render(&lit, &FrameRequest::new(lit.camera), &NoProgress)
+        .unwrap();
+    assert_eq!(m.bvh_builds(), 1);
+    assert_eq!(img.image.pixels, fresh(&lit).pixels);
+    // New meshes (the object moved): built again.
+    let mut moved = scene.clone();
+    let mut mesh = (*moved.objects[0].mesh).clone();
+    for p in &mut mesh.positions {
+        p.y += 0.1;
+    }
+    moved.objects[0].mesh = Arc::new(mesh);
+    m.prepare(&moved, &NoProgress).unwrap();
+    let img = m
+        .render(&moved, &FrameRequest::new(moved.camera), &NoProgress)
+        .unwrap();
+    assert_eq!(m.bvh_builds(), 2);
+    assert_eq!(img.image.pixels, fresh(&moved).pixels);
+}
