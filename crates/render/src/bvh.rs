@@ -273,7 +273,10 @@ impl<'a> SceneBvh<'a> {
                 .iter()
                 .zip(&parts.triangles)
                 .all(|(m, &n)| m.indices.len() == n);
-        same.then(|| Self {
+        if !same {
+            return None;
+        }
+        Some(Self {
             meshes,
             bvh: parts.bvh,
             tris: parts.tris,
