@@ -128,6 +128,28 @@ fn matrix(quick: bool) -> Result<Vec<MatrixScene>> {
         scene: foggy(default.clone()),
         fog_gate: false,
     });
+    // Area lights alone (nearfield, ltc and the reference render them; the
+    // environment methods say why not): the textured ceiling panel of
+    // `verify nearfield` over its floor and sphere, unshadowed (ltc ignores
+    // shadows), and the same panel as a light field (ltc refuses it).
+    let (floor, segments) = if quick { (16, 16) } else { (48, 32) };
+    out.push(MatrixScene {
+        name: "floor+sphere+area-light".into(),
+        scene: relight_nearfield::scenes::floor_and_sphere(floor, segments, w, h, false),
+        fog_gate: false,
+    });
+    out.push(MatrixScene {
+        name: "floor+sphere+light-field".into(),
+        scene: relight_nearfield::scenes::floor_and_sphere_light_field(
+            floor,
+            segments,
+            [w, h],
+            false,
+            4,
+            2.0,
+        ),
+        fog_gate: false,
+    });
     let probes: &[&str] = if quick { &["park"] } else { &["park", "hall"] };
     let brdfs: &[(&str, &str)] = if quick {
         &[("lambert", "lambert:0.8")]

@@ -70,10 +70,7 @@ impl VerifyMethodsOptions {
                 // reference leaves out: `verify radiance-cache` judges it
                 // against the GI reference instead. ndf shades one BRDF model
                 // (`--ndf-brdf`) that the matrix's mixed materials do not
-                // share: `verify ndf` judges it on its own scenes. nearfield
-                // renders one area light alone (no environment): `verify
-                // nearfield` judges it; so does ltc (area lights only, `verify
-                // ltc`).
+                // share: `verify ndf` judges it on its own scenes.
                 .filter(|k| {
                     !matches!(
                         k,
@@ -81,8 +78,6 @@ impl VerifyMethodsOptions {
                             | MethodKind::ShExp
                             | MethodKind::RadianceCache
                             | MethodKind::Ndf
-                            | MethodKind::Nearfield
-                            | MethodKind::Ltc
                     )
                 })
                 .map(MethodOptions::default_for)
