@@ -280,7 +280,7 @@ fn check_light_field(index: usize, light: &AreaLight, turned: bool) -> Result<()
         return Err(invalid(
             "scene",
             format!(
-                "area light {}: a light field turned in its plane away from the light it was baked for; bake for the turned light (prepare again)",
+                "area light {}: a light field turned in the plane whose transport it uses (against that plane's first light, or since the bake), which would turn its directions too; give it that light's orientation, or prepare again for it alone in its plane",
                 index + 1
             ),
         ));

@@ -205,8 +205,8 @@ fn a_prism_field_colours_the_floor_by_direction() {
     );
 }
 
-/// A view count that is not a power of two is an error naming the light
-/// field.
+/// A view count that is not a power of two, and a field turned in its
+/// baked plane, are errors naming the light field; a move is not.
 #[test]
 fn what_cannot_be_relit_is_refused() {
     let s = field_scene(3, 2.0);
@@ -216,4 +216,19 @@ fn what_cannot_be_relit_is_refused() {
         e.contains("power of two") && e.contains("light field"),
         "{e}"
     );
+    // Turned in its baked plane: its directions would turn too.
+    let s = field_scene(4, 2.0);
+    let mut m = NearfieldMethod::new(NearfieldOptions::default()).unwrap();
+    m.prepare(&s, &NoProgress).unwrap();
+    let mut turned = s.clone();
+    turned.area_lights[0].world_from_light *= glam::Mat3::from_rotation_z(0.5);
+    let e = m
+        .set_lighting(&turned, &NoProgress)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("light field turned"), "{e}");
+    // Moved within its plane: relit, no error.
+    let mut moved = s.clone();
+    moved.area_lights[0].center.x += 0.3;
+    m.set_lighting(&moved, &NoProgress).unwrap();
 }
