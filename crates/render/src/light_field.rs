@@ -168,29 +168,6 @@ impl LightField {
         ]
     }
 
-    /// The views' mean texture, uniform over the slope square: what a
-    /// consumer that ignores direction sees
-    /// ([`AreaLight::radiance_at`](crate::AreaLight::radiance_at)).
-    ///
-    /// # Panics
-    /// Views of different sizes (not built by this type).
-    #[must_use]
-    pub fn mean_view(&self) -> Texture {
-        let first = &self.textures[0];
-        let mut texels = vec![Vec3::ZERO; first.texels.len()];
-        for t in &self.textures {
-            assert_eq!(t.texels.len(), texels.len(), "views of one size");
-            for (m, &v) in texels.iter_mut().zip(&t.texels) {
-                *m += v;
-            }
-        }
-        let inv = 1.0 / self.textures.len() as f32;
-        for m in &mut texels {
-            *m *= inv;
-        }
-        Texture::try_new(first.width, first.height, texels).expect("means of valid texels")
-    }
-
     /// The projected solid angle of view cell `(a_x, a_y)` seen from a point
     /// of the light, `∫∫ (1 + |σ|²)⁻² dσ` over the cell (the cosine at the
     /// light times the solid angle per unit slope area; midpoint rule, 16²

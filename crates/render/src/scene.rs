@@ -242,8 +242,8 @@ impl AreaLight {
 
     /// Emitted radiance at `uv` towards the `+ẑ` side, whatever the
     /// direction: exact for a light without a light field; with one, its
-    /// views' mean ([`LightField::mean_view`], uniform over the slope
-    /// square), which only consumers that refuse
+    /// views' mean at `uv` (uniform over the slope square), which only
+    /// consumers that refuse
     /// [`SceneFeature::LightFields`](crate::method::SceneFeature) or need a
     /// direction-free proposal (importance sampling) may use.
     #[must_use]
@@ -267,14 +267,14 @@ impl AreaLight {
     /// ([`LightField::radiance`]). Zero from behind the emitting side.
     #[must_use]
     pub fn radiance(&self, uv: Vec2, wi: Vec3) -> Vec3 {
-        let Some(lf) = &self.light_field else {
-            return self.radiance_at(uv);
-        };
         let m = self.world_from_light;
         let cos = -wi.dot(m.z_axis);
         if cos <= 0.0 {
             return Vec3::ZERO;
         }
+        let Some(lf) = &self.light_field else {
+            return self.radiance_at(uv);
+        };
         let slope = Vec2::new(-wi.dot(m.x_axis), -wi.dot(m.y_axis)) / cos;
         lf.radiance(uv, slope) * self.intensity
     }

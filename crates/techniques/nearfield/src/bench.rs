@@ -274,7 +274,7 @@ pub fn bench_nearfield(
                 t.elapsed().as_secs_f64() * 1e3
             });
             m.set_light_frame(&crate::face::LightFrame::of(&light));
-            m.update_source(&light);
+            m.update_source(&light)?;
             let (prop_1t, raster_1t) = one.install(|| {
                 (
                     min_cpu_ms(opts.repeats, || {

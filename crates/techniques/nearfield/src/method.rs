@@ -258,23 +258,14 @@ fn the_lights(scene: &Scene) -> Result<&[AreaLight], MethodError> {
     }
 }
 
-/// Light `index` can be relit: a light field needs a power-of-two view
-/// count (its angular Haar basis) and cannot be turned in its baked plane
-/// (the turn would turn its directions too, which the re-rasterised
-/// bounding rectangle of [`crate::rotate`] does not do).
+/// Light `index` can be relit: a light field cannot be turned in its
+/// baked plane (the turn would turn its directions too, which the
+/// re-rasterised bounding rectangle of [`crate::rotate`] does not do). Its
+/// view count is checked where its coefficients are made
+/// ([`FieldSource::of`]).
 fn check_light_field(index: usize, light: &AreaLight, turned: bool) -> Result<(), MethodError> {
-    let Some(lf) = &light.light_field else {
+    if light.light_field.is_none() {
         return Ok(());
-    };
-    let a = lf.views();
-    if !a.is_power_of_two() {
-        return Err(invalid(
-            "scene",
-            format!(
-                "area light {}: a light field of {a} × {a} views; the angular Haar basis needs a power of two per axis",
-                index + 1
-            ),
-        ));
     }
     if turned {
         return Err(invalid(
@@ -895,20 +886,27 @@ impl NearfieldMethod {
 
     /// The first light's coefficients and source compression: `light`
     /// as it is. Returns ms.
-    pub fn update_source(&mut self, light: &AreaLight) -> f64 {
+    ///
+    /// # Errors
+    /// A light field whose view count is not a power of two.
+    pub fn update_source(&mut self, light: &AreaLight) -> Result<f64, MethodError> {
         self.update_source_of(0, light, None)
     }
 
     /// Light `index`'s coefficients and source compression: `light` as
     /// it is, or turned in its baked plane by `turn` (its bounding
     /// rectangle re-rasterised, [`crate::rotate`]). Returns ms.
-    fn update_source_of(&mut self, index: usize, light: &AreaLight, turn: Option<&InPlane>) -> f64 {
+    fn update_source_of(
+        &mut self,
+        index: usize,
+        light: &AreaLight,
+        turn: Option<&InPlane>,
+    ) -> Result<f64, MethodError> {
         let t = Instant::now();
         let o = &self.options;
         let (n, coarse) = (o.order, o.light_order.unwrap_or(o.order).min(o.order));
         if let Some(lf) = &light.light_field {
-            // `set_lighting` refuses a turned light field and a view count
-            // that is not a power of two (`check_light_field`).
+            // `set_lighting` refuses a turned light field (`check_light_field`).
             let field = FieldSource::of(
                 light,
                 lf,
@@ -916,10 +914,11 @@ impl NearfieldMethod {
                 o.face,
                 o.source_terms,
                 o.source_ranking,
-            );
-            self.lights[index].field = field.ok();
+            )
+            .map_err(|e| invalid("scene", format!("area light {}: {e}", index + 1)))?;
+            self.lights[index].field = Some(field);
             self.lights[index].source = SourceTerms::default();
-            return t.elapsed().as_secs_f64() * 1e3;
+            return Ok(t.elapsed().as_secs_f64() * 1e3);
         }
         self.lights[index].field = None;
         let coeffs = match turn {
@@ -927,7 +926,7 @@ impl NearfieldMethod {
             Some(turn) => LightCoeffs::of_cells(&turn.cells(light, coarse), n, coarse),
         };
         self.lights[index].source = compress(&coeffs, o.source_terms, o.source_ranking);
-        t.elapsed().as_secs_f64() * 1e3
+        Ok(t.elapsed().as_secs_f64() * 1e3)
     }
 
     /// The fused propagation of every vertex, summed over the lights (the
@@ -1091,7 +1090,7 @@ impl Relighter for NearfieldMethod {
         for (i, (light, (_, turn))) in lights.iter().zip(&plan).enumerate() {
             progress.check()?;
             self.lights[i].frame = Some(turn.map_or_else(|| LightFrame::of(light), |t| t.frame));
-            coeffs_ms += self.update_source_of(i, light, turn.as_ref());
+            coeffs_ms += self.update_source_of(i, light, turn.as_ref())?;
         }
         let p = self.propagate();
         self.lighting_warnings = std::sync::OnceLock::new();
