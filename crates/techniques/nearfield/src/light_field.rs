@@ -50,7 +50,7 @@ use crate::light::{
     support_width, terms_of,
 };
 use crate::propagate::{Kernel, Primitives, VertexMap, VertexScratch, shade_vertex};
-use relight_affine::standard::{forward_1d, forward_2d, inverse_1d, inverse_2d, level_rank};
+use relight_affine::standard::{forward_1d, forward_2d, inverse_1d, inverse_2d};
 use relight_render::{AreaLight, LightField};
 
 /// Midpoint samples per face cell for the angular atoms' cell means.
@@ -332,17 +332,6 @@ impl FieldSource {
             })
             .sum();
         slices + if pixels { channels * 4 * nn } else { 0 }
-    }
-
-    /// The angular level rank of the coarsest kept slice's finer axis (for
-    /// reports): 0 when only the angular mean is kept.
-    #[must_use]
-    pub fn finest_angular_level(&self) -> u32 {
-        self.terms
-            .iter()
-            .map(|t| level_rank(t.j[0]).max(level_rank(t.j[1])))
-            .max()
-            .unwrap_or(0)
     }
 }
 
