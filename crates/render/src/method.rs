@@ -581,7 +581,7 @@ fn background_radiance(scene: &Scene, o: Vec3, d: Vec3) -> Vec3 {
 }
 
 /// The background of pixel `(x, y)`: the trapezoid rule of the box-filtered
-/// pixel the reference integrates — the mean of the [`background_radiance`]
+/// pixel the reference integrates — the mean of the `background_radiance`
 /// at the pixel's four corners. The corners are shared with the neighbouring
 /// pixels, so a frame costs one environment lookup per pixel
 /// ([`fill_background`]), where a midpoint grid of the same order costs four;

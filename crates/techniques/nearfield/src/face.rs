@@ -133,7 +133,7 @@ fn parallel_rect_corner(x: f64, y: f64) -> f64 {
     0.5 * (x / rx * (y / rx).atan() + y / ry * (x / ry).atan())
 }
 
-/// [`parallel_rect_corner`] over `[x0, x1] × [y0, y1]`.
+/// `parallel_rect_corner` over `[x0, x1] × [y0, y1]`.
 #[must_use]
 pub fn parallel_rect_integral(x: [f64; 2], y: [f64; 2]) -> f64 {
     parallel_rect_corner(x[1], y[1])

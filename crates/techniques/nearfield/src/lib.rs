@@ -26,7 +26,7 @@
 //! | [`propagate`] | the fused per-vertex kernel: ACC rows from shared primitives, target mask (eq. 4.38), propagation and dot product |
 //! | [`rotate`] | a light turned in its plane, re-rasterised into its bounding rectangle |
 //! | [`method`] | the `nearfield` [`relight_render::method::Relighter`] |
-//! | [`verify`], [`verify_specular`], [`verify_light_field`], [`bench`] | `relight verify/bench nearfield` rows (the glossy scene's in `verify_specular`) |
+//! | [`verify`], [`verify_specular`], [`verify_light_field`], [`mod@bench`] | `relight verify/bench nearfield` rows (the glossy scene's in `verify_specular`) |
 //!
 //! Figures measured by `relight verify nearfield` and `relight bench
 //! nearfield` are in `docs/nearfield.md`.
