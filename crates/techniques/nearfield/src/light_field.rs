@@ -39,7 +39,9 @@
 //!
 //! So each vertex runs the fused kernel ([`crate::propagate::shade_vertex`])
 //! once per kept angular slice `j`, against `G_j`, computed per vertex from
-//! the transport's pixels (two transforms of `n²` per slice). Compression
+//! the transport's pixels (two transforms of `n²` per slice); the slices
+//! share the vertex's ACC rows and target mask, which depend on its map
+//! only (the kernel's scratch keeps them while the map is the same). Compression
 //! keeps the field's largest 4D coefficients, as many as the source fraction
 //! keeps of a plain light (`fraction · n²`), DC first, ties coarse first in
 //! angle then in space: a field that does not vary with direction keeps the

@@ -588,6 +588,10 @@ pub fn select_targets(
 /// Per-thread scratch of [`shade_vertex`].
 #[derive(Clone, Debug, Default)]
 pub struct VertexScratch {
+    /// `(n, s, o, m)` the axes, row 0, the mask and the cached `D^x` rows
+    /// below were made for: a call with the same key (the angular slices of
+    /// one light field at one vertex, [`crate::light_field`]) reuses them.
+    key: Option<(usize, [f64; 2], [f64; 2], usize)>,
     x: Axis,
     y: Axis,
     a: Vec<f32>,
@@ -652,15 +656,21 @@ fn shade_vertex_body(k: &Kernel, v: &VertexMap, sc: &mut VertexScratch) -> [f32;
         return [0.0; 3];
     }
     debug_assert_eq!(src.n, n);
-    sc.x.reset(n, s[0], o[0]);
-    sc.y.reset(n, s[1], o[1]);
-    sc.a.resize(n, 0.0);
-    sc.b.resize(n, 0.0);
-    sc.x.acc_row(p, 0, &mut sc.a);
-    sc.y.acc_row(p, 0, &mut sc.b);
-    select_mask(&sc.a, &sc.b, m, &mut sc.mask);
-    sc.dx.resize(n * n, 0.0);
-    sc.dx_done = 0;
+    // Everything here depends on the vertex's map and the target count
+    // only, not on the source terms.
+    let key = Some((n, s, o, m));
+    if sc.key != key {
+        sc.x.reset(n, s[0], o[0]);
+        sc.y.reset(n, s[1], o[1]);
+        sc.a.resize(n, 0.0);
+        sc.b.resize(n, 0.0);
+        sc.x.acc_row(p, 0, &mut sc.a);
+        sc.y.acc_row(p, 0, &mut sc.b);
+        select_mask(&sc.a, &sc.b, m, &mut sc.mask);
+        sc.dx.resize(n * n, 0.0);
+        sc.dx_done = 0;
+        sc.key = key;
+    }
     sc.row.resize(n, 0.0);
     sc.z.resize(rows * 3 * n, 0.0);
     // D^y's rows transposed, each k2's `R` values padded with zeros to
@@ -969,6 +979,10 @@ mod tests {
         let mut dy = vec![0.0f32; nn];
         let mut mask = MaskCounts::default();
         let mut pairs = Vec::new();
+        // One scratch per path kept across every call: a call with the key
+        // of the one before (same map and target count, another source or
+        // transport) reuses its rows and mask, bit for bit as a fresh one.
+        let mut shared = [VertexScratch::default(), VertexScratch::default()];
         for (src, (s, o)) in sources.iter().flat_map(|src| {
             [([0.6, 1.7], [0.1, -0.4]), ([3.2, 2.4], [-1.1, -0.9])].map(|so| (src, so))
         }) {
@@ -995,7 +1009,10 @@ mod tests {
                             *w += l * f64::from(t[tc * nn + k2 * n + k1]);
                         }
                     }
-                    for p in [Primitives::new(n), Primitives::portable(n)] {
+                    for (path, p) in [Primitives::new(n), Primitives::portable(n)]
+                        .into_iter()
+                        .enumerate()
+                    {
                         let mut sc = VertexScratch::default();
                         let kernel = Kernel {
                             primitives: &p,
@@ -1004,6 +1021,16 @@ mod tests {
                         };
                         let vertex = VertexMap { s, o, transport: t };
                         let got = shade_vertex(&kernel, &vertex, &mut sc);
+                        for other in [src, &sources[0]] {
+                            let kernel = Kernel {
+                                source: other,
+                                ..kernel
+                            };
+                            let reused = shade_vertex(&kernel, &vertex, &mut shared[path]);
+                            let fresh =
+                                shade_vertex(&kernel, &vertex, &mut VertexScratch::default());
+                            assert_eq!(reused, fresh, "s {s:?} m {m} channels {channels}");
+                        }
                         for c in 0..3 {
                             assert!(
                                 (f64::from(got[c]) - want[c]).abs() <= 1e-4 * (1.0 + want[c].abs()),
