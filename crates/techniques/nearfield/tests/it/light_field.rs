@@ -35,6 +35,23 @@ fn colors(scene: &Scene, options: NearfieldOptions) -> Vec<Vec<Vec3>> {
     m.vertex_colors().to_vec()
 }
 
+/// The largest channel of `a`'s vertex colours and the largest channel
+/// difference between `a` and `b`.
+fn largest_and_worst(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) -> (f32, f32) {
+    let top = a
+        .iter()
+        .flatten()
+        .map(|c| c.max_element())
+        .fold(0.0, f32::max);
+    let worst = a
+        .iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0, f32::max);
+    (top, worst)
+}
+
 /// Views that are all the light's texture, over slopes wider than the face:
 /// only the angular mean is non-zero, and the vertices get what the
 /// textured light gives them (to f32 rounding of the extra transforms).
@@ -49,17 +66,7 @@ fn a_field_of_equal_views_relights_as_its_texture() {
     ));
     for options in [full(), NearfieldOptions::default()] {
         let (a, b) = (colors(&plain, options.clone()), colors(&s, options));
-        let top = a
-            .iter()
-            .flatten()
-            .map(|c| c.max_element())
-            .fold(0.0, f32::max);
-        let worst = a
-            .iter()
-            .flatten()
-            .zip(b.iter().flatten())
-            .map(|(x, y)| (*x - *y).abs().max_element())
-            .fold(0.0, f32::max);
+        let (top, worst) = largest_and_worst(&a, &b);
         assert!(top > 0.1 && worst < 1e-4 * top, "off by {worst} of {top}");
     }
 }
@@ -83,18 +90,7 @@ fn a_field_relights_rgb_transports() {
         LightField::try_new(2, 100.0, vec![(*tex).clone(); 4]).unwrap(),
     ));
     let a = colors(&plain, full());
-    let b = colors(&wide, full());
-    let top = a
-        .iter()
-        .flatten()
-        .map(|c| c.max_element())
-        .fold(0.0, f32::max);
-    let worst = a
-        .iter()
-        .flatten()
-        .zip(b.iter().flatten())
-        .map(|(x, y)| (*x - *y).abs().max_element())
-        .fold(0.0, f32::max);
+    let (top, worst) = largest_and_worst(&a, &colors(&wide, full()));
     assert!(top > 0.05 && worst < 1e-4 * top, "off by {worst} of {top}");
     // The aligned 4 × 4 field of equal views takes the block operators on
     // the RGB transport too, and matches the plain light on the sphere's
