@@ -36,9 +36,7 @@ pub fn face_quadrature(
     radiance: &(dyn Fn(Vec2) -> Vec3 + Sync),
     bvh: Option<&SceneBvh>,
 ) -> Vec3 {
-    face_quadrature_with(frame, face, p, nrm, samples, radiance, bvh, |w| {
-        Vec3::splat(nrm.dot(w).max(0.0))
-    })
+    face_quadrature_directional(frame, face, p, nrm, samples, &|uv, _| radiance(uv), bvh)
 }
 
 /// [`face_quadrature`] with a radiance that depends on the direction too:
@@ -54,34 +52,17 @@ pub fn face_quadrature_directional(
     radiance: &(dyn Fn(Vec2, Vec3) -> Vec3 + Sync),
     bvh: Option<&SceneBvh>,
 ) -> Vec3 {
-    face_quadrature_general(frame, face, p, nrm, samples, radiance, bvh, |w| {
+    face_quadrature_with(frame, face, p, nrm, samples, radiance, bvh, |w| {
         Vec3::splat(nrm.dot(w).max(0.0))
     })
 }
 
-/// `∫_face L ρ V dω` at a vertex: [`face_quadrature`] with the weight
-/// `ρ(ω)` of each unit world direction (reflectance × cosine, zero below
-/// the horizon, where a sample is skipped) in place of the cosine; `nrm`
-/// offsets the shadow rays' origin.
+/// `∫_face L ρ V dω` at a vertex: [`face_quadrature_directional`] with the
+/// weight `ρ(ω)` of each unit world direction (reflectance × cosine, zero
+/// below the horizon, where a sample is skipped) in place of the cosine;
+/// `nrm` offsets the shadow rays' origin.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn face_quadrature_with(
-    frame: &LightFrame,
-    face: f64,
-    p: Vec3,
-    nrm: Vec3,
-    samples: usize,
-    radiance: &(dyn Fn(Vec2) -> Vec3 + Sync),
-    bvh: Option<&SceneBvh>,
-    weight: impl Fn(Vec3) -> Vec3,
-) -> Vec3 {
-    let radiance = |uv: Vec2, _: Vec3| radiance(uv);
-    face_quadrature_general(frame, face, p, nrm, samples, &radiance, bvh, weight)
-}
-
-/// [`face_quadrature_with`] with `radiance(uv, ω)` (as
-/// [`face_quadrature_directional`]).
-#[allow(clippy::too_many_arguments)]
-fn face_quadrature_general(
     frame: &LightFrame,
     face: f64,
     p: Vec3,

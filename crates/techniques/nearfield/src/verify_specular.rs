@@ -40,7 +40,8 @@ pub fn face_quadrature_brdf(
     radiance: &(dyn Fn(Vec2) -> Vec3 + Sync),
     bvh: Option<&SceneBvh>,
 ) -> Vec3 {
-    crate::verify::face_quadrature_with(frame, face, p, shading.z, samples, radiance, bvh, |w| {
+    let radiance = |uv: Vec2, _: Vec3| radiance(uv);
+    crate::verify::face_quadrature_with(frame, face, p, shading.z, samples, &radiance, bvh, |w| {
         brdf_weight(shading, wo, brdf, w)
     })
 }
