@@ -540,7 +540,7 @@ pub enum BakeCommand {
         /// Normal tessellation side: ntess² sampled normals, one matrix each.
         #[arg(long, default_value_t = 32)]
         ntess: usize,
-        /// Coarsest Haar level kept by the truncated transform (§3).
+        /// Truncation threshold (paper Table 1): quantized matrix entries (16-bit scale) with |q| below it are dropped; 1 keeps every non-zero, the paper uses 1–4 and shows artifacts at 128
         #[arg(long, default_value_t = 1)]
         ntrunc: u16,
         /// Target hemi-octahedral side m (default n/2).

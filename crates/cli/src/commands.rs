@@ -295,7 +295,11 @@ fn bake(c: BakeCommand, bar: &Bar) -> Result<()> {
 fn fog(c: FogCommand) -> Result<()> {
     match c {
         FogCommand::Tables { size, out } => {
-            ensure!(size >= 2, "--size must be at least 2 (got {size})");
+            ensure!(
+                (2..=relight_fog::MAX_TABLE_SIZE).contains(&size),
+                "--size {size}: must be 2…{}",
+                relight_fog::MAX_TABLE_SIZE
+            );
             check_output(&out, "--out", &["exr"])?;
             let t = Instant::now();
             let tables = relight_fog::FogTables::build(size)?;

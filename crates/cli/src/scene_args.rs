@@ -40,7 +40,7 @@ pub fn load_normal_map(path: &Path) -> Result<relight_render::NormalMap> {
             format,
             relight_assets::ImageFormat::Exr | relight_assets::ImageFormat::Hdr
         ),
-        "--normal-map {}: {} is linear radiance, not a normal map (give a tangent-space PNG or JPEG)",
+        "{}: {} is linear radiance, not a normal map (give a tangent-space PNG or JPEG)",
         path.display(),
         match format {
             relight_assets::ImageFormat::Exr => "an OpenEXR image",
@@ -168,13 +168,9 @@ pub fn build_scene(
                 "--mesh {m}: no such file, and not a built-in shape ({})",
                 relight_scene::BUILTIN_MESHES.join(", ")
             );
+            // The loader's warnings already name the file.
             let (mesh, warnings) = relight_scene::load_mesh(m)?;
-            warn_all(
-                &warnings
-                    .iter()
-                    .map(|w| format!("{m}: {w}"))
-                    .collect::<Vec<_>>(),
-            );
+            warn_all(&warnings);
             objects.push(Object::new(Arc::new(mesh), brdf.clone()));
         }
         let camera = relight_scene::framing_camera(&objects, w, h, 40.0);
@@ -220,7 +216,7 @@ pub fn build_scene(
             relight_scene::rotation_from_yaw_pitch_roll([v[0], v[1], v[2]]) * scene.world_from_env;
     }
     if let Some(p) = &a.normal_map {
-        let nm = Arc::new(load_normal_map(p)?);
+        let nm = Arc::new(load_normal_map(p).map_err(|e| anyhow!("--normal-map {e:#}"))?);
         for (i, o) in scene.objects.iter_mut().enumerate() {
             ensure!(
                 o.mesh.uvs.len() == o.mesh.positions.len(),

@@ -15,7 +15,7 @@ pub enum SpheresCommand {
     /// Fit a set of bounding spheres (and their hierarchy) to a mesh and
     /// write it as JSON, for use as sphere/capsule shadow proxies.
     Fit {
-        /// Mesh (OBJ, PLY, glTF).
+        /// Mesh (OBJ, PLY, glTF), or the name of a built-in shape such as `sphere`.
         mesh: PathBuf,
         /// Leaf spheres (≥ 1).
         #[arg(long, default_value_t = 32)]
@@ -33,7 +33,9 @@ pub fn spheres(c: SpheresCommand) -> Result<()> {
             if spheres == 0 {
                 bail!("--spheres {spheres}: need at least one sphere");
             }
-            let (m, _) = relight_assets::load_mesh(&mesh)?;
+            crate::output::check_output(&out, "--out", &["json"])?;
+            let (m, warnings) = relight_scene::load_mesh(&mesh.to_string_lossy())?;
+            crate::output::warn_all(&warnings);
             let t = Instant::now();
             let set = fit_spheres(
                 &m,

@@ -260,6 +260,12 @@ fn object(
 ) -> Result<Object, SceneError> {
     let (mut mesh, mesh_name) = match (&o.mesh, &o.builtin) {
         (Some(m), None) => {
+            if crate::BUILTIN_MESHES.contains(&m.as_str()) && !resolve(m).exists() {
+                return Err(cx.err(
+                    &format!("{key}.mesh"),
+                    format!("`{m}` is a built-in shape, not a file: write `builtin = \"{m}\"`"),
+                ));
+            }
             let p = resolve(m);
             let (mesh, report) = relight_assets::load_mesh(&p)
                 .map_err(|source| cx.file_err(&format!("{key}.mesh"), source))?;

@@ -182,6 +182,37 @@ fn r11_messages_name_the_problem_once() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("3 vertices, 1 triangle\n"), "{text}");
 
+    // A NaN corner is named as such, and the warning names the file once.
+    let nan = tmp("nan-corner.obj");
+    std::fs::write(
+        &nan,
+        "v nan 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n",
+    )
+    .unwrap();
+    let out = relight(&[
+        "-q",
+        "render",
+        "--mesh",
+        nan.to_str().unwrap(),
+        "--method",
+        "sh",
+        "--size",
+        "16x12",
+        "--out",
+        tmp("nan-corner.png").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let warning = err
+        .lines()
+        .find(|l| l.contains("nan-corner.obj"))
+        .unwrap_or_else(|| panic!("no warning naming the file: {err}"));
+    assert!(
+        warning.contains("dropped 1 triangle(s) with a NaN or infinite vertex position"),
+        "{warning}"
+    );
+    assert_eq!(warning.matches("nan-corner.obj").count(), 1, "{warning}");
+
     // `verify raster` was `verify reference` twice: it is gone.
     let out = relight(&["verify", "raster", "--quick"]);
     assert_eq!(out.status.code(), Some(2), "clap refuses the value");

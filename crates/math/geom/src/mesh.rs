@@ -5,7 +5,8 @@
 //! 1. Attribute arrays whose length differs from `positions.len()` are
 //!    discarded (normals are then recomputed, uvs and tangents dropped).
 //! 2. Triangles with an index `>= positions.len()` are dropped.
-//! 3. Degenerate triangles are dropped: a repeated index, a non-finite corner,
+//! 3. Triangles with a non-finite corner are dropped (counted apart), then
+//!    degenerate ones: a repeated index,
 //!    or `|e₁ × e₂| ≤ DEGENERATE_REL · ℓ²_max`, where `ℓ_max` is the longest
 //!    edge ([`DEGENERATE_REL`] = 1e-7, i.e. the triangle's height is below
 //!    ~1e-7 of its longest edge, the resolution of f32 coordinates).
@@ -52,6 +53,9 @@ pub struct Mesh {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RepairReport {
     pub out_of_range_triangles: usize,
+    /// Triangles dropped for a corner with a NaN or infinite coordinate.
+    pub non_finite_triangles: usize,
+    /// Triangles dropped for a repeated index or (near-)zero area.
     pub degenerate_triangles: usize,
     pub computed_normals: bool,
     pub repaired_normals: usize,
@@ -67,6 +71,7 @@ impl RepairReport {
     #[must_use]
     pub fn is_clean(&self) -> bool {
         self.out_of_range_triangles == 0
+            && self.non_finite_triangles == 0
             && self.degenerate_triangles == 0
             && self.repaired_normals == 0
             && self.discarded_attributes.is_empty()
@@ -80,6 +85,12 @@ impl RepairReport {
             w.push(format!(
                 "dropped {} triangle(s) with out-of-range vertex indices",
                 self.out_of_range_triangles
+            ));
+        }
+        if self.non_finite_triangles > 0 {
+            w.push(format!(
+                "dropped {} triangle(s) with a NaN or infinite vertex position",
+                self.non_finite_triangles
             ));
         }
         if self.degenerate_triangles > 0 {
@@ -154,7 +165,9 @@ pub enum MeshError {
         index: u32,
         vertex_count: usize,
     },
-    /// Triangle `triangle` has (near-)zero area or a non-finite corner.
+    /// Triangle `triangle` has a corner with a NaN or infinite coordinate.
+    NonFinite { triangle: usize },
+    /// Triangle `triangle` has a repeated index or (near-)zero area.
     Degenerate { triangle: usize },
     /// An attribute array has the wrong length.
     AttributeLength {
@@ -177,6 +190,12 @@ impl fmt::Display for MeshError {
                 f,
                 "triangle {triangle} references vertex {index} but the mesh has {vertex_count} vertices"
             ),
+            Self::NonFinite { triangle } => {
+                write!(
+                    f,
+                    "triangle {triangle} has a NaN or infinite vertex position"
+                )
+            }
             Self::Degenerate { triangle } => {
                 write!(f, "triangle {triangle} is degenerate (zero area)")
             }
@@ -271,6 +290,9 @@ impl Mesh {
                 });
             }
             let [a, b, c] = tri.map(|i| self.positions[i as usize]);
+            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+                return Err(MeshError::NonFinite { triangle: t });
+            }
             if tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || is_degenerate(a, b, c) {
                 return Err(MeshError::Degenerate { triangle: t });
             }
@@ -306,6 +328,10 @@ impl Mesh {
                 return false;
             }
             let [a, b, c] = tri.map(|i| positions[i as usize]);
+            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+                report.non_finite_triangles += 1;
+                return false;
+            }
             let degenerate =
                 tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || is_degenerate(a, b, c);
             report.degenerate_triangles += usize::from(degenerate);
@@ -633,9 +659,19 @@ mod tests {
         m.indices.push([0, 0, 1]); // repeated index
         m.positions.push(Vec3::new(2.0, 0.0, 0.0)); // collinear with 0 and 1
         m.indices.push([0, 1, 4]);
+        m.positions.push(Vec3::new(f32::NAN, 0.0, 1.0)); // a NaN corner
+        m.indices.push([0, 1, 5]);
+        let mut nan_only = tetra();
+        nan_only.positions[3].y = f32::INFINITY;
+        assert_eq!(
+            nan_only.try_validate(),
+            Err(MeshError::NonFinite { triangle: 1 })
+        );
         let r = m.validate_and_repair();
         assert_eq!(r.out_of_range_triangles, 1);
+        assert_eq!(r.non_finite_triangles, 1);
         assert_eq!(r.degenerate_triangles, 2);
+        assert!(r.warnings().iter().any(|w| w.contains("NaN or infinite")));
         assert!(r.computed_normals);
         assert_eq!(m.triangle_count(), 4);
         assert!(m.try_validate().is_ok());
@@ -651,7 +687,7 @@ mod tests {
             m.normals[0]
         );
         assert!(!r.is_clean());
-        assert_eq!(r.warnings().len(), 2);
+        assert_eq!(r.warnings().len(), 3);
     }
 
     #[test]

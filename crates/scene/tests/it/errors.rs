@@ -216,6 +216,11 @@ fn bad_objects_and_materials() {
         "unknown built-in mesh `cube`",
     );
     check(
+        "[[object]]\nmesh = \"sphere\"",
+        "object[1].mesh",
+        "`sphere` is a built-in shape, not a file: write `builtin = \"sphere\"`",
+    );
+    check(
         &format!("{SPHERE}brdf = \"ggx:-1\""),
         "object[1].brdf",
         "ggx",

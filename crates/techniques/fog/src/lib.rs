@@ -53,13 +53,16 @@ pub use model::{FogMaterial, FogModel, Phase, PointLight};
 pub use render::{
     FogMode, FogObject, FogSettings, default_scene_lights, render_fog, scene_objects,
 };
-pub use table::{FogTables, Interp, Table2, TableImage};
+pub use table::{FogTables, Interp, MAX_TABLE_SIZE, Table2, TableImage};
 pub use verify::{VerifyRow, verify_fog};
 
 /// Errors of the fog crate: bad input, named.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 pub enum FogError {
-    #[error("table size {size} is too small: need at least 2 samples per axis")]
+    #[error(
+        "table size {size} is out of range: need 2…{} samples per axis",
+        crate::table::MAX_TABLE_SIZE
+    )]
     TableSize { size: usize },
     #[error("scattering coefficient β = {beta} is invalid: need a finite β ≥ 0")]
     Beta { beta: f32 },

@@ -245,14 +245,14 @@ impl FogRelighter {
     /// A table size below 2 or an SH order outside what the SH renderer
     /// supports ([`MethodError::InvalidOption`]).
     pub fn new(options: FogOptions) -> Result<Self, MethodError> {
-        if options.table_size < 2 {
+        if !(2..=crate::table::MAX_TABLE_SIZE).contains(&options.table_size) {
             return Err(MethodError::InvalidOption {
                 method: NAME,
                 option: "table_size",
-                message: format!(
-                    "need at least 2 samples per axis (got {})",
-                    options.table_size
-                ),
+                message: FogError::TableSize {
+                    size: options.table_size,
+                }
+                .to_string(),
             });
         }
         let sh = ShRenderer::new(options.env_order, options.env_rotation).map_err(|e| {

@@ -74,7 +74,7 @@ impl Table2 {
         y: (f64, f64),
         f: impl Fn(f64, f64) -> f64 + Sync,
     ) -> Result<Self, FogError> {
-        if size < 2 {
+        if !(2..=MAX_TABLE_SIZE).contains(&size) {
             return Err(FogError::TableSize { size });
         }
         let n = size as f64 - 1.0;
@@ -332,6 +332,10 @@ impl FogTables {
     }
 }
 
+/// Largest table side (samples per axis) the builders accept: one f32 table
+/// is then 64 MB, well inside the AVX2 kernels' i32 gather indices.
+pub const MAX_TABLE_SIZE: usize = 4096;
+
 /// Phong exponents tabulated by [`FogTables::build`].
 pub const DEFAULT_PHONG_EXPONENTS: [u32; 2] = [10, 20];
 /// Highest phase-polynomial degree tabulated by [`FogTables::build`].
@@ -340,7 +344,7 @@ pub const DEFAULT_PHASE_DEGREE: u32 = 3;
 impl FogTables {
     /// Builds the default tables at `size`×`size`: tails for phase degrees
     /// 0..=3, G for Lambert and Phong n = 10, 20, and the paper's F.
-    /// Errors with [`FogError::TableSize`] when `size < 2`.
+    /// Errors with [`FogError::TableSize`] when `size` is outside 2…[`MAX_TABLE_SIZE`].
     pub fn build(size: usize) -> Result<Self, FogError> {
         Self::build_with(size, DEFAULT_PHASE_DEGREE, &DEFAULT_PHONG_EXPONENTS)
     }
@@ -376,7 +380,7 @@ impl FogTables {
         phong: Option<&[u32]>,
         with_f: bool,
     ) -> Result<Self, FogError> {
-        if size < 2 {
+        if !(2..=MAX_TABLE_SIZE).contains(&size) {
             return Err(FogError::TableSize { size });
         }
         if let Some(&n) = phong.unwrap_or(&[]).iter().find(|&&n| n == 0 || n > 4096) {
@@ -468,12 +472,16 @@ mod tests {
     use super::*;
 
     #[test]
-    fn table_size_below_two_is_an_error() {
+    fn table_size_outside_its_range_is_an_error() {
         assert!(matches!(
             Table2::tabulate(1, (0.0, 1.0), (0.0, 1.0), |_, _| 0.0),
             Err(FogError::TableSize { size: 1 })
         ));
         assert!(FogTables::build(0).is_err());
+        assert!(matches!(
+            FogTables::build(MAX_TABLE_SIZE + 1),
+            Err(FogError::TableSize { .. })
+        ));
     }
 
     #[test]
