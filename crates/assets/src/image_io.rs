@@ -17,7 +17,9 @@
 //!   [`ColorEncoding::Linear`] values are taken as-is in \[0, 1\] (normal maps).
 //! * Any NaN/±Inf sample → [`AssetError::NonFinite`] with the count.
 //!   Negative samples are clamped to 0 and reported once, with the pixel
-//!   count, in [`LoadReport::warnings`].
+//!   count, in [`LoadReport::warnings`]. Samples above [`MAX_RADIANCE`] are
+//!   clamped to it and reported the same way: finite in the file, their sums
+//!   and squares (projections, Monte Carlo variance) overflow f32 to ∞.
 //!
 //! # PNG tone mapping ([`ToneMap`])
 //! `v = operator(2^exposure_ev · linear)` per channel, then the sRGB OETF and
@@ -30,6 +32,8 @@ use glam::Vec3;
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+
+pub use relight_sphere::MAX_RADIANCE;
 
 /// Largest image accepted by the decoders (pixels), against memory bombs in
 /// corrupt headers: 2²⁶ = 8192 × 8192.
@@ -239,11 +243,15 @@ pub(crate) fn sanitize(img: &mut RgbImage, path: &Path) -> Result<LoadReport, As
             count: non_finite,
         });
     }
-    let mut negative = 0;
+    let (mut negative, mut huge) = (0, 0);
     for p in &mut img.pixels {
         if p.min_element() < 0.0 {
             negative += 1;
             *p = p.max(Vec3::ZERO);
+        }
+        if p.max_element() > MAX_RADIANCE {
+            huge += 1;
+            *p = p.min(Vec3::splat(MAX_RADIANCE));
         }
     }
     let mut report = LoadReport {
@@ -253,6 +261,12 @@ pub(crate) fn sanitize(img: &mut RgbImage, path: &Path) -> Result<LoadReport, As
     if negative > 0 {
         report.warnings.push(format!(
             "{}: clamped {negative} pixel(s) with negative values to 0",
+            path.display()
+        ));
+    }
+    if huge > 0 {
+        report.warnings.push(format!(
+            "{}: clamped {huge} pixel(s) above {MAX_RADIANCE:e} to it (larger values overflow f32 in sums)",
             path.display()
         ));
     }
@@ -916,6 +930,19 @@ mod tests {
             rep.warnings
         );
         assert!(img.pixels.iter().all(|p| p.min_element() >= 0.0));
+        // Finite but overflow-prone samples are clamped to MAX_RADIANCE.
+        let mut big = px.clone();
+        big[7] = Vec3::new(3e38, 1.0, 2e12);
+        let bytes = encode_exr(8, 4, &big, p).unwrap();
+        let (img, rep) = decode_image(&bytes, ImageFormat::Exr, ColorEncoding::Srgb, p).unwrap();
+        assert_eq!(img.pixels[7], Vec3::new(MAX_RADIANCE, 1.0, MAX_RADIANCE));
+        assert!(
+            rep.warnings
+                .iter()
+                .any(|w| w.contains("bad.exr") && w.contains("1 pixel(s) above 1e12")),
+            "{:?}",
+            rep.warnings
+        );
         px[1].y = f32::NAN;
         px[2].z = f32::INFINITY;
         let bytes = encode_exr(8, 4, &px, p).unwrap();

@@ -109,8 +109,10 @@ fn apply_area_light_flags(a: &SceneArgs, scene: &mut Scene) -> Result<()> {
         let n = if i.contains(',') { 3 } else { 1 };
         let v = parse_floats(i, n, "--light-intensity")?;
         ensure!(
-            v.iter().all(|x| *x >= 0.0),
-            "--light-intensity {i}: must be ≥ 0"
+            v.iter()
+                .all(|x| (0.0..=relight_sphere::MAX_RADIANCE).contains(x)),
+            "--light-intensity {i}: must be 0…{:e}",
+            relight_sphere::MAX_RADIANCE
         );
         light.intensity = if n == 3 {
             Vec3::new(v[0], v[1], v[2])

@@ -86,6 +86,24 @@ impl Ctx<'_> {
         }
     }
 
+    /// An emitted intensity: RGB with every channel in `0 ≤ v ≤`
+    /// [`relight_sphere::MAX_RADIANCE`] (larger values overflow f32 in
+    /// the renderers' sums).
+    pub fn emission(&self, key: &str, v: [f32; 3]) -> Result<Vec3, SceneError> {
+        let rgb = self.rgb(key, v)?;
+        if rgb.max_element() <= relight_sphere::MAX_RADIANCE {
+            Ok(rgb)
+        } else {
+            Err(self.err(
+                key,
+                format!(
+                    "must be ≤ {:e} in every channel (got {v:?})",
+                    relight_sphere::MAX_RADIANCE
+                ),
+            ))
+        }
+    }
+
     /// A finite size with both sides `> 0`.
     pub fn size2(&self, key: &str, v: [f32; 2]) -> Result<Vec2, SceneError> {
         if v.iter().all(|x| x.is_finite() && *x > 0.0) {

@@ -36,7 +36,7 @@ pub(crate) fn point_light(
     d: &PointLightDesc,
 ) -> Result<PointLight, SceneError> {
     let position = cx.vec3(&format!("{key}.position"), d.position)?;
-    let intensity = cx.rgb(&format!("{key}.intensity"), d.intensity.0)?;
+    let intensity = cx.emission(&format!("{key}.intensity"), d.intensity.0)?;
     let color = cx.rgb(
         &format!("{key}.color"),
         d.color.unwrap_or(DEFAULT_LIGHT_COLOR),
@@ -93,7 +93,7 @@ pub(crate) fn area_light(
     let center = cx.vec3(&format!("{key}.center"), d.center)?;
     let size = cx.size2(&format!("{key}.size"), d.size)?;
     let world_from_light = orientation(cx, key, d)?;
-    let intensity = cx.rgb(&format!("{key}.intensity"), d.intensity.0)?;
+    let intensity = cx.emission(&format!("{key}.intensity"), d.intensity.0)?;
     let texture = match &d.texture {
         Some(t) => {
             let k = format!("{key}.texture");

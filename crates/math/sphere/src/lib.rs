@@ -61,5 +61,5 @@ pub mod verify;
 
 pub use frame::{Frame, rotation_from_yaw_pitch_roll};
 pub use icosahedral::{Icosahedral, IcosahedralError};
-pub use map::EnvMap;
+pub use map::{EnvMap, MAX_RADIANCE};
 pub use param::{Bilinear, BilinearF64, Param, ParamError};

@@ -25,6 +25,14 @@ use crate::param::Param;
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 
+/// Largest radiance (or emitted intensity) relight takes as it is: far above
+/// any measured radiance (an unclipped sun in an HDR probe is ~10⁵–10⁸), and
+/// small enough that a sum over 2²⁶ texels and its square stay finite in f32
+/// (10¹² · 2²⁶ ≈ 7·10¹⁹; its square 10²⁴ per sample). Image loaders clamp
+/// texels above it with a warning; scene files refuse light intensities
+/// above it.
+pub const MAX_RADIANCE: f32 = 1e12;
+
 /// An RGB function on the sphere, one linear `Vec3` per texel of `param`.
 ///
 /// Radiance units are whatever the source file used (relight treats them as

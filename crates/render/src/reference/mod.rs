@@ -309,6 +309,15 @@ impl Default for ReferenceOptions {
     }
 }
 
+/// The range [`validate_scene`] takes a light's intensity in, per channel.
+const EMISSION_RANGE: &str = "must be finite, ≥ 0 and ≤ MAX_RADIANCE (1e12) in every channel";
+
+/// A light intensity [`validate_scene`] accepts: every channel in
+/// `0 ≤ v ≤` [`relight_sphere::MAX_RADIANCE`] (larger ones overflow f32).
+fn emission_ok(v: glam::Vec3) -> bool {
+    v.is_finite() && v.min_element() >= 0.0 && v.max_element() <= relight_sphere::MAX_RADIANCE
+}
+
 /// Checks the scene values the estimators divide by or exponentiate: the
 /// medium, the point and area lights.
 ///
@@ -345,11 +354,8 @@ pub fn validate_scene(scene: &Scene) -> Result<(), ReferenceError> {
         if !l.position.is_finite() {
             return bad(format!("point_lights[{i}].position"), "must be finite");
         }
-        if !(l.intensity.is_finite() && l.intensity.min_element() >= 0.0) {
-            return bad(
-                format!("point_lights[{i}].intensity"),
-                "must be finite and ≥ 0",
-            );
+        if !emission_ok(l.intensity) {
+            return bad(format!("point_lights[{i}].intensity"), EMISSION_RANGE);
         }
     }
     for (i, l) in scene.area_lights.iter().enumerate() {
@@ -371,11 +377,8 @@ pub fn validate_scene(scene: &Scene) -> Result<(), ReferenceError> {
                 "must be a rotation (unit axes)",
             );
         }
-        if !(l.intensity.is_finite() && l.intensity.min_element() >= 0.0) {
-            return bad(
-                format!("area_lights[{i}].intensity"),
-                "must be finite and ≥ 0",
-            );
+        if !emission_ok(l.intensity) {
+            return bad(format!("area_lights[{i}].intensity"), EMISSION_RANGE);
         }
     }
     if !scene.world_from_env.is_finite() {

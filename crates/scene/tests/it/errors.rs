@@ -79,6 +79,7 @@ fn bad_point_lights() {
         "≥ 0",
     );
     check(&l("intensity = nan"), "point_light[1].intensity", "finite");
+    check(&l("intensity = 1e38"), "point_light[1].intensity", "≤ 1e12");
     check(
         &l("intensity = 1\ncolor = [1, inf, 1]"),
         "point_light[1].color",
@@ -126,6 +127,13 @@ fn bad_area_lights() {
         "degenerate orientation",
     );
     check(&a("size = [1, 1]"), "area_light[1]", "needs an orientation");
+    check(
+        &format!(
+            "{SPHERE}[[area_light]]\ncenter = [0, 2, 0]\nsize = [1, 1]\nnormal = [0, -1, 0]\nintensity = [1, 2e12, 1]"
+        ),
+        "area_light[1].intensity",
+        "≤ 1e12",
+    );
     check(
         &a("size = [1, 1]\nnormal = [0, -1, 0]\nrotate = [0, 90, 0]"),
         "area_light[1]",
