@@ -30,6 +30,8 @@ pub enum TextureError {
         height: usize,
         given: usize,
     },
+    #[error("every texel has equal red, green and blue: a grayscale image (a height or bump map?)")]
+    Grayscale,
     #[error("texel ({x}, {y}) = {value} {why}")]
     BadTexel {
         x: usize,
@@ -351,8 +353,14 @@ impl NormalMap {
     /// From decoded PNG colours in `[0, 1]³` (linear, no sRGB curve): `2c − 1`.
     ///
     /// # Errors
-    /// As [`NormalMap::from_vectors`].
+    /// As [`NormalMap::from_vectors`], and [`TextureError::Grayscale`] when
+    /// every texel has `r = g = b` (no normal map is: its flat texel is
+    /// (0.5, 0.5, 1)), the sign of a height map given by mistake.
     pub fn from_rgb(width: usize, height: usize, rgb: &[Vec3]) -> Result<Self, TextureError> {
+        check_size(width, height, rgb.len())?;
+        if rgb.iter().all(|c| c.x == c.y && c.y == c.z) {
+            return Err(TextureError::Grayscale);
+        }
         let v: Vec<Vec3> = rgb.iter().map(|c| *c * 2.0 - Vec3::ONE).collect();
         Self::from_vectors(width, height, &v)
     }
@@ -538,6 +546,12 @@ mod tests {
         assert!(NormalMap::from_vectors(2, 2, &[Vec3::Z; 3]).is_err());
         assert!(NormalMap::from_vectors(1, 1, &[Vec3::ZERO]).is_err());
         assert!(NormalMap::from_vectors(0, 1, &[]).is_err());
+        // A grayscale image (a height map given by mistake) is refused.
+        let gray = [Vec3::splat(0.2), Vec3::splat(0.8)];
+        assert!(matches!(
+            NormalMap::from_rgb(2, 1, &gray),
+            Err(TextureError::Grayscale)
+        ));
     }
 
     #[test]

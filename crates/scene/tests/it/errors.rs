@@ -358,8 +358,23 @@ fn texture_files() {
         },
     )
     .unwrap();
-    // Linear 0.5 in an EXR: 2c − 1 = 0, no direction.
-    relight_assets::write_exr(&dir.join("flat0.exr"), 2, 2, &grey).unwrap();
+    // A normal map: 0.5, 0.5, 1 through the sRGB curve (188, 188, 255).
+    relight_assets::write_png(
+        &dir.join("nrm.png"),
+        2,
+        2,
+        &[Vec3::new(0.5, 0.5, 1.0); 4],
+        relight_assets::ToneMap {
+            exposure_ev: 0.0,
+            operator: relight_assets::ToneOperator::Clamp,
+        },
+    )
+    .unwrap();
+    // Linear 0.5 in an EXR: 2c − 1 = 0, no direction (one texel; the others
+    // make it no grayscale image).
+    let mut flat0 = vec![Vec3::new(0.5, 0.5, 1.0); 4];
+    flat0[3] = Vec3::splat(0.5);
+    relight_assets::write_exr(&dir.join("flat0.exr"), 2, 2, &flat0).unwrap();
     let tri = "[[object]]\nmesh = \"tri.obj\"\n";
     check_in(
         Some(&dir),
@@ -379,9 +394,16 @@ fn texture_files() {
         "object[1].normal_map",
         "not a direction",
     );
+    // A grayscale image is no normal map (a height map given by mistake).
+    check_in(
+        Some(&dir),
+        &format!("{SPHERE}normal_map = \"half.png\""),
+        "object[1].normal_map",
+        "grayscale image",
+    );
 
     let text = format!(
-        "{SPHERE}normal_map = \"half.png\"\n[object.blend]\nbrdf = \"ggx:0.2\"\nweight = \"half.png\"\n\
+        "{SPHERE}normal_map = \"nrm.png\"\n[object.blend]\nbrdf = \"ggx:0.2\"\nweight = \"half.png\"\n\
          [[area_light]]\ncenter = [0, 2, 0]\nsize = [1, 1]\nnormal = [0, -1, 0]\nintensity = 2\ntexture = \"half.png\"\n"
     );
     let l = load_scene_text(&text, &dir.join("ok.toml"), Some((8, 8)))
@@ -400,7 +422,7 @@ fn texture_files() {
         "linear: {w}"
     );
     let n = s.objects[0].normal_map.as_ref().unwrap().texels[0];
-    let expect = Vec3::splat(2.0 * encoded - 1.0).normalize();
+    let expect = Vec3::new(2.0 * encoded - 1.0, 2.0 * encoded - 1.0, 1.0).normalize();
     assert!((n - expect).length() < 1e-5, "2c − 1: {n} vs {expect}");
     assert_eq!(
         s.objects[0].mesh.tangents.len(),
