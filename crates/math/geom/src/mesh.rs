@@ -16,7 +16,8 @@
 //!    Vertices at bit-identical positions (uv seams) share their normal.
 //! 5. Present normals that are zero or non-finite are replaced by the
 //!    computed smooth normal (counted in `repaired_normals`); non-unit ones
-//!    are renormalised silently.
+//!    are renormalised silently. Non-finite uvs are set to (0, 0) (counted in
+//!    `repaired_uvs`).
 //! 6. Tangents are computed when uvs exist and tangents are absent or
 //!    invalid: per-triangle ∂p/∂u and ∂p/∂v accumulated per vertex (the
 //!    per-vertex accumulation of MikkTSpace, Mikkelsen 2008, without its
@@ -36,7 +37,8 @@ pub const DEGENERATE_REL: f32 = 1e-7;
 ///
 /// **Invariants** (established by [`Mesh::validate_and_repair`]): every index
 /// is `< positions.len()`, no triangle is degenerate (zero area), `normals`
-/// has one unit vector per vertex, `uvs`/`tangents` are empty or one per vertex.
+/// has one unit vector per vertex, `uvs`/`tangents` are empty or one per vertex
+/// (uvs finite).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
     pub positions: Vec<Vec3>,
@@ -59,6 +61,8 @@ pub struct RepairReport {
     pub degenerate_triangles: usize,
     pub computed_normals: bool,
     pub repaired_normals: usize,
+    /// Texture coordinates with a NaN or infinite component, set to (0, 0).
+    pub repaired_uvs: usize,
     pub computed_tangents: bool,
     /// Attribute arrays discarded because their length did not match the
     /// vertex count (names: "normals", "uvs", "tangents").
@@ -74,6 +78,7 @@ impl RepairReport {
             && self.non_finite_triangles == 0
             && self.degenerate_triangles == 0
             && self.repaired_normals == 0
+            && self.repaired_uvs == 0
             && self.discarded_attributes.is_empty()
     }
 
@@ -103,6 +108,12 @@ impl RepairReport {
             w.push(format!(
                 "replaced {} zero/NaN normal(s) with smooth normals",
                 self.repaired_normals
+            ));
+        }
+        if self.repaired_uvs > 0 {
+            w.push(format!(
+                "set {} NaN/infinite texture coordinate(s) to (0, 0)",
+                self.repaired_uvs
             ));
         }
         for a in &self.discarded_attributes {
@@ -177,6 +188,8 @@ pub enum MeshError {
     },
     /// Normal `vertex` is zero, non-finite or not unit length.
     BadNormal { vertex: usize },
+    /// The texture coordinates of `vertex` are not finite.
+    BadUv { vertex: usize },
 }
 
 impl fmt::Display for MeshError {
@@ -211,6 +224,12 @@ impl fmt::Display for MeshError {
             }
             Self::BadNormal { vertex } => {
                 write!(f, "normal {vertex} is zero, NaN or not unit length")
+            }
+            Self::BadUv { vertex } => {
+                write!(
+                    f,
+                    "the texture coordinates of vertex {vertex} are NaN or infinite"
+                )
             }
         }
     }
@@ -300,6 +319,9 @@ impl Mesh {
         if let Some(vertex) = self.normals.iter().position(|&v| !normal_ok(v)) {
             return Err(MeshError::BadNormal { vertex });
         }
+        if let Some(vertex) = self.uvs.iter().position(|uv| !uv.is_finite()) {
+            return Err(MeshError::BadUv { vertex });
+        }
         Ok(())
     }
 
@@ -357,6 +379,12 @@ impl Mesh {
             }
         }
 
+        for uv in &mut self.uvs {
+            if !uv.is_finite() {
+                *uv = Vec2::ZERO;
+                report.repaired_uvs += 1;
+            }
+        }
         if !self.uvs.is_empty() {
             let bad = self.tangents.is_empty()
                 || self
@@ -720,6 +748,20 @@ mod tests {
         let r = m.validate_and_repair();
         assert_eq!(r.repaired_normals, 2);
         assert_eq!(r.discarded_attributes, vec!["uvs"]);
+        let mut m2 = tetra();
+        m2.uvs = vec![Vec2::ZERO, Vec2::new(f32::NAN, 0.5), Vec2::X, Vec2::Y];
+        let r2 = m2.validate_and_repair();
+        assert_eq!(r2.repaired_uvs, 1);
+        assert_eq!(m2.uvs[1], Vec2::ZERO);
+        assert!(m2.try_validate().is_ok());
+        m2.uvs[2].y = f32::INFINITY;
+        assert_eq!(m2.try_validate(), Err(MeshError::BadUv { vertex: 2 }));
+        assert!(m2.tangents.iter().all(|t| t.is_finite()));
+        assert!(
+            r2.warnings()
+                .iter()
+                .any(|w| w.contains("texture coordinate"))
+        );
         assert!(m.normals[2].abs_diff_eq(Vec3::Y, 1e-6));
         assert!(m.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-5));
         assert!(m.uvs.is_empty() && m.tangents.is_empty());
