@@ -590,7 +590,10 @@ fn decode_gltf(bytes: &[u8], path: &Path, warnings: &mut Vec<String>) -> Result<
                 } else {
                     let dir = path.parent().unwrap_or(Path::new("."));
                     let ext_path = dir.join(uri.replace("%20", " "));
-                    crate::read_bytes(&ext_path)?
+                    // The glTF is the file named: the buffer is its part.
+                    crate::read_bytes(&ext_path).map_err(|e| {
+                        AssetError::corrupt(path, format!("glTF buffer {}: {e}", b.index()))
+                    })?
                 }
             }
         };
@@ -1018,6 +1021,22 @@ pub(crate) mod tests {
             e.to_string().contains("KHR_draco_mesh_compression")
                 && e.to_string().contains("d.gltf"),
             "{e}"
+        );
+        // A missing external buffer names the glTF and the buffer's file.
+        let start = src.find("data:application").unwrap();
+        let end = start + src[start..].find('"').unwrap();
+        let external = format!("{}no-such-buffer.bin{}", &src[..start], &src[end..]);
+        let e = decode_mesh(
+            external.as_bytes(),
+            MeshFormat::Gltf,
+            Path::new("/nonexistent/x.gltf"),
+        )
+        .unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with("/nonexistent/x.gltf: ")
+                && msg.contains("glTF buffer 0: /nonexistent/no-such-buffer.bin: file not found"),
+            "{msg}"
         );
         // An accessor running past its view is caught before reading.
         let bad = src.replace(
