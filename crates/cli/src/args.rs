@@ -32,9 +32,10 @@ pub enum Command {
     /// antialiasing, l (or Shift) to move and scale an area light, t for its
     /// texture, Tab for the next light, s to save, Esc to quit.
     View(Box<ViewArgs>),
-    /// Describe files: environment maps, images and meshes, with statistics.
+    /// Describe files: environment maps, images and meshes with statistics; scene files with the methods that render them.
     Info {
-        /// Files to describe.
+        /// Files to describe: environment maps, images, meshes, MERL BRDFs, and
+        /// scene files (`.toml`: what they hold and which methods render them).
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },

@@ -56,10 +56,17 @@ pub fn run(cli: Cli) -> Result<()> {
 fn info(files: &[PathBuf]) -> Result<()> {
     let mut failed = 0;
     for f in files {
-        match relight_assets::describe(f) {
+        let info = if crate::scene_info::is_scene_file(f) {
+            crate::scene_info::describe_scene_file(f)
+        } else {
+            relight_assets::describe(f)
+                .map(|i| i.to_string())
+                .map_err(Into::into)
+        };
+        match info {
             Ok(info) => println!("{info}"),
             Err(e) => {
-                eprintln!("relight: {e}");
+                eprintln!("relight: {e:#}");
                 failed += 1;
             }
         }

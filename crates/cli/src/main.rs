@@ -24,6 +24,7 @@ mod progress;
 mod radcache;
 mod render_cmd;
 mod scene_args;
+mod scene_info;
 mod shexp;
 mod table;
 mod triple;

@@ -394,3 +394,38 @@ fn wavelet_zoom_refuses_what_would_draw_nothing() {
         "black zoom"
     );
 }
+
+/// `relight info SCENE.toml` says what the scene holds and which methods
+/// render it; a broken scene file is its one-line error.
+#[test]
+fn info_describes_a_scene_file_and_its_methods() {
+    let out = relight(&["info", "../../examples/ltc.toml"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("scene, 2 objects, 0 point lights, 1 area light"),
+        "{text}"
+    );
+    assert!(text.contains("features:   area lights"), "{text}");
+    for (method, verdict) in [
+        ("ltc", "renders every feature"),
+        ("nearfield", "renders every feature"),
+        ("sh", "cannot render area lights"),
+    ] {
+        assert!(
+            text.lines()
+                .any(|l| l.trim_start().starts_with(method) && l.ends_with(verdict)),
+            "{method}: {verdict} in:\n{text}"
+        );
+    }
+    let bad = tmp("info-bad.toml");
+    std::fs::write(&bad, "[[object]]\nbuiltin = \"cube\"\n").unwrap();
+    assert_clean_error(
+        &relight(&["info", bad.to_str().unwrap()]),
+        "object[1].builtin: unknown built-in mesh `cube`",
+    );
+}
