@@ -342,6 +342,7 @@ fn bake(a: &NdfBakeArgs) -> Result<()> {
     {
         bail!("--lobes {j}: must be 1…{}", relight_ndf::pyramid::MAX_LOBES);
     }
+    crate::output::check_out_dir(&a.out, "--out")?;
     let map = crate::scene_args::load_normal_map(&a.normal_map)?;
     let t = std::time::Instant::now();
     let vmf = match a.lobes {

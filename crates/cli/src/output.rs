@@ -7,10 +7,19 @@ use relight_assets::{MaskChannels, ToneMap, write_exr, write_png, write_render_e
 use relight_render::{Coverage, Image};
 use std::path::{Path, PathBuf};
 
-/// Prints each warning on stderr, `relight: warning: …`.
+/// Prints each warning on stderr, `relight: warning: …`, once per process:
+/// a file loaded twice (`compare a.exr a.exr`, a scene per verify row) does
+/// not repeat its warning.
 pub fn warn_all(warnings: &[String]) {
+    static SHOWN: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    let mut shown = SHOWN
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     for w in warnings {
-        eprintln!("relight: warning: {w}");
+        if !shown.contains(w) {
+            eprintln!("relight: warning: {w}");
+            shown.push(w.clone());
+        }
     }
 }
 
@@ -89,14 +98,20 @@ pub fn check_output(path: &Path, flag: &str, extensions: &[&str]) -> Result<()> 
 /// # Errors
 /// A file of that name, or a folder that cannot be created.
 pub fn check_plot_dir(dir: Option<&Path>) -> Result<()> {
-    let Some(dir) = dir else { return Ok(()) };
+    dir.map_or(Ok(()), |d| check_out_dir(d, "--plot"))
+}
+
+/// Makes sure the output folder `dir` given by `flag` exists (creating it),
+/// before any work: a file in its place or an unwritable parent is a
+/// one-line error naming the flag.
+pub fn check_out_dir(dir: &Path, flag: &str) -> Result<()> {
     ensure!(
         !dir.exists() || dir.is_dir(),
-        "--plot {}: is a file, not a folder",
+        "{flag} {}: is a file, not a folder",
         dir.display()
     );
     std::fs::create_dir_all(dir)
-        .map_err(|e| anyhow::anyhow!("--plot {}: cannot create the folder: {e}", dir.display()))
+        .map_err(|e| anyhow::anyhow!("{flag} {}: cannot create the folder: {e}", dir.display()))
 }
 
 /// Writes `image` as a tone-mapped PNG and a linear EXR (see

@@ -429,3 +429,36 @@ fn info_describes_a_scene_file_and_its_methods() {
         "object[1].builtin: unknown built-in mesh `cube`",
     );
 }
+
+/// A warning is shown once per run even when its file is read twice, and
+/// `ndf bake --out` naming a file is refused before the bake.
+#[test]
+fn warnings_once_and_ndf_bake_out_is_a_folder() {
+    let neg = tmp("negative.exr");
+    let mut px = vec![glam::Vec3::splat(0.5); 4];
+    px[0].x = -1.0;
+    relight_assets::write_exr(&neg, 2, 2, &px).unwrap();
+    let neg = neg.to_str().unwrap();
+    let out = relight(&["compare", neg, neg, "--region", "all"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert_eq!(err.matches("clamped 1 pixel(s)").count(), 1, "{err}");
+
+    let file = tmp("not-a-folder");
+    std::fs::write(&file, "x").unwrap();
+    let Some(map) = common::data("normalmaps/0000.png") else {
+        return;
+    };
+    assert_clean_error(
+        &relight(&[
+            "ndf",
+            "bake",
+            map.to_str().unwrap(),
+            "--brdf",
+            "ggx:0.3",
+            "--out",
+            file.to_str().unwrap(),
+        ]),
+        "is a file, not a folder",
+    );
+}
