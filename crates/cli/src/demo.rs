@@ -131,8 +131,13 @@ pub fn demo(a: DemoArgs, bar: &Bar) -> Result<()> {
         .filter(|t| t.rendered.is_ok())
         .map(|t| method_exr(&png, t.method).display().to_string())
         .collect();
+    let written = if per_method.is_empty() {
+        format!("{} (no method rendered the scene)", exr.display())
+    } else {
+        format!("{} and {}", exr.display(), per_method.join(", "))
+    };
     println!(
-        "relight demo: {} of {w}×{h}; wrote {} ({}×{}), {} and {} in {:.1} s",
+        "relight demo: {} of {w}×{h}; wrote {} ({}×{}), {written} in {:.1} s",
         match tiles.len() {
             1 => "1 tile".to_string(),
             n => format!("{n} tiles"),
@@ -140,8 +145,6 @@ pub fn demo(a: DemoArgs, bar: &Bar) -> Result<()> {
         png.display(),
         sheet.width,
         sheet.height,
-        exr.display(),
-        per_method.join(", "),
         start.elapsed().as_secs_f64()
     );
     Ok(())

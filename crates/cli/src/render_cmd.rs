@@ -11,8 +11,26 @@ use crate::scene_args::build_scene;
 use anyhow::{Result, anyhow, bail};
 use relight_methods::{MethodKind, MethodOptions};
 use relight_render::Scene;
-use relight_render::method::{FrameRequest, Rendered, check_scene, posed_for, render_frame};
+use relight_render::method::{
+    FrameRequest, MethodError, Rendered, SceneFeature, check_scene, posed_for, render_frame,
+};
 use std::time::Instant;
+
+/// A refusal, with what the user may not know about the scene they built:
+/// scene files and `--mesh` scenes are lit by the studio map unless told
+/// otherwise, so a method without environment lighting (nearfield, ltc)
+/// refuses them until it is turned off.
+fn scene_hint(e: MethodError) -> anyhow::Error {
+    match e {
+        MethodError::Unsupported {
+            feature: SceneFeature::Environment,
+            ..
+        } => anyhow!(
+            "{e} (scenes are lit by the built-in studio map unless told otherwise: `--env black`, or `builtin = \"black\"` under `[environment]`)"
+        ),
+        e => e.into(),
+    }
+}
 
 /// Checks, prepares and renders `scene` at `time` seconds with the method of
 /// `options` at `aa × aa` samples per pixel. A moving scene is prepared as
@@ -32,7 +50,7 @@ pub fn render_with(
 ) -> Result<Rendered> {
     let mut method = relight_methods::create(options)?;
     let prepared = posed_for(method.as_ref(), scene, time);
-    warn_all(&check_scene(method.as_ref(), &prepared, approximate)?);
+    warn_all(&check_scene(method.as_ref(), &prepared, approximate).map_err(scene_hint)?);
     let t = Instant::now();
     method.prepare(&prepared, bar)?;
     let prepare_s = t.elapsed().as_secs_f64();

@@ -148,7 +148,7 @@ pub enum Support {
 #[derive(Debug, thiserror::Error)]
 pub enum MethodError {
     /// The scene uses a feature the method cannot render.
-    #[error("method {method} cannot render {feature}{}{}", approx_hint(*.approximate), feature_hint(*.feature))]
+    #[error("method {method} cannot render {feature}{}", approx_hint(*.approximate))]
     Unsupported {
         method: &'static str,
         feature: SceneFeature,
@@ -178,17 +178,6 @@ fn approx_hint(approximate: Option<&'static str>) -> String {
     match approximate {
         Some(how) => format!(" exactly (pass --approximate to accept: {how})"),
         None => String::new(),
-    }
-}
-
-/// What turns `feature` off where a user may not know it is on: every scene
-/// gets the built-in studio environment unless told otherwise.
-fn feature_hint(feature: SceneFeature) -> &'static str {
-    match feature {
-        SceneFeature::Environment => {
-            " (scenes are lit by the built-in studio map unless told otherwise: `--env black`, or `builtin = \"black\"` under `[environment]`)"
-        }
-        _ => "",
     }
 }
 
@@ -899,27 +888,6 @@ mod tests {
     use crate::{AreaLight, Camera};
     use glam::{Mat3, Vec2, Vec3};
     use relight_sphere::{EnvMap, Param};
-
-    /// A refused environment says how to turn the default one off; other
-    /// refusals carry no such hint.
-    #[test]
-    fn refused_environment_names_the_way_to_turn_it_off() {
-        let refusal = |feature| {
-            MethodError::Unsupported {
-                method: "nearfield",
-                feature,
-                approximate: None,
-            }
-            .to_string()
-        };
-        let env = refusal(SceneFeature::Environment);
-        assert!(
-            env.starts_with("method nearfield cannot render environment lighting")
-                && env.contains("`--env black`"),
-            "{env}"
-        );
-        assert!(!refusal(SceneFeature::Medium).contains("black"));
-    }
 
     /// [`fill_background`] writes [`background_pixel`] into every empty
     /// pixel, bit for bit (environment lookups made row by row, an area

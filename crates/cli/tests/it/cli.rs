@@ -462,3 +462,45 @@ fn warnings_once_and_ndf_bake_out_is_a_folder() {
         "is a file, not a folder",
     );
 }
+
+/// A method without environment lighting, asked to render a scene that has
+/// one: `render` says how to turn the default studio map off; the demo,
+/// whose scene is built in, shows the refusal without that advice and says
+/// that no method rendered.
+#[test]
+fn a_refused_environment_is_explained_where_the_user_built_the_scene() {
+    let out = relight(&[
+        "render",
+        "--mesh",
+        "sphere",
+        "--method",
+        "ltc",
+        "--size",
+        "16x12",
+        "--out",
+        tmp("refused-env.png").to_str().unwrap(),
+    ]);
+    assert_clean_error(&out, "method ltc cannot render environment lighting");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("`--env black`"));
+
+    let out = relight(&[
+        "-q",
+        "demo",
+        "--method",
+        "ltc",
+        "--size",
+        "32x18",
+        "--out",
+        tmp("demo-ltc.png").to_str().unwrap(),
+    ]);
+    let (err, text) = (
+        String::from_utf8_lossy(&out.stderr),
+        String::from_utf8_lossy(&out.stdout),
+    );
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("cannot render environment lighting") && !err.contains("--env"),
+        "{err}"
+    );
+    assert!(text.contains("(no method rendered the scene)"), "{text}");
+}
