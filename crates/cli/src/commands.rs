@@ -61,7 +61,13 @@ fn info(files: &[PathBuf]) -> Result<()> {
         } else {
             relight_assets::describe(f)
                 .map(|i| i.to_string())
-                .map_err(Into::into)
+                .map_err(|e| match e {
+                    // `info` also reads scene files, which the asset layer does not know.
+                    relight_assets::AssetError::UnknownFormat { .. } => {
+                        anyhow!("{e}, or a .toml scene file")
+                    }
+                    e => e.into(),
+                })
         };
         match info {
             Ok(info) => println!("{info}"),

@@ -428,6 +428,12 @@ fn info_describes_a_scene_file_and_its_methods() {
         &relight(&["info", bad.to_str().unwrap()]),
         "object[1].builtin: unknown built-in mesh `cube`",
     );
+    let other = tmp("info-other.xyz");
+    std::fs::write(&other, "x").unwrap();
+    assert_clean_error(
+        &relight(&["info", other.to_str().unwrap()]),
+        "or a .toml scene file",
+    );
 }
 
 /// A warning is shown once per run even when its file is read twice, and
