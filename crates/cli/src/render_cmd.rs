@@ -25,9 +25,7 @@ fn scene_hint(e: MethodError) -> anyhow::Error {
         MethodError::Unsupported {
             feature: SceneFeature::Environment,
             ..
-        } => anyhow!(
-            "{e} (scenes are lit by the built-in studio map unless told otherwise: `--env black`, or `builtin = \"black\"` under `[environment]`)"
-        ),
+        } => anyhow!("{e} ({})", crate::scene_args::STUDIO_ENV_HINT),
         e => e.into(),
     }
 }

@@ -26,6 +26,11 @@ pub struct BuiltScene {
     pub render: Option<RenderDesc>,
 }
 
+/// What a user may not know about a scene built from a file or `--mesh`:
+/// it has an environment unless told otherwise (the refusals of methods
+/// without environment lighting add it).
+pub const STUDIO_ENV_HINT: &str = "scenes are lit by the built-in studio map unless told otherwise: `--env black`, or `builtin = \"black\"` under `[environment]`";
+
 /// Loads a tangent-space normal map (PNG or JPEG, decoded linearly: each
 /// 8-bit channel c maps to 2c − 1).
 ///

@@ -109,6 +109,9 @@ pub fn describe(path: &Path, scene: &Scene) -> String {
         };
         let _ = write!(s, "\n    {:<15} {verdict}", kind.name());
     }
+    if features.contains(&SceneFeature::Environment) && s.contains("cannot render environment") {
+        let _ = write!(s, "\n  note:       {}", crate::scene_args::STUDIO_ENV_HINT);
+    }
     s
 }
 
