@@ -127,6 +127,13 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         .collect()
 }
 
+/// True when the method flag `name` (as in [`FLAG_METHODS`]) applies to `kind`.
+pub fn flag_applies(name: &str, kind: MethodKind) -> bool {
+    FLAG_METHODS
+        .iter()
+        .any(|(n, methods)| *n == name && methods.contains(&kind))
+}
+
 /// Refuses every set flag that does not apply to `kind`.
 ///
 /// # Errors
@@ -151,11 +158,7 @@ pub fn check_flags(kind: MethodKind, f: &MethodFlags) -> Result<()> {
 /// Unsets every flag of `f` that does not apply to `kind` (the viewer hands
 /// each of its methods the flags that belong to it).
 pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
-    let applies = |name: &str| {
-        FLAG_METHODS
-            .iter()
-            .any(|(n, methods)| *n == name && methods.contains(&kind))
-    };
+    let applies = |name: &str| flag_applies(name, kind);
     macro_rules! clear {
         ($($field:ident => $name:literal),* $(,)?) => {
             $(if !applies($name) { f.$field = None; })*

@@ -110,9 +110,11 @@ fn aa_for(kind: MethodKind, aa: Option<usize>, default: usize) -> Result<usize> 
     }
 }
 
-/// Applies the scene file's `[render] spp` to the reference when `--spp` is unset.
+/// Applies the scene file's `[render] spp` to the methods `--spp` is an
+/// option of (reference, radiance-cache) when `--spp` is unset; the others
+/// ignore it (a scene file is shared between methods).
 fn with_file_spp(kind: MethodKind, mut flags: MethodFlags, spp: Option<u32>) -> MethodFlags {
-    if kind == MethodKind::Reference && flags.spp.is_none() {
+    if crate::method_args::flag_applies("--spp", kind) && flags.spp.is_none() {
         flags.spp = spp;
     }
     flags
@@ -186,4 +188,28 @@ pub fn view(a: ViewArgs, bar: &Bar) -> Result<()> {
     // progress in the window and on stderr.
     relight_viewer::run(viewer, w as u32, h as u32, bar)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scene file's `[render] spp` goes to the methods `--spp` is an option
+    /// of, unless the flag is given; the others ignore it.
+    #[test]
+    fn file_spp_follows_the_spp_flag() {
+        let none = MethodFlags::default();
+        for kind in [MethodKind::Reference, MethodKind::RadianceCache] {
+            assert_eq!(with_file_spp(kind, none.clone(), Some(7)).spp, Some(7));
+        }
+        assert_eq!(with_file_spp(MethodKind::Sh, none, Some(7)).spp, None);
+        let flag = MethodFlags {
+            spp: Some(3),
+            ..MethodFlags::default()
+        };
+        assert_eq!(
+            with_file_spp(MethodKind::Reference, flag, Some(7)).spp,
+            Some(3)
+        );
+    }
 }
