@@ -33,7 +33,21 @@ mod zoom;
 
 use clap::Parser;
 
+/// Restores the default action of SIGPIPE, which Rust's runtime ignores: a
+/// reader that stops early (`relight info *.exr | head -1`) then ends the
+/// process quietly, as it does any Unix tool, instead of `println!`
+/// panicking on the broken pipe.
+fn quiet_broken_pipe() {
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to its default, before any
+    // thread starts; no handler runs Rust code.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 fn main() {
+    quiet_broken_pipe();
     let cli = args::Cli::parse();
     progress::install_ctrlc();
     match commands::run(cli) {

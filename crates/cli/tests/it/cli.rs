@@ -510,3 +510,34 @@ fn a_refused_environment_is_explained_where_the_user_built_the_scene() {
     );
     assert!(text.contains("(no method rendered the scene)"), "{text}");
 }
+
+/// A reader that stops early (`relight info … | head -1`) ends the run
+/// quietly, not with a panic on the broken pipe.
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_is_no_panic() {
+    use std::io::{BufRead, BufReader};
+    let exr = tmp("pipe.exr");
+    relight_assets::write_exr(&exr, 2, 1, &[glam::Vec3::ONE; 2]).unwrap();
+    let exr = exr.to_str().unwrap().to_string();
+    // Far more than a pipe buffer holds (~300 bytes per file).
+    let args: Vec<&str> = std::iter::once("info")
+        .chain(std::iter::repeat_n(exr.as_str(), 2000))
+        .collect();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_relight"))
+        .args(&args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run relight");
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    assert!(first.contains("pipe.exr"), "{first}");
+    // stdout is dropped here: the pipe is closed.
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!out.status.success(), "the run should have been cut short");
+}
