@@ -91,9 +91,15 @@ pub fn load_scene_file(
     path: &Path,
     size: Option<(usize, usize)>,
 ) -> Result<LoadedScene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
-        path: path.into(),
-        source,
+    let text = std::fs::read_to_string(path).map_err(|source| {
+        if source.kind() == std::io::ErrorKind::NotFound {
+            SceneError::Asset(relight_assets::AssetError::Missing { path: path.into() })
+        } else {
+            SceneError::Read {
+                path: path.into(),
+                source,
+            }
+        }
     })?;
     load_scene_text(&text, path, size)
 }

@@ -332,10 +332,13 @@ fn syntax_unknown_and_removed_keys() {
         .err()
         .unwrap()
         .to_string();
-    assert!(
-        e.contains("/no/such/scene.toml: cannot read scene file"),
-        "{e}"
-    );
+    assert_eq!(e, "/no/such/scene.toml: file not found");
+    // A folder is not read as a scene file either.
+    let e = load_scene_file(Path::new("/"), None)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.starts_with("/: cannot read scene file"), "{e}");
 }
 
 /// Texture files: a normal map or blend on a mesh without uvs is an error;
