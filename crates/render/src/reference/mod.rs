@@ -310,7 +310,12 @@ impl Default for ReferenceOptions {
 }
 
 /// The range [`validate_scene`] takes a light's intensity in, per channel.
-const EMISSION_RANGE: &str = "must be finite, ≥ 0 and ≤ MAX_RADIANCE (1e12) in every channel";
+fn emission_range() -> String {
+    format!(
+        "must be finite, ≥ 0 and ≤ {:e} (MAX_RADIANCE) in every channel",
+        relight_sphere::MAX_RADIANCE
+    )
+}
 
 /// A light intensity [`validate_scene`] accepts: every channel in
 /// `0 ≤ v ≤` [`relight_sphere::MAX_RADIANCE`] (larger ones overflow f32).
@@ -355,7 +360,7 @@ pub fn validate_scene(scene: &Scene) -> Result<(), ReferenceError> {
             return bad(format!("point_lights[{i}].position"), "must be finite");
         }
         if !emission_ok(l.intensity) {
-            return bad(format!("point_lights[{i}].intensity"), EMISSION_RANGE);
+            return bad(format!("point_lights[{i}].intensity"), &emission_range());
         }
     }
     for (i, l) in scene.area_lights.iter().enumerate() {
@@ -378,7 +383,7 @@ pub fn validate_scene(scene: &Scene) -> Result<(), ReferenceError> {
             );
         }
         if !emission_ok(l.intensity) {
-            return bad(format!("area_lights[{i}].intensity"), EMISSION_RANGE);
+            return bad(format!("area_lights[{i}].intensity"), &emission_range());
         }
     }
     if !scene.world_from_env.is_finite() {
