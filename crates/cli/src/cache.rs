@@ -260,6 +260,14 @@ mod tests {
             Some(("rotation", "n=64 m=32 ntess=32 ntrunc=1 format v1".into()))
         );
         assert_eq!(
+            parse_name("brdf-lambert@0.25,0.2,0.3-m32-v64-k128-v1-0cf02dc4551c9f5a.bin"),
+            Some((
+                "brdf",
+                "lambert@0.25,0.2,0.3 m=32 views=64 terms=128 format v1".into()
+            ))
+        );
+        // Names written before BRDF labels (the `Debug` text) still list.
+        assert_eq!(
             parse_name(
                 "brdf-Ggx___alpha_x__0.2__alpha_y__0.2-m32-v64-k128-v1-0cf02dc4551c9f5a.bin"
             ),

@@ -61,7 +61,7 @@ fn r11_cache_lists_and_clears_entries() {
     let dir = tmp("cache");
     std::fs::create_dir_all(&dir).unwrap();
     let rot = "rot-n16-m8-t4-q1-v1-0123456789abcdef.bin";
-    let brdf = "brdf-Ggx___alpha_x__0.2-m8-v8-k128-v1-fedcba9876543210.bin";
+    let brdf = "brdf-ggx_0.2-m8-v8-k128-v1-fedcba9876543210.bin";
     std::fs::write(dir.join(rot), vec![0u8; 2_000_000]).unwrap();
     std::fs::write(dir.join(brdf), vec![0u8; 500_000]).unwrap();
     std::fs::write(dir.join("notes.txt"), b"not a cache entry").unwrap();
@@ -78,7 +78,7 @@ fn r11_cache_lists_and_clears_entries() {
         "n=16 m=8 ntess=4 ntrunc=1",
         "2.0 MB",
         "brdf",
-        "views=8 terms=128",
+        "ggx_0.2 m=8 views=8 terms=128",
         "0.5 MB",
         "2 entries, 2.5 MB",
     ] {

@@ -127,6 +127,9 @@ impl AshikhminShirley {
 }
 
 impl Brdf for AshikhminShirley {
+    fn label(&self) -> String {
+        crate::BrdfSpec::AshikhminShirley(*self).to_string()
+    }
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;

@@ -59,6 +59,9 @@ impl Lambert {
 }
 
 impl Brdf for Lambert {
+    fn label(&self) -> String {
+        crate::BrdfSpec::Lambert(*self).to_string()
+    }
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if both_above(wo, wi) {
             self.albedo * FRAC_1_PI
@@ -131,6 +134,9 @@ impl OrenNayar {
 }
 
 impl Brdf for OrenNayar {
+    fn label(&self) -> String {
+        crate::BrdfSpec::OrenNayar(*self).to_string()
+    }
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;

@@ -192,6 +192,9 @@ impl Ggx {
 }
 
 impl Brdf for Ggx {
+    fn label(&self) -> String {
+        crate::BrdfSpec::Ggx(*self).to_string()
+    }
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;

@@ -63,6 +63,16 @@ pub(crate) fn check_weights(weights: impl Iterator<Item = f32>) -> Result<(), Br
 }
 
 impl Brdf for Mix {
+    /// `W*LABEL+W*LABEL…`, the spec syntax of a mixture.
+    fn label(&self) -> String {
+        let terms: Vec<String> = self
+            .weights
+            .iter()
+            .zip(&self.lobes)
+            .map(|(w, l)| format!("{w}*{}", l.label()))
+            .collect();
+        terms.join("+")
+    }
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         self.weights
             .iter()

@@ -38,4 +38,12 @@ pub trait Brdf: Send + Sync + std::fmt::Debug {
     fn sample(&self, wo: Vec3, u: Vec2) -> Option<BrdfSample>;
     /// Solid-angle density of [`Brdf::sample`] producing `wi`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// A short text naming the model and every parameter, in the spec syntax
+    /// of [`crate::BrdfSpec`] where the model has one (`phong:40`,
+    /// `lambert@0.25,0.2,0.3`, `0.5*lambert+0.5*ggx:0.2`). Two BRDFs with the
+    /// same label evaluate the same, so baked tables are cached under it
+    /// (`relight cache list` shows it). The default is the `Debug` text.
+    fn label(&self) -> String {
+        format!("{self:?}")
+    }
 }

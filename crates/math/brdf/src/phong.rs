@@ -51,6 +51,9 @@ impl Phong {
 }
 
 impl Brdf for Phong {
+    fn label(&self) -> String {
+        crate::BrdfSpec::Phong(*self).to_string()
+    }
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;
@@ -133,6 +136,9 @@ impl BlinnPhong {
 }
 
 impl Brdf for BlinnPhong {
+    fn label(&self) -> String {
+        crate::BrdfSpec::BlinnPhong(*self).to_string()
+    }
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;

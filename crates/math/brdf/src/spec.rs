@@ -427,7 +427,7 @@ mod tests {
             let spec = parse(s);
             assert_eq!(spec.to_string(), s, "canonical form of `{s}`");
             assert_eq!(parse(&spec.to_string()), spec, "round trip of `{s}`");
-            let _ = spec.build();
+            assert_eq!(spec.build().label(), s, "the built model's label for `{s}`");
         }
         assert_eq!(parse("ggx:0.2,0.2@1,1,1").to_string(), "ggx:0.2");
         assert_eq!(parse("ashikhmin:1,1,0.04").to_string(), "ashikhmin:1,1");
@@ -454,6 +454,7 @@ mod tests {
                 ]).unwrap()),
             ] {
                 let text = spec.to_string();
+                prop_assert_eq!(spec.build().label(), text.clone());
                 prop_assert_eq!(text.parse::<BrdfSpec>(), Ok(spec), "{}", text);
             }
         }

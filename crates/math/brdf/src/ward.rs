@@ -88,6 +88,9 @@ impl Ward {
 }
 
 impl Brdf for Ward {
+    fn label(&self) -> String {
+        crate::BrdfSpec::Ward(*self).to_string()
+    }
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !both_above(wo, wi) {
             return Vec3::ZERO;

@@ -27,7 +27,7 @@
 //! with a fixed-view (specular) object ([`crate::specular::ObjectKind`])
 //! is version [`BAKE_VERSION`] and its hash goes on to cover, per object,
 //! how it is shaded (Lambertian, or fixed-view with its channel count and
-//! tint), and per fixed-view object its BRDFs (their `Debug` text and their
+//! tint), and per fixed-view object its BRDFs (their [`relight_brdf::Brdf::label`] and their
 //! values at [`crate::specular::probe_pairs`]), its blend weight per
 //! vertex and its tangents; and the camera's eye (the fixed view). A
 //! scene of Lambertian objects only keeps [`DIFFUSE_BAKE_VERSION`] and
@@ -170,7 +170,7 @@ impl BakeKey {
                         h.bytes(&[2, k.channels() as u8]);
                         h.floats(tint.unwrap_or(Vec3::ZERO).to_array());
                         let mut brdf = |b: &dyn relight_brdf::Brdf| {
-                            h.bytes(format!("{b:?}").as_bytes());
+                            h.bytes(b.label().as_bytes());
                             h.floats(probe(b).iter().flat_map(|v| v.to_array()));
                         };
                         brdf(o.brdf.as_ref());

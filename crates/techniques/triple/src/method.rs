@@ -418,7 +418,7 @@ impl TripleMethod {
         brdf: &dyn relight_brdf::Brdf,
         progress: &dyn Progress,
     ) -> Result<Arc<BrdfTable>, MethodError> {
-        let key = format!("{brdf:?}");
+        let key = brdf.label();
         if let Some((_, t)) = self.brdfs.iter().find(|(k, _)| *k == key) {
             return Ok(t.clone());
         }

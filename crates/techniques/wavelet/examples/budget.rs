@@ -219,7 +219,7 @@ fn main() {
         .objects
         .iter()
         .map(|o| {
-            let key = format!("{:?}", o.brdf);
+            let key = o.brdf.label();
             relight_wavelet::bake_or_load_brdf(
                 &BrdfBakeParams::new(&key, rp.m, views, bterms.min(rp.target_len())),
                 o.brdf.as_ref(),

@@ -43,7 +43,8 @@ pub struct BrdfBakeParams {
     pub terms: usize,
     /// Supersampling per target texel side (1..=16).
     pub supersample: usize,
-    /// Identifies the BRDF (e.g. its spec string `ggx:0.1`); hashed into the file and cache name.
+    /// Identifies the BRDF: its [`relight_brdf::Brdf::label`] (e.g. `ggx:0.1`); hashed into the
+    /// file and the cache name.
     pub key: String,
 }
 
@@ -110,17 +111,19 @@ impl BrdfBakeParams {
             bytes.extend_from_slice(&p.to_le_bytes());
         }
         bytes.extend_from_slice(&format::FORMAT_VERSION.to_le_bytes());
+        // The key (a `Brdf::label`, e.g. `lambert@0.25,0.2,0.3`) made safe for
+        // any file system; the hash below tells truncated keys apart.
         let safe: String = self
             .key
             .chars()
             .map(|c| {
-                if c.is_ascii_alphanumeric() || c == '.' {
+                if c.is_ascii_alphanumeric() || matches!(c, '.' | ',' | '@') {
                     c
                 } else {
                     '_'
                 }
             })
-            .take(32)
+            .take(40)
             .collect();
         format!(
             "brdf-{safe}-m{}-v{}-k{}-v{}-{:016x}.bin",

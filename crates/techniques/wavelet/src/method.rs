@@ -261,7 +261,7 @@ impl WaveletMethod {
         object: &relight_render::Object,
         progress: &dyn Progress,
     ) -> Result<Arc<BrdfBake>, MethodError> {
-        let key = format!("{:?}", object.brdf);
+        let key = object.brdf.label();
         let params = self.options.brdf_params(&key);
         if let Some(b) = self.bakes.iter().find(|b| b.params == params) {
             return Ok(b.clone());

@@ -102,7 +102,7 @@ pub fn bake_or_load_scene_brdfs(
         .objects
         .iter()
         .map(|o| {
-            let key = format!("{:?}", o.brdf);
+            let key = o.brdf.label();
             let p = BrdfBakeParams::new(&key, m, views, terms.min(m * m));
             bake_or_load_brdf(&p, o.brdf.as_ref(), cache_dir, progress)
         })

@@ -558,7 +558,7 @@ pub fn verify_wavelet_with_sh(
                 let mut bakes = Vec::with_capacity(sc.objects.len());
                 for o in &sc.objects {
                     let key = if spec == "scene" {
-                        format!("{:?}", o.brdf)
+                        o.brdf.label()
                     } else {
                         spec.clone()
                     };

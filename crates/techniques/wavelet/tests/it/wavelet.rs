@@ -437,3 +437,26 @@ fn mirror_aligned_normal_blend_removes_highlight_ghosting() {
         errs[3]
     );
 }
+
+#[test]
+fn brdf_cache_files_are_named_by_the_brdf_label() {
+    let name = |spec: &str| {
+        let brdf = spec.parse::<BrdfSpec>().unwrap().build();
+        BrdfBakeParams::new(&brdf.label(), 16, 64, 128).cache_file_name()
+    };
+    let a = name("lambert@0.25,0.2,0.3");
+    assert!(
+        a.starts_with("brdf-lambert@0.25,0.2,0.3-m16-v64-k128-v"),
+        "{a}"
+    );
+    // A label past the name's 40 characters is told apart by the hash.
+    let long = |b: f32| {
+        name(&format!(
+            "0.5*lambert@0.25,0.2,0.3+0.5*ggx:0.2,0.3@1,0.8,{b}"
+        ))
+    };
+    assert_eq!(long(0.6)[..45], long(0.7)[..45]);
+    assert_ne!(long(0.6), long(0.7));
+    assert_ne!(a, name("lambert@0.25,0.21,0.3"));
+    assert!(name("oren-nayar:0.3").starts_with("brdf-oren_nayar_0.3-m16"));
+}
