@@ -89,7 +89,7 @@ pub enum CacheCommand {
     /// List cached bakes: kind, configuration, size and date.
     List {
         /// Only entries whose file name or configuration contains this text
-        /// (e.g. `rot-n128`, `Ggx`, `terms=128`).
+        /// (e.g. `rot-n128`, `ggx`, `terms=128`).
         pattern: Option<String>,
         /// Cache folder [default: both $RELIGHT_CACHE/wavelet and
         /// $RELIGHT_CACHE/nearfield, else under $XDG_CACHE_HOME/relight/,

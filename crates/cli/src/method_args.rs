@@ -180,9 +180,13 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
 /// The options of `kind`: its defaults with the given flags applied.
 ///
 /// # Errors
-/// A flag that does not apply to `kind`, or a bad value.
+/// A flag that does not apply to `kind`, a bad value, or a `--cache` folder
+/// that cannot be made.
 pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
     check_flags(kind, f)?;
+    if let Some(c) = &f.cache {
+        crate::output::check_out_dir(c, "--cache")?;
+    }
     let mut o = MethodOptions::default_for(kind);
     match &mut o {
         MethodOptions::Reference(r) => {

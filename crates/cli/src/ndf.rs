@@ -234,7 +234,7 @@ fn write_screen_sheet(
         })
         .collect();
     let sheet = compose(&cells, w * k, h * k);
-    std::fs::create_dir_all(dir).map_err(|e| anyhow!("--plot {}: {e}", dir.display()))?;
+    crate::output::check_out_dir(dir, "--plot")?;
     let name = format!(
         "verify-ndf-screen-{}-{}{}.png",
         p.scene.name().replace(' ', "-"),

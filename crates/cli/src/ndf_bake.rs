@@ -104,7 +104,7 @@ fn vmf_cached(map: &NormalMap, opts: &VmfBakeOptions, cache: &Path) -> Result<(V
         return Ok((p, true));
     }
     let p = VmfPyramid::build(map.width, map.height, &map.texels, opts);
-    std::fs::create_dir_all(cache).with_context(|| format!("--cache {}", cache.display()))?;
+    crate::output::check_out_dir(cache, "--cache")?;
     relight_assets::write_atomic(&path, &p.to_bytes())?;
     Ok((p, false))
 }
@@ -207,7 +207,7 @@ fn write_chain(
     chain: &EngineChain,
     errors: Vec<LevelError>,
 ) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("--out {}", dir.display()))?;
+    crate::output::check_out_dir(dir, "--out")?;
     let j = chain.vmf.as_ref().map_or(0, |v| v.lobes);
     let mut levels = Vec::new();
     for ((k, l), error) in chain.levels.iter().enumerate().zip(errors) {
@@ -343,6 +343,9 @@ fn bake(a: &NdfBakeArgs) -> Result<()> {
         bail!("--lobes {j}: must be 1…{}", relight_ndf::pyramid::MAX_LOBES);
     }
     crate::output::check_out_dir(&a.out, "--out")?;
+    if let Some(c) = &a.cache {
+        crate::output::check_out_dir(c, "--cache")?;
+    }
     let map = crate::scene_args::load_normal_map(&a.normal_map)?;
     let t = std::time::Instant::now();
     let vmf = match a.lobes {

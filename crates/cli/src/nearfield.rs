@@ -67,6 +67,9 @@ pub fn bake(
     if let Some(o) = out {
         check_output(o, "--out", &[])?;
     }
+    if let Some(c) = cache {
+        crate::output::check_out_dir(c, "--cache")?;
+    }
     let t = Instant::now();
     let built = build_scene(a, None)?;
     let scene = built.scene.at_time(built.time);

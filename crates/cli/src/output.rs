@@ -110,8 +110,35 @@ pub fn check_out_dir(dir: &Path, flag: &str) -> Result<()> {
         "{flag} {}: is a file, not a folder",
         dir.display()
     );
-    std::fs::create_dir_all(dir)
-        .map_err(|e| anyhow::anyhow!("{flag} {}: cannot create the folder: {e}", dir.display()))
+    std::fs::create_dir_all(dir).map_err(|e| {
+        anyhow::anyhow!(
+            "{flag} {}: cannot create the folder: {}",
+            dir.display(),
+            io_reason(&e)
+        )
+    })
+}
+
+/// Why a file-system call failed, in words rather than the OS's
+/// "(os error N)" text.
+#[must_use]
+pub fn io_reason(e: &std::io::Error) -> String {
+    use std::io::ErrorKind as K;
+    match e.kind() {
+        K::NotADirectory => "a part of the path is a file, not a folder".into(),
+        K::NotFound => "a part of the path does not exist and cannot be made".into(),
+        K::PermissionDenied => "permission denied".into(),
+        K::ReadOnlyFilesystem => "the file system is read-only".into(),
+        K::StorageFull => "no space left on the device".into(),
+        K::AlreadyExists => "a file of that name is in the way".into(),
+        _ => {
+            let text = e.to_string();
+            match text.find(" (os error") {
+                Some(i) => text[..i].to_string(),
+                None => text,
+            }
+        }
+    }
 }
 
 /// Writes `image` as a tone-mapped PNG and a linear EXR (see

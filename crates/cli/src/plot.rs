@@ -24,7 +24,7 @@
 //!
 //! Text is written as SVG `<text>` elements, so no font file is needed.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -741,7 +741,7 @@ pub fn write_plot(dir: &Path, title: &str, rows: &[Value], plot: &Plot) -> Resul
             return Ok(None);
         }
     };
-    std::fs::create_dir_all(dir).with_context(|| format!("creating folder {}", dir.display()))?;
+    crate::output::check_out_dir(dir, "--plot")?;
     let path = dir.join(format!("{}.svg", plot.spec.name));
     relight_assets::write_atomic(&path, drawn.svg.as_bytes())?;
     Ok(Some(path))

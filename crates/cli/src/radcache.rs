@@ -41,7 +41,7 @@ pub fn verify(quick: bool, report: &Report, bar: &Bar) -> Result<()> {
     .only("check", FIG7_CHECK);
     report.table_plots("relight verify radiance-cache", &out.rows, &[fig7])?;
     if let Some(dir) = &report.plot_dir {
-        std::fs::create_dir_all(dir).with_context(|| format!("--plot {}", dir.display()))?;
+        crate::output::check_out_dir(dir, "--plot")?;
         for d in &out.fig7 {
             let path = dir.join(format!("{}.png", d.name));
             write_png(

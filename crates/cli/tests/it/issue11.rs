@@ -54,6 +54,28 @@ fn r11_output_paths_are_checked_before_work_starts() {
     ]);
     assert_one_line_error(&out, &["--plot", "is a file"]);
     assert!(out.stdout.is_empty(), "bench ran before the check");
+    // A --cache folder that is a file, or lies under one: named by the flag,
+    // in words (not "(os error 20)"), before the method prepares.
+    let under = file.join("sub");
+    for (dir, why) in [
+        (file.to_str().unwrap(), "is a file, not a folder"),
+        (under.to_str().unwrap(), "a part of the path is a file"),
+    ] {
+        for args in [
+            vec!["render", "--method", "wavelet", "--mesh", "sphere"],
+            vec!["render", "--method", "triple", "--mesh", "sphere"],
+            vec!["bake", "nearfield", "../../examples/nearfield.toml"],
+        ] {
+            let mut args = args.clone();
+            args.extend(["--cache", dir]);
+            let out = relight(&args);
+            let err = assert_one_line_error(&out, &["--cache", why]);
+            assert!(
+                !err.contains("os error") && !err.contains("prepared"),
+                "{args:?}: {err}"
+            );
+        }
+    }
 }
 
 #[test]
