@@ -5,7 +5,7 @@
 use anyhow::Result;
 use relight_methods::{MethodKind, MethodOptions};
 use relight_render::Scene;
-use relight_render::method::{SceneFeature, Support};
+use relight_render::method::{MethodError, SceneFeature, Support};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -94,6 +94,21 @@ pub fn describe(path: &Path, scene: &Scene) -> String {
         let verdict = match relight_methods::create(&MethodOptions::default_for(kind)) {
             Ok(method) => {
                 let mut v = verdict(&still, |f| method.supports(f));
+                if !v.starts_with("cannot")
+                    && let Err(e) = method.check_objects(scene)
+                {
+                    // The message without its "method NAME: " prefix.
+                    let text = match e {
+                        MethodError::InvalidOption { message, .. } => message,
+                        e => {
+                            let text = e.to_string();
+                            let prefix = format!("method {}: ", kind.name());
+                            text.strip_prefix(&prefix)
+                                .map_or(text.clone(), str::to_string)
+                        }
+                    };
+                    v = format!("cannot render {text}");
+                }
                 if scene.is_animated() {
                     v.push_str(
                         if relight_render::method::follows_animation(method.as_ref()) {

@@ -423,6 +423,18 @@ pub trait Relighter: Send {
     /// How this method renders `feature`.
     fn supports(&self, feature: SceneFeature) -> Support;
 
+    /// What [`Relighter::prepare`] would refuse in `scene` beyond its
+    /// features (e.g. an object's BRDF the method's options do not model),
+    /// found without baking, so that `relight info` can say it before any
+    /// work. `Ok` by default; `prepare` refuses the same objects.
+    ///
+    /// # Errors
+    /// The first object the method cannot render, named.
+    fn check_objects(&self, scene: &Scene) -> Result<(), MethodError> {
+        let _ = scene;
+        Ok(())
+    }
+
     /// Bakes or loads what `scene` needs, then sets its lighting. Call again
     /// when the objects or materials change.
     ///
@@ -494,10 +506,10 @@ pub struct FrameWork {
 /// Checks that `method` renders every feature of `scene`: `Ok(warnings)`
 /// (the scene's own, [`Scene::lighting_warnings`], then one per
 /// approximated feature, only with `approximate`), or the first feature it
-/// cannot render.
+/// cannot render, then [`Relighter::check_objects`].
 ///
 /// # Errors
-/// [`MethodError::Unsupported`].
+/// [`MethodError::Unsupported`], or the objects' error.
 pub fn check_scene(
     method: &dyn Relighter,
     scene: &Scene,
@@ -527,6 +539,7 @@ pub fn check_scene(
             }
         }
     }
+    method.check_objects(scene)?;
     Ok(warnings)
 }
 

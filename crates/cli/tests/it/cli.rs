@@ -422,6 +422,33 @@ fn info_describes_a_scene_file_and_its_methods() {
             "{method}: {verdict} in:\n{text}"
         );
     }
+    // A method whose features fit but whose options do not model an
+    // object's BRDF says so (`Relighter::check_objects`), as its render
+    // would refuse it.
+    let glossy = tmp("info-glossy.toml");
+    std::fs::write(
+        &glossy,
+        "[[object]]\nbuiltin = \"sphere\"\nbrdf = \"phong:20\"\n",
+    )
+    .unwrap();
+    let out = relight(&["info", glossy.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let ndf = text.lines().find(|l| l.trim_start().starts_with("ndf"));
+    assert!(
+        ndf.is_some_and(|l| l.contains("cannot render object 0: its BRDF phong:20 is not lambert")),
+        "{text}"
+    );
+    let out = relight(&[
+        "render",
+        glossy.to_str().unwrap(),
+        "--method",
+        "ndf",
+        "--size",
+        "8x8",
+        "--out",
+        tmp("g.png").to_str().unwrap(),
+    ]);
+    assert_clean_error(&out, "its BRDF phong:20 is not lambert");
     let bad = tmp("info-bad.toml");
     std::fs::write(&bad, "[[object]]\nbuiltin = \"cube\"\n").unwrap();
     assert_clean_error(

@@ -671,6 +671,16 @@ impl Relighter for FogRelighter {
         }
     }
 
+    /// Under an environment, what the SH pipeline refuses
+    /// ([`relight_shlight::check_objects`]: anisotropic BRDFs, meshes without
+    /// normals); point lights fit any BRDF ([`FogMaterial::fit`]).
+    fn check_objects(&self, scene: &Scene) -> Result<(), MethodError> {
+        if scene.has_environment() {
+            relight_shlight::check_objects(scene, &|_| false).map_err(failed)?;
+        }
+        Ok(())
+    }
+
     fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
         progress.check()?;
         self.materials = scene

@@ -368,7 +368,8 @@ pub fn colour_of(brdf: &dyn relight_brdf::Brdf, model: NdfBrdf) -> Result<Vec3, 
         let scale = want.max_element().max(got.max_element()).max(1e-6);
         if (want - got).abs().max_element() > 0.02 * scale {
             return Err(format!(
-                "the object's BRDF is not {} times a colour (f cos = {got} where the model gives {want}); pass --ndf-brdf matching the scene's BRDF",
+                "its BRDF {} is not {} times a colour; pass the --ndf-brdf (lambert, blinn:S, ggx:A, beckmann:A) that matches it",
+                brdf.label(),
                 model.label()
             ));
         }
@@ -425,6 +426,13 @@ impl NdfMethod {
                 _ => 0.0,
             },
         })
+    }
+
+    /// Object `i`'s colour under the options' BRDF model, or why its BRDF
+    /// is not that model times a colour.
+    fn object_colour(&self, i: usize, ob: &relight_render::Object) -> Result<Vec3, MethodError> {
+        colour_of(ob.brdf.as_ref(), self.options.brdf)
+            .map_err(|e| invalid("ndf-brdf", format!("object {i}: {e}")))
     }
 
     /// The options.
@@ -1396,6 +1404,15 @@ impl Relighter for NdfMethod {
         }
     }
 
+    /// Every object's BRDF must be the options' model times a colour
+    /// ([`colour_of`]).
+    fn check_objects(&self, scene: &Scene) -> Result<(), MethodError> {
+        for (i, ob) in scene.objects.iter().enumerate() {
+            self.object_colour(i, ob)?;
+        }
+        Ok(())
+    }
+
     fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
         self.objects.clear();
         for (i, ob) in scene.objects.iter().enumerate() {
@@ -1418,8 +1435,7 @@ impl Relighter for NdfMethod {
                     ),
                 ));
             }
-            let colour = colour_of(ob.brdf.as_ref(), self.options.brdf)
-                .map_err(|e| invalid("ndf-brdf", format!("object {i}: {e}")))?;
+            let colour = self.object_colour(i, ob)?;
             let map = match &ob.normal_map {
                 Some(nm) => {
                     progress.start("ndf pyramid bake", 1);

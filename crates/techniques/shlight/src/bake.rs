@@ -151,6 +151,27 @@ pub fn anisotropy(brdf: &dyn Brdf) -> f32 {
     worst
 }
 
+/// The largest [`anisotropy`] an SH table accepts: a model that changes by
+/// more under rotation about the normal is not isotropic.
+pub const MAX_ANISOTROPY: f32 = 2e-2;
+
+/// `Ok` when `brdf` (object `object`'s) is isotropic within
+/// [`MAX_ANISOTROPY`], the condition of [`BrdfShTable::bake`].
+///
+/// # Errors
+/// [`ShLightError::Anisotropic`].
+pub fn check_isotropic(brdf: &dyn Brdf, object: usize) -> Result<(), ShLightError> {
+    let deviation = anisotropy(brdf);
+    if deviation > MAX_ANISOTROPY {
+        return Err(ShLightError::Anisotropic {
+            object,
+            brdf: brdf.label(),
+            deviation,
+        });
+    }
+    Ok(())
+}
+
 impl BrdfShTable {
     /// Bakes `brdf` to `order` bands.
     ///
@@ -167,13 +188,7 @@ impl BrdfShTable {
     ) -> Result<Self, ShLightError> {
         check_shading_order(order)?;
         opts.validate()?;
-        let deviation = anisotropy(brdf);
-        if deviation > 2e-2 {
-            return Err(ShLightError::Anisotropic {
-                object: object_index,
-                deviation,
-            });
-        }
+        check_isotropic(brdf, object_index)?;
         let nn = order * order;
         // Indices with m ≥ 0 (the only non-zero ones in the canonical frame).
         let idx: Vec<usize> = (0..order)

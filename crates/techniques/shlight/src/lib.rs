@@ -85,7 +85,9 @@ pub use bench::{
 };
 pub use lit_scene::LitScene;
 pub use method::{SH_METHOD_NAME, ShMethod, ShOptions};
-pub use relight::{Background, LightingFilter, ShImage, ShRenderer, ShRotationMethod};
+pub use relight::{
+    Background, LightingFilter, ShImage, ShRenderer, ShRotationMethod, check_objects,
+};
 pub use relight_render::NormalMap;
 pub use relight_sh::window::{ChosenWindow, WindowChoice};
 pub use verify::{ShVerifyRow, VerifyOptions, VerifyScene, verify_sh};
@@ -136,9 +138,14 @@ pub enum ShLightError {
     },
     /// The BRDF is not invariant under rotation about the normal.
     #[error(
-        "object {object}: the BRDF is anisotropic (f changes by {deviation:.3} relative under rotation about the normal); SH shading bakes isotropic BRDFs only — use the reference or wavelet method"
+        "object {object}: its BRDF {brdf} is anisotropic (f changes by {deviation:.3} relative under rotation about the normal); SH shading bakes isotropic BRDFs only — use the reference or wavelet method"
     )]
-    Anisotropic { object: usize, deviation: f32 },
+    Anisotropic {
+        object: usize,
+        /// The BRDF's `Brdf::label`.
+        brdf: String,
+        deviation: f32,
+    },
     /// A malformed normal map.
     #[error("normal map: {0}")]
     NormalMap(#[from] relight_render::TextureError),

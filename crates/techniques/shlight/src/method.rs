@@ -238,6 +238,12 @@ impl Relighter for ShMethod {
         }
     }
 
+    /// Meshes without normals (or uvs and tangents under a normal map) and
+    /// anisotropic BRDFs ([`crate::check_objects`]).
+    fn check_objects(&self, scene: &Scene) -> Result<(), MethodError> {
+        crate::check_objects(scene, &|i| scene.objects[i].normal_map.is_some()).map_err(fail)
+    }
+
     fn prepare(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<(), MethodError> {
         // A feature it cannot render is never silently dropped.
         check_scene(self, scene, true)?;

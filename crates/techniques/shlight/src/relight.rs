@@ -765,6 +765,21 @@ impl ShRenderer {
 ///
 /// # Errors
 /// [`ShLightError::MissingNormals`], [`ShLightError::MissingUvs`].
+/// What the SH pipeline refuses in `scene`'s objects, found without
+/// baking: [`check_meshes`] and an anisotropic BRDF
+/// ([`crate::bake::check_isotropic`]). The SH and fog methods'
+/// `Relighter::check_objects`.
+///
+/// # Errors
+/// The first object refused, named.
+pub fn check_objects(scene: &Scene, needs_uvs: &dyn Fn(usize) -> bool) -> Result<(), ShLightError> {
+    check_meshes(scene, needs_uvs)?;
+    for (i, o) in scene.objects.iter().enumerate() {
+        crate::bake::check_isotropic(o.brdf.as_ref(), i)?;
+    }
+    Ok(())
+}
+
 pub(crate) fn check_meshes(
     scene: &Scene,
     needs_uvs: &dyn Fn(usize) -> bool,
