@@ -34,7 +34,10 @@ pub use raster::{
     Background, CullMode, DrawCall, Fragment, GBuffer, RasterBenchRow, RasterError, RasterOptions,
     RasterStats, Rasterizer, VertexAttributes, bench_raster,
 };
-pub use scene::{Animation, AreaLight, BrdfBlend, Keyframe, Medium, Object, PointLight, Scene};
+pub use scene::{
+    Animation, AreaLight, BrdfBlend, COARSE_SHARE_OF_BLOCKER, COARSE_SHARE_OF_SCENE, CoarseObject,
+    Keyframe, Medium, Object, PointLight, Scene,
+};
 pub use texture::{NormalMap, Texture, TextureError};
 pub use verify_row::VerifyRow;
 

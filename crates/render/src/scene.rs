@@ -371,7 +371,78 @@ pub struct Scene {
     pub camera: Camera,
 }
 
+/// [`Scene::coarse_objects`]' limits: an object's vertex spacing may be at
+/// most this share of the scene's diagonal …
+pub const COARSE_SHARE_OF_SCENE: f32 = 1.0 / 8.0;
+/// … and at most this share of the largest other object's size (its box
+/// diagonal), about that object's shadow.
+pub const COARSE_SHARE_OF_BLOCKER: f32 = 0.5;
+
+/// An object whose vertices are far apart for the scene's size
+/// ([`Scene::coarse_objects`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CoarseObject {
+    /// Its index in [`Scene::objects`].
+    pub object: usize,
+    /// Its vertex count.
+    pub vertices: usize,
+    /// `√(area / vertices)`, world units: about how far apart its vertices are.
+    pub spacing: f32,
+}
+
+impl CoarseObject {
+    /// "object I's V vertices are about S apart".
+    #[must_use]
+    pub fn describe(&self) -> String {
+        format!(
+            "object {}'s {} vertices are about {:.2} apart",
+            self.object, self.vertices, self.spacing
+        )
+    }
+}
+
 impl Scene {
+    /// Objects whose vertices are too far apart to hold what falls on them
+    /// (spacing `√(area / vertices)`; a ground quad has four): more than
+    /// [`COARSE_SHARE_OF_SCENE`] of the scene's diagonal, or more than
+    /// [`COARSE_SHARE_OF_BLOCKER`] of the largest other object's box
+    /// diagonal (its shadow then spans under two vertex spacings). A method
+    /// that samples visibility or shading per vertex says so.
+    #[must_use]
+    pub fn coarse_objects(&self) -> Vec<CoarseObject> {
+        let bounds: Vec<Option<relight_geom::Aabb>> =
+            self.objects.iter().map(|o| o.mesh.bounds()).collect();
+        let diagonal = bounds
+            .iter()
+            .flatten()
+            .copied()
+            .reduce(|a, b| relight_geom::Aabb {
+                min: a.min.min(b.min),
+                max: a.max.max(b.max),
+            })
+            .map_or(0.0, |b| b.extent().length());
+        let size = |b: &Option<relight_geom::Aabb>| b.map_or(0.0, |b| b.extent().length());
+        self.objects
+            .iter()
+            .enumerate()
+            .filter_map(|(object, o)| {
+                let vertices = o.mesh.positions.len().max(1);
+                let spacing = (o.mesh.area() / vertices as f64).sqrt() as f32;
+                let blocker = (0..bounds.len())
+                    .filter(|&j| j != object)
+                    .map(|j| size(&bounds[j]))
+                    .fold(0.0f32, f32::max);
+                let coarse = spacing > COARSE_SHARE_OF_SCENE * diagonal
+                    || (blocker > 0.0 && spacing > COARSE_SHARE_OF_BLOCKER * blocker);
+                coarse.then_some(CoarseObject {
+                    object,
+                    vertices,
+                    spacing,
+                })
+            })
+            .collect()
+    }
+
     /// Objects under an environment, nothing else (no lights, medium or
     /// shadows; the environment unrotated).
     #[must_use]
@@ -436,6 +507,49 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_ground_quad_is_coarse_and_a_grid_is_not() {
+        let brdf: Arc<dyn Brdf> = Arc::new(relight_brdf::Lambert::new(Vec3::splat(0.5)).unwrap());
+        let object = |m: Mesh| Object::new(Arc::new(m), brdf.clone());
+        let sphere = relight_geom::shapes::uv_sphere(0.5, 32, 16);
+        let scene = |ground: Mesh| {
+            Scene::new(
+                vec![object(ground), object(sphere.clone())],
+                EnvMap::from_fn(
+                    relight_sphere::Param::LatLong {
+                        width: 8,
+                        height: 4,
+                    },
+                    |_| Vec3::ONE,
+                ),
+                Camera {
+                    eye: Vec3::new(0.0, 1.0, 4.0),
+                    target: Vec3::ZERO,
+                    up: Vec3::Y,
+                    vfov_deg: 45.0,
+                    width: 16,
+                    height: 9,
+                    image_offset: glam::Vec2::ZERO,
+                },
+            )
+        };
+        // A 4 × 4 quad: four vertices two apart, in a scene about 5.7 across.
+        let c = scene(relight_geom::shapes::plane(4.0, 1)).coarse_objects();
+        assert_eq!(c.len(), 1, "{c:?}");
+        assert_eq!((c[0].object, c[0].vertices), (0, 4));
+        assert!((c[0].spacing - 2.0).abs() < 1e-5, "{c:?}");
+        assert!(
+            c[0].describe()
+                .contains("object 0's 4 vertices are about 2.00 apart")
+        );
+        // The same floor as 64 × 64 quads, and the sphere, pass.
+        assert!(
+            scene(relight_geom::shapes::plane(4.0, 64))
+                .coarse_objects()
+                .is_empty()
+        );
+    }
 
     #[test]
     fn animation_interpolates_and_holds() {

@@ -640,6 +640,15 @@ impl NearfieldMethod {
         let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
         let (n, face) = (self.options.order, self.options.face);
         self.warnings.clear();
+        // Per-vertex (Gouraud) shading on a ground quad shows neither the
+        // light's pool nor the shadows: said, not silently drawn.
+        for c in scene.coarse_objects() {
+            self.warnings.push(format!(
+                "method nearfield: shading is per vertex, and {}: the light and shadows between \
+                 them are lost; give it a finer mesh (`builtin = \"ground-grid\"` for a floor)",
+                c.describe()
+            ));
+        }
         for (i, o) in scene.objects.iter().enumerate() {
             let m = &o.mesh;
             if m.normals.len() != m.positions.len() {

@@ -494,27 +494,6 @@ fn bumped(
     Some(map.perturb(n, tangent, uv))
 }
 
-/// Per-vertex visibility is sampled `√(area / vertices)` apart; where that
-/// is more than [`COARSE_VISIBILITY`] of the scene's diagonal (a ground quad:
-/// four vertices), the shadows that fall between the vertices are lost, and
-/// the warning says so and how to keep them.
-fn coarse_visibility_warning(object: usize, mesh: &Mesh, scene_diagonal: f32) -> Option<String> {
-    let n = mesh.positions.len().max(1);
-    let spacing = (mesh.area() / n as f64).sqrt() as f32;
-    (spacing > COARSE_VISIBILITY * scene_diagonal).then(|| {
-        format!(
-            "triple: object {object}'s visibility is sampled at its {n} vertices, about {spacing:.2} \
-             apart (1/{:.0} of the scene): shadows that fall between them are lost; pass \
-             --visibility-texture 128 (over its uvs) or give it a finer mesh",
-            scene_diagonal / spacing
-        )
-    })
-}
-
-/// The largest vertex spacing, as a share of the scene's diagonal, at which
-/// per-vertex visibility passes without [`coarse_visibility_warning`].
-const COARSE_VISIBILITY: f32 = 1.0 / 32.0;
-
 /// The visibility texture's rows: texels far from every chart (never read)
 /// hold `V ≡ 1` ([`crate::vis_texture`]).
 fn bake_texel_visibility(
@@ -875,14 +854,11 @@ impl Relighter for TripleMethod {
             .iter()
             .map(|m| hash_parts(&[bytemuck::cast_slice(&mesh_bytes(m))]))
             .collect();
-        let scene_diagonal = meshes
-            .iter()
-            .filter_map(|m| m.bounds())
-            .reduce(|a, b| relight_geom::Aabb {
-                min: a.min.min(b.min),
-                max: a.max.max(b.max),
-            })
-            .map_or(0.0, |b| b.extent().length());
+        let coarse = if scene.visibility {
+            scene.coarse_objects()
+        } else {
+            Vec::new()
+        };
         let mut bvh: Option<SceneBvh> = None;
         let mut objects = Vec::with_capacity(scene.objects.len());
         for (i, o) in scene.objects.iter().enumerate() {
@@ -922,11 +898,16 @@ impl Relighter for TripleMethod {
                 .as_ref()
                 .map(|c| crate::vis_texture::texel_points(&o.mesh, c, res));
             let vis_res = if texels.is_some() { res } else { 0 };
-            if scene.visibility
-                && vis_res == 0
-                && let Some(w) = coarse_visibility_warning(i, &o.mesh, scene_diagonal)
+            if vis_res == 0
+                && let Some(c) = coarse.iter().find(|c| c.object == i)
             {
-                self.warnings.push(w);
+                // Per-vertex visibility on a ground quad loses every shadow.
+                self.warnings.push(format!(
+                    "triple: visibility is sampled per vertex, and {}: shadows that fall \
+                     between them are lost; pass --visibility-texture 128 (over its uvs) or give \
+                     it a finer mesh",
+                    c.describe()
+                ));
             }
             let vis = if !scene.visibility {
                 None
@@ -1377,25 +1358,4 @@ pub fn bytes_per_point(terms: usize, storage: Storage, shading: Shading) -> usiz
 #[must_use]
 pub fn level_of(terms: usize) -> usize {
     (0..=4).find(|&m| triangles(m) == terms).unwrap_or(0)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_coarse_receiver_is_warned_about_and_a_fine_one_is_not() {
-        // A 4 × 4 ground quad (4 vertices, 2 apart) in a 6-unit scene: its
-        // vertices cannot hold a shadow.
-        let quad = relight_geom::shapes::plane(4.0, 1);
-        let w = coarse_visibility_warning(0, &quad, 6.0).expect("a warning");
-        assert!(
-            w.contains("object 0's visibility is sampled at its 4 vertices"),
-            "{w}"
-        );
-        assert!(w.contains("--visibility-texture"), "{w}");
-        // The verify floor: 49² vertices over 6 units.
-        let floor = relight_geom::shapes::plane(6.0, 48);
-        assert!(coarse_visibility_warning(0, &floor, 8.5).is_none());
-    }
 }

@@ -141,6 +141,8 @@ pub struct WaveletMethod {
     /// Bakes and loads done by `prepare` so far (rotation + BRDF), for tests
     /// and the viewer's status line.
     loads: usize,
+    /// What the last `prepare` renders differently ([`Relighter::warnings`]).
+    warnings: Vec<String>,
 }
 
 impl std::fmt::Debug for WaveletMethod {
@@ -217,6 +219,7 @@ impl WaveletMethod {
             frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
             loads: 0,
+            warnings: Vec::new(),
         })
     }
 
@@ -361,8 +364,29 @@ impl Relighter for WaveletMethod {
         self.meshes = meshes;
         self.object_bakes = object_bakes;
         self.colors.clear();
+        // Ambient occlusion per vertex on a ground quad holds no shadow.
+        self.warnings = if rays > 0 && scene.visibility {
+            scene
+                .coarse_objects()
+                .iter()
+                .map(|c| {
+                    format!(
+                        "method wavelet: ambient occlusion is per vertex, and {}: the shadows \
+                         between them are lost; give it a finer mesh (`builtin = \"ground-grid\"` \
+                         for a floor)",
+                        c.describe()
+                    )
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         self.set_lighting(scene, progress)?;
         Ok(())
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.warnings.clone()
     }
 
     fn set_lighting(&mut self, scene: &Scene, progress: &dyn Progress) -> Result<f64, MethodError> {

@@ -436,3 +436,25 @@ fn target_mask_matches_brute_force_on_random_footprints() {
         }
     }
 }
+
+/// A floor of one quad under the light: its four vertices cannot show the
+/// light's pool or the sphere's shadow, and `prepare` says so; the 9² floor
+/// of the other tests passes.
+#[test]
+fn a_one_quad_floor_is_named_in_a_warning() {
+    let prepare = |floor: usize| {
+        let s = floor_and_sphere(floor, 8, 32, 24, true);
+        let mut m = NearfieldMethod::new(NearfieldOptions { order: 8, ..full() }).unwrap();
+        m.prepare(&s, &NoProgress).unwrap();
+        m.warnings()
+    };
+    let w = prepare(1);
+    assert!(
+        w.iter()
+            .any(|w| w.contains("object 1's 4 vertices are about")
+                && w.contains("shading is per vertex")),
+        "{w:?}"
+    );
+    let w = prepare(8);
+    assert!(!w.iter().any(|w| w.contains("vertices are about")), "{w:?}");
+}
