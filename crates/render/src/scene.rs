@@ -386,16 +386,23 @@ pub struct CoarseObject {
     pub object: usize,
     /// Its vertex count.
     pub vertices: usize,
-    /// `√(area / vertices)`, world units: about how far apart its vertices are.
+    /// World units: about how far apart its vertices are, overall or
+    /// under `near`.
     pub spacing: f32,
+    /// The object whose shadow its vertices are too far apart to hold
+    /// (`None`: too far apart overall).
+    pub near: Option<usize>,
 }
 
 impl CoarseObject {
-    /// "object I's V vertices are about S apart".
+    /// "object I's V vertices are about S apart[ under object J]".
     #[must_use]
     pub fn describe(&self) -> String {
+        let under = self
+            .near
+            .map_or(String::new(), |j| format!(" under object {j}"));
         format!(
-            "object {}'s {} vertices are about {:.2} apart",
+            "object {}'s {} vertices are about {:.2} apart{under}",
             self.object, self.vertices, self.spacing
         )
     }
@@ -403,11 +410,17 @@ impl CoarseObject {
 
 impl Scene {
     /// Objects whose vertices are too far apart to hold what falls on them
-    /// (spacing `√(area / vertices)`; a ground quad has four): more than
-    /// [`COARSE_SHARE_OF_SCENE`] of the scene's diagonal, or more than
-    /// [`COARSE_SHARE_OF_BLOCKER`] of the largest other object's box
-    /// diagonal (its shadow then spans under two vertex spacings). A method
-    /// that samples visibility or shading per vertex says so.
+    /// (a ground quad has four), either
+    /// - overall: `√(area / vertices)` over [`COARSE_SHARE_OF_SCENE`] of
+    ///   the scene's diagonal (the light's pool falls between them), or
+    /// - near another object, where its shadow falls: `√(2 ā)`, `ā` the
+    ///   mean area of the triangles whose centroids lie within that object's
+    ///   size `d` (its box diagonal) of its box centre (else the nearest
+    ///   triangle's), over [`COARSE_SHARE_OF_BLOCKER`] × `d`, so that the
+    ///   shadow spans under two vertex spacings. A floor graded towards the
+    ///   objects is judged where they stand.
+    ///
+    /// A method that samples visibility or shading per vertex says so.
     #[must_use]
     pub fn coarse_objects(&self) -> Vec<CoarseObject> {
         let bounds: Vec<Option<relight_geom::Aabb>> =
@@ -421,26 +434,56 @@ impl Scene {
                 max: a.max.max(b.max),
             })
             .map_or(0.0, |b| b.extent().length());
-        let size = |b: &Option<relight_geom::Aabb>| b.map_or(0.0, |b| b.extent().length());
-        self.objects
-            .iter()
-            .enumerate()
-            .filter_map(|(object, o)| {
-                let vertices = o.mesh.positions.len().max(1);
-                let spacing = (o.mesh.area() / vertices as f64).sqrt() as f32;
-                let blocker = (0..bounds.len())
-                    .filter(|&j| j != object)
-                    .map(|j| size(&bounds[j]))
-                    .fold(0.0f32, f32::max);
-                let coarse = spacing > COARSE_SHARE_OF_SCENE * diagonal
-                    || (blocker > 0.0 && spacing > COARSE_SHARE_OF_BLOCKER * blocker);
-                coarse.then_some(CoarseObject {
+        let mut out = Vec::new();
+        for (object, o) in self.objects.iter().enumerate() {
+            let m = &o.mesh;
+            let vertices = m.positions.len().max(1);
+            let spacing = (m.area() / vertices as f64).sqrt() as f32;
+            if spacing > COARSE_SHARE_OF_SCENE * diagonal {
+                out.push(CoarseObject {
                     object,
                     vertices,
                     spacing,
-                })
-            })
-            .collect()
+                    near: None,
+                });
+                continue;
+            }
+            for (j, b) in bounds.iter().enumerate() {
+                let Some(b) = b.filter(|_| j != object) else {
+                    continue;
+                };
+                let (c, d) = (b.center(), b.extent().length());
+                // Mean triangle area within `d` of `c`, else the nearest's.
+                let (mut sum, mut count, mut nearest) = (0.0f64, 0usize, (f32::INFINITY, 0.0f64));
+                for t in &m.indices {
+                    let [p, q, r] = t.map(|i| m.positions[i as usize]);
+                    let area = 0.5 * f64::from((q - p).cross(r - p).length());
+                    let dist = ((p + q + r) / 3.0).distance(c);
+                    if dist <= d {
+                        sum += area;
+                        count += 1;
+                    } else if dist < nearest.0 {
+                        nearest = (dist, area);
+                    }
+                }
+                let mean = if count > 0 {
+                    sum / count as f64
+                } else {
+                    nearest.1
+                };
+                let local = (2.0 * mean).sqrt() as f32;
+                if d > 0.0 && local > COARSE_SHARE_OF_BLOCKER * d {
+                    out.push(CoarseObject {
+                        object,
+                        vertices,
+                        spacing: local,
+                        near: Some(j),
+                    });
+                    break;
+                }
+            }
+        }
+        out
     }
 
     /// Objects under an environment, nothing else (no lights, medium or
@@ -543,12 +586,40 @@ mod tests {
             c[0].describe()
                 .contains("object 0's 4 vertices are about 2.00 apart")
         );
-        // The same floor as 64 × 64 quads, and the sphere, pass.
-        assert!(
-            scene(relight_geom::shapes::plane(4.0, 64))
-                .coarse_objects()
-                .is_empty()
+        // The same floor as 64 × 64 quads, and the sphere, pass; 8 × 8 quads
+        // (0.44 apart) hold the unit sphere's shadow, 4 × 4 (0.8) do not.
+        let coarse = |n: usize| scene(relight_geom::shapes::plane(4.0, n)).coarse_objects();
+        assert!(coarse(64).is_empty());
+        assert!(coarse(8).is_empty());
+        assert_eq!(coarse(4).len(), 1);
+        // A floor fine under the sphere and coarse far away (the default
+        // scene's is graded so): its mean spacing (over 1) would fail, the
+        // spacing where the shadow falls (0.03) passes.
+        let mut graded = relight_geom::shapes::plane(2.0, 64);
+        let far = Mesh::try_from_triangles(
+            vec![
+                Vec3::new(50.0, 0.0, 50.0),
+                Vec3::new(150.0, 0.0, 50.0),
+                Vec3::new(50.0, 0.0, -150.0),
+            ],
+            vec![[0, 2, 1]],
+        )
+        .unwrap();
+        graded.merge(&far);
+        let mean = (graded.area() / graded.positions.len() as f64).sqrt();
+        assert!(mean > 1.0, "{mean}");
+        assert!(scene(graded).coarse_objects().is_empty());
+        // A quad under the sphere and a fine grid far away: fine on average,
+        // coarse where the shadow falls.
+        let mut quad = relight_geom::shapes::plane(4.0, 1);
+        quad.merge(
+            &relight_geom::shapes::plane(2.0, 64)
+                .transformed(glam::Affine3A::from_translation(Vec3::new(50.0, 0.0, 50.0))),
         );
+        let c = scene(quad).coarse_objects();
+        assert_eq!(c.len(), 1, "{c:?}");
+        assert_eq!(c[0].near, Some(1), "{c:?}");
+        assert!(c[0].describe().ends_with("apart under object 1"), "{c:?}");
     }
 
     #[test]
