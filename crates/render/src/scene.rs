@@ -374,8 +374,8 @@ pub struct Scene {
 /// [`Scene::coarse_objects`]' limits: an object's vertex spacing may be at
 /// most this share of the scene's diagonal …
 pub const COARSE_SHARE_OF_SCENE: f32 = 1.0 / 8.0;
-/// … and at most this share of the largest other object's size (its box
-/// diagonal), about that object's shadow.
+/// … and, where another object stands, at most this share of that object's
+/// size (its box diagonal), about the size of its shadow.
 pub const COARSE_SHARE_OF_BLOCKER: f32 = 0.5;
 
 /// An object whose vertices are far apart for the scene's size
