@@ -1,6 +1,8 @@
-//! `relight info SCENE.toml`: what a scene file holds, its features, and
-//! which methods render it, feature by feature through the method interface
-//! (`Relighter::supports`), before anything is baked.
+//! `relight info SCENE.toml`: what a scene file holds (objects too coarse
+//! for per-vertex shadows marked, `Scene::coarse_objects`), its features,
+//! and which methods render it, feature by feature through the method
+//! interface (`Relighter::supports`, then `Relighter::check_objects`),
+//! before anything is baked.
 
 use anyhow::Result;
 use relight_methods::{MethodKind, MethodOptions};
@@ -40,9 +42,20 @@ pub fn describe(path: &Path, scene: &Scene) -> String {
         scene.camera.width,
         scene.camera.height
     );
+    let coarse = scene.coarse_objects();
     for (i, o) in scene.objects.iter().enumerate() {
         let m = &o.mesh;
         let mut extras = Vec::new();
+        if let Some(c) = coarse.iter().find(|c| c.object == i) {
+            // Numbered from 1 like the lines here (`Scene::coarse_objects`).
+            let under = c
+                .near
+                .map_or(String::new(), |j| format!(" under object {}", j + 1));
+            extras.push(format!(
+                "vertices about {:.2} apart{under}: per-vertex shadows (triple, nearfield, wavelet --ao) miss what falls between them",
+                c.spacing
+            ));
+        }
         if o.normal_map.is_some() {
             extras.push("normal map".to_string());
         }

@@ -449,6 +449,26 @@ fn info_describes_a_scene_file_and_its_methods() {
         tmp("g.png").to_str().unwrap(),
     ]);
     assert_clean_error(&out, "its BRDF phong:20 is not lambert");
+    // A ground quad under a sphere is named as too coarse for per-vertex
+    // shadows (`Scene::coarse_objects`); the sphere is not.
+    let quad = tmp("info-quad.toml");
+    std::fs::write(
+        &quad,
+        "[[object]]\nbuiltin = \"ground\"\n[[object]]\nbuiltin = \"sphere\"\nscale = 0.5\ntranslate = [0.0, 0.6, 0.0]\n",
+    )
+    .unwrap();
+    let out = relight(&["info", quad.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = |k: &str| {
+        text.lines()
+            .find(|l| l.trim_start().starts_with(k))
+            .unwrap_or("")
+    };
+    assert!(
+        line("object 1:").contains("vertices about 2.00 apart"),
+        "{text}"
+    );
+    assert!(!line("object 2:").contains("apart"), "{text}");
     let bad = tmp("info-bad.toml");
     std::fs::write(&bad, "[[object]]\nbuiltin = \"cube\"\n").unwrap();
     assert_clean_error(
