@@ -448,6 +448,18 @@ impl Scene {
                 });
                 continue;
             }
+            // Each triangle's centroid and area, once for every other object.
+            let triangles: Vec<(Vec3, f64)> = m
+                .indices
+                .iter()
+                .map(|t| {
+                    let [p, q, r] = t.map(|i| m.positions[i as usize]);
+                    (
+                        (p + q + r) / 3.0,
+                        0.5 * f64::from((q - p).cross(r - p).length()),
+                    )
+                })
+                .collect();
             for (j, b) in bounds.iter().enumerate() {
                 let Some(b) = b.filter(|_| j != object) else {
                     continue;
@@ -455,10 +467,8 @@ impl Scene {
                 let (c, d) = (b.center(), b.extent().length());
                 // Mean triangle area within `d` of `c`, else the nearest's.
                 let (mut sum, mut count, mut nearest) = (0.0f64, 0usize, (f32::INFINITY, 0.0f64));
-                for t in &m.indices {
-                    let [p, q, r] = t.map(|i| m.positions[i as usize]);
-                    let area = 0.5 * f64::from((q - p).cross(r - p).length());
-                    let dist = ((p + q + r) / 3.0).distance(c);
+                for &(centroid, area) in &triangles {
+                    let dist = centroid.distance(c);
                     if dist <= d {
                         sum += area;
                         count += 1;

@@ -7,6 +7,25 @@ use std::path::{Path, PathBuf};
 use common::{relight, tmp};
 use std::process::{Command, Output};
 
+/// `relight info` of a scene file written to `path` with `toml`: its stdout.
+fn info_of(path: &Path, toml: &str) -> String {
+    std::fs::write(path, toml).unwrap();
+    let out = relight(&["info", path.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The first line of `text` that starts (after indentation) with `key`, or "".
+fn line_of<'a>(text: &'a str, key: &str) -> &'a str {
+    text.lines()
+        .find(|l| l.trim_start().starts_with(key))
+        .unwrap_or("")
+}
+
 fn assert_clean_error(out: &Output, needle: &str) {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -426,16 +445,12 @@ fn info_describes_a_scene_file_and_its_methods() {
     // object's BRDF says so (`Relighter::check_objects`), as its render
     // would refuse it.
     let glossy = tmp("info-glossy.toml");
-    std::fs::write(
+    let text = info_of(
         &glossy,
         "[[object]]\nbuiltin = \"sphere\"\nbrdf = \"phong:20\"\n",
-    )
-    .unwrap();
-    let out = relight(&["info", glossy.to_str().unwrap()]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    let ndf = text.lines().find(|l| l.trim_start().starts_with("ndf"));
+    );
     assert!(
-        ndf.is_some_and(|l| l.contains("cannot render object 0: its BRDF phong:20 is not lambert")),
+        line_of(&text, "ndf").contains("cannot render object 0: its BRDF phong:20 is not lambert"),
         "{text}"
     );
     let out = relight(&[
@@ -451,24 +466,15 @@ fn info_describes_a_scene_file_and_its_methods() {
     assert_clean_error(&out, "its BRDF phong:20 is not lambert");
     // A ground quad under a sphere is named as too coarse for per-vertex
     // shadows (`Scene::coarse_objects`); the sphere is not.
-    let quad = tmp("info-quad.toml");
-    std::fs::write(
-        &quad,
+    let text = info_of(
+        &tmp("info-quad.toml"),
         "[[object]]\nbuiltin = \"ground\"\n[[object]]\nbuiltin = \"sphere\"\nscale = 0.5\ntranslate = [0.0, 0.6, 0.0]\n",
-    )
-    .unwrap();
-    let out = relight(&["info", quad.to_str().unwrap()]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = |k: &str| {
-        text.lines()
-            .find(|l| l.trim_start().starts_with(k))
-            .unwrap_or("")
-    };
+    );
     assert!(
-        line("object 1:").contains("vertices about 2.00 apart"),
+        line_of(&text, "object 1:").contains("vertices about 2.00 apart"),
         "{text}"
     );
-    assert!(!line("object 2:").contains("apart"), "{text}");
+    assert!(!line_of(&text, "object 2:").contains("apart"), "{text}");
     let bad = tmp("info-bad.toml");
     std::fs::write(&bad, "[[object]]\nbuiltin = \"cube\"\n").unwrap();
     assert_clean_error(
