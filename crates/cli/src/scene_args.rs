@@ -10,7 +10,7 @@ use crate::parse::{parse_floats, parse_size};
 use anyhow::{Result, anyhow, bail, ensure};
 use glam::{Vec2, Vec3};
 use relight_brdf::BrdfSpec;
-use relight_render::{AreaLight, Medium, Object, PointLight, Scene};
+use relight_render::{AreaLight, Medium, Numbered, Object, PointLight, Scene};
 use relight_scene::file::RenderDesc;
 use std::path::Path;
 use std::sync::Arc;
@@ -227,9 +227,9 @@ pub fn build_scene(
         for (i, o) in scene.objects.iter_mut().enumerate() {
             ensure!(
                 o.mesh.uvs.len() == o.mesh.positions.len(),
-                "--normal-map {}: object {} has no texture coordinates (uvs) to map it with",
+                "--normal-map {}: {} has no texture coordinates (uvs) to map it with",
                 p.display(),
-                i + 1
+                Numbered::object(i)
             );
             o.normal_map = Some(nm.clone());
         }

@@ -6,8 +6,8 @@
 
 use anyhow::Result;
 use relight_methods::{MethodKind, MethodOptions};
-use relight_render::Scene;
 use relight_render::method::{MethodError, SceneFeature, Support};
+use relight_render::{Numbered, Scene};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -47,10 +47,9 @@ pub fn describe(path: &Path, scene: &Scene) -> String {
         let m = &o.mesh;
         let mut extras = Vec::new();
         if let Some(c) = coarse.iter().find(|c| c.object == i) {
-            // Numbered from 1 like the lines here (`Scene::coarse_objects`).
             let under = c
                 .near
-                .map_or(String::new(), |j| format!(" under object {}", j + 1));
+                .map_or(String::new(), |j| format!(" under {}", Numbered::object(j)));
             extras.push(format!(
                 "vertices about {:.2} apart{under}: per-vertex shadows (triple, nearfield, wavelet --ao) miss what falls between them",
                 c.spacing
@@ -67,8 +66,8 @@ pub fn describe(path: &Path, scene: &Scene) -> String {
         }
         let _ = write!(
             s,
-            "\n  object {}:   {} vertices, {}{}",
-            i + 1,
+            "\n  {}:   {} vertices, {}{}",
+            Numbered::object(i),
             m.vertex_count(),
             plural(m.triangle_count(), "triangle"),
             if extras.is_empty() {

@@ -12,6 +12,7 @@ pub mod cull;
 pub mod image;
 pub mod light_field;
 pub mod method;
+mod numbering;
 mod object_raster;
 pub mod progress;
 pub mod raster;
@@ -29,6 +30,7 @@ pub use method::{
     Coverage, FrameRequest, FrameTimings, MethodError, Noise, Relighter, Rendered, SceneFeature,
     Support, check_scene, render_frame,
 };
+pub use numbering::Numbered;
 pub use progress::{Cancelled, NoProgress, Progress};
 pub use raster::{
     Background, CullMode, DrawCall, Fragment, GBuffer, RasterBenchRow, RasterError, RasterOptions,

@@ -18,9 +18,9 @@
 //!   `I / d²` irradiance at normal incidence); an area light's radiance is
 //!   `texture(uv) × intensity`.
 
-use crate::Camera;
 use crate::light_field::LightField;
 use crate::texture::{NormalMap, Texture};
+use crate::{Camera, Numbered};
 use glam::{Affine3A, Mat3, Quat, Vec2, Vec3};
 use relight_brdf::Brdf;
 use relight_geom::Mesh;
@@ -395,15 +395,18 @@ pub struct CoarseObject {
 }
 
 impl CoarseObject {
-    /// "object I's V vertices are about S apart[ under object J]".
+    /// "object I's V vertices are about S apart[ under object J]", numbered
+    /// from 1 ([`Numbered`]).
     #[must_use]
     pub fn describe(&self) -> String {
         let under = self
             .near
-            .map_or(String::new(), |j| format!(" under object {j}"));
+            .map_or(String::new(), |j| format!(" under {}", Numbered::object(j)));
         format!(
-            "object {}'s {} vertices are about {:.2} apart{under}",
-            self.object, self.vertices, self.spacing
+            "{}'s {} vertices are about {:.2} apart{under}",
+            Numbered::object(self.object),
+            self.vertices,
+            self.spacing
         )
     }
 }
@@ -594,7 +597,7 @@ mod tests {
         assert!((c[0].spacing - 2.0).abs() < 1e-5, "{c:?}");
         assert!(
             c[0].describe()
-                .contains("object 0's 4 vertices are about 2.00 apart")
+                .contains("object 1's 4 vertices are about 2.00 apart")
         );
         // The same floor as 64 × 64 quads, and the sphere, pass; 8 × 8 quads
         // (0.44 apart) hold the unit sphere's shadow, 4 × 4 (0.8) do not.
@@ -629,7 +632,7 @@ mod tests {
         let c = scene(quad).coarse_objects();
         assert_eq!(c.len(), 1, "{c:?}");
         assert_eq!(c[0].near, Some(1), "{c:?}");
-        assert!(c[0].describe().ends_with("apart under object 1"), "{c:?}");
+        assert!(c[0].describe().ends_with("apart under object 2"), "{c:?}");
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! [`crate::method::check_scene`] returns these warnings with the method's
 //! own, so the CLI prints them and the viewer shows them on screen.
 
+use crate::Numbered;
 use crate::scene::{AreaLight, Scene};
 
 /// Whether `light` emits anything: a positive intensity in some channel,
@@ -64,8 +65,8 @@ impl Scene {
             });
             if !in_front {
                 out.push(format!(
-                    "scene: area light {} lights none of the objects: every vertex is on or behind its plane (it emits on one side only, towards {:.2})",
-                    i + 1,
+                    "scene: {} lights none of the objects: every vertex is on or behind its plane (it emits on one side only, towards {:.2})",
+                    Numbered::area_light(i),
                     n
                 ));
             }

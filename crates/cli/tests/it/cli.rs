@@ -450,7 +450,7 @@ fn info_describes_a_scene_file_and_its_methods() {
         "[[object]]\nbuiltin = \"sphere\"\nbrdf = \"phong:20\"\n",
     );
     assert!(
-        line_of(&text, "ndf").contains("cannot render object 0: its BRDF phong:20 is not lambert"),
+        line_of(&text, "ndf").contains("cannot render object 1: its BRDF phong:20 is not lambert"),
         "{text}"
     );
     let out = relight(&[

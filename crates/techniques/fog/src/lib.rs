@@ -50,6 +50,7 @@ pub use bench::{BenchRow, bench_fog, bench_fog_scene};
 pub use env_vertex::EnvShading;
 pub use method::{FogOptions, FogRelighter};
 pub use model::{FogMaterial, FogModel, Phase, PointLight};
+use relight_render::Numbered;
 pub use render::{
     FogMode, FogObject, FogSettings, default_scene_lights, render_fog, scene_objects,
 };
@@ -68,12 +69,20 @@ pub enum FogError {
     Beta { beta: f32 },
     #[error("single-scattering albedo {albedo} is invalid: need 0 ≤ albedo ≤ 1")]
     Albedo { albedo: f32 },
-    #[error("light {index}: intensity {intensity:?} is invalid: need finite components ≥ 0")]
+    #[error(
+        "{}: intensity {intensity:?} is invalid: need finite components ≥ 0",
+        Numbered::point_light(*.index)
+    )]
     Intensity { index: usize, intensity: [f32; 3] },
-    #[error("light {index}: position {position:?} is not finite")]
+    #[error(
+        "{}: position {position:?} is not finite",
+        Numbered::point_light(*.index)
+    )]
     LightPosition { index: usize, position: [f32; 3] },
     #[error(
-        "light {index} at {position:?} lies inside closed geometry (object {object}); move it outside the mesh"
+        "{} at {position:?} lies inside closed geometry ({}); move it outside the mesh",
+        Numbered::point_light(*.index),
+        Numbered::object(*.object)
     )]
     LightInsideGeometry {
         index: usize,
@@ -94,7 +103,10 @@ pub enum FogError {
     PhaseDegree { degree: u32, max: u32 },
     #[error("Henyey–Greenstein asymmetry g = {g} is invalid: need −1 < g < 1")]
     Asymmetry { g: f32 },
-    #[error("object {object}: material index invalid or mesh has no triangles")]
+    #[error(
+        "{}: material index invalid or mesh has no triangles",
+        Numbered::object(*.object)
+    )]
     Object { object: usize },
     #[error("rasterizer: {0}")]
     Raster(#[from] relight_render::raster::RasterError),

@@ -68,7 +68,7 @@ use relight_render::method::{
     coverage_of_raster, frame_paints_background,
 };
 use relight_render::raster::{NO_TRIANGLE, Rasterizer};
-use relight_render::{Camera, Image, Progress, Scene};
+use relight_render::{Camera, Image, Numbered, Progress, Scene};
 use relight_shlight::{Background, LightingFilter, LitScene, ShRenderer, ShRotationMethod};
 use relight_sphere::EnvMap;
 use std::sync::Arc;
@@ -755,7 +755,8 @@ impl Relighter for FogRelighter {
                     method: NAME,
                     option: "point_lights",
                     message: format!(
-                        "light {i} at {} lies outside the fog ball of radius {r}",
+                        "{} at {} lies outside the fog ball of radius {r}",
+                        Numbered::point_light(i),
                         l.position
                     ),
                 });

@@ -33,7 +33,7 @@ use relight_render::method::{
     check_scene,
 };
 use relight_render::raster::{Background, Fragment};
-use relight_render::{Image, Progress, Scene};
+use relight_render::{Image, Numbered, Progress, Scene};
 use std::borrow::Cow;
 use std::sync::Arc;
 use std::time::Instant;
@@ -237,7 +237,7 @@ impl Relighter for LtcMethod {
             let lobes = identify(o.brdf.as_ref()).map_err(|why| {
                 invalid(
                     "scene",
-                    format!("object {i}'s BRDF cannot be shaded: {why}"),
+                    format!("{}'s BRDF cannot be shaded: {why}", Numbered::object(i)),
                 )
             })?;
             objects.push(Prepared {
@@ -276,7 +276,8 @@ impl Relighter for LtcMethod {
         for (i, l) in scene.area_lights.iter().enumerate() {
             if l.texture.is_some() {
                 self.warnings.push(format!(
-                    "method ltc renders area light {i}'s texture by its mean radiance (LTC integrates a constant polygon; the texture's pattern is not shown)"
+                    "method ltc renders {}'s texture by its mean radiance (LTC integrates a constant polygon; the texture's pattern is not shown)",
+                    Numbered::area_light(i)
                 ));
             }
         }

@@ -48,7 +48,7 @@ use relight_render::method::{
     FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support,
 };
 use relight_render::raster::{CullMode, DrawCall, RasterOptions, Rasterizer};
-use relight_render::{Image, NormalMap, Progress, Scene};
+use relight_render::{Image, NormalMap, Numbered, Progress, Scene};
 use relight_sh::project::{Window, project_env};
 use relight_sh::rotation::{Rot3, ShRotation};
 use relight_sphere::Frame;
@@ -432,7 +432,7 @@ impl NdfMethod {
     /// is not that model times a colour.
     fn object_colour(&self, i: usize, ob: &relight_render::Object) -> Result<Vec3, MethodError> {
         colour_of(ob.brdf.as_ref(), self.options.brdf)
-            .map_err(|e| invalid("ndf-brdf", format!("object {i}: {e}")))
+            .map_err(|e| invalid("ndf-brdf", format!("{}: {e}", Numbered::object(i))))
     }
 
     /// The options.
@@ -1422,14 +1422,19 @@ impl Relighter for NdfMethod {
             if m.normals.len() != nv {
                 return Err(invalid(
                     "mesh",
-                    format!("object {i}: {} normals for {nv} vertices", m.normals.len()),
+                    format!(
+                        "{}: {} normals for {nv} vertices",
+                        Numbered::object(i),
+                        m.normals.len()
+                    ),
                 ));
             }
             if ob.normal_map.is_some() && (m.uvs.len() != nv || m.tangents.len() != nv) {
                 return Err(invalid(
                     "normal-map",
                     format!(
-                        "object {i}: a normal map needs uvs and tangents ({} uvs, {} tangents for {nv} vertices)",
+                        "{}: a normal map needs uvs and tangents ({} uvs, {} tangents for {nv} vertices)",
+                        Numbered::object(i),
                         m.uvs.len(),
                         m.tangents.len()
                     ),

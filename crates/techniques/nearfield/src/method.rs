@@ -73,7 +73,7 @@ use relight_render::method::{
     check_scene,
 };
 use relight_render::raster::Background;
-use relight_render::{AreaLight, Image, Progress, Scene, SceneBvh};
+use relight_render::{AreaLight, Image, Numbered, Progress, Scene, SceneBvh};
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -271,8 +271,8 @@ fn check_light_field(index: usize, light: &AreaLight, turned: bool) -> Result<()
         return Err(invalid(
             "scene",
             format!(
-                "area light {}: a light field turned in the plane whose transport it uses (against that plane's first light, or since the bake), which would turn its directions too; give it that light's orientation, or prepare again for it alone in its plane",
-                index + 1
+                "{}: a light field turned in the plane whose transport it uses (against that plane's first light, or since the bake), which would turn its directions too; give it that light's orientation, or prepare again for it alone in its plane",
+                Numbered::area_light(index)
             ),
         ));
     }
@@ -313,8 +313,8 @@ fn face_clipping_warnings(
             .collect();
         if let Some(worst) = dropped.iter().copied().reduce(f64::max) {
             out.push(format!(
-                "method nearfield: area light {} falls past the face (side {face}) of {} of the {} vertices in front of it, dropping up to {:.0} % of the light its brightest vertex gets (§4.5.4); a larger --face keeps it, with coarser cells",
-                i + 1,
+                "method nearfield: {} falls past the face (side {face}) of {} of the {} vertices in front of it, dropping up to {:.0} % of the light its brightest vertex gets (§4.5.4); a larger --face keeps it, with coarser cells",
+                Numbered::area_light(i),
                 dropped.len(),
                 per.len(),
                 worst * 100.0
@@ -654,13 +654,19 @@ impl NearfieldMethod {
             if m.normals.len() != m.positions.len() {
                 return Err(invalid(
                     "scene",
-                    format!("object {i} has no vertex normals (one per vertex is needed)"),
+                    format!(
+                        "{} has no vertex normals (one per vertex is needed)",
+                        Numbered::object(i)
+                    ),
                 ));
             }
             if o.blend.is_some() && m.uvs.len() != m.positions.len() {
                 return Err(invalid(
                     "scene",
-                    format!("object {i} blends two BRDFs by a texture but has no uvs"),
+                    format!(
+                        "{} blends two BRDFs by a texture but has no uvs",
+                        Numbered::object(i)
+                    ),
                 ));
             }
         }
@@ -844,7 +850,8 @@ impl NearfieldMethod {
                 .fold(f32::MAX, f32::min);
             if 2.0 * narrowest < cell {
                 self.warnings.push(format!(
-                    "method nearfield: object {i}'s BRDF lobe (half width {narrowest:.1}° at 30° incidence) is narrower than a face cell ({cell:.1}° at order {n}, face {face}): its fixed-view highlights are blurred to the cell's size (raise --order)"
+                    "method nearfield: {}'s BRDF lobe (half width {narrowest:.1}° at 30° incidence) is narrower than a face cell ({cell:.1}° at order {n}, face {face}): its fixed-view highlights are blurred to the cell's size (raise --order)",
+                    Numbered::object(i)
                 ));
             }
         }
@@ -924,7 +931,7 @@ impl NearfieldMethod {
                 o.source_terms,
                 o.source_ranking,
             )
-            .map_err(|e| invalid("scene", format!("area light {}: {e}", index + 1)))?;
+            .map_err(|e| invalid("scene", format!("{}: {e}", Numbered::area_light(index))))?;
             self.lights[index].field = Some(field);
             self.lights[index].source = SourceTerms::default();
             return Ok(t.elapsed().as_secs_f64() * 1e3);

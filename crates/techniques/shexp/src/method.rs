@@ -67,7 +67,7 @@ use relight_render::method::{
     FrameRequest, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
 };
 use relight_render::raster::{Background, DrawCall, RasterOptions, Rasterizer};
-use relight_render::{Image, Progress, Rng, Scene, SceneBvh};
+use relight_render::{Image, Numbered, Progress, Rng, Scene, SceneBvh};
 use relight_sh::product::TripleProduct;
 use std::borrow::Cow;
 use std::sync::{Arc, Mutex};
@@ -829,16 +829,22 @@ impl ShExpMethod {
             }
             if o.mesh.positions.len() != so.mesh.positions.len() {
                 return Err(failed(&format!(
-                    "object {i} has another mesh than at prepare; call prepare again"
+                    "{} has another mesh than at prepare; call prepare again",
+                    Numbered::object(i)
                 )));
             }
-            let t = recover_similarity(&so.mesh, &o.mesh, so.refs)
-                .ok_or_else(|| failed(&format!("object {i}: cannot recover its motion")))?;
+            let t = recover_similarity(&so.mesh, &o.mesh, so.refs).ok_or_else(|| {
+                failed(&format!(
+                    "{}: cannot recover its motion",
+                    Numbered::object(i)
+                ))
+            })?;
             let still = t.0.matrix3.abs_diff_eq(glam::Mat3A::IDENTITY, 1e-5)
                 && t.0.translation.abs().max_element() < 1e-6;
             if !so.dynamic && !still {
                 return Err(failed(&format!(
-                    "object {i} moved but was static at prepare (its shadows are baked); call prepare again"
+                    "{} moved but was static at prepare (its shadows are baked); call prepare again",
+                    Numbered::object(i)
                 )));
             }
             moved.push(t);
@@ -1284,7 +1290,8 @@ impl Relighter for ShExpMethod {
             let (albedo, lambert) = diffuse_albedo(o.brdf.as_ref());
             if !lambert {
                 warnings.push(format!(
-                    "shexp: object {i}: its BRDF is not Lambertian; shaded as diffuse with albedo ({:.2}, {:.2}, {:.2})",
+                    "shexp: {}: its BRDF is not Lambertian; shaded as diffuse with albedo ({:.2}, {:.2}, {:.2})",
+                    Numbered::object(i),
                     albedo.x, albedo.y, albedo.z
                 ));
             }

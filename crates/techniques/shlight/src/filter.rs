@@ -24,7 +24,7 @@
 
 use relight_ndf::{NdfBrdf, NdfFilter, NdfMethod, NdfOptions};
 use relight_render::method::{FrameRequest, MethodError, Relighter, Rendered};
-use relight_render::{Progress, Scene};
+use relight_render::{Numbered, Progress, Scene};
 
 /// The filtering mode of one prepared scene: the `ndf` shading of its
 /// filtered objects.
@@ -58,8 +58,9 @@ impl Filtered {
             match relight_ndf::colour_of(o.brdf.as_ref(), NdfBrdf::Lambert) {
                 Ok(_) => objects.push(i),
                 Err(_) => warnings.push(format!(
-                    "method sh: --normal-filter {} applies to Lambertian objects; object {i} keeps plain normal mapping",
-                    filter.name()
+                    "method sh: --normal-filter {} applies to Lambertian objects; {} keeps plain normal mapping",
+                    filter.name(),
+                    Numbered::object(i)
                 )),
             }
         }

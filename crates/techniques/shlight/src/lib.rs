@@ -92,9 +92,9 @@ pub use relight_render::NormalMap;
 pub use relight_sh::window::{ChosenWindow, WindowChoice};
 pub use verify::{ShVerifyRow, VerifyOptions, VerifyScene, verify_sh};
 
-use relight_render::Cancelled;
 use relight_render::raster::RasterError;
 use relight_render::reference::ReferenceError;
+use relight_render::{Cancelled, Numbered};
 use relight_sh::ShError;
 
 /// Largest SH order (bands) the renderer accepts: per-pixel buffers live on
@@ -119,7 +119,8 @@ pub enum ShLightError {
     Cancelled,
     /// A normal map was given but an object has no uvs or tangents.
     #[error(
-        "object {object}: a normal map needs per-vertex uvs and tangents, but the mesh has {uvs} uvs and {tangents} tangents for {vertices} vertices; load a mesh with texture coordinates (tangents are computed from them) or render without --normal-map"
+        "{}: a normal map needs per-vertex uvs and tangents, but the mesh has {uvs} uvs and {tangents} tangents for {vertices} vertices; load a mesh with texture coordinates (tangents are computed from them) or render without --normal-map",
+        Numbered::object(*.object)
     )]
     MissingUvs {
         object: usize,
@@ -129,7 +130,8 @@ pub enum ShLightError {
     },
     /// A mesh without one unit normal per vertex.
     #[error(
-        "object {object}: the mesh has {normals} normals for {vertices} vertices; repair it (relight-geom `validate_and_repair`) first"
+        "{}: the mesh has {normals} normals for {vertices} vertices; repair it (relight-geom `validate_and_repair`) first",
+        Numbered::object(*.object)
     )]
     MissingNormals {
         object: usize,
@@ -138,7 +140,8 @@ pub enum ShLightError {
     },
     /// The BRDF is not invariant under rotation about the normal.
     #[error(
-        "object {object}: its BRDF {brdf} is anisotropic (f changes by {deviation:.3} relative under rotation about the normal); SH shading bakes isotropic BRDFs only — use the reference or wavelet method"
+        "{}: its BRDF {brdf} is anisotropic (f changes by {deviation:.3} relative under rotation about the normal); SH shading bakes isotropic BRDFs only — use the reference or wavelet method",
+        Numbered::object(*.object)
     )]
     Anisotropic {
         object: usize,

@@ -36,7 +36,7 @@ use relight_ndf::NdfFilter;
 use relight_render::method::{
     FrameRequest, FrameWork, MethodError, Relighter, Rendered, SceneFeature, Support, check_scene,
 };
-use relight_render::{Image, Progress, Scene};
+use relight_render::{Image, Numbered, Progress, Scene};
 use relight_sh::rotation::ZyzRotation;
 use relight_sh::window::{ChosenWindow, WindowChoice};
 use std::borrow::Cow;
@@ -193,7 +193,8 @@ impl ShMethod {
             .filter(|(_, w)| w.change > LOBE_CHANGE_WARNING)
             .map(|(i, w)| {
                 format!(
-                    "sh: object {i}: order {} cannot represent this BRDF's lobe (it rings to {:.0} % of its peak below zero); the {} window changes it by {:.0} % — raise --order or use the wavelet method for sharp highlights",
+                    "sh: {}: order {} cannot represent this BRDF's lobe (it rings to {:.0} % of its peak below zero); the {} window changes it by {:.0} % — raise --order or use the wavelet method for sharp highlights",
+                    Numbered::object(i),
                     self.options.order,
                     -100.0 * w.raw_min_ratio,
                     w.applied,

@@ -64,7 +64,7 @@ use relight_render::method::{
     check_scene,
 };
 use relight_render::raster::Background;
-use relight_render::{Image, Progress, Scene, SceneBvh};
+use relight_render::{Image, Numbered, Progress, Scene, SceneBvh};
 use relight_sphere::{EnvMap, Frame};
 use relight_wavelet::WaveletError;
 use serde::Serialize;
@@ -822,13 +822,19 @@ impl Relighter for TripleMethod {
             if o.mesh.normals.len() != o.mesh.positions.len() {
                 return Err(invalid(
                     "scene",
-                    format!("object {i} has no vertex normals (one per vertex is needed)"),
+                    format!(
+                        "{} has no vertex normals (one per vertex is needed)",
+                        Numbered::object(i)
+                    ),
                 ));
             }
             if o.blend.is_some() && o.mesh.uvs.len() != o.mesh.positions.len() {
                 return Err(invalid(
                     "scene",
-                    format!("object {i} blends two BRDFs by a texture but has no uvs"),
+                    format!(
+                        "{} blends two BRDFs by a texture but has no uvs",
+                        Numbered::object(i)
+                    ),
                 ));
             }
             if o.normal_map.is_some()
@@ -837,7 +843,10 @@ impl Relighter for TripleMethod {
             {
                 return Err(invalid(
                     "scene",
-                    format!("object {i} has a normal map but no uvs and tangents per vertex"),
+                    format!(
+                        "{} has a normal map but no uvs and tangents per vertex",
+                        Numbered::object(i)
+                    ),
                 ));
             }
         }
@@ -877,17 +886,19 @@ impl Relighter for TripleMethod {
                 let c = crate::vis_texture::Charts::of(&o.mesh, res);
                 if c.is_none() {
                     self.warnings.push(format!(
-                        "triple: object {i} has no uvs and its {} triangles need a visibility \
+                        "triple: {} has no uvs and its {} triangles need a visibility \
                          texture of at least {} texels a side for one chart each: its \
                          visibility stays per vertex",
+                        Numbered::object(i),
                         o.mesh.indices.len(),
                         crate::vis_texture::MIN_CELL
                             * (o.mesh.indices.len() as f64).sqrt().ceil() as usize
                     ));
                 } else if o.mesh.uvs.len() != o.mesh.positions.len() {
                     self.warnings.push(format!(
-                        "triple: object {i} has no uvs: its visibility texture uses one packed \
-                         chart per triangle"
+                        "triple: {} has no uvs: its visibility texture uses one packed \
+                         chart per triangle",
+                        Numbered::object(i)
                     ));
                 }
                 c

@@ -42,7 +42,7 @@ use rayon::prelude::*;
 use relight_haar::{Ranking, SparseRgb, energy_fraction, top_k_rgb};
 use relight_render::cull::{ClosedMeshes, cull_for_closed};
 use relight_render::raster::{Background, DrawCall, NO_TRIANGLE, RasterOptions, Rasterizer};
-use relight_render::{Camera, Image, Scene};
+use relight_render::{Camera, Image, Numbered, Scene};
 use relight_sphere::EnvMap;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, PoisonError, RwLock, RwLockReadGuard};
@@ -366,7 +366,7 @@ impl WaveletRenderer {
                 return Err(bad(
                     "mesh normals",
                     o.mesh.normals.len(),
-                    format!("object {i} needs one normal per vertex"),
+                    format!("{} needs one normal per vertex", Numbered::object(i)),
                 ));
             }
         }
@@ -697,7 +697,7 @@ impl WaveletRenderer {
                 return Err(bad(
                     "ao",
                     a.len(),
-                    format!("object {i} needs one value per vertex ({n})"),
+                    format!("{} needs one value per vertex ({n})", Numbered::object(i)),
                 ));
             }
         }

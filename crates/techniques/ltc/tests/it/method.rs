@@ -30,7 +30,7 @@ fn refuses_what_it_cannot_render() {
         .unwrap()
         .build();
     let e = m.prepare(&phong, &NoProgress).unwrap_err().to_string();
-    assert!(e.contains("object 0's BRDF cannot be shaded"), "{e}");
+    assert!(e.contains("object 1's BRDF cannot be shaded"), "{e}");
     // No area light.
     let mut dark = scene.clone();
     dark.area_lights.clear();

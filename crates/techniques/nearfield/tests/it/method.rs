@@ -451,7 +451,7 @@ fn a_one_quad_floor_is_named_in_a_warning() {
     let w = prepare(1);
     assert!(
         w.iter()
-            .any(|w| w.contains("object 1's 4 vertices are about")
+            .any(|w| w.contains("object 2's 4 vertices are about")
                 && w.contains("shading is per vertex")),
         "{w:?}"
     );

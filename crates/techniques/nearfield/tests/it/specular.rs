@@ -558,7 +558,7 @@ fn narrow_lobes_are_warned() {
         .collect();
     assert_eq!(narrow.len(), 1, "{w:?}");
     assert!(
-        narrow[0].starts_with("method nearfield: object 0's"),
+        narrow[0].starts_with("method nearfield: object 1's"),
         "{}",
         narrow[0]
     );

@@ -77,7 +77,7 @@ fn filters_shade_lambertian_normal_maps_as_the_ndf_method() {
         let (m, f) = sh_frame(&s, filter);
         let w = m.warnings().join("\n");
         assert!(
-            w.contains("object 1 keeps plain normal mapping") && !w.contains("object 0 keeps"),
+            w.contains("object 2 keeps plain normal mapping") && !w.contains("object 1 keeps"),
             "{w}"
         );
         let mut alone = s.clone();

@@ -390,5 +390,5 @@ fn bad_options_and_requests_are_typed_errors() {
         .unwrap()
         .prepare(&no_uvs, &NoProgress)
         .unwrap_err();
-    assert!(err.to_string().contains("object 1"), "{err}");
+    assert!(err.to_string().contains("object 2:"), "{err}");
 }

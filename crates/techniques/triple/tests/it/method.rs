@@ -403,7 +403,7 @@ fn a_visibility_texture_shadows_a_two_triangle_floor() {
     let (small, w) = render(16);
     assert!(
         w.iter()
-            .any(|w| w.contains("object 0 has no uvs") && w.contains("stays per vertex")),
+            .any(|w| w.contains("object 1 has no uvs") && w.contains("stays per vertex")),
         "{w:?}"
     );
     let (packed, w) = render(512);
