@@ -54,26 +54,30 @@ impl ClosedMeshes {
     /// The bounds of `scene`'s closed meshes, object by object (examining
     /// the meshes not seen before, in parallel).
     pub fn of(&mut self, scene: &Scene) -> Vec<Option<Aabb>> {
+        let meshes: Vec<&Arc<Mesh>> = scene.objects.iter().map(|o| &o.mesh).collect();
+        self.of_meshes(&meshes)
+    }
+
+    /// [`Self::of`] for meshes a method draws in place of the scene's (a
+    /// coarse object's refined copy).
+    pub fn of_meshes(&mut self, meshes: &[&Arc<Mesh>]) -> Vec<Option<Aabb>> {
         if self.disabled {
-            return vec![None; scene.objects.len()];
+            return vec![None; meshes.len()];
         }
-        let same = self.meshes.len() == scene.objects.len()
+        let same = self.meshes.len() == meshes.len()
             && self
                 .meshes
                 .iter()
-                .zip(&scene.objects)
-                .all(|((m, _), o)| Arc::ptr_eq(m, &o.mesh));
+                .zip(meshes)
+                .all(|((m, _), o)| Arc::ptr_eq(m, o));
         if !same {
             let old = std::mem::take(&mut self.meshes);
-            self.meshes = scene
-                .objects
+            self.meshes = meshes
                 .par_iter()
-                .map(
-                    |o| match old.iter().find(|(m, _)| Arc::ptr_eq(m, &o.mesh)) {
-                        Some(&(_, closed)) => (o.mesh.clone(), closed),
-                        None => (o.mesh.clone(), closed_bounds(&o.mesh)),
-                    },
-                )
+                .map(|&o| match old.iter().find(|(m, _)| Arc::ptr_eq(m, o)) {
+                    Some(&(_, closed)) => (o.clone(), closed),
+                    None => (o.clone(), closed_bounds(o)),
+                })
                 .collect();
         }
         self.meshes.iter().map(|&(_, c)| c).collect()

@@ -19,6 +19,7 @@ pub mod raster;
 pub mod reference;
 pub mod sampling;
 pub mod scene;
+mod scene_coarse;
 mod scene_lighting;
 pub mod texture;
 pub mod verify_row;
@@ -36,9 +37,10 @@ pub use raster::{
     Background, CullMode, DrawCall, Fragment, GBuffer, RasterBenchRow, RasterError, RasterOptions,
     RasterStats, Rasterizer, VertexAttributes, bench_raster,
 };
-pub use scene::{
-    Animation, AreaLight, BrdfBlend, COARSE_SHARE_OF_BLOCKER, COARSE_SHARE_OF_SCENE, CoarseObject,
-    Keyframe, Medium, Object, PointLight, Scene,
+pub use scene::{Animation, AreaLight, BrdfBlend, Keyframe, Medium, Object, PointLight, Scene};
+pub use scene_coarse::{
+    COARSE_SHARE_OF_BLOCKER, COARSE_SHARE_OF_SCENE, CoarseObject, REFINED_MAX_VERTICES,
+    REFINED_SHARE_OF_LIMIT, RefinedObject,
 };
 pub use texture::{NormalMap, Texture, TextureError};
 pub use verify_row::VerifyRow;

@@ -10,7 +10,7 @@
 //! keep their buffers the same way inside their own renderers).
 
 use crate::cull::ClosedMeshes;
-use crate::method::{CoverageCache, FrameRequest, Rendered, same_meshes};
+use crate::method::{CoverageCache, FrameRequest, Rendered};
 use crate::raster::{DrawCall, RasterOptions, Rasterizer};
 use crate::{Camera, Image, RasterError, Scene};
 use relight_geom::Mesh;
@@ -52,15 +52,31 @@ impl ObjectRaster {
         scene: &'a Scene,
         request: &FrameRequest,
     ) -> Result<(Camera, Vec<DrawCall<'a>>), RasterError> {
+        let meshes: Vec<&'a Arc<Mesh>> = scene.objects.iter().map(|o| &o.mesh).collect();
+        self.draw_meshes(&meshes, request)
+    }
+
+    /// [`Self::draw`] for meshes a method shades in place of the scene's,
+    /// one per object (a coarse object's refined copy,
+    /// [`Scene::with_coarse_objects_refined`]).
+    ///
+    /// # Errors
+    /// As [`Self::draw`].
+    pub fn draw_meshes<'a>(
+        &mut self,
+        meshes: &[&'a Arc<Mesh>],
+        request: &FrameRequest,
+    ) -> Result<(Camera, Vec<DrawCall<'a>>), RasterError> {
         let mut camera = request.camera;
         camera.width *= request.aa;
         camera.height *= request.aa;
-        let draws = draws_of(scene, &mut self.closed, &camera);
-        let holds = self.held.as_ref().is_some_and(|(g, c, meshes)| {
+        let draws = draws_of(meshes, &mut self.closed, &camera);
+        let holds = self.held.as_ref().is_some_and(|(g, c, held)| {
             *g != 0
                 && *g == self.raster.generation()
                 && *c == camera
-                && same_meshes(meshes.iter(), scene)
+                && held.len() == meshes.len()
+                && held.iter().zip(meshes).all(|(h, m)| Arc::ptr_eq(h, m))
         });
         if !holds {
             self.held = None;
@@ -70,7 +86,7 @@ impl ObjectRaster {
             self.held = Some((
                 self.raster.generation(),
                 camera,
-                scene.objects.iter().map(|o| o.mesh.clone()).collect(),
+                meshes.iter().map(|&m| m.clone()).collect(),
             ));
         }
         Ok((camera, draws))
@@ -109,16 +125,19 @@ impl ObjectRaster {
     }
 }
 
-/// One draw call per object of `scene` (object id = index), back faces of
-/// closed meshes culled from outside them.
-fn draws_of<'a>(scene: &'a Scene, closed: &mut ClosedMeshes, camera: &Camera) -> Vec<DrawCall<'a>> {
-    scene
-        .objects
+/// One draw call per object (object id = index), back faces of closed
+/// meshes culled from outside them.
+fn draws_of<'a>(
+    meshes: &[&'a Arc<Mesh>],
+    closed: &mut ClosedMeshes,
+    camera: &Camera,
+) -> Vec<DrawCall<'a>> {
+    meshes
         .iter()
-        .zip(closed.of(scene))
+        .zip(closed.of_meshes(meshes))
         .enumerate()
-        .map(|(i, (o, closed))| {
-            DrawCall::new(&o.mesh.positions, &o.mesh.indices)
+        .map(|(i, (&m, closed))| {
+            DrawCall::new(&m.positions, &m.indices)
                 .with_object_id(i as u32)
                 .with_cull(crate::cull::cull_for_closed(closed.as_ref(), camera.eye))
         })

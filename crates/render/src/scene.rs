@@ -18,9 +18,9 @@
 //!   `I / d²` irradiance at normal incidence); an area light's radiance is
 //!   `texture(uv) × intensity`.
 
+use crate::Camera;
 use crate::light_field::LightField;
 use crate::texture::{NormalMap, Texture};
-use crate::{Camera, Numbered};
 use glam::{Affine3A, Mat3, Quat, Vec2, Vec3};
 use relight_brdf::Brdf;
 use relight_geom::Mesh;
@@ -371,134 +371,7 @@ pub struct Scene {
     pub camera: Camera,
 }
 
-/// [`Scene::coarse_objects`]' limits: an object's vertex spacing may be at
-/// most this share of the scene's diagonal …
-pub const COARSE_SHARE_OF_SCENE: f32 = 1.0 / 8.0;
-/// … and, where another object stands, at most this share of that object's
-/// size (its box diagonal), about the size of its shadow.
-pub const COARSE_SHARE_OF_BLOCKER: f32 = 0.5;
-
-/// An object whose vertices are far apart for the scene's size
-/// ([`Scene::coarse_objects`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CoarseObject {
-    /// Its index in [`Scene::objects`].
-    pub object: usize,
-    /// Its vertex count.
-    pub vertices: usize,
-    /// World units: about how far apart its vertices are, overall or
-    /// under `near`.
-    pub spacing: f32,
-    /// The object whose shadow its vertices are too far apart to hold
-    /// (`None`: too far apart overall).
-    pub near: Option<usize>,
-}
-
-impl CoarseObject {
-    /// "object I's V vertices are about S apart[ under object J]", numbered
-    /// from 1 ([`Numbered`]).
-    #[must_use]
-    pub fn describe(&self) -> String {
-        let under = self
-            .near
-            .map_or(String::new(), |j| format!(" under {}", Numbered::object(j)));
-        format!(
-            "{}'s {} vertices are about {:.2} apart{under}",
-            Numbered::object(self.object),
-            self.vertices,
-            self.spacing
-        )
-    }
-}
-
 impl Scene {
-    /// Objects whose vertices are too far apart to hold what falls on them
-    /// (a ground quad has four), either
-    /// - overall: `√(area / vertices)` over [`COARSE_SHARE_OF_SCENE`] of
-    ///   the scene's diagonal (the light's pool falls between them), or
-    /// - near another object, where its shadow falls: `√(2 ā)`, `ā` the
-    ///   mean area of the triangles whose centroids lie within that object's
-    ///   size `d` (its box diagonal) of its box centre (else the nearest
-    ///   triangle's), over [`COARSE_SHARE_OF_BLOCKER`] × `d`, so that the
-    ///   shadow spans under two vertex spacings. A floor graded towards the
-    ///   objects is judged where they stand.
-    ///
-    /// A method that samples visibility or shading per vertex says so.
-    #[must_use]
-    pub fn coarse_objects(&self) -> Vec<CoarseObject> {
-        let bounds: Vec<Option<relight_geom::Aabb>> =
-            self.objects.iter().map(|o| o.mesh.bounds()).collect();
-        let diagonal = bounds
-            .iter()
-            .flatten()
-            .copied()
-            .reduce(|a, b| relight_geom::Aabb {
-                min: a.min.min(b.min),
-                max: a.max.max(b.max),
-            })
-            .map_or(0.0, |b| b.extent().length());
-        let mut out = Vec::new();
-        for (object, o) in self.objects.iter().enumerate() {
-            let m = &o.mesh;
-            let vertices = m.positions.len().max(1);
-            let spacing = (m.area() / vertices as f64).sqrt() as f32;
-            if spacing > COARSE_SHARE_OF_SCENE * diagonal {
-                out.push(CoarseObject {
-                    object,
-                    vertices,
-                    spacing,
-                    near: None,
-                });
-                continue;
-            }
-            // Each triangle's centroid and area, once for every other object.
-            let triangles: Vec<(Vec3, f64)> = m
-                .indices
-                .iter()
-                .map(|t| {
-                    let [p, q, r] = t.map(|i| m.positions[i as usize]);
-                    (
-                        (p + q + r) / 3.0,
-                        0.5 * f64::from((q - p).cross(r - p).length()),
-                    )
-                })
-                .collect();
-            for (j, b) in bounds.iter().enumerate() {
-                let Some(b) = b.filter(|_| j != object) else {
-                    continue;
-                };
-                let (c, d) = (b.center(), b.extent().length());
-                // Mean triangle area within `d` of `c`, else the nearest's.
-                let (mut sum, mut count, mut nearest) = (0.0f64, 0usize, (f32::INFINITY, 0.0f64));
-                for &(centroid, area) in &triangles {
-                    let dist = centroid.distance(c);
-                    if dist <= d {
-                        sum += area;
-                        count += 1;
-                    } else if dist < nearest.0 {
-                        nearest = (dist, area);
-                    }
-                }
-                let mean = if count > 0 {
-                    sum / count as f64
-                } else {
-                    nearest.1
-                };
-                let local = (2.0 * mean).sqrt() as f32;
-                if d > 0.0 && local > COARSE_SHARE_OF_BLOCKER * d {
-                    out.push(CoarseObject {
-                        object,
-                        vertices,
-                        spacing: local,
-                        near: Some(j),
-                    });
-                    break;
-                }
-            }
-        }
-        out
-    }
-
     /// Objects under an environment, nothing else (no lights, medium or
     /// shadows; the environment unrotated).
     #[must_use]
@@ -563,77 +436,6 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_ground_quad_is_coarse_and_a_grid_is_not() {
-        let brdf: Arc<dyn Brdf> = Arc::new(relight_brdf::Lambert::new(Vec3::splat(0.5)).unwrap());
-        let object = |m: Mesh| Object::new(Arc::new(m), brdf.clone());
-        let sphere = relight_geom::shapes::uv_sphere(0.5, 32, 16);
-        let scene = |ground: Mesh| {
-            Scene::new(
-                vec![object(ground), object(sphere.clone())],
-                EnvMap::from_fn(
-                    relight_sphere::Param::LatLong {
-                        width: 8,
-                        height: 4,
-                    },
-                    |_| Vec3::ONE,
-                ),
-                Camera {
-                    eye: Vec3::new(0.0, 1.0, 4.0),
-                    target: Vec3::ZERO,
-                    up: Vec3::Y,
-                    vfov_deg: 45.0,
-                    width: 16,
-                    height: 9,
-                    image_offset: glam::Vec2::ZERO,
-                },
-            )
-        };
-        // A 4 × 4 quad: four vertices two apart, in a scene about 5.7 across.
-        let c = scene(relight_geom::shapes::plane(4.0, 1)).coarse_objects();
-        assert_eq!(c.len(), 1, "{c:?}");
-        assert_eq!((c[0].object, c[0].vertices), (0, 4));
-        assert!((c[0].spacing - 2.0).abs() < 1e-5, "{c:?}");
-        assert!(
-            c[0].describe()
-                .contains("object 1's 4 vertices are about 2.00 apart")
-        );
-        // The same floor as 64 × 64 quads, and the sphere, pass; 8 × 8 quads
-        // (0.44 apart) hold the unit sphere's shadow, 4 × 4 (0.8) do not.
-        let coarse = |n: usize| scene(relight_geom::shapes::plane(4.0, n)).coarse_objects();
-        assert!(coarse(64).is_empty());
-        assert!(coarse(8).is_empty());
-        assert_eq!(coarse(4).len(), 1);
-        // A floor fine under the sphere and coarse far away (the default
-        // scene's is graded so): its mean spacing (over 1) would fail, the
-        // spacing where the shadow falls (0.03) passes.
-        let mut graded = relight_geom::shapes::plane(2.0, 64);
-        let far = Mesh::try_from_triangles(
-            vec![
-                Vec3::new(50.0, 0.0, 50.0),
-                Vec3::new(150.0, 0.0, 50.0),
-                Vec3::new(50.0, 0.0, -150.0),
-            ],
-            vec![[0, 2, 1]],
-        )
-        .unwrap();
-        graded.merge(&far);
-        let mean = (graded.area() / graded.positions.len() as f64).sqrt();
-        assert!(mean > 1.0, "{mean}");
-        assert!(scene(graded).coarse_objects().is_empty());
-        // A quad under the sphere and a fine grid far away: fine on average,
-        // coarse where the shadow falls.
-        let mut quad = relight_geom::shapes::plane(4.0, 1);
-        quad.merge(
-            &relight_geom::shapes::plane(2.0, 64)
-                .transformed(glam::Affine3A::from_translation(Vec3::new(50.0, 0.0, 50.0))),
-        );
-        let c = scene(quad).coarse_objects();
-        assert_eq!(c.len(), 1, "{c:?}");
-        assert_eq!(c[0].near, Some(1), "{c:?}");
-        assert!(c[0].describe().ends_with("apart under object 2"), "{c:?}");
-    }
 
     #[test]
     fn animation_interpolates_and_holds() {

@@ -465,13 +465,15 @@ fn info_describes_a_scene_file_and_its_methods() {
     ]);
     assert_clean_error(&out, "its BRDF phong:20 is not lambert");
     // A ground quad under a sphere is named as too coarse for per-vertex
-    // shadows (`Scene::coarse_objects`); the sphere is not.
+    // shadows (`Scene::coarse_objects`: its two triangles are √(2 · 8) = 4
+    // across where the sphere, 1.7 across, casts its shadow); the sphere is
+    // not.
     let text = info_of(
         &tmp("info-quad.toml"),
         "[[object]]\nbuiltin = \"ground\"\n[[object]]\nbuiltin = \"sphere\"\nscale = 0.5\ntranslate = [0.0, 0.6, 0.0]\n",
     );
     assert!(
-        line_of(&text, "object 1:").contains("vertices about 2.00 apart"),
+        line_of(&text, "object 1:").contains("vertices about 4.00 apart under object 2"),
         "{text}"
     );
     assert!(!line_of(&text, "object 2:").contains("apart"), "{text}");

@@ -196,15 +196,23 @@ impl Mesh {
 
     /// One step of midpoint subdivision: every triangle split into four at its
     /// edge midpoints, the new vertex normal the renormalized mean of the edge's
-    /// two normals (uvs and tangents dropped). The surface is unchanged, and the
-    /// shading-normal field (barycentric blend of vertex normals, normalized —
-    /// what the reference renderer shades with) is unchanged up to the
-    /// renormalization of the new normals (second order in the angle between
-    /// neighbouring normals). A mesh without one normal per vertex gets none.
+    /// two normals, its uv the mean of theirs, its tangent the renormalized
+    /// mean of theirs with the first end's handedness. The surface is
+    /// unchanged, and the shading-normal field (barycentric blend of vertex
+    /// normals, normalized — what the reference renderer shades with) is
+    /// unchanged up to the renormalization of the new normals (second order
+    /// in the angle between neighbouring normals); uvs, affine over each
+    /// triangle, are exact. A mesh without one normal (uv, tangent) per
+    /// vertex gets none.
     #[must_use]
     pub fn subdivide_midpoint(&self) -> Mesh {
         let mesh = self;
-        let has_n = mesh.normals.len() == mesh.positions.len();
+        let every = |len: usize| len == mesh.positions.len();
+        let (has_n, has_uv, has_t) = (
+            every(mesh.normals.len()),
+            every(mesh.uvs.len()),
+            every(mesh.tangents.len()),
+        );
         let mut out = Mesh {
             positions: mesh.positions.clone(),
             normals: if has_n {
@@ -212,8 +220,13 @@ impl Mesh {
             } else {
                 Vec::new()
             },
+            uvs: if has_uv { mesh.uvs.clone() } else { Vec::new() },
+            tangents: if has_t {
+                mesh.tangents.clone()
+            } else {
+                Vec::new()
+            },
             indices: Vec::with_capacity(mesh.indices.len() * 4),
-            ..Mesh::default()
         };
         let mut mid: HashMap<(u32, u32), u32> = HashMap::with_capacity(mesh.indices.len() * 2);
         let mut edge = |a: u32, b: u32, out: &mut Mesh| -> u32 {
@@ -224,6 +237,14 @@ impl Mesh {
                 if has_n {
                     let (na, nb) = (mesh.normals[a], mesh.normals[b]);
                     out.normals.push((na + nb).normalize_or(na));
+                }
+                if has_uv {
+                    out.uvs.push(0.5 * (mesh.uvs[a] + mesh.uvs[b]));
+                }
+                if has_t {
+                    let (ta, tb) = (mesh.tangents[a], mesh.tangents[b]);
+                    let xyz = (ta.truncate() + tb.truncate()).normalize_or(ta.truncate());
+                    out.tangents.push(xyz.extend(ta.w));
                 }
                 (out.positions.len() - 1) as u32
             })
@@ -443,6 +464,53 @@ mod tests {
         }
         assert!(s.normals.iter().all(|x| x.abs_diff_eq(n, 1e-5)));
         assert_eq!(s.tangents.len(), s.vertex_count());
+    }
+
+    #[test]
+    fn midpoint_subdivision_carries_uvs_and_tangents() {
+        // A tilted, curved-normal patch: uvs are affine in the grid, so the
+        // midpoints' uvs are the exact uvs of their positions.
+        let mut m = shapes::plane(2.0, 3);
+        m.transform(glam::Affine3A::from_rotation_z(0.3));
+        let (p0, n0) = (m.positions[0], m.normals[0]);
+        let uv_at = |p: Vec3, m: &Mesh| {
+            // Solve for the affine map from the first triangle.
+            let [a, b, c] = m.indices[0].map(|i| i as usize);
+            let (e1, e2) = (
+                m.positions[b] - m.positions[a],
+                m.positions[c] - m.positions[a],
+            );
+            let d = p - m.positions[a];
+            let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            let det = d11 * d22 - d12 * d12;
+            let (x, y) = (
+                (d22 * d.dot(e1) - d12 * d.dot(e2)) / det,
+                (d11 * d.dot(e2) - d12 * d.dot(e1)) / det,
+            );
+            m.uvs[a] + x * (m.uvs[b] - m.uvs[a]) + y * (m.uvs[c] - m.uvs[a])
+        };
+        let s = m.subdivide_midpoint().subdivide_midpoint();
+        assert_eq!(s.vertex_count(), 13 * 13);
+        assert_eq!(
+            (s.uvs.len(), s.tangents.len()),
+            (s.vertex_count(), s.vertex_count())
+        );
+        for (i, p) in s.positions.iter().enumerate() {
+            assert!((*p - p0).dot(n0).abs() < 1e-5, "{p}");
+            assert!(
+                s.uvs[i].abs_diff_eq(uv_at(*p, &m), 1e-5),
+                "{i}: {}",
+                s.uvs[i]
+            );
+            assert!(s.tangents[i].abs_diff_eq(m.tangents[0], 1e-5), "{i}");
+        }
+        // Without uvs and tangents the result has none.
+        let mut bare = m.clone();
+        bare.uvs.clear();
+        bare.tangents.clear();
+        let s = bare.subdivide_midpoint();
+        assert!(s.uvs.is_empty() && s.tangents.is_empty());
+        assert_eq!(s.normals.len(), s.vertex_count());
     }
 
     #[test]

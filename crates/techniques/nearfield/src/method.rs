@@ -112,6 +112,10 @@ pub struct NearfieldOptions {
     /// library touches no disk unless asked; the CLI sets `--cache`, else
     /// [`crate::cache::default_cache_dir`], `$RELIGHT_CACHE/nearfield`, …).
     pub cache_dir: Option<PathBuf>,
+    /// Shade objects too coarse for per-vertex shading (a ground quad) on
+    /// a refined copy ([`Scene::with_coarse_objects_refined`], with a
+    /// warning); off: warn only. Default on.
+    pub refine_coarse: bool,
 }
 
 impl Default for NearfieldOptions {
@@ -124,13 +128,18 @@ impl Default for NearfieldOptions {
             source_ranking: Ranking::AreaWeighted,
             target_terms: 0.20,
             cache_dir: None,
+            refine_coarse: true,
         }
     }
 }
 
 /// One object's data, the same for every light.
 struct Prepared {
+    /// The mesh shaded: the scene's, or a coarse object's refined copy
+    /// ([`Scene::with_coarse_objects_refined`]).
     mesh: Arc<Mesh>,
+    /// The scene's mesh, which later calls must still have.
+    source: Arc<Mesh>,
     /// How it is shaded ([`crate::specular::object_kind`]).
     kind: ObjectKind,
     /// The factor × π of the transport dot product: the albedo (Lambertian;
@@ -350,7 +359,7 @@ impl NearfieldMethod {
     /// another number of lights, or a light whose normal changed.
     fn lighting_plan(&self, scene: &Scene) -> Option<Vec<(usize, Option<InPlane>)>> {
         let same_objects =
-            relight_render::method::same_meshes(self.objects.iter().map(|p| &p.mesh), scene);
+            relight_render::method::same_meshes(self.objects.iter().map(|p| &p.source), scene);
         if self.planes.is_empty()
             || !same_objects
             || self.baked_visibility != scene.visibility
@@ -569,10 +578,18 @@ impl NearfieldMethod {
         self.view_is_baked
     }
 
-    /// The per-vertex colours of the last lighting change.
+    /// The per-vertex colours of the last lighting change, per vertex of
+    /// [`NearfieldMethod::shaded_meshes`].
     #[must_use]
     pub fn vertex_colors(&self) -> &[Vec<Vec3>] {
         &self.colors
+    }
+
+    /// The meshes shaded, one per object: the scene's, or a coarse
+    /// object's refined copy ([`Scene::with_coarse_objects_refined`]).
+    #[must_use]
+    pub fn shaded_meshes(&self) -> Vec<&Arc<Mesh>> {
+        self.objects.iter().map(|p| &p.mesh).collect()
     }
 
     /// Replaces the per-vertex colours the next `render` draws (verify
@@ -625,10 +642,20 @@ impl NearfieldMethod {
     /// fixed-view ones are baked again (a camera change).
     fn bake_with(
         &mut self,
-        scene: &Scene,
+        given: &Scene,
         progress: &dyn Progress,
         keep_lambertian: bool,
     ) -> Result<(), MethodError> {
+        // Per-vertex (Gouraud) shading on a ground quad would show neither
+        // the light's pool nor the shadows: such objects are shaded on a
+        // refined copy, and said; one the vertex cap leaves coarse is warned
+        // about as it is.
+        let (refined_scene, refined, still) = if self.options.refine_coarse {
+            given.with_coarse_objects_refined()
+        } else {
+            (Cow::Borrowed(given), Vec::new(), given.coarse_objects())
+        };
+        let scene = &refined_scene;
         let lights = the_lights(scene)?;
         let plane_of = planes_of(lights);
         let mut frames: Vec<LightFrame> = Vec::new();
@@ -640,9 +667,13 @@ impl NearfieldMethod {
         let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
         let (n, face) = (self.options.order, self.options.face);
         self.warnings.clear();
-        // Per-vertex (Gouraud) shading on a ground quad shows neither the
-        // light's pool nor the shadows: said, not silently drawn.
-        for c in scene.coarse_objects() {
+        for r in &refined {
+            self.warnings.push(format!(
+                "method nearfield: shading is per vertex, and {}",
+                r.describe()
+            ));
+        }
+        for c in &still {
             self.warnings.push(format!(
                 "method nearfield: shading is per vertex, and {}: the light and shadows between \
                  them are lost; give it a finer mesh (`builtin = \"ground-grid\"` for a floor)",
@@ -798,7 +829,7 @@ impl NearfieldMethod {
         }
         let loaded = !any_baked;
         let mut objects = Vec::with_capacity(meshes.len());
-        for (o, kind) in scene.objects.iter().zip(&kinds) {
+        for ((o, kind), source) in scene.objects.iter().zip(&kinds).zip(&given.objects) {
             let m = &o.mesh;
             let pi = std::f32::consts::PI;
             let (albedo, albedos) = match *kind {
@@ -819,6 +850,7 @@ impl NearfieldMethod {
             };
             objects.push(Prepared {
                 mesh: m.clone(),
+                source: source.mesh.clone(),
                 kind: *kind,
                 albedo,
                 albedos,
@@ -1133,7 +1165,8 @@ impl Relighter for NearfieldMethod {
     ) -> Result<Rendered, MethodError> {
         request.validate(NEARFIELD_METHOD_NAME)?;
         let t0 = Instant::now();
-        let same = relight_render::method::same_meshes(self.objects.iter().map(|p| &p.mesh), scene);
+        let same =
+            relight_render::method::same_meshes(self.objects.iter().map(|p| &p.source), scene);
         if !same || self.colors.len() != self.objects.len() {
             return Err(invalid(
                 "scene",
@@ -1143,9 +1176,11 @@ impl Relighter for NearfieldMethod {
         progress.check()?;
         self.view_is_baked = self.baked_eye.is_none_or(|e| e == request.camera.eye);
         let k = request.aa;
+        // The shaded meshes: a coarse object's refined copy, not the scene's.
+        let meshes: Vec<&Arc<Mesh>> = self.objects.iter().map(|p| &p.mesh).collect();
         let (_, draws) = self
             .view
-            .draw(scene, request)
+            .draw_meshes(&meshes, request)
             .map_err(|e| invalid("raster", e))?;
         let refs: Vec<&[Vec3]> = self.colors.iter().map(|c| &c[..]).collect();
         self.view

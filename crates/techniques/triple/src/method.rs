@@ -153,6 +153,11 @@ pub struct TripleOptions {
     /// ([`crate::vis_texture`]); 0 keeps visibility per vertex. Objects
     /// without uvs stay per vertex (with a warning). Default 0.
     pub visibility_texture: usize,
+    /// Without a visibility texture, shade objects too coarse for
+    /// per-vertex visibility (a ground quad) on a refined copy
+    /// ([`Scene::with_coarse_objects_refined`], with a warning); off: warn
+    /// only (verify's Fig. 6 row shows the coarse floor as given). Default on.
+    pub refine_coarse: bool,
 }
 
 impl Default for TripleOptions {
@@ -169,6 +174,7 @@ impl Default for TripleOptions {
             cache_dir: cache::default_cache_dir(),
             storage: Storage::Compact,
             visibility_texture: 0,
+            refine_coarse: true,
         }
     }
 }
@@ -183,7 +189,11 @@ impl TripleOptions {
 
 /// One object's prepared data.
 struct Prepared {
+    /// The mesh shaded: the scene's, or a coarse object's refined copy
+    /// ([`Scene::with_coarse_objects_refined`]).
     mesh: Arc<Mesh>,
+    /// The scene's mesh, which later calls must still have.
+    source: Arc<Mesh>,
     brdf: Arc<BrdfTable>,
     /// The spatially varying blend: the second BRDF's table and the weight.
     blend: Option<(Arc<BrdfTable>, relight_render::BrdfBlend)>,
@@ -858,17 +868,33 @@ impl Relighter for TripleMethod {
                     .into(),
             );
         }
+        // Per-vertex visibility on a ground quad loses every shadow: without
+        // a visibility texture, such objects are shaded on a refined copy
+        // (and said); with one, an object it cannot cover is warned about
+        // below.
+        let given = scene;
+        let (refined_scene, refined, coarse) = if !scene.visibility {
+            (Cow::Borrowed(scene), Vec::new(), Vec::new())
+        } else if self.options.visibility_texture == 0 && self.options.refine_coarse {
+            scene.with_coarse_objects_refined()
+        } else {
+            (Cow::Borrowed(scene), Vec::new(), scene.coarse_objects())
+        };
+        let scene: &Scene = &refined_scene;
+        for r in &refined {
+            self.warnings.push(format!(
+                "triple: visibility is sampled per vertex, and {}",
+                r.describe()
+            ));
+        }
         let meshes: Vec<&Mesh> = scene.objects.iter().map(|o| o.mesh.as_ref()).collect();
         let scene_key: Vec<u64> = meshes
             .iter()
             .map(|m| hash_parts(&[bytemuck::cast_slice(&mesh_bytes(m))]))
             .collect();
-        let coarse = if scene.visibility {
-            scene.coarse_objects()
-        } else {
-            Vec::new()
-        };
         let mut bvh: Option<SceneBvh> = None;
+        let same_scene =
+            relight_render::method::same_meshes(self.objects.iter().map(|p| &p.source), given);
         let mut objects = Vec::with_capacity(scene.objects.len());
         for (i, o) in scene.objects.iter().enumerate() {
             let brdf = self.brdf_table(o.brdf.as_ref(), progress)?;
@@ -876,11 +902,13 @@ impl Relighter for TripleMethod {
                 Some(b) => Some((self.brdf_table(b.second.as_ref(), progress)?, b.clone())),
                 None => None,
             };
-            // Keep visibility already held for the same mesh and scene.
+            // Keep visibility already held for the same meshes (all of
+            // them: the others cast its shadows; the same scene meshes
+            // refine to the same copies).
             let held = self
                 .objects
                 .get(i)
-                .filter(|p| Arc::ptr_eq(&p.mesh, &o.mesh) && p.vis.is_some() == scene.visibility);
+                .filter(|p| same_scene && p.vis.is_some() == scene.visibility);
             let res = self.options.visibility_texture;
             let charts = if res > 0 && scene.visibility {
                 let c = crate::vis_texture::Charts::of(&o.mesh, res);
@@ -922,9 +950,7 @@ impl Relighter for TripleMethod {
             }
             let vis = if !scene.visibility {
                 None
-            } else if let Some(p) =
-                held.filter(|p| self.objects.len() == scene.objects.len() && p.vis_res == vis_res)
-            {
+            } else if let Some(p) = held.filter(|p| p.vis_res == vis_res) {
                 p.vis.clone()
             } else {
                 let stride = crate::lighting::padded_cells(self.m);
@@ -967,6 +993,7 @@ impl Relighter for TripleMethod {
             };
             objects.push(Prepared {
                 mesh: o.mesh.clone(),
+                source: given.objects[i].mesh.clone(),
                 brdf,
                 blend,
                 vis_sparse: match (&vis, self.options.selection) {
@@ -1058,7 +1085,8 @@ impl Relighter for TripleMethod {
     ) -> Result<Rendered, MethodError> {
         request.validate(TRIPLE_METHOD_NAME)?;
         let t0 = Instant::now();
-        let same = relight_render::method::same_meshes(self.objects.iter().map(|p| &p.mesh), scene);
+        let same =
+            relight_render::method::same_meshes(self.objects.iter().map(|p| &p.source), scene);
         if !same {
             return Err(stale(
                 "the objects changed since `prepare`; call prepare again",
@@ -1070,9 +1098,11 @@ impl Relighter for TripleMethod {
             .ok_or_else(|| stale("call prepare before render"))?;
         progress.check()?;
         let k = request.aa;
+        // The shaded meshes: a coarse object's refined copy, not the scene's.
+        let meshes: Vec<&Arc<Mesh>> = self.objects.iter().map(|p| &p.mesh).collect();
         let (camera, draws) = self
             .view
-            .draw(scene, request)
+            .draw_meshes(&meshes, request)
             .map_err(|e| invalid("raster", e))?;
         let env = &scene.env;
         let env_from_world = scene.world_from_env.transpose();

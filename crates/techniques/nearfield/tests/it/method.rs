@@ -11,7 +11,7 @@ use relight_nearfield::scenes::floor_and_sphere;
 use relight_nearfield::transport::{TransportScratch, cell_cosines};
 use relight_nearfield::verify::{face_quadrature, one_vertex_error};
 use relight_nearfield::{NearfieldMethod, NearfieldOptions};
-use relight_render::method::{MethodError, Relighter};
+use relight_render::method::{FrameRequest, MethodError, Relighter, render_frame};
 use relight_render::{NoProgress, Scene};
 
 fn small(vis: bool) -> Scene {
@@ -438,23 +438,75 @@ fn target_mask_matches_brute_force_on_random_footprints() {
 }
 
 /// A floor of one quad under the light: its four vertices cannot show the
-/// light's pool or the sphere's shadow, and `prepare` says so; the 9² floor
-/// of the other tests passes.
+/// light's pool or the sphere's shadow, so `prepare` shades a refined copy
+/// and says so. The copy's vertex colours equal those of the same floor
+/// built as a grid of that size, vertex by vertex (matched by position);
+/// the 9² floor of the other tests is left alone.
 #[test]
-fn a_one_quad_floor_is_named_in_a_warning() {
+fn a_one_quad_floor_is_shaded_refined_and_named_in_a_warning() {
     let prepare = |floor: usize| {
         let s = floor_and_sphere(floor, 8, 32, 24, true);
         let mut m = NearfieldMethod::new(NearfieldOptions { order: 8, ..full() }).unwrap();
         m.prepare(&s, &NoProgress).unwrap();
-        m.warnings()
+        (s, m)
     };
-    let w = prepare(1);
+    let (quad_scene, mut quad) = prepare(1);
+    let w = quad.warnings();
+    let refined = quad.shaded_meshes()[1].clone();
+    let side = (refined.positions.len() as f64).sqrt() as usize;
+    assert_eq!(side * side, refined.positions.len(), "a square grid");
+    assert!(side > 9, "{side}");
     assert!(
-        w.iter()
-            .any(|w| w.contains("object 2's 4 vertices are about")
-                && w.contains("shading is per vertex")),
+        w.iter().any(|w| w.contains("shading is per vertex")
+            && w.contains("object 2's 4 vertices are about")
+            && w.contains(&format!("refined to {} vertices", side * side))),
         "{w:?}"
     );
-    let w = prepare(8);
-    assert!(!w.iter().any(|w| w.contains("vertices are about")), "{w:?}");
+    let (grid_scene, mut grid) = prepare(side - 1);
+    assert_eq!(grid.shaded_meshes()[1].positions.len(), side * side);
+    let key = |p: Vec3| (p * 1e4).round().to_array().map(|x| x as i64);
+    let at: std::collections::HashMap<[i64; 3], usize> = grid.shaded_meshes()[1]
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (key(*p), i))
+        .collect();
+    let (mut lo, mut hi) = (f32::MAX, 0.0f32);
+    for (v, p) in refined.positions.iter().enumerate() {
+        let got = quad.vertex_colors()[1][v];
+        let want = grid.vertex_colors()[1][at[&key(*p)]];
+        assert!(
+            (got - want).abs().max_element() <= 1e-4 * want.max_element().max(1e-3),
+            "vertex {v} at {p}: {got} vs {want}"
+        );
+        lo = lo.min(got.max_element());
+        hi = hi.max(got.max_element());
+    }
+    // The light's pool and the sphere's shadow are on the vertices now.
+    assert!(hi > 0.0 && lo < 0.5 * hi, "floor from {lo} to {hi}");
+    // The frame draws the refined copy: the image is the grid floor's, up
+    // to the quads' diagonals (the two meshes split them alike or not).
+    let frame = |m: &mut NearfieldMethod, s: &relight_render::Scene| {
+        render_frame(m, s, &FrameRequest::new(s.camera), &NoProgress)
+            .unwrap()
+            .image
+    };
+    let (a, b) = (frame(&mut quad, &quad_scene), frame(&mut grid, &grid_scene));
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        num += f64::from((*p - *q).length_squared());
+        den += f64::from(q.length_squared());
+    }
+    let e = (num / den).sqrt();
+    assert!(e < 1e-4, "refined quad vs grid floor: relative RMS {e}");
+    let (_, fine) = prepare(8);
+    assert!(
+        !fine
+            .warnings()
+            .iter()
+            .any(|w| w.contains("vertices are about")),
+        "{:?}",
+        fine.warnings()
+    );
+    assert_eq!(fine.shaded_meshes()[1].positions.len(), 81);
 }
