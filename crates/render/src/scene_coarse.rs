@@ -41,9 +41,11 @@ pub const COARSE_SHARE_OF_BLOCKER: f32 = 0.5;
 /// most this share of the limit it failed: under a unit-size blocker,
 /// vertices 1/16 apart, eight across its shadow.
 pub const REFINED_SHARE_OF_LIMIT: f32 = 1.0 / 8.0;
-/// … and stops before an object passes this many vertices (about a 128 ×
-/// 128-quad floor's 16,641): beyond it a finer mesh is the scene's job.
-pub const REFINED_MAX_VERTICES: usize = 20_000;
+/// … and stops before an object passes this many vertices (a 64 × 64-quad
+/// floor has 4,225): the per-vertex bakes grow with them (triple's
+/// visibility is 5,120 rays a vertex), and beyond it a finer mesh, or
+/// triple's visibility texture, is the scene's choice to make.
+pub const REFINED_MAX_VERTICES: usize = 5_000;
 
 /// An object whose vertices are far apart for the scene's size
 /// ([`Scene::coarse_objects`]).
