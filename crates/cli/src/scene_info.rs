@@ -51,7 +51,7 @@ pub fn describe(path: &Path, scene: &Scene) -> String {
                 .near
                 .map_or(String::new(), |j| format!(" under {}", Numbered::object(j)));
             extras.push(format!(
-                "vertices about {:.2} apart{under}: too coarse for per-vertex shadows (triple and nearfield shade a refined copy; wavelet --ao misses them)",
+                "vertices about {:.2} apart{under}: too coarse for per-vertex shadows (triple, nearfield and wavelet --ao shade a refined copy)",
                 c.spacing
             ));
         }

@@ -76,6 +76,11 @@ pub struct WaveletOptions {
     pub normal_interp: NormalInterp,
     /// Where baked data is cached. Default [`default_cache_dir`].
     pub cache_dir: PathBuf,
+    /// With `ao`, shade objects too coarse for per-vertex occlusion (a
+    /// ground quad) on a refined copy
+    /// ([`relight_render::Scene::with_coarse_objects_refined`], with a
+    /// warning); off: warn only. Default on.
+    pub refine_coarse: bool,
 }
 
 impl Default for WaveletOptions {
@@ -91,6 +96,7 @@ impl Default for WaveletOptions {
             brdf_terms: 128,
             normal_interp: NormalInterp::default(),
             cache_dir: default_cache_dir(),
+            refine_coarse: true,
         }
     }
 }
@@ -128,6 +134,9 @@ pub struct WaveletMethod {
     bakes: Vec<Arc<BrdfBake>>,
     /// The prepared scene: its meshes and one bake per object.
     meshes: Vec<Arc<Mesh>>,
+    /// The meshes shaded and drawn: `meshes`, or with `ao` a coarse
+    /// object's refined copy; and whether they were refined.
+    shaded: (Vec<Arc<Mesh>>, bool),
     object_bakes: Vec<Arc<BrdfBake>>,
     ao: Option<AoCache>,
     raster: Rasterizer,
@@ -211,6 +220,7 @@ impl WaveletMethod {
             renderer: None,
             bakes: Vec::new(),
             meshes: Vec::new(),
+            shaded: (Vec::new(), false),
             object_bakes: Vec::new(),
             ao: None,
             raster: Rasterizer::new(),
@@ -340,15 +350,39 @@ impl Relighter for WaveletMethod {
         let meshes: Vec<Arc<Mesh>> = scene.objects.iter().map(|o| o.mesh.clone()).collect();
         let rays = self.options.ao;
         let seed = self.options.ao_seed;
+        // Ambient occlusion per vertex on a ground quad holds no shadow: such
+        // objects are shaded on a refined copy (kept while the scene's
+        // meshes are the same), and said; one the cap leaves coarse is
+        // warned about.
+        let refine = rays > 0 && scene.visibility && self.options.refine_coarse;
+        let same_source = self.check_same_meshes(scene).is_ok();
+        let (refined, still) = if rays > 0 && scene.visibility {
+            if refine {
+                let (s, refined, still) = scene.with_coarse_objects_refined();
+                if !(same_source && self.shaded.1) {
+                    self.shaded = (s.objects.iter().map(|o| o.mesh.clone()).collect(), true);
+                }
+                (refined, still)
+            } else {
+                (Vec::new(), scene.coarse_objects())
+            }
+        } else {
+            (Vec::new(), Vec::new())
+        };
+        if !refine {
+            self.shaded = (meshes.clone(), false);
+        }
+        let shaded = &self.shaded.0;
         let ao_valid = self.ao.as_ref().is_some_and(|a| {
             a.rays == rays
                 && a.seed == seed
-                && a.meshes.len() == meshes.len()
-                && a.meshes.iter().zip(&meshes).all(|(x, y)| Arc::ptr_eq(x, y))
+                && a.meshes.len() == shaded.len()
+                && a.meshes.iter().zip(shaded).all(|(x, y)| Arc::ptr_eq(x, y))
         });
         if rays == 0 {
             self.ao = None;
         } else if !ao_valid {
+            let meshes = shaded;
             let refs: Vec<&Mesh> = meshes.iter().map(|m| m.as_ref()).collect();
             let bvh = SceneBvh::build(&refs);
             let values = (0..refs.len())
@@ -364,23 +398,23 @@ impl Relighter for WaveletMethod {
         self.meshes = meshes;
         self.object_bakes = object_bakes;
         self.colors.clear();
-        // Ambient occlusion per vertex on a ground quad holds no shadow.
-        self.warnings = if rays > 0 && scene.visibility {
-            scene
-                .coarse_objects()
-                .iter()
-                .map(|c| {
-                    format!(
-                        "method wavelet: ambient occlusion is per vertex, and {}: the shadows \
-                         between them are lost; give it a finer mesh (`builtin = \"ground-grid\"` \
-                         for a floor)",
-                        c.describe()
-                    )
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
+        self.warnings = refined
+            .iter()
+            .map(|r| {
+                format!(
+                    "method wavelet: ambient occlusion is per vertex, and {}",
+                    r.describe()
+                )
+            })
+            .chain(still.iter().map(|c| {
+                format!(
+                    "method wavelet: ambient occlusion is per vertex, and {}: the shadows \
+                     between them are lost; give it a finer mesh (`builtin = \"ground-grid\"` \
+                     for a floor)",
+                    c.describe()
+                )
+            }))
+            .collect();
         self.set_lighting(scene, progress)?;
         Ok(())
     }
@@ -436,9 +470,11 @@ impl Relighter for WaveletMethod {
         // Empty pixels of a frame at one sample per pixel all get the shared
         // background (`render_frame`); supersampled ones need the
         // environment in their empty samples.
+        let shaded: Vec<&Arc<Mesh>> = self.shaded.0.iter().collect();
         renderer
-            .render_into(
-                scene,
+            .render_meshes_into(
+                &shaded,
+                &scene.env,
                 &refs,
                 &camera,
                 ao,

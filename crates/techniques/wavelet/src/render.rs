@@ -39,6 +39,7 @@ use crate::octa::{grid_normal, normal_bilinear, shading_frame, shading_frame_fas
 use crate::rotation::RotationMatrices;
 use glam::{Mat3, Vec3, Vec3A};
 use rayon::prelude::*;
+use relight_geom::Mesh;
 use relight_haar::{Ranking, SparseRgb, energy_fraction, top_k_rgb};
 use relight_render::cull::{ClosedMeshes, cull_for_closed};
 use relight_render::raster::{Background, DrawCall, NO_TRIANGLE, RasterOptions, Rasterizer};
@@ -346,11 +347,17 @@ impl WaveletRenderer {
 
     /// One BRDF bake per object, baked for this target size m; one normal per vertex.
     fn check_scene(&self, scene: &Scene, brdfs: &[&BrdfBake]) -> Result<(), WaveletError> {
-        if brdfs.len() != scene.objects.len() {
+        let meshes: Vec<&Arc<Mesh>> = scene.objects.iter().map(|o| &o.mesh).collect();
+        self.check_meshes(&meshes, brdfs)
+    }
+
+    /// [`Self::check_scene`] for the meshes drawn.
+    fn check_meshes(&self, meshes: &[&Arc<Mesh>], brdfs: &[&BrdfBake]) -> Result<(), WaveletError> {
+        if brdfs.len() != meshes.len() {
             return Err(bad(
                 "brdfs",
                 brdfs.len(),
-                format!("need one BRDF bake per object ({})", scene.objects.len()),
+                format!("need one BRDF bake per object ({})", meshes.len()),
             ));
         }
         let m = self.rot.params().m;
@@ -361,11 +368,11 @@ impl WaveletRenderer {
                 format!("must equal the rotation matrices' m = {m}"),
             ));
         }
-        for (i, o) in scene.objects.iter().enumerate() {
-            if o.mesh.normals.len() != o.mesh.positions.len() {
+        for (i, mesh) in meshes.iter().enumerate() {
+            if mesh.normals.len() != mesh.positions.len() {
                 return Err(bad(
                     "mesh normals",
-                    o.mesh.normals.len(),
+                    mesh.normals.len(),
                     format!("{} needs one normal per vertex", Numbered::object(i)),
                 ));
             }
@@ -683,16 +690,49 @@ impl WaveletRenderer {
         env_background: bool,
         out: &mut Image,
     ) -> Result<(), WaveletError> {
-        self.check_scene(scene, brdfs)?;
-        if let Some(a) = ao.filter(|a| a.len() != scene.objects.len()) {
+        let meshes: Vec<&Arc<Mesh>> = scene.objects.iter().map(|o| &o.mesh).collect();
+        self.render_meshes_into(
+            &meshes,
+            &scene.env,
+            brdfs,
+            camera,
+            ao,
+            raster,
+            cache,
+            env_background,
+            out,
+        )
+    }
+
+    /// [`Self::render_into`] for meshes drawn in place of the scene's, one
+    /// per object (a coarse object's refined copy,
+    /// [`Scene::with_coarse_objects_refined`]), under the environment `env`.
+    ///
+    /// # Errors
+    /// As [`WaveletRenderer::render`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn render_meshes_into(
+        &self,
+        meshes: &[&Arc<Mesh>],
+        env: &EnvMap,
+        brdfs: &[&BrdfBake],
+        camera: &Camera,
+        ao: Option<&[Vec<f32>]>,
+        raster: &mut Rasterizer,
+        cache: &mut VertexColors,
+        env_background: bool,
+        out: &mut Image,
+    ) -> Result<(), WaveletError> {
+        self.check_meshes(meshes, brdfs)?;
+        if let Some(a) = ao.filter(|a| a.len() != meshes.len()) {
             return Err(bad(
                 "ao",
                 a.len(),
-                format!("need one AO list per object ({})", scene.objects.len()),
+                format!("need one AO list per object ({})", meshes.len()),
             ));
         }
         for (i, a) in ao.iter().flat_map(|a| a.iter()).enumerate() {
-            let n = scene.objects[i].mesh.positions.len();
+            let n = meshes[i].positions.len();
             if a.len() != n {
                 return Err(bad(
                     "ao",
@@ -704,21 +744,20 @@ impl WaveletRenderer {
         // Closed, outward meshes cull their back faces: the same visible
         // triangles (each back face is behind a front face of its own mesh),
         // half the triangles to raster. Open ones (the floor) keep both sides.
-        let closed = cache.closed.of(scene);
-        let draws: Vec<DrawCall> = scene
-            .objects
+        let closed = cache.closed.of_meshes(meshes);
+        let draws: Vec<DrawCall> = meshes
             .iter()
             .zip(&closed)
             .enumerate()
-            .map(|(i, (o, closed))| {
-                DrawCall::new(&o.mesh.positions, &o.mesh.indices)
+            .map(|(i, (mesh, closed))| {
+                DrawCall::new(&mesh.positions, &mesh.indices)
                     .with_object_id(i as u32)
                     .with_cull(cull_for_closed(closed.as_ref(), camera.eye))
             })
             .collect();
         // A lighting change keeps the camera: the visibility buffer of the
         // last frame is this frame's when the rasterizer still holds it.
-        if !cache.raster_holds(raster, camera, scene, &closed) {
+        if !cache.raster_holds(raster, camera, meshes, &closed) {
             let opts = RasterOptions::default().fit_depth(camera, &draws);
             raster
                 .rasterize(camera, &draws, &opts)
@@ -726,15 +765,11 @@ impl WaveletRenderer {
             cache.rastered = Some(RasterKey {
                 generation: raster.generation(),
                 camera: *camera,
-                meshes: scene.objects.iter().map(|o| o.mesh.clone()).collect(),
+                meshes: meshes.iter().map(|&m| m.clone()).collect(),
                 closed: closed.clone(),
             });
         }
-        let sizes: Vec<usize> = scene
-            .objects
-            .iter()
-            .map(|o| o.mesh.positions.len())
-            .collect();
+        let sizes: Vec<usize> = meshes.iter().map(|m| m.positions.len()).collect();
         // The memo's keys: one range of slices × normals per distinct bake.
         let normals = self.rot.params().normals() as u64;
         let mut bakes: Vec<usize> = Vec::with_capacity(brdfs.len());
@@ -787,7 +822,7 @@ impl WaveletRenderer {
         let local = self.local_for(
             &self.normals_blended(
                 todo.par_iter()
-                    .map(|&(d, v)| scene.objects[d as usize].mesh.normals[v as usize]),
+                    .map(|&(d, v)| meshes[d as usize].normals[v as usize]),
             ),
         )?;
         let local = &local.values;
@@ -799,7 +834,7 @@ impl WaveletRenderer {
             .with_min_len(256)
             .map(|&(d, v)| {
                 let (d, v) = (d as usize, v as usize);
-                let mesh = &scene.objects[d].mesh;
+                let mesh = meshes[d];
                 let n = mesh.normals[v];
                 let wo = (eye - mesh.positions[v]).normalize_or(n);
                 let a = ao.map_or(1.0, |a| a[d][v]);
@@ -819,7 +854,6 @@ impl WaveletRenderer {
         cache.shaded_last = todo.len();
         cache.terms_last = terms;
         let color_refs: Vec<&[Vec3]> = cache.colors.iter().map(|c| &c[..]).collect();
-        let env = &scene.env;
         let env_from_world = self.world_from_env.transpose();
         let bg = |d: Vec3| env.eval(env_from_world * d);
         let background = if env_background {
@@ -895,12 +929,12 @@ struct RasterKey {
 
 impl VertexColors {
     /// Whether `raster` holds this cache's last rasterization and it is the
-    /// one `camera`, `scene`'s meshes and `closed` ask for.
+    /// one `camera`, `meshes` and `closed` ask for.
     fn raster_holds(
         &self,
         raster: &Rasterizer,
         camera: &Camera,
-        scene: &Scene,
+        meshes: &[&Arc<Mesh>],
         closed: &[Option<relight_geom::Aabb>],
     ) -> bool {
         self.rastered.as_ref().is_some_and(|k| {
@@ -908,11 +942,8 @@ impl VertexColors {
                 && k.generation == raster.generation()
                 && k.camera == *camera
                 && k.closed == closed
-                && k.meshes.len() == scene.objects.len()
-                && k.meshes
-                    .iter()
-                    .zip(&scene.objects)
-                    .all(|(m, o)| std::sync::Arc::ptr_eq(m, &o.mesh))
+                && k.meshes.len() == meshes.len()
+                && k.meshes.iter().zip(meshes).all(|(m, o)| Arc::ptr_eq(m, o))
         })
     }
 

@@ -433,3 +433,89 @@ fn bad_options_are_typed_errors() {
         (64, 32, 256, 0, 64, 128)
     );
 }
+
+/// With ambient occlusion, a floor of one quad under the spheres is shaded
+/// on a refined copy (its four vertices would hold no occlusion), said in a
+/// warning: the image is the one of the same floor built as the grid the
+/// copy is (the same vertices; their AO rays differ, numbered otherwise:
+/// 256 rays, so within their noise), and the floor darkens under the
+/// spheres. Without AO nothing is refined.
+#[test]
+fn ao_on_a_one_quad_floor_is_shaded_refined() {
+    let dir = cache("refine");
+    let lambert: Arc<dyn Brdf> = Arc::new(Lambert::new(Vec3::splat(0.8)).unwrap());
+    let with_floor = |cells: usize| {
+        let mut s = scene();
+        let floor = shapes::plane(4.0, cells)
+            .transformed(glam::Affine3A::from_translation(Vec3::new(0.0, -0.6, 0.0)));
+        s.objects
+            .push(Object::new(Arc::new(floor), lambert.clone()));
+        s.visibility = true;
+        s
+    };
+    let quad = with_floor(1);
+    let mut m = WaveletMethod::new(options(dir.clone(), 256)).unwrap();
+    m.prepare(&quad, &NoProgress).unwrap();
+    let w = m.warnings().join("\n");
+    let at = w.find("refined to ").expect(&w) + "refined to ".len();
+    let vertices: usize = w[at..].split(' ').next().unwrap().parse().unwrap();
+    let side = (vertices as f64).sqrt() as usize;
+    assert_eq!(side * side, vertices, "{w}");
+    assert!(w.contains("object 3's 4 vertices are about"), "{w}");
+    let a = frame(&mut m, &quad, 1);
+    // Prepared again on the same scene: the same image.
+    m.prepare(&quad, &NoProgress).unwrap();
+    let again = frame(&mut m, &quad, 1);
+    assert_eq!(a.image.pixels, again.image.pixels);
+    let grid = with_floor(side - 1);
+    let mut g = WaveletMethod::new(options(dir.clone(), 256)).unwrap();
+    g.prepare(&grid, &NoProgress).unwrap();
+    assert!(g.warnings().is_empty(), "{:?}", g.warnings());
+    let b = frame(&mut g, &grid, 1);
+    let floor = |r: &Rendered, i: usize| r.coverage.as_ref().unwrap().object_id[i] == 2;
+    assert!((0..W * H).filter(|&i| floor(&b, i)).count() > 200);
+    let rel_rms = |x: &Image, y: &Image| {
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for (p, q) in x.pixels.iter().zip(&y.pixels) {
+            num += f64::from((*p - *q).length_squared());
+            den += f64::from(q.length_squared());
+        }
+        (num / den).sqrt()
+    };
+    let e = rel_rms(&a.image, &b.image);
+    // The quad as given, its AO at four corners.
+    let mut as_given = WaveletMethod::new(WaveletOptions {
+        refine_coarse: false,
+        ..options(dir.clone(), 256)
+    })
+    .unwrap();
+    as_given.prepare(&quad, &NoProgress).unwrap();
+    assert!(
+        as_given
+            .warnings()
+            .join("\n")
+            .contains("the shadows between them are lost")
+    );
+    let coarse = rel_rms(&frame(&mut as_given, &quad, 1).image, &b.image);
+    eprintln!("vs the grid floor: refined quad {e}, quad as given {coarse}");
+    assert!(
+        e < 0.03 && e < coarse / 3.0,
+        "refined {e}, as given {coarse}"
+    );
+    // Occluded: the floor's darkest pixel well below its brightest.
+    let lum: Vec<f32> = (0..W * H)
+        .filter(|&i| floor(&a, i))
+        .map(|i| a.image.pixels[i].element_sum())
+        .collect();
+    let (lo, hi) = lum
+        .iter()
+        .fold((f32::MAX, 0.0f32), |(l, h), &x| (l.min(x), h.max(x)));
+    assert!(lo < 0.6 * hi, "floor from {lo} to {hi}");
+    // Without AO (and shadows) the quad is drawn as it is.
+    let mut unshadowed = quad.clone();
+    unshadowed.visibility = false;
+    let mut plain = WaveletMethod::new(options(dir.clone(), 0)).unwrap();
+    plain.prepare(&unshadowed, &NoProgress).unwrap();
+    assert!(plain.warnings().is_empty(), "{:?}", plain.warnings());
+    let _ = std::fs::remove_dir_all(&dir);
+}
