@@ -354,24 +354,25 @@ impl Relighter for WaveletMethod {
         // objects are shaded on a refined copy (kept while the scene's
         // meshes are the same), and said; one the cap leaves coarse is
         // warned about.
-        let refine = rays > 0 && scene.visibility && self.options.refine_coarse;
         let same_source = self.check_same_meshes(scene).is_ok();
-        let (refined, still) = if rays > 0 && scene.visibility {
-            if refine {
+        let (refined, still) = match (rays > 0 && scene.visibility, self.options.refine_coarse) {
+            (true, true) => {
                 let (s, refined, still) = scene.with_coarse_objects_refined();
                 if !(same_source && self.shaded.1) {
                     self.shaded = (s.objects.iter().map(|o| o.mesh.clone()).collect(), true);
                 }
                 (refined, still)
-            } else {
-                (Vec::new(), scene.coarse_objects())
             }
-        } else {
-            (Vec::new(), Vec::new())
+            (occluded, _) => {
+                self.shaded = (meshes.clone(), false);
+                let coarse = if occluded {
+                    scene.coarse_objects()
+                } else {
+                    Vec::new()
+                };
+                (Vec::new(), coarse)
+            }
         };
-        if !refine {
-            self.shaded = (meshes.clone(), false);
-        }
         let shaded = &self.shaded.0;
         let ao_valid = self.ao.as_ref().is_some_and(|a| {
             a.rays == rays
