@@ -42,17 +42,37 @@ pub fn describe(path: &Path, scene: &Scene) -> String {
         scene.camera.width,
         scene.camera.height
     );
-    let coarse = scene.coarse_objects();
+    // What triple, nearfield and wavelet --ao would shade instead.
+    let (_, refined, still) = scene.with_coarse_objects_refined();
     for (i, o) in scene.objects.iter().enumerate() {
         let m = &o.mesh;
         let mut extras = Vec::new();
-        if let Some(c) = coarse.iter().find(|c| c.object == i) {
+        let describe = |c: &relight_render::CoarseObject| {
             let under = c
                 .near
                 .map_or(String::new(), |j| format!(" under {}", Numbered::object(j)));
-            extras.push(format!(
-                "vertices about {:.2} apart{under}: too coarse for per-vertex shadows (triple, nearfield and wavelet --ao shade a refined copy)",
+            format!(
+                "vertices about {:.2} apart{under}: too coarse for per-vertex shadows",
                 c.spacing
+            )
+        };
+        let left = still.iter().find(|c| c.object == i);
+        if let Some(r) = refined.iter().find(|r| r.coarse.object == i) {
+            extras.push(format!(
+                "{} (triple, nearfield and wavelet --ao shade a copy refined to {} vertices{})",
+                describe(&r.coarse),
+                r.vertices,
+                if left.is_some() {
+                    ", still too coarse: give it a finer mesh"
+                } else {
+                    ""
+                }
+            ));
+        } else if let Some(c) = left {
+            extras.push(format!(
+                "{} (a refined copy would pass {} vertices: give it a finer mesh)",
+                describe(c),
+                relight_render::REFINED_MAX_VERTICES
             ));
         }
         if o.normal_map.is_some() {

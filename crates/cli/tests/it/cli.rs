@@ -473,10 +473,22 @@ fn info_describes_a_scene_file_and_its_methods() {
         "[[object]]\nbuiltin = \"ground\"\n[[object]]\nbuiltin = \"sphere\"\nscale = 0.5\ntranslate = [0.0, 0.6, 0.0]\n",
     );
     assert!(
-        line_of(&text, "object 1:").contains("vertices about 4.00 apart under object 2"),
+        line_of(&text, "object 1:").contains(
+            "vertices about 4.00 apart under object 2: too coarse for per-vertex shadows (triple, nearfield and wavelet --ao shade a copy refined to 4225 vertices)"
+        ),
         "{text}"
     );
     assert!(!line_of(&text, "object 2:").contains("apart"), "{text}");
+    // A ground 400 units across under the same sphere: the refined copy
+    // stops at the vertex cap, and the line says the mesh must be finer.
+    let text = info_of(
+        &tmp("info-huge.toml"),
+        "[[object]]\nbuiltin = \"ground\"\nscale = 100.0\n[[object]]\nbuiltin = \"sphere\"\nscale = 0.5\ntranslate = [0.0, 0.6, 0.0]\n",
+    );
+    assert!(
+        line_of(&text, "object 1:").contains("still too coarse: give it a finer mesh"),
+        "{text}"
+    );
     let bad = tmp("info-bad.toml");
     std::fs::write(&bad, "[[object]]\nbuiltin = \"cube\"\n").unwrap();
     assert_clean_error(
