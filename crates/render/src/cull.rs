@@ -64,12 +64,10 @@ impl ClosedMeshes {
         if self.disabled {
             return vec![None; meshes.len()];
         }
-        let same = self.meshes.len() == meshes.len()
-            && self
-                .meshes
-                .iter()
-                .zip(meshes)
-                .all(|((m, _), o)| Arc::ptr_eq(m, o));
+        let same = crate::method::same_mesh_list(
+            self.meshes.iter().map(|(m, _)| m),
+            meshes.iter().copied(),
+        );
         if !same {
             let old = std::mem::take(&mut self.meshes);
             self.meshes = meshes

@@ -550,10 +550,17 @@ pub fn same_meshes<'a>(
     prepared: impl ExactSizeIterator<Item = &'a std::sync::Arc<relight_geom::Mesh>>,
     scene: &Scene,
 ) -> bool {
-    prepared.len() == scene.objects.len()
-        && prepared
-            .zip(&scene.objects)
-            .all(|(p, o)| std::sync::Arc::ptr_eq(p, &o.mesh))
+    same_mesh_list(prepared, scene.objects.iter().map(|o| &o.mesh))
+}
+
+/// True when `a` and `b` hold the same meshes, by identity, in the same
+/// order ([`same_meshes`] against a scene; drawn meshes against the ones a
+/// buffer was rasterized for).
+pub fn same_mesh_list<'a, 'b>(
+    a: impl ExactSizeIterator<Item = &'a std::sync::Arc<relight_geom::Mesh>>,
+    b: impl ExactSizeIterator<Item = &'b std::sync::Arc<relight_geom::Mesh>>,
+) -> bool {
+    a.len() == b.len() && a.zip(b).all(|(x, y)| std::sync::Arc::ptr_eq(x, y))
 }
 
 /// True when `method` supports [`SceneFeature::Animation`]: prepared once on

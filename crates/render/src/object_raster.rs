@@ -10,7 +10,7 @@
 //! keep their buffers the same way inside their own renderers).
 
 use crate::cull::ClosedMeshes;
-use crate::method::{CoverageCache, FrameRequest, Rendered};
+use crate::method::{CoverageCache, FrameRequest, Rendered, same_mesh_list};
 use crate::raster::{DrawCall, RasterOptions, Rasterizer};
 use crate::{Camera, Image, RasterError, Scene};
 use relight_geom::Mesh;
@@ -75,8 +75,7 @@ impl ObjectRaster {
             *g != 0
                 && *g == self.raster.generation()
                 && *c == camera
-                && held.len() == meshes.len()
-                && held.iter().zip(meshes).all(|(h, m)| Arc::ptr_eq(h, m))
+                && same_mesh_list(held.iter(), meshes.iter().copied())
         });
         if !holds {
             self.held = None;

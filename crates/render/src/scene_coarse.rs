@@ -203,7 +203,8 @@ impl Scene {
     ) -> (Cow<'_, Scene>, Vec<RefinedObject>, Vec<CoarseObject>) {
         let mut out = Cow::Borrowed(self);
         let mut refined = Vec::new();
-        for c in self.coarse_objects() {
+        let coarse = self.coarse_objects();
+        for &c in &coarse {
             let mut mesh = (*self.objects[c.object].mesh).clone();
             let mut levels = 0;
             while c.spacing / (1u32 << levels) as f32 > REFINED_SHARE_OF_LIMIT * c.limit
@@ -223,7 +224,12 @@ impl Scene {
                 out.to_mut().objects[c.object].mesh = Arc::new(mesh);
             }
         }
-        let still = out.coarse_objects();
+        // Judged again only when a mesh changed.
+        let still = if refined.is_empty() {
+            coarse
+        } else {
+            out.coarse_objects()
+        };
         (out, refined, still)
     }
 }

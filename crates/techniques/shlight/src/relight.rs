@@ -760,11 +760,6 @@ impl ShRenderer {
     }
 }
 
-/// Every object has one normal per vertex, and uvs and tangents where
-/// `needs_uvs(object)`.
-///
-/// # Errors
-/// [`ShLightError::MissingNormals`], [`ShLightError::MissingUvs`].
 /// What the SH pipeline refuses in `scene`'s objects, found without
 /// baking: [`check_meshes`] and an anisotropic BRDF
 /// ([`crate::bake::check_isotropic`]). The SH and fog methods'
@@ -780,6 +775,11 @@ pub fn check_objects(scene: &Scene, needs_uvs: &dyn Fn(usize) -> bool) -> Result
     Ok(())
 }
 
+/// Every object has one normal per vertex, and uvs and tangents where
+/// `needs_uvs(object)`.
+///
+/// # Errors
+/// [`ShLightError::MissingNormals`], [`ShLightError::MissingUvs`].
 pub(crate) fn check_meshes(
     scene: &Scene,
     needs_uvs: &dyn Fn(usize) -> bool,

@@ -254,13 +254,7 @@ impl WaveletMethod {
     }
 
     fn check_same_meshes(&self, scene: &Scene) -> Result<(), MethodError> {
-        let same = self.meshes.len() == scene.objects.len()
-            && self
-                .meshes
-                .iter()
-                .zip(&scene.objects)
-                .all(|(m, o)| Arc::ptr_eq(m, &o.mesh));
-        if same {
+        if relight_render::method::same_meshes(self.meshes.iter(), scene) {
             Ok(())
         } else {
             Err(stale(
@@ -377,8 +371,7 @@ impl Relighter for WaveletMethod {
         let ao_valid = self.ao.as_ref().is_some_and(|a| {
             a.rays == rays
                 && a.seed == seed
-                && a.meshes.len() == shaded.len()
-                && a.meshes.iter().zip(shaded).all(|(x, y)| Arc::ptr_eq(x, y))
+                && relight_render::method::same_mesh_list(a.meshes.iter(), shaded.iter())
         });
         if rays == 0 {
             self.ao = None;

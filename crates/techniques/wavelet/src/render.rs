@@ -42,6 +42,7 @@ use rayon::prelude::*;
 use relight_geom::Mesh;
 use relight_haar::{Ranking, SparseRgb, energy_fraction, top_k_rgb};
 use relight_render::cull::{ClosedMeshes, cull_for_closed};
+use relight_render::method::same_mesh_list;
 use relight_render::raster::{Background, DrawCall, NO_TRIANGLE, RasterOptions, Rasterizer};
 use relight_render::{Camera, Image, Numbered, Scene};
 use relight_sphere::EnvMap;
@@ -942,8 +943,7 @@ impl VertexColors {
                 && k.generation == raster.generation()
                 && k.camera == *camera
                 && k.closed == closed
-                && k.meshes.len() == meshes.len()
-                && k.meshes.iter().zip(meshes).all(|(m, o)| Arc::ptr_eq(m, o))
+                && same_mesh_list(k.meshes.iter(), meshes.iter().copied())
         })
     }
 
