@@ -268,6 +268,67 @@ mod tests {
         assert!(mean(&f) > 0.01);
     }
 
+    /// A right-drag that carries a point light into an object (the bench's
+    /// fog scene turned 85°–90°: its fourth light is inside the third
+    /// object) is a lighting the fog method refuses. The viewer said so by
+    /// closing the window; it shows why on screen instead, and draws again
+    /// once the light is out.
+    #[test]
+    fn a_lighting_the_method_refuses_is_shown_not_fatal() {
+        let scene = bench::BenchScene::Fog4Lights.build(48, 27);
+        let mut v = small_viewer(MethodKind::Fog, scene);
+        let f = v.frame(48, 27, true, &NoProgress).unwrap();
+        assert!(f.message.is_none(), "{:?}", f.message);
+        let lit = mean(&f);
+        let mut refused = 0;
+        for step in 1..=24 {
+            v.light_yaw_deg = 5.0 * step as f32;
+            let f = v.frame(48, 27, true, &NoProgress).unwrap();
+            if let Some(msg) = &f.message {
+                assert!(
+                    msg.contains("fog") && msg.contains("point light 4") && msg.contains("inside"),
+                    "{msg}"
+                );
+                assert!(msg.contains("turn the lighting"), "{msg}");
+                refused += 1;
+            }
+        }
+        assert!(refused > 0, "no pose put a light inside an object");
+        v.light_yaw_deg = 0.0;
+        let back = v.frame(48, 27, true, &NoProgress).unwrap();
+        assert!(back.message.is_none(), "{:?}", back.message);
+        assert!(
+            (mean(&back) - lit).abs() <= 1e-6 * lit,
+            "{} vs {lit}",
+            mean(&back)
+        );
+
+        // Prepared at a refused lighting (the method first shown there): the
+        // same message, no bake retried while it stays, and a frame once
+        // the light is out.
+        let mut v = small_viewer(MethodKind::Fog, bench::BenchScene::Fog4Lights.build(48, 27));
+        v.light_yaw_deg = 90.0;
+        let f = v.frame(48, 27, true, &NoProgress).unwrap();
+        let msg = f.message.expect("refused");
+        assert!(
+            msg.contains("point light 4") && msg.contains("turn the lighting"),
+            "{msg}"
+        );
+        assert!(v.is_prepared(), "a refused lighting would prepare again");
+        let prepares = v.prepares();
+        v.frame(48, 27, true, &NoProgress).unwrap();
+        assert_eq!(v.prepares(), prepares);
+        v.light_yaw_deg = 0.0;
+        assert!(!v.is_prepared());
+        let back = v.frame(48, 27, true, &NoProgress).unwrap();
+        assert!(back.message.is_none(), "{:?}", back.message);
+        assert!(
+            (mean(&back) - lit).abs() <= 1e-6 * lit,
+            "{} vs {lit}",
+            mean(&back)
+        );
+    }
+
     #[test]
     fn a_method_that_cannot_render_the_scene_says_why() {
         let mut scene = relight_scene::default_scene(32, 18);

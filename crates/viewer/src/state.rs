@@ -8,7 +8,7 @@
 //!
 //! | input | call |
 //! |---|---|
-//! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target; a change the method would bake again for ([`Relighter::lighting_rebakes`]: nearfield's tilted area light) waits for the release, the drag's frames keeping the last lighting with a note; at the release the window bakes it on its worker thread ([`Viewer::lighting_bake_due`], [`Viewer::apply_lighting`]) |
+//! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target; a change the method would bake again for ([`Relighter::lighting_rebakes`]: nearfield's tilted area light) waits for the release, the drag's frames keeping the last lighting with a note; at the release the window bakes it on its worker thread ([`Viewer::lighting_bake_due`], [`Viewer::apply_lighting`]); a lighting the method refuses (fog: a point light turned into an object) draws an empty frame that says why, and is not tried again until the lighting changes |
 //! | area-light edit (move in its plane, scale, texture; [`crate::light`]) | [`Relighter::set_lighting`] with the scene's area lights edited (`Tab` picks which one the edits go to), then turned by the lighting rotation — never a new `prepare` |
 //! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera |
 //! | still view | progressive antialiasing: each [`Viewer::frame`] adds one pass of one sample per pixel at the next sub-pixel offset of an `aa × aa` grid ([`Camera::with_pixel_offset`]) to a running mean, until `aa²` passes ([`Viewer::refining`]); Monte Carlo methods (the reference) instead add a pass of their own samples per frame |
@@ -128,6 +128,10 @@ struct Slot {
     method_warnings: Vec<String>,
     /// The lighting `set_lighting` last ran with.
     lit: Option<Lighting>,
+    /// A lighting the method refused (fog: a point light dragged into an
+    /// object) and why: shown instead of a frame, and not tried again
+    /// until the lighting changes.
+    unlit: Option<(Lighting, String)>,
     /// Samples accumulated in the last frame (progressive methods).
     spp: u32,
     /// Whether the method integrates pixels itself (Monte Carlo), learned
@@ -140,20 +144,38 @@ struct Slot {
 
 impl Slot {
     /// Gives the method `lighting` (`scene` carries it) unless it has it
-    /// already; nothing for a method not created.
+    /// already or refused it; nothing for a method not created. A refusal
+    /// is kept in `unlit`, not returned: only cancellation is an error.
     fn light(
         &mut self,
         scene: &Scene,
         lighting: Lighting,
         progress: &dyn Progress,
     ) -> Result<(), ViewerError> {
-        if let Some(m) = self.method.as_mut()
-            && self.lit != Some(lighting)
+        if self.lit != Some(lighting)
+            && self.unlit_at(lighting).is_none()
+            && let Some(m) = self.method.as_mut()
         {
-            m.set_lighting(scene, progress)?;
-            self.lit = Some(lighting);
+            match m.set_lighting(scene, progress) {
+                Ok(_) => {
+                    self.lit = Some(lighting);
+                    self.unlit = None;
+                }
+                Err(MethodError::Cancelled) => return Err(MethodError::Cancelled.into()),
+                Err(e) => self.unlit = Some((lighting, e.to_string())),
+            }
         }
         Ok(())
+    }
+
+    /// Why the method refused `lighting`, if it did.
+    fn unlit_at(&self, lighting: Lighting) -> Option<String> {
+        let (at, why) = self.unlit.as_ref()?;
+        (*at == lighting).then(|| {
+            format!(
+                "{why}; nothing is drawn at this lighting: turn the lighting on (right drag) or reset it (r)"
+            )
+        })
     }
 }
 
@@ -303,6 +325,7 @@ impl Viewer {
                     warnings: Vec::new(),
                     method_warnings: Vec::new(),
                     lit: None,
+                    unlit: None,
                     spp: 0,
                     monte_carlo: None,
                     posed_at: None,
@@ -362,6 +385,7 @@ impl Viewer {
         slot.warnings.clear();
         slot.method_warnings.clear();
         slot.lit = None;
+        slot.unlit = None;
         slot.posed_at = None;
         slot.monte_carlo = None;
         self.accum = Accumulation::default();
@@ -607,7 +631,7 @@ impl Viewer {
             slot.method = None;
             slot.posed_at = None;
         }
-        if slot.method.is_some() || slot.refused.is_some() {
+        if slot.method.is_some() || slot.refused.is_some() || slot.unlit_at(self.lit).is_some() {
             return Ok(());
         }
         let mut m = relight_methods::create(&slot.options)?;
@@ -636,7 +660,14 @@ impl Viewer {
                 slot.refused = Some(e.to_string());
                 return Ok(());
             }
-            r => r?,
+            Err(MethodError::Cancelled) => return Err(MethodError::Cancelled.into()),
+            // The lighting the method is prepared with is refused (fog: a
+            // point light turned into an object): shown until it changes.
+            Err(e) => {
+                slot.unlit = Some((self.lit, e.to_string()));
+                return Ok(());
+            }
+            Ok(_) => {}
         }
         slot.method_warnings = m.warnings();
         slot.posed_at = posed.then_some(time);
@@ -685,7 +716,7 @@ impl Viewer {
                 aa,
                 passes: 0,
                 spp: 0,
-                message: slot.refused.clone(),
+                message: slot.refused.clone().or_else(|| slot.unlit_at(lighting)),
             });
         };
         // A lighting change that would bake again (nearfield: a tilted
@@ -696,6 +727,18 @@ impl Viewer {
             preview && slot.lit.is_some_and(|l| l != lighting) && method.lighting_rebakes(scene);
         if !deferred {
             slot.light(scene, lighting, progress)?;
+            // A lighting the method refuses is shown, not fatal: the frame
+            // is empty and says why until the lighting changes again.
+            if let Some(why) = slot.unlit_at(lighting) {
+                return Ok(Frame {
+                    image: Image::new(width, height),
+                    ms: t.elapsed().as_secs_f64() * 1e3,
+                    aa,
+                    passes: 0,
+                    spp: 0,
+                    message: Some(why),
+                });
+            }
         }
         let method = slot.method.as_mut().expect("created: checked above");
         if !preview {
@@ -879,6 +922,7 @@ impl Viewer {
         let scene = shown_scene(&self.posed, &self.lit_scene);
         let slot = &self.slots[self.current];
         slot.lit.is_some_and(|l| l != lighting)
+            && slot.unlit_at(lighting).is_none()
             && slot
                 .method
                 .as_ref()
@@ -889,9 +933,10 @@ impl Viewer {
     /// ([`Relighter::set_lighting`]), whatever it costs: the bake that
     /// [`Viewer::lighting_bake_due`] announces. Nothing to do for a method
     /// not prepared (its preparation takes the lighting) or already lit.
+    /// A lighting the method refuses is kept for the next frame to show.
     ///
     /// # Errors
-    /// The method's errors, cancellation through `progress` included.
+    /// Cancellation through `progress`.
     pub fn apply_lighting(&mut self, progress: &dyn Progress) -> Result<(), ViewerError> {
         self.update_lighting();
         self.refresh_pose();
@@ -901,12 +946,14 @@ impl Viewer {
     }
 
     /// True once the method shown has been created, checked and prepared
-    /// (or refused): the next [`Viewer::frame`] will not bake.
+    /// (or refused, or its preparation refused this lighting): the next
+    /// [`Viewer::frame`] will not bake.
     #[must_use]
     pub fn is_prepared(&self) -> bool {
         let slot = &self.slots[self.current];
         (slot.method.is_some() && slot.posed_at.is_none_or(|t| t == self.time))
             || slot.refused.is_some()
+            || slot.unlit_at(self.lighting()).is_some()
     }
 
     /// The animation clock, seconds.
