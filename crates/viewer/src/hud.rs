@@ -95,7 +95,7 @@ impl HudInfo {
             settings: settings(viewer.method_options(), frame),
             error,
             message: frame.message.clone(),
-            refused: viewer.refusal().is_some(),
+            refused: frame.refused,
             refining: viewer.refining(),
             clock: viewer
                 .is_animated()
@@ -508,7 +508,7 @@ impl ErrorMeter {
     pub fn observe(&mut self, viewer: &Viewer, frame: &Frame) -> ErrorReading {
         let (w, h) = (frame.image.width, frame.image.height);
         let key = key_of(viewer, w, h);
-        if viewer.refusal().is_some() {
+        if frame.refused {
             return ErrorReading::NotDrawn;
         }
         if viewer.method() == MethodKind::Reference {

@@ -285,6 +285,7 @@ mod tests {
             v.light_yaw_deg = 5.0 * step as f32;
             let f = v.frame(48, 27, true, &NoProgress).unwrap();
             if let Some(msg) = &f.message {
+                assert!(f.refused && mean(&f) == 0.0);
                 assert!(
                     msg.contains("fog") && msg.contains("point light 4") && msg.contains("inside"),
                     "{msg}"
@@ -315,6 +316,7 @@ mod tests {
             "{msg}"
         );
         assert!(v.is_prepared(), "a refused lighting would prepare again");
+        assert!(!v.refining());
         let prepares = v.prepares();
         v.frame(48, 27, true, &NoProgress).unwrap();
         assert_eq!(v.prepares(), prepares);
@@ -327,6 +329,31 @@ mod tests {
             "{} vs {lit}",
             mean(&back)
         );
+    }
+
+    /// A view the method refuses (fog: the eye zoomed out of the fog ball)
+    /// is shown with its reason, not a closed window; zooming back in draws.
+    #[test]
+    fn a_view_the_method_refuses_is_shown_not_fatal() {
+        let mut v = small_viewer(MethodKind::Fog, bench::BenchScene::Fog4Lights.build(48, 27));
+        let home = v.frame(48, 27, true, &NoProgress).unwrap();
+        assert!(home.message.is_none(), "{:?}", home.message);
+        v.orbit.zoom(-30.0, 0.0);
+        let out = v.frame(48, 27, true, &NoProgress).unwrap();
+        let msg = out.message.clone().expect("refused");
+        assert!(msg.contains("fog") && msg.contains("ball"), "{msg}");
+        assert!(msg.contains("nothing is drawn at this view"), "{msg}");
+        assert!(out.refused && mean(&out) == 0.0);
+        // The window redraws while refining: an empty frame does not.
+        assert!(!v.refining());
+        v.orbit.zoom(30.0, 0.0);
+        let back = v.frame(48, 27, true, &NoProgress).unwrap();
+        assert!(
+            back.message.is_none() && !back.refused,
+            "{:?}",
+            back.message
+        );
+        assert!(diff(&home, &back) <= 1e-3 * mean(&home) * 48.0 * 27.0);
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //! |---|---|
 //! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target; a change the method would bake again for ([`Relighter::lighting_rebakes`]: nearfield's tilted area light) waits for the release, the drag's frames keeping the last lighting with a note; at the release the window bakes it on its worker thread ([`Viewer::lighting_bake_due`], [`Viewer::apply_lighting`]); a lighting the method refuses (fog: a point light turned into an object) draws an empty frame that says why, and is not tried again until the lighting changes |
 //! | area-light edit (move in its plane, scale, texture; [`crate::light`]) | [`Relighter::set_lighting`] with the scene's area lights edited (`Tab` picks which one the edits go to), then turned by the lighting rotation — never a new `prepare` |
-//! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera |
+//! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera; a view the method refuses (fog: the eye zoomed out of the fog ball) draws an empty frame that says why ([`Frame::refused`]) |
 //! | still view | progressive antialiasing: each [`Viewer::frame`] adds one pass of one sample per pixel at the next sub-pixel offset of an `aa × aa` grid ([`Camera::with_pixel_offset`]) to a running mean, until `aa²` passes ([`Viewer::refining`]); Monte Carlo methods (the reference) instead add a pass of their own samples per frame |
 //!
 //! The mean of the `aa²` offset passes is the `aa × aa` box-filtered frame
@@ -109,9 +109,26 @@ pub struct Frame {
     /// Monte Carlo samples per pixel accumulated so far (0 for deterministic
     /// methods).
     pub spp: u32,
-    /// Why the method drew nothing (it cannot render the scene), or what it
-    /// approximates; shown on screen.
+    /// Why the method drew nothing (it cannot render the scene, this
+    /// lighting or this view), or what it approximates; shown on screen.
     pub message: Option<String>,
+    /// The frame is empty and `message` says why.
+    pub refused: bool,
+}
+
+impl Frame {
+    /// An empty `width × height` frame that says `why`.
+    fn refused(width: usize, height: usize, since: Instant, aa: usize, why: String) -> Self {
+        Self {
+            image: Image::new(width, height),
+            ms: since.elapsed().as_secs_f64() * 1e3,
+            aa,
+            passes: 0,
+            spp: 0,
+            message: Some(why),
+            refused: true,
+        }
+    }
 }
 
 /// One method's state: created, checked and prepared on first use.
@@ -162,7 +179,14 @@ impl Slot {
                     self.unlit = None;
                 }
                 Err(MethodError::Cancelled) => return Err(MethodError::Cancelled.into()),
-                Err(e) => self.unlit = Some((lighting, e.to_string())),
+                Err(e) => {
+                    self.unlit = Some((
+                        lighting,
+                        format!(
+                            "{e}; nothing is drawn at this lighting: turn the lighting on (right drag) or reset it (r)"
+                        ),
+                    ));
+                }
             }
         }
         Ok(())
@@ -171,11 +195,7 @@ impl Slot {
     /// Why the method refused `lighting`, if it did.
     fn unlit_at(&self, lighting: Lighting) -> Option<String> {
         let (at, why) = self.unlit.as_ref()?;
-        (*at == lighting).then(|| {
-            format!(
-                "{why}; nothing is drawn at this lighting: turn the lighting on (right drag) or reset it (r)"
-            )
-        })
+        (*at == lighting).then(|| why.clone())
     }
 }
 
@@ -253,6 +273,9 @@ pub struct Viewer {
     approximate: bool,
     slots: Vec<Slot>,
     accum: Accumulation,
+    /// The frame last shown empty with the method's refusal of its
+    /// lighting or view: nothing to refine until something changes.
+    refused_at: Option<AccumKey>,
     /// Size of the last frame drawn.
     last_size: Option<(usize, usize)>,
     /// The animation clock (seconds) and whether it runs.
@@ -332,6 +355,7 @@ impl Viewer {
                 })
                 .collect(),
             accum: Accumulation::default(),
+            refused_at: None,
             last_size: None,
             time: 0.0,
             playing: false,
@@ -664,7 +688,12 @@ impl Viewer {
             // The lighting the method is prepared with is refused (fog: a
             // point light turned into an object): shown until it changes.
             Err(e) => {
-                slot.unlit = Some((self.lit, e.to_string()));
+                slot.unlit = Some((
+                    self.lit,
+                    format!(
+                        "{e}; the method could not be prepared at this lighting: turn the lighting (right drag) to try again"
+                    ),
+                ));
                 return Ok(());
             }
             Ok(_) => {}
@@ -710,14 +739,15 @@ impl Viewer {
         let stopped = self.playing && !self.slots[self.current].animates();
         let slot = &mut self.slots[self.current];
         let Some(method) = slot.method.as_mut() else {
-            return Ok(Frame {
-                image: Image::new(width, height),
-                ms: t.elapsed().as_secs_f64() * 1e3,
+            // Not created: refused (prepare says why, or it would be).
+            let why = slot.refused.clone().or_else(|| slot.unlit_at(lighting));
+            return Ok(Frame::refused(
+                width,
+                height,
+                t,
                 aa,
-                passes: 0,
-                spp: 0,
-                message: slot.refused.clone().or_else(|| slot.unlit_at(lighting)),
-            });
+                why.unwrap_or_default(),
+            ));
         };
         // A lighting change that would bake again (nearfield: a tilted
         // area light) waits while a drag lasts: the frame keeps the last
@@ -730,14 +760,8 @@ impl Viewer {
             // A lighting the method refuses is shown, not fatal: the frame
             // is empty and says why until the lighting changes again.
             if let Some(why) = slot.unlit_at(lighting) {
-                return Ok(Frame {
-                    image: Image::new(width, height),
-                    ms: t.elapsed().as_secs_f64() * 1e3,
-                    aa,
-                    passes: 0,
-                    spp: 0,
-                    message: Some(why),
-                });
+                self.refused_at = Some(key);
+                return Ok(Frame::refused(width, height, t, aa, why));
             }
         }
         let method = slot.method.as_mut().expect("created: checked above");
@@ -778,6 +802,7 @@ impl Viewer {
                 passes: acc.passes,
                 spp: 0,
                 message,
+                refused: false,
             });
         }
         // Pass i of a still view samples the i-th point of the aa × aa grid.
@@ -795,7 +820,20 @@ impl Viewer {
             aa: 1,
             progressive: true,
         };
-        let out = render_frame(method.as_mut(), scene, &request, progress)?;
+        let out = match render_frame(method.as_mut(), scene, &request, progress) {
+            Ok(out) => out,
+            Err(MethodError::Cancelled) => return Err(MethodError::Cancelled.into()),
+            // A view the method refuses (fog: the eye zoomed out of the fog
+            // ball) is shown, not fatal, like a refused lighting.
+            Err(e) => {
+                self.refused_at = Some(key);
+                let why = format!(
+                    "{e}; nothing is drawn at this view: move the camera (drag, wheel) or reset it (r)"
+                );
+                return Ok(Frame::refused(width, height, t, aa, why));
+            }
+        };
+        self.refused_at = None;
         let spp = out.noise.map_or(0, |n| n.spp);
         slot.spp = spp;
         slot.monte_carlo = Some(out.noise.is_some());
@@ -808,6 +846,7 @@ impl Viewer {
                 passes: 1,
                 spp,
                 message,
+                refused: false,
             });
         }
         if acc.key.is_none() {
@@ -834,6 +873,7 @@ impl Viewer {
             passes: acc.passes,
             spp: 0,
             message,
+            refused: false,
         })
     }
 
@@ -846,24 +886,28 @@ impl Viewer {
         if slot.method.is_none() {
             return false;
         }
+        let key = self.last_size.map(|(w, h)| AccumKey {
+            method: self.current,
+            camera: self.camera(w, h),
+            lighting: self.lighting(),
+            time: self.time,
+        });
+        // A frame shown empty with a refusal has nothing to refine.
+        if key.is_some() && self.refused_at == key {
+            return false;
+        }
         if slot.monte_carlo == Some(true) {
             return match &slot.options {
                 MethodOptions::Reference(r) => slot.spp < r.spp,
                 _ => false,
             };
         }
+        let Some(key) = key else {
+            return false;
+        };
         if !self.antialias || self.aa <= 1 {
             return false;
         }
-        let Some((w, h)) = self.last_size else {
-            return false;
-        };
-        let key = AccumKey {
-            method: self.current,
-            camera: self.camera(w, h),
-            lighting: self.lighting(),
-            time: self.time,
-        };
         self.accum.key != Some(key) || self.accum.passes < self.aa * self.aa
     }
 

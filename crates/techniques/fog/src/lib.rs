@@ -89,6 +89,11 @@ pub enum FogError {
         position: [f32; 3],
         object: usize,
     },
+    #[error(
+        "the eye at {eye} lies outside the fog ball of radius {radius}; the analytic model needs \
+         the eye inside the medium"
+    )]
+    EyeOutsideBall { eye: glam::Vec3, radius: f32 },
     #[error("{what} = {value} is invalid: distances must be finite and > 0")]
     Distance { what: &'static str, value: f64 },
     #[error(

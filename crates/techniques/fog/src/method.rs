@@ -743,11 +743,11 @@ impl Relighter for FogRelighter {
                 return Err(MethodError::InvalidOption {
                     method: NAME,
                     option: "camera.eye",
-                    message: format!(
-                        "the eye at {} lies outside the fog ball of radius {r}; the analytic \
-                         model needs the eye inside the medium",
-                        scene.camera.eye
-                    ),
+                    message: FogError::EyeOutsideBall {
+                        eye: scene.camera.eye,
+                        radius: r,
+                    }
+                    .to_string(),
                 });
             }
             if let Some((i, l)) = lights.iter().enumerate().find(|(_, l)| outside(l.position)) {

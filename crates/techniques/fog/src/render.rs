@@ -322,13 +322,19 @@ fn check_frame(
     settings: &FogSettings,
 ) -> Result<(), FogError> {
     validate_lights(objects, lights, settings.beta, settings.check_lights_inside)?;
-    if let Some(r) = settings.ball_radius
-        && !(r.is_finite() && r > 0.0 && camera.eye.length() < r)
-    {
-        return Err(FogError::Distance {
-            what: "fog ball radius (must exceed the eye's distance from the origin)",
-            value: f64::from(r),
-        });
+    if let Some(r) = settings.ball_radius {
+        if !(r.is_finite() && r > 0.0) {
+            return Err(FogError::Distance {
+                what: "fog ball radius",
+                value: f64::from(r),
+            });
+        }
+        if camera.eye.length() >= r {
+            return Err(FogError::EyeOutsideBall {
+                eye: camera.eye,
+                radius: r,
+            });
+        }
     }
     Ok(())
 }
