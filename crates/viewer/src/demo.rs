@@ -24,12 +24,12 @@
 //!
 //! # What the labels measure
 //! * **ms per frame**: a second frame at the tile's size and AA, after the
-//!   first (warm caches): [`FrameTimings::view_ms`], the view change a
+//!   first (warm caches): [`FrameTimings::view_ms`](relight_render::method::FrameTimings::view_ms), the view change a
 //!   viewer pays when the camera moves; **relight** is one
-//!   [`Relighter::set_lighting`] with the environment turned by
+//!   [`Relighter::set_lighting`](relight_render::Relighter::set_lighting) with the environment turned by
 //!   [`DEMO_LIGHT_TURN_DEG`] (and back), the lighting change. The reference
 //!   shows the seconds of its one frame.
-//! * **bake**: [`Relighter::prepare`], bake or cache load.
+//! * **bake**: [`Relighter::prepare`](relight_render::Relighter::prepare), bake or cache load.
 //! * **error**: relative RMS over object pixels (fully covered in both
 //!   images: the `relight compare` measure), against the reference of
 //!   [`DEMO_SPP`] samples per pixel; its own Monte Carlo noise over the
