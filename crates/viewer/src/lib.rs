@@ -356,6 +356,31 @@ mod tests {
         assert!(diff(&home, &back) <= 1e-3 * mean(&home) * 48.0 * 27.0);
     }
 
+    /// The `s` key's screenshots skip the numbers an earlier session wrote.
+    #[test]
+    fn screenshots_do_not_overwrite_earlier_ones() {
+        let dir = std::env::temp_dir().join(format!("relight-shots-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("relight-view-1.png"), b"x").unwrap();
+        std::fs::write(dir.join("relight-view-2.exr"), b"x").unwrap();
+        let (n, stem) = state::free_shot_stem(&dir, 0);
+        assert_eq!((n, stem), (3, dir.join("relight-view-3")));
+        let f = Frame {
+            image: relight_render::Image::new(4, 2),
+            ms: 0.0,
+            aa: 1,
+            passes: 1,
+            spp: 0,
+            message: None,
+            refused: false,
+        };
+        Viewer::save(&f, &dir.join("relight-view-3")).unwrap();
+        assert_eq!(state::free_shot_stem(&dir, 3).0, 4);
+        // An unwritable folder is an error (the window prints it and goes on).
+        assert!(Viewer::save(&f, &dir.join("missing/relight-view-1")).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
     #[test]
     fn a_method_that_cannot_render_the_scene_says_why() {
         let mut scene = relight_scene::default_scene(32, 18);

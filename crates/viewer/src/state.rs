@@ -920,7 +920,8 @@ impl Viewer {
         slot.method.as_ref()?.frame_work(&self.lit_scene, &request)
     }
 
-    /// Writes `frame` as `stem.png` (tone-mapped) and `stem.exr` (linear).
+    /// Writes `frame` as `stem.png` (tone-mapped) and `stem.exr` (linear)
+    /// (the window's `s` key, at [`free_shot_stem`]).
     ///
     /// # Errors
     /// Unwritable files.
@@ -1070,6 +1071,21 @@ impl Slot {
 }
 
 /// The mean of `passes` accumulated frames.
+/// The first screenshot stem `dir/relight-view-N` after number `last` for
+/// which neither `.png` nor `.exr` exists, and its N: shots of an earlier
+/// session in the same folder are not overwritten.
+#[must_use]
+pub fn free_shot_stem(dir: &std::path::Path, last: usize) -> (usize, std::path::PathBuf) {
+    let mut n = last;
+    loop {
+        n += 1;
+        let stem = dir.join(format!("relight-view-{n}"));
+        if !stem.with_extension("png").exists() && !stem.with_extension("exr").exists() {
+            return (n, stem);
+        }
+    }
+}
+
 fn mean_image(width: usize, height: usize, sum: &[Vec3], passes: usize) -> Image {
     let inv = 1.0 / passes.max(1) as f32;
     let mut img = Image::new(width, height);

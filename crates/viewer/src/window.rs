@@ -5,7 +5,8 @@
 //! Controls: left drag orbits the camera, right drag turns the lighting,
 //! the wheel zooms; `1`–`7` switch methods (the reference refines while the
 //! view is still), `a` toggles antialiasing, `h` the HUD, `r` resets, `s`
-//! saves the frame as PNG + EXR, `Esc`/`q` quits. While a button is held
+//! saves the frame as PNG + EXR (`relight-view-N`, the first N free in the
+//! working folder; a failed write is printed, not fatal), `Esc`/`q` quits. While a button is held
 //! frames skip antialiasing (preview).
 //!
 //! With an area light in the scene ([`crate::light`]): `l` toggles the
@@ -26,7 +27,7 @@ use crate::state::{Frame, Viewer, ViewerError};
 use crate::text::Canvas;
 use relight_render::{NoProgress, Progress};
 use std::num::NonZeroU32;
-use std::path::PathBuf;
+use std::path::Path;
 use std::rc::Rc;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -458,10 +459,16 @@ impl<'s, 'e> App<'s, 'e> {
                     "r" => viewer.reset(),
                     "s" => {
                         if let Some(f) = &self.last {
-                            self.shots += 1;
-                            let stem = PathBuf::from(format!("relight-view-{}", self.shots));
-                            Viewer::save(f, &stem)?;
-                            eprintln!("relight view: wrote {}.png and .exr", stem.display());
+                            let (n, stem) =
+                                crate::state::free_shot_stem(Path::new("."), self.shots);
+                            self.shots = n;
+                            // A shot that cannot be written is said, not fatal.
+                            match Viewer::save(f, &stem) {
+                                Ok(()) => {
+                                    eprintln!("relight view: wrote {}.png and .exr", stem.display())
+                                }
+                                Err(e) => eprintln!("relight view: screenshot not saved: {e}"),
+                            }
                         }
                         return Ok(());
                     }
