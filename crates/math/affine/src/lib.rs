@@ -15,7 +15,7 @@
 //!
 //! In Haar wavelets every ACC is a level factor times the canonical coupling
 //! coefficient `M(r, c)` of two mother functions (eq. 4.21), a sparse,
-//! piecewise-linear, bounded 2D function ([`canonical`]); every ATC is one
+//! piecewise-linear, bounded 2D function ([`mod@canonical`]); every ATC is one
 //! ACC by the Haar product rule (Property 2, [`coupling`]). The non-zeros
 //! number `O(N log N)` per (s, o) ([`sparsity`]), so rows are computed
 //! exactly from `M` ([`rows`], the computational approach of §4.5.5) or
@@ -32,13 +32,13 @@
 //! 1. eq. 4.23: the offset term of `c` is `2^{l_j} o`, not `2^{l_i} o`
 //!    ([`coupling`]);
 //! 2. Fig. 4.4: `dr = |r − ½|`, not signed; its last branch is `else`
-//!    ([`canonical`]);
+//!    ([`mod@canonical`]);
 //! 3. eq. 4.28's derivation: the last line's first argument is `1/(4r)`;
 //! 4. Property 2 (eq. 4.29) lacks the sign σ (which half of the coarser
 //!    wavelet holds the finer one) and the case `j = k`, where
 //!    `ψ_j² = 2^{l_j/2} φ_{l_j,t_j}` makes `D_ijj = 2^{l_i/2} M_ψφ`;
 //! 5. the thesis gives `M` for wavelet × wavelet only; the φφ, ψφ, φψ forms
-//!    are derived in [`canonical`] (one primitive-based formula for all).
+//!    are derived in [`mod@canonical`] (one primitive-based formula for all).
 //!
 //! # Units and frames
 //! `v`, `o` in units of the unit interval (one light-texture side in 2D);

@@ -5,7 +5,7 @@
 //! ([`atoms_2d`]): the scaling function `φ_{0,0}(u) φ_{0,0}(v)` and, at
 //! level `l` with offsets `(px, py)`, type H `ψ_{l,px}(u) φ_{l,py}(v)`,
 //! V `φ_{l,px}(u) ψ_{l,py}(v)`, D `ψ_{l,px}(u) ψ_{l,py}(v)` — boxes at level
-//! `l`, which is why [`crate::canonical`] needs the φ forms. (`u` runs along
+//! `l`, which is why [`mod@crate::canonical`] needs the φ forms. (`u` runs along
 //! columns, `v` along rows, as in [`relight_haar::Basis::eval`].) The 2D ACC
 //! and ATC are then products of 1D ones (eqs. 4.31–4.32), for a scale and
 //! offset per axis: `D(s, o) = D¹(s_u, o_u) · D¹(s_v, o_v)`.

@@ -98,7 +98,7 @@ pub fn acc_matrix_f32(n: usize, s: f64, o: f64, out: &mut [f32], row: &mut Vec<(
 
 /// [`acc_matrix_f32`] by the primitive form directly, without the
 /// canonical reduction: the run-time path of near-field relighting, where
-/// `exp2` and the structural-zero tests of [`crate::canonical`] dominate.
+/// `exp2` and the structural-zero tests of [`crate::canonical()`] dominate.
 ///
 /// For a source atom with constant pieces `±A_i` on `[x_a, x_b)` (in
 /// `x = s v + o`), `D_ik = Σ_pieces ±A_i (P_k(v_b) − P_k(v_a))` with

@@ -1,4 +1,4 @@
-//! Fast f32 paths over the generated per-order kernels of [`crate::kernels`]:
+//! Fast f32 paths over the generated per-order kernels of `crate::kernels`:
 //! single calls (what [`crate::eval_sh_into`], [`crate::rotation::ZyzRotation`]
 //! and [`crate::product::TripleProduct`] run for f32 at low order), RGB
 //! variants and **batch kernels** (eight directions or vectors per AVX2
@@ -16,13 +16,13 @@
 //!   `rotate_euler_one` (angles given) is plain only. Two exceptions:
 //!   evaluation at n ≤ [`INLINE_EVAL_MAX_ORDER`] is inlined into the caller
 //!   (`eval_inline`, plain multiply and add: no call; at n = 4 on a CPU with
-//!   AVX-512 one call to [`crate::simd_eval::eval_n4`], as the scalar
+//!   AVX-512 one call to `crate::simd_eval::eval_n4`, as the scalar
 //!   kernel's ≈ 27 multiplies bound it there), and
 //!   rotation has one non-inlined function per order and instruction set
 //!   (no jump table, each order its own stack frame), and from order
 //!   `AVX512_ROTATE_MIN_ORDER` (4) on a third copy for AVX-512 in which
 //!   bands ≥ 3 (at order 4 bands 1–3) run with their coefficients across
-//!   vector lanes ([`crate::simd_bands`]; the scalar copies are bound by
+//!   vector lanes (`crate::simd_bands`; the scalar copies are bound by
 //!   their multiply count there). [`crate::eval_sh_array`] takes
 //!   the order as an array length, so even the order dispatch goes.
 //! * Rotation takes the 3×3 matrix: bands 1 and 2 come straight from it (a
@@ -31,8 +31,8 @@
 //!   [`crate::kernels_gen`]).
 //! * RGB variants: one Euler decomposition (rotation), then the mono kernel per
 //!   channel.
-//! * Batches: on an x86-64 CPU with AVX2 and FMA ([`crate::lanes::avx2_fma_available`]),
-//!   eight items per lane group in AVX registers ([`crate::lanes::F8`]), one
+//! * Batches: on an x86-64 CPU with AVX2 and FMA (`crate::lanes::avx2_fma_available`),
+//!   eight items per lane group in AVX registers (`crate::lanes::F8`), one
 //!   loop per order (constant indices, values in registers): directions come
 //!   in by a transposed load of 24 floats (`F8::load_xyz8`), rotation
 //!   matrices and vectors by 8×8 transposes (`load_rows` / `store_rows`),
@@ -190,13 +190,13 @@ pub(crate) fn eval_path(order: usize) -> &'static str {
     }
 }
 
-/// Largest order whose evaluation [`eval_one`] inlines into its caller: plain
+/// Largest order whose evaluation `eval_one` inlines into its caller: plain
 /// multiply and add, no CPU-feature test, no call, no order dispatch once the
 /// caller's order is known. At n ≤ 4 (at most 16 values, ≈ 20 multiplies)
 /// the test, the call and the jump table of the FMA copy cost more than FMA
 /// saves; the code is small enough to copy into every caller. The one
 /// exception is n = 4 on a CPU with AVX-512: there a flag test and a call to
-/// the two-register kernel [`crate::simd_eval::eval_n4`] beat the inlined
+/// the two-register kernel `crate::simd_eval::eval_n4` beat the inlined
 /// multiplies (`relight bench sh`, rows `eval 4` and `eval_array 4`).
 pub const INLINE_EVAL_MAX_ORDER: usize = 4;
 
@@ -875,7 +875,7 @@ pub fn rotate_rgb(
 
 /// Channel-wise truncated product of two RGB coefficient triples,
 /// `out_c = f_c ∗ g_c` for c = R, G, B, with the mono product per channel:
-/// the generated kernel below [`crate::product_high::HIGH_MIN_ORDER`], the
+/// the generated kernel below `crate::product_high::HIGH_MIN_ORDER`, the
 /// pseudo-spectral one from there (tables built once per order). Orders
 /// `1 ..=` [`KERNEL_PRODUCT_MAX_ORDER`].
 ///
@@ -1636,7 +1636,7 @@ pub fn rotate_batch(
 /// [`ROTATE_BATCH_MAX_ORDER`], eight items run at a time with the sources
 /// broadcast across the lanes, each group's ZYZ angles found once for its
 /// `C` vectors and the lanes stored straight into `dst`; elsewhere
-/// [`rotate_one_portable`] per item and vector.
+/// `rotate_one_portable` per item and vector.
 ///
 /// # Errors
 /// As [`rotate_batch`]; [`ShError::LengthMismatch`] unless every source

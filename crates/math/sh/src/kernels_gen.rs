@@ -1,13 +1,13 @@
-//! Generator of [`crate::kernels`]: per-order straight-line f32 kernels for
+//! Generator of `crate::kernels`: per-order straight-line f32 kernels for
 //! evaluation, exact rotation and the truncated product, written once over the
-//! lane type [`crate::lanes::V`] (one item, or eight items side by side).
+//! lane type `crate::lanes::V` (one item, or eight items side by side).
 //!
 //! Each kernel is an existing portable algorithm of this crate unrolled for a
 //! fixed order, constants as literals, no loops, no bounds checks, no
 //! dispatch:
 //!
 //! * **evaluation**: the associated-Legendre recurrence of [`crate::basis`]
-//!   (via [`crate::basis::legendre_polynomials`]), `Q_l^m` in Horner form in
+//!   (via `crate::basis::legendre_polynomials`), `Q_l^m` in Horner form in
 //!   `z²`, `(x + iy)^m` by repeated squaring;
 //! * **rotation**: bands 1 and 2 straight from the 3×3 matrix (a linear and
 //!   a quadratic form, `matrix_bands_1_2`), bands ≥ 3 by the ZYZ ("ZXZXZ")
@@ -22,7 +22,7 @@
 //!   triple); in chunks above n = 4, each chunk with a portable, an
 //!   AVX2+FMA and an AVX-512F copy (the same code with 32 registers). The
 //!   one-chunk kernels (n ≤ 4) read their inputs through fresh pointers per
-//!   pair block ([`crate::lanes::fresh`]), so the inputs are memory operands
+//!   pair block (`crate::lanes::fresh`), so the inputs are memory operands
 //!   and only the accumulators stay in registers.
 //! * **rotation** runs band by band (all five stages of one band, then the
 //!   next), so only one band's intermediates are live at a time.

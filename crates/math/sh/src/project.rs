@@ -417,7 +417,7 @@ pub fn reconstruct(c: &ShRgb, param: Param) -> EnvMap {
 /// the Legendre accumulation with `F_r ± F_{H−1−r}`.
 ///
 /// The sums run in f32 (RGB interleaved, 24 lanes) with FMA where the CPU has
-/// AVX2+FMA ([`crate::lanes::avx2_fma_available`]); [`Self::project_direct`] is
+/// AVX2+FMA (`crate::lanes::avx2_fma_available`); [`Self::project_direct`] is
 /// the unfolded, unpaired reference.
 #[derive(Clone, Debug)]
 pub struct LatLongProjector {

@@ -824,7 +824,7 @@ impl<T: Real> IvanicRuedenberg<T> {
     /// rotation matrix of `rot`. Allocation-free.
     ///
     /// Vectorised over the columns of each block: for a tile of
-    /// [`IR_TILE`] columns the plan forms the `3(2l−1)` rows
+    /// `IR_TILE` columns the plan forms the `3(2l−1)` rows
     /// `Q_i(a, c) = P_i(a, c)/√denom(c)` once, then every row `m` of band `l`
     /// is at most five scaled `Q` rows added — contiguous, branch-free lanes.
     /// With AVX2+FMA (detected at run time) the same code is compiled for
@@ -1154,7 +1154,7 @@ impl<T: Real> ZyzRotation<T> {
     /// this is the generated kernel of [`crate::fast`] (bands 1 and 2 straight
     /// from the matrix, bands ≥ 3 by ZYZ, the same products as
     /// [`apply_euler`](Self::apply_euler) to rounding); otherwise it decomposes
-    /// `rot` ([`euler_zyz_direct`]) and applies the angles.
+    /// `rot` (`euler_zyz_direct`) and applies the angles.
     #[inline]
     pub fn apply(&self, rot: &Rot3<T>, src: &[T], dst: &mut [T], scratch: &mut [T]) {
         if let (Some(s32), Some(d32)) = (T::as_f32_slice(src), T::as_f32_slice_mut(dst)) {

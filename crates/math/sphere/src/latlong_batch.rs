@@ -7,7 +7,7 @@
 //! operations in the same order as [`EnvMap::eval`] and the f32 lat-long
 //! footprint of [`Param::bilinear`] (two `atan2`s by the polynomial of
 //! [`crate::atan`], the seam and pole rules), written lane-wise over blocks
-//! of [`LANES`] directions without branches, so that the compiler turns the
+//! of `LANES` directions without branches, so that the compiler turns the
 //! footprint into vector code. The texel reads stay scalar (four RGB texels
 //! per lookup).
 //!
@@ -164,7 +164,7 @@ pub(crate) fn latlong_many(
 impl EnvMap {
     /// `out[i] = self.eval(env_from_world · dirs[i])` for every direction,
     /// bit for bit; a lat-long map takes the block path of this module
-    /// (about [`LANES`] lookups at a time), other parameterizations one
+    /// (about `LANES` lookups at a time), other parameterizations one
     /// [`EnvMap::eval`] each. `out` must be as long as `dirs` (extra entries
     /// of the longer one are left alone).
     pub fn eval_many(&self, env_from_world: Mat3, dirs: &[Vec3], out: &mut [Vec3]) {

@@ -1,4 +1,4 @@
-//! The committed LTC table ([`crate::table_data`], fitted by [`crate::fit`])
+//! The committed LTC table (`crate::table_data`, fitted by [`crate::fit`])
 //! and its bilinear lookup over `(√α, θ_o)`, as Heitz et al. 2016 (§5)
 //! interpolate theirs.
 

@@ -75,7 +75,7 @@ impl std::str::FromStr for RotationMethod {
     }
 }
 
-/// Settings of [`crate::RadianceCache`]; `Default` holds every default.
+/// Settings of [`crate::RadianceCacheRelighter`]; `Default` holds every default.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RadianceCacheOptions {
     /// Allowed error `a` of the interpolation criterion `w_i(p) > 1/a`

@@ -27,7 +27,7 @@
 //! multiply–adds, another summation order, `tan(θ/2)` from `sin θ` rather
 //! than from `asin`); a test compares
 //! them. The body is compiled three times — AVX-512F, AVX2 + FMA, portable —
-//! and picked at run time by [`relight_sh::isa`].
+//! and picked at run time by [`relight_sh::isa()`].
 
 use crate::ShExpError;
 use crate::exp::{ExpKind, MAX_SQUARINGS, OlFit, SquaringHistogram, squarings_rule};

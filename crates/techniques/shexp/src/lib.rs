@@ -14,7 +14,7 @@
 //! * [`spheres`]: bounding sphere sets of meshes (clustering, own code), the
 //!   sphere hierarchy, JSON export;
 //! * [`method`]: the `shexp` method behind `relight_render::method::Relighter`;
-//! * [`verify`], [`bench`]: `relight verify shexp`, `relight bench shexp`.
+//! * [`verify`], [`mod@bench`]: `relight verify shexp`, `relight bench shexp`.
 
 #![allow(clippy::needless_range_loop)] // index-heavy numerical kernels read better with explicit indices
 

@@ -6,7 +6,7 @@
 use relight_sh::eval_sh_into;
 use relight_sh::quadrature::SphereQuadrature;
 
-/// Degree of the quadrature of [`union_projection`].
+/// Degree of the quadrature of [`UnionProjector`].
 pub const UNION_QUADRATURE_DEGREE: usize = 400;
 
 /// A cap: unit axis and half-angle (radians).

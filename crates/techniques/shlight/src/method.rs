@@ -27,6 +27,9 @@
 //! `set_lighting` returns its milliseconds; the next frame also reports them
 //! as [`FrameTimings::lighting_ms`] (then 0 until the next lighting change),
 //! and [`FrameTimings::view_ms`] is the raster + shading time of the frame.
+//!
+//! [`FrameTimings::lighting_ms`]: relight_render::method::FrameTimings::lighting_ms
+//! [`FrameTimings::view_ms`]: relight_render::method::FrameTimings::view_ms
 
 use crate::bake::{BakeOptions, BrdfShTable};
 use crate::filter::Filtered;
@@ -70,7 +73,7 @@ pub struct ShOptions {
     /// would go negative at `order` bands, so no pixel is negative.
     pub window: WindowChoice,
     /// Normal-map filtering of normal-mapped Lambertian objects
-    /// ([`crate::filter`]). Default [`NdfFilter::None`]: plain normal
+    /// (`crate::filter`). Default [`NdfFilter::None`]: plain normal
     /// mapping.
     pub normal_filter: NdfFilter,
 }
@@ -340,7 +343,7 @@ impl Relighter for ShMethod {
         Ok(frame)
     }
 
-    /// The last frame's covered samples at [`crate::shade`]'s count per
+    /// The last frame's covered samples at `crate::shade`'s count per
     /// sample (by object: its rotation, normal map and channels), read from
     /// the last raster (the view of `request` once it was rendered); the
     /// lighting change as the vertices of the whole scene lit by ZYZ, an upper

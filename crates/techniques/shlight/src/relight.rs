@@ -14,7 +14,7 @@
 //!    differ only by the small tilt between its normals, so linearly
 //!    interpolating their coefficient vectors is meaningful (frames with
 //!    unrelated tangent azimuths would not be).
-//! 3. **Per pixel** ([`crate::shade`], over the rasterizer's visibility
+//! 3. **Per pixel** (`crate::shade`, over the rasterizer's visibility
 //!    buffer with its perspective-correct barycentrics): the interpolated vertex frame `F_v` (from the
 //!    interpolated normal and tangent, Gram–Schmidt) carries the interpolated
 //!    lighting `L_v`; the *perturbed* frame `F_p` has z = the normal-mapped
@@ -72,7 +72,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// Which empty samples of a frame get the environment
-/// ([`crate::LitScene::render_into`]; [`crate::shade`]'s docs), in the
+/// ([`crate::LitScene::render_into`]; `crate::shade`'s docs), in the
 /// lighting's frame and through the lighting filter where there is one.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Background {
@@ -761,7 +761,7 @@ impl ShRenderer {
 }
 
 /// What the SH pipeline refuses in `scene`'s objects, found without
-/// baking: [`check_meshes`] and an anisotropic BRDF
+/// baking: `check_meshes` and an anisotropic BRDF
 /// ([`crate::bake::check_isotropic`]). The SH and fog methods'
 /// `Relighter::check_objects`.
 ///

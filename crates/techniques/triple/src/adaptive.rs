@@ -1,6 +1,6 @@
 //! Adaptive selection in the renderer (spherical-wavelets-triple-product-2006
 //! §4.1, Fig. 7): per vertex, each of the three functions keeps its `n`
-//! largest area-weighted wavelet terms ([`crate::select`]) and the product
+//! largest area-weighted wavelet terms ([`crate::select()`]) and the product
 //! is the sparse tree sum ([`crate::product::sparse`], Ng et al. 2004).
 //!
 //! # Where the functions come from

@@ -13,7 +13,7 @@
 //!   into the BRDF term (and the paper's unweighted form).
 //! * [`product`]: the fast tree triple-product integral (dense O(N), sparse
 //!   O(n log n)) and the top-only kernel.
-//! * [`select`]: top-only and adaptive coefficient selection.
+//! * [`mod@select`]: top-only and adaptive coefficient selection.
 //!
 //! # The method
 //! ```text
@@ -25,7 +25,7 @@
 //!  (visibility)                        rotation: lookup change only   visibility → Σ_c L̄ V̄ ρ̂ (shade)
 //! ```
 //! [`TripleMethod`] (`triple`, defaults in [`TripleOptions`]) wires them behind
-//! `relight_render::method::Relighter`; [`verify`] and [`bench`] hold the rows
+//! `relight_render::method::Relighter`; [`verify`] and [`mod@bench`] hold the rows
 //! of `relight verify triple` and `relight bench triple`.
 //!
 //! # Choices where the paper is silent (each documented in its module)

@@ -56,7 +56,7 @@ pub const REPORT: &str =
 /// 0.19–0.20 for n = 64 and 128 alike: the sun is no wider than a target
 /// texel at either, and with m = n/2 a source texel is always half a target
 /// texel, so the share of the sun's energy placed in the wrong target texel
-/// does not shrink with n (a 6°-wide sun, [`sun_sky`]: 0.104 → 0.073).
+/// does not shrink with n (a 6°-wide sun, [`sun_sky`](crate::study::sun_sky): 0.104 → 0.073).
 ///
 /// # Errors
 /// Bad parameters.

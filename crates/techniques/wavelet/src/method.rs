@@ -24,6 +24,9 @@
 //! as [`FrameTimings::lighting_ms`] (then 0 until the next lighting change);
 //! [`FrameTimings::view_ms`] is step 2 + raster, and the products of step 1
 //! that the frame formed.
+//!
+//! [`FrameTimings::lighting_ms`]: relight_render::method::FrameTimings::lighting_ms
+//! [`FrameTimings::view_ms`]: relight_render::method::FrameTimings::view_ms
 
 use crate::WaveletError;
 use crate::brdf_bake::{BrdfBake, BrdfBakeParams};

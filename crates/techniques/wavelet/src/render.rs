@@ -9,7 +9,7 @@
 //!    top `terms` coefficients (one RGB index set), and multiplied by the
 //!    rotation matrices: `L̃_k = 𝐑_k 𝐋` for sampled normals `k`, stored
 //!    densely (`ntess² × M` RGB, `Vec3A`) so that step 2 gathers by index.
-//!    The products are formed on demand ([`LocalLighting`]): a lighting
+//!    The products are formed on demand (`LocalLighting`): a lighting
 //!    change marks every `L̃_k` stale, and a frame forms only those of the
 //!    normals its vertices blend (on the default scene's first view 627 of
 //!    the 1024: a camera sees the surfaces that face it, and each vertex
@@ -87,7 +87,7 @@ pub struct LightingStats {
     /// Fraction of the lighting's Haar L2 energy kept by the terms.
     pub energy_fraction: f64,
     /// Sampling + transform + selection, ms (the rotation-matrix products
-    /// follow on demand, [`LocalLighting`]).
+    /// follow on demand, `LocalLighting`).
     pub project_ms: f64,
 }
 
@@ -673,7 +673,7 @@ impl WaveletRenderer {
     /// (Lambert) keep their colours across view changes. The dot products
     /// go through the cache's [`DotMemo`] (each distinct slice × normal pair
     /// once per lighting, [`crate::memo`]). The image is the one shading
-    /// every vertex with [`WaveletRenderer::shade_point`] gives: bit for bit
+    /// every vertex with `WaveletRenderer::shade_point` gives: bit for bit
     /// for view-dependent bakes under [`NormalInterp::MirrorAligned`], to
     /// rounding (1e-5) otherwise.
     ///

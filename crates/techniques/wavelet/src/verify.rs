@@ -218,12 +218,16 @@ pub enum Densify {
     /// subdivision surface with its smooth normals, like a dense scanned
     /// model. The surface moves slightly (Loop smooths the knot's finest
     /// bumps), so the reference is rendered again on the dense scene.
+    ///
+    /// [`Mesh::subdivide_to_vertices`]: relight_geom::Mesh::subdivide_to_vertices
     Loop,
     /// Midpoint split with interpolated (renormalized) normals
     /// ([`Mesh::subdivide_midpoint`]): the same surface and, up to renormalizing the
     /// new vertex normals, the same shading-normal field as the original
     /// mesh, so the original reference applies (the default: it isolates
     /// vertex density from any change of the surface).
+    ///
+    /// [`Mesh::subdivide_midpoint`]: relight_geom::Mesh::subdivide_midpoint
     #[default]
     Linear,
 }
