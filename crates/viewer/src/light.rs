@@ -363,6 +363,32 @@ mod tests {
             assert_eq!((v.prepares(), bakes.0.load(Ordering::Relaxed)), (2, 1));
         }
 
+        /// LTC is among the viewer's default methods (`relight view
+        /// --method ltc`): it draws the area-lit scene (shadows ignored,
+        /// said on screen) and follows a light's move and scale without
+        /// preparing again.
+        #[test]
+        fn ltc_draws_and_follows_the_edited_light() {
+            let opts = ViewerOptions {
+                approximate: true,
+                ..ViewerOptions::default()
+            };
+            assert!(opts.methods.iter().any(|m| m.kind() == MethodKind::Ltc));
+            let mut v = Viewer::new(scene(), MethodKind::Ltc, opts).unwrap();
+            let f0 = v.frame(32, 18, false, &NoProgress).unwrap();
+            assert!(!f0.refused, "{:?}", f0.message);
+            assert!(
+                f0.message.as_deref().is_some_and(|m| m.contains("shadow")),
+                "{:?}",
+                f0.message
+            );
+            assert!(f0.image.pixels.iter().any(|p| p.element_sum() > 0.01));
+            assert!(v.move_light(Vec2::new(0.3, -0.2)) && v.scale_light(2.0));
+            let f1 = v.frame(32, 18, false, &NoProgress).unwrap();
+            assert!(diff(&f0, &f1) > 0.0, "the edits changed nothing");
+            assert_eq!(v.prepares(), 1);
+        }
+
         /// With several lights, `Tab` passes the edits on: each light
         /// keeps its own edit, nearfield re-bakes nothing (the moved light
         /// stays in its plane), the HUD names the edited light, and a reset

@@ -3,7 +3,7 @@
 //! ([`crate::hud`]) drawn over them.
 //!
 //! Controls: left drag orbits the camera, right drag turns the lighting,
-//! the wheel zooms; `1`–`7` switch methods (the reference refines while the
+//! the wheel zooms; `1`–`9` switch methods (the reference refines while the
 //! view is still), `a` toggles antialiasing, `h` the HUD, `r` resets, `s`
 //! saves the frame as PNG + EXR (`relight-view-N`, the first N free in the
 //! working folder; a failed write is printed, not fatal), `Esc`/`q` quits. While a button is held
