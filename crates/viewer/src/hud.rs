@@ -572,7 +572,7 @@ mod tests {
         assert_eq!(e, ErrorReading::NoReference);
         let info = HudInfo::new(&v, &f, e, 20.0);
         let status = info.status_lines();
-        assert!(status[0].text.starts_with("sh [2/8]"), "{:?}", status[0]);
+        assert!(status[0].text.starts_with("sh [2/9]"), "{:?}", status[0]);
         assert!(status[0].text.contains("50 fps"), "{:?}", status[0]);
         assert!(status[1].text.contains("order 3"), "{:?}", status[1]);
         assert!(status[2].text.contains("press 5"), "{:?}", status[2]);
@@ -586,6 +586,7 @@ mod tests {
             "6 ndf",
             "7 nearfield",
             "8 triple",
+            "9 ltc",
             "q: quit",
         ] {
             assert!(help.contains(k), "{help}");
