@@ -28,7 +28,7 @@ pub enum Command {
     /// Render a scene file, or a mesh under an environment map.
     Render(Box<RenderArgs>),
     /// Interactive window: drag to orbit, right-drag to turn the lighting,
-    /// keys 1-8 for wavelet/sh/fog/shexp/reference/ndf/nearfield/triple, a for
+    /// keys 1-9 for wavelet/sh/fog/shexp/reference/ndf/nearfield/triple/ltc, a for
     /// antialiasing, l (or Shift) to move and scale an area light, t for its
     /// texture, Tab for the next light, s to save, Esc to quit.
     View(Box<ViewArgs>),
