@@ -362,6 +362,12 @@ pub struct MethodFlags {
     /// map's top face is 2) [default: 4].
     #[arg(long)]
     pub face: Option<f64>,
+    /// Objects whose vertices are too far apart for per-vertex visibility
+    /// or light (a ground quad under a sphere): `on` shades a midpoint-refined
+    /// copy and warns, `off` shades them as given and only warns (triple,
+    /// nearfield, wavelet with --ao) [default: on].
+    #[arg(long, value_name = "on|off")]
+    pub refine_coarse: Option<String>,
 }
 
 /// Media transport of the reference renderer.

@@ -27,7 +27,7 @@ pub fn kind_of(m: Method) -> MethodKind {
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 31] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 32] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
@@ -82,6 +82,14 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 31] = [
     ("--source-ranking", &[MethodKind::Nearfield]),
     ("--target-terms", &[MethodKind::Nearfield]),
     ("--face", &[MethodKind::Nearfield]),
+    (
+        "--refine-coarse",
+        &[
+            MethodKind::Triple,
+            MethodKind::Nearfield,
+            MethodKind::Wavelet,
+        ],
+    ),
 ];
 
 /// The flags of `f` that are set, by name.
@@ -118,6 +126,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.source_ranking.is_some(),
         f.target_terms.is_some(),
         f.face.is_some(),
+        f.refine_coarse.is_some(),
     ];
     FLAG_METHODS
         .iter()
@@ -174,7 +183,21 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         select => "--select", shading => "--shading", twists => "--twists",
         storage => "--storage",
         source_terms => "--source-terms", source_ranking => "--source-ranking", target_terms => "--target-terms", face => "--face",
+        refine_coarse => "--refine-coarse",
     );
+}
+
+/// `--refine-coarse on|off`, if given.
+///
+/// # Errors
+/// Any other value.
+pub fn refine_coarse(f: &MethodFlags) -> Result<Option<bool>> {
+    match f.refine_coarse.as_deref() {
+        None => Ok(None),
+        Some("on") => Ok(Some(true)),
+        Some("off") => Ok(Some(false)),
+        Some(other) => bail!("--refine-coarse {other}: expected `on` or `off`"),
+    }
 }
 
 /// The options of `kind`: its defaults with the given flags applied.
@@ -241,6 +264,9 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
             if let Some(c) = &f.cache {
                 w.cache_dir = c.clone();
             }
+            if let Some(r) = refine_coarse(f)? {
+                w.refine_coarse = r;
+            }
         }
         MethodOptions::ShExp(x) => {
             if let Some(order) = f.order {
@@ -306,6 +332,9 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
                     );
                 }
                 t.visibility_texture = r;
+            }
+            if let Some(r) = refine_coarse(f)? {
+                t.refine_coarse = r;
             }
         }
         MethodOptions::Fog(g) => {

@@ -37,6 +37,9 @@ pub fn apply_flags(o: &mut NearfieldOptions, f: &MethodFlags) -> Result<()> {
     if let Some(t) = f.target_terms {
         o.target_terms = t;
     }
+    if let Some(r) = crate::method_args::refine_coarse(f)? {
+        o.refine_coarse = r;
+    }
     // The CLI keeps transport bakes: `--cache DIR`, else $RELIGHT_CACHE/nearfield
     // (`relight cache list`).
     o.cache_dir = Some(cache_dir(f.cache.as_deref()));

@@ -489,6 +489,61 @@ fn info_describes_a_scene_file_and_its_methods() {
         line_of(&text, "object 1:").contains("still too coarse: give it a finer mesh"),
         "{text}"
     );
+    // `--refine-coarse on` (the default) shades the quad on a refined copy,
+    // `off` as given; each says so. Another value, or the flag on a method
+    // without per-vertex visibility, is refused.
+    let (quad, png, cache) = (
+        tmp("info-quad.toml"),
+        tmp("refine.png"),
+        tmp("refine-cache"),
+    );
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            quad.to_str().unwrap(),
+            "--size",
+            "16x9",
+            "--out",
+            png.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        relight(&args)
+    };
+    let ao = [
+        "--cache",
+        cache.to_str().unwrap(),
+        "--method",
+        "wavelet",
+        "--ao",
+        "8",
+        "--n",
+        "16",
+        "--ntess",
+        "4",
+        "--terms",
+        "32",
+        "--visibility",
+        "--approximate",
+    ];
+    for (switch, says) in [
+        ("on", "shaded on a copy refined to 4225 vertices"),
+        ("off", "the shadows between them are lost"),
+    ] {
+        let out = render(&[&ao[..], &["--refine-coarse", switch]].concat());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            out.status.success() && err.contains(says),
+            "{switch}: {err}"
+        );
+    }
+    assert_clean_error(
+        &render(&[&ao[..], &["--refine-coarse", "maybe"]].concat()),
+        "--refine-coarse maybe: expected `on` or `off`",
+    );
+    assert_clean_error(
+        &render(&["--method", "sh", "--refine-coarse", "off"]),
+        "--refine-coarse does not apply to method sh",
+    );
     let bad = tmp("info-bad.toml");
     std::fs::write(&bad, "[[object]]\nbuiltin = \"cube\"\n").unwrap();
     assert_clean_error(
