@@ -144,7 +144,8 @@ pub struct SceneArgs {
     /// BRDF for every object, e.g. `lambert`, `ggx:0.2`, `phong:50`, `ward:0.1,0.3`.
     #[arg(long)]
     pub brdf: Option<String>,
-    /// Camera `ex,ey,ez,tx,ty,tz[,fov_deg]`; default frames the meshes.
+    /// Camera `ex,ey,ez,tx,ty,tz[,fov_deg]` (a top-down view looks with −Z up);
+    /// default frames the meshes.
     #[arg(long)]
     pub camera: Option<String>,
     /// Image size WIDTHxHEIGHT.

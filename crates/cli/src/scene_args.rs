@@ -207,8 +207,19 @@ pub fn build_scene(
     }
     if let Some(c) = &a.camera {
         let v = parse_floats(c, c.split(',').count().clamp(6, 7), "--camera")?;
-        scene.camera.eye = Vec3::new(v[0], v[1], v[2]);
-        scene.camera.target = Vec3::new(v[3], v[4], v[5]);
+        let (eye, target) = (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]));
+        let view = (target - eye).normalize_or_zero();
+        ensure!(
+            view != Vec3::ZERO,
+            "--camera {c}: the target must differ from the eye"
+        );
+        scene.camera.eye = eye;
+        scene.camera.target = target;
+        // A view along the scene's up (a top-down camera) takes the up a
+        // scene file without one would get.
+        if scene.camera.up.normalize_or_zero().cross(view).length() < 1e-3 {
+            scene.camera.up = relight_scene::default_camera_up(view);
+        }
         if let Some(fov) = v.get(6) {
             ensure!(
                 *fov > 0.0 && *fov < 180.0,

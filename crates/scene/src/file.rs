@@ -47,8 +47,12 @@ pub const DEFAULT_OBJECT_SCALE: f32 = 1.0;
 pub const DEFAULT_BRDF: &str = "lambert";
 /// `[camera] fov` and the framing camera's field of view (vertical, degrees).
 pub const DEFAULT_FOV_DEG: f32 = 40.0;
-/// `[camera] up`.
+/// `[camera] up`, unless the view is vertical ([`DEFAULT_CAMERA_UP_VERTICAL`]).
 pub const DEFAULT_CAMERA_UP: [f32; 3] = [0.0, 1.0, 0.0];
+/// `[camera] up` when `|view · Y| > VERTICAL_NORMAL_COS` (a camera looking
+/// straight down or up): the image's top towards −Z, the default camera's
+/// forward direction.
+pub const DEFAULT_CAMERA_UP_VERTICAL: [f32; 3] = [0.0, 0.0, -1.0];
 /// `[camera] size` (pixels, width × height) when neither the file nor the
 /// caller gives one.
 pub const DEFAULT_IMAGE_SIZE: [usize; 2] = [960, 540];

@@ -29,7 +29,9 @@ pub use embedded::{
 };
 pub use error::SceneError;
 pub use file::{SceneFile, parse_scene_file};
-pub use load::{LoadedScene, load_environment, load_mesh, load_scene_file, load_scene_text};
+pub use load::{
+    LoadedScene, default_camera_up, load_environment, load_mesh, load_scene_file, load_scene_text,
+};
 pub use relight_sphere::rotation_from_yaw_pitch_roll;
 pub use studio::{
     SUN_RADIANCE, SUN_RADIUS_DEG, studio_environment, studio_radiance, studio_sun_direction,

@@ -14,10 +14,10 @@
 use crate::check::Ctx;
 use crate::embedded::{STUDIO_HEIGHT, builtin_mesh, framing_camera};
 use crate::file::{
-    BUILTIN_ENVIRONMENTS, CameraDesc, DEFAULT_BRDF, DEFAULT_CAMERA_UP, DEFAULT_ENV_SCALE,
-    DEFAULT_ENVIRONMENT, DEFAULT_FOV_DEG, DEFAULT_IMAGE_SIZE, DEFAULT_OBJECT_SCALE,
-    DEFAULT_ROTATE_DEG, DEFAULT_TRANSLATE, DEFAULT_VISIBILITY, KeyframeDesc, MAX_IMAGE_SIDE,
-    ObjectDesc, SceneFile, parse_scene_file,
+    BUILTIN_ENVIRONMENTS, CameraDesc, DEFAULT_BRDF, DEFAULT_CAMERA_UP, DEFAULT_CAMERA_UP_VERTICAL,
+    DEFAULT_ENV_SCALE, DEFAULT_ENVIRONMENT, DEFAULT_FOV_DEG, DEFAULT_IMAGE_SIZE,
+    DEFAULT_OBJECT_SCALE, DEFAULT_ROTATE_DEG, DEFAULT_TRANSLATE, DEFAULT_VISIBILITY, KeyframeDesc,
+    MAX_IMAGE_SIDE, ObjectDesc, SceneFile, VERTICAL_NORMAL_COS, parse_scene_file,
 };
 use crate::lights::{area_light, medium, point_light};
 use crate::studio::studio_environment;
@@ -396,6 +396,19 @@ fn animation(cx: Ctx, key: &str, keys: &[KeyframeDesc]) -> Result<Animation, Sce
     Animation::try_new(out).map_err(|m| cx.err(&format!("{key}.keyframe"), m))
 }
 
+/// A camera's up when none is given: [`DEFAULT_CAMERA_UP`], or
+/// [`DEFAULT_CAMERA_UP_VERTICAL`] when the unit `view` direction is within
+/// [`VERTICAL_NORMAL_COS`] of ±Y (a top-down camera), so that no default
+/// is parallel to the view.
+#[must_use]
+pub fn default_camera_up(view: Vec3) -> Vec3 {
+    if view.y.abs() > VERTICAL_NORMAL_COS {
+        Vec3::from(DEFAULT_CAMERA_UP_VERTICAL)
+    } else {
+        Vec3::from(DEFAULT_CAMERA_UP)
+    }
+}
+
 fn camera(
     cx: Ctx,
     c: Option<&CameraDesc>,
@@ -426,11 +439,18 @@ fn camera(
                 format!("must differ from camera.eye (both {eye})"),
             )
         })?;
-    let up = cx.direction("camera.up", c.up.unwrap_or(DEFAULT_CAMERA_UP))?;
+    let up = match c.up {
+        Some(u) => cx.direction("camera.up", u)?,
+        None => default_camera_up(view),
+    };
     if up.cross(view).length() < 1e-3 {
         return Err(cx.err(
             "camera.up",
-            format!("degenerate orientation: up {up} is parallel to the view direction {view}"),
+            format!(
+                "degenerate orientation: up {up} is parallel to the view direction {view}; give \
+                 another up (or none: a vertical view then takes {})",
+                Vec3::from(DEFAULT_CAMERA_UP_VERTICAL)
+            ),
         ));
     }
     let fov = cx.finite("camera.fov", c.fov.unwrap_or(DEFAULT_FOV_DEG))?;

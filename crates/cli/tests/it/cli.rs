@@ -192,7 +192,39 @@ fn bad_flags_give_one_line_errors() {
         "power of two",
     );
     assert_clean_error(&relight(&["info", "no-such-file.exr"]), "no-such-file.exr");
+    assert_clean_error(
+        &relight(&[
+            "render",
+            "--mesh",
+            "sphere",
+            "--camera",
+            "0,1,0,0,1,0",
+            "--out",
+            o,
+        ]),
+        "--camera 0,1,0,0,1,0: the target must differ from the eye",
+    );
     assert!(!out_path.exists(), "no output may be written on error");
+    // A top-down `--camera` takes the vertical default up (it was refused
+    // as "camera is invalid" by the method).
+    let top = relight(&[
+        "render",
+        "--mesh",
+        "sphere",
+        "--camera",
+        "0,5,0,0,0,0",
+        "--size",
+        "8x8",
+        "--method",
+        "sh",
+        "--out",
+        o,
+    ]);
+    assert!(
+        top.status.success(),
+        "{}",
+        String::from_utf8_lossy(&top.stderr)
+    );
 }
 
 #[test]

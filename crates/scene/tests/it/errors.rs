@@ -170,6 +170,33 @@ fn bad_media() {
     check(&m("albedo = 0.5"), "medium", "missing field `beta`");
 }
 
+/// A camera looking straight down (or up) without an `up` takes
+/// `DEFAULT_CAMERA_UP_VERTICAL` (−Z: the image's top towards the default
+/// camera's forward), as a vertical area light takes its own; an `up`
+/// given parallel to the view stays an error that names the fix.
+#[test]
+fn a_vertical_camera_without_up_takes_the_vertical_default() {
+    for (eye, y) in [([0.0, 5.0, 0.0], -1.0), ([0.0, -5.0, 0.0], 1.0)] {
+        let text = format!("[camera]\neye = {eye:?}\ntarget = [0.0, 0.0, 0.0]\n{SPHERE}");
+        let scene = load_scene_text(&text, Path::new("top.toml"), Some((8, 8)))
+            .unwrap()
+            .scene;
+        assert_eq!(scene.camera.up, Vec3::new(0.0, 0.0, -1.0));
+        assert_eq!(
+            relight_scene::default_camera_up(Vec3::new(0.0, y, 0.0)),
+            Vec3::new(0.0, 0.0, -1.0)
+        );
+    }
+    // Off vertical by more than 2.6°, the default +Y.
+    let tilted = Vec3::new(0.05, -1.0, 0.0).normalize();
+    assert_eq!(relight_scene::default_camera_up(tilted), Vec3::Y);
+    check(
+        &format!("[camera]\neye = [0, 5, 0]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\n{SPHERE}"),
+        "camera.up",
+        "give another up (or none: a vertical view then takes [0, 0, -1])",
+    );
+}
+
 #[test]
 fn bad_cameras() {
     let c = |body: &str| format!("[camera]\n{body}\n{SPHERE}");
