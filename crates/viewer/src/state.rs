@@ -189,7 +189,7 @@ impl Slot {
                     self.unlit = Some((
                         lighting,
                         format!(
-                            "{e}; nothing is drawn at this lighting: turn the lighting on (right drag) or reset it (r)"
+                            "{e}; nothing is drawn at this lighting: turn the lighting further (right drag) or reset it (r)"
                         ),
                     ));
                 }
