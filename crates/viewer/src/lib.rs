@@ -653,7 +653,7 @@ mod tests {
         );
         assert!(
             Viewer::new(
-                scene,
+                scene.clone(),
                 MethodKind::Sh,
                 ViewerOptions {
                     methods: vec![MethodOptions::default_for(MethodKind::Fog)],
@@ -661,6 +661,17 @@ mod tests {
                 }
             )
             .is_err()
+        );
+        // A method the viewer does not show names the ones it does, and the
+        // command that renders it.
+        let e = Viewer::new(scene, MethodKind::RadianceCache, ViewerOptions::default())
+            .err()
+            .expect("not a viewer method")
+            .to_string();
+        assert!(
+            e.contains("radiance-cache is not among the viewer's methods (wavelet, sh, fog")
+                && e.contains("`relight render --method radiance-cache` renders it"),
+            "{e}"
         );
     }
 }

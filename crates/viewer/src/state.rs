@@ -57,6 +57,10 @@ pub enum ViewerError {
         value: String,
         why: &'static str,
     },
+    #[error(
+        "method {method} is not among the viewer's methods ({available}); `relight render --method {method}` renders it"
+    )]
+    NotInViewer { method: String, available: String },
 }
 
 /// Settings of the viewer.
@@ -306,15 +310,19 @@ impl Viewer {
                 why: "must be 1…8 samples per pixel side",
             });
         }
-        let current =
-            opts.methods
-                .iter()
-                .position(|m| m.kind() == first)
-                .ok_or(ViewerError::Invalid {
-                    what: "method",
-                    value: first.name().to_string(),
-                    why: "is not among the viewer's methods",
-                })?;
+        let current = opts
+            .methods
+            .iter()
+            .position(|m| m.kind() == first)
+            .ok_or_else(|| ViewerError::NotInViewer {
+                method: first.name().to_string(),
+                available: opts
+                    .methods
+                    .iter()
+                    .map(|m| m.kind().name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })?;
         let orbit = Orbit::from_camera(&scene.camera);
         let light_textures: Vec<LightTextures> = scene
             .area_lights
