@@ -75,7 +75,7 @@ pub enum Command {
     /// Sphere sets of meshes (shadow proxies).
     #[command(subcommand)]
     Spheres(crate::shexp::SpheresCommand),
-    /// The bake caches (wavelet, nearfield): list their entries or delete them.
+    /// The bake caches (wavelet, nearfield, triple): list their entries or delete them.
     #[command(subcommand)]
     Cache(CacheCommand),
     /// Normal-map filtering tools: `ndf bake` writes an engine-ready MIP chain.
@@ -91,8 +91,8 @@ pub enum CacheCommand {
         /// Only entries whose file name or configuration contains this text
         /// (e.g. `rot-n128`, `ggx`, `terms=128`).
         pattern: Option<String>,
-        /// Cache folder [default: both $RELIGHT_CACHE/wavelet and
-        /// $RELIGHT_CACHE/nearfield, else under $XDG_CACHE_HOME/relight/,
+        /// Cache folder [default: $RELIGHT_CACHE/wavelet, $RELIGHT_CACHE/nearfield
+        /// and $RELIGHT_CACHE/triple, else under $XDG_CACHE_HOME/relight/,
         /// else under ~/.cache/relight/].
         #[arg(long)]
         cache: Option<PathBuf>,

@@ -14,8 +14,16 @@
 //! The nearfield method's transport bakes live in a sibling folder
 //! ([`relight_nearfield::cache::default_cache_dir`]),
 //! `nearfield-n32-f4000-o2-s1-v1-….bin` (order, face × 1000, objects,
-//! shadows, format version, hash of the key). Without `--cache` both
-//! folders are listed (and cleared); with it, that one folder.
+//! shadows, format version, hash of the key). The triple-product method's
+//! BRDF tables and visibility bakes live in a third
+//! ([`relight_triple::cache::default_cache_dir`]): `brdf-m1-16-….bin`,
+//! `vis-m1-2-….bin`, `vistex-m1-2-….bin` (coefficient level m, for
+//! n = 20·4^m terms; BRDF views or visibility level). Without `--cache` all
+//! three folders are listed (and cleared); with it, that one folder.
+//!
+//! An interrupted write leaves its temp file beside the entry
+//! (`.NAME.tmp-PID-N`, `relight_assets::write_atomic_with`; `NAME.tmp`
+//! before that): kind `partial`, listed and cleared with the rest.
 
 use crate::args::CacheCommand;
 use anyhow::{Context, Result};
@@ -26,7 +34,8 @@ use std::time::SystemTime;
 #[derive(Debug)]
 pub struct Entry {
     pub path: PathBuf,
-    /// `rotation`, `brdf` or `partial` (an interrupted bake's temp file).
+    /// `rotation`, `brdf`, `nearfield`, `triple` or `partial` (an
+    /// interrupted bake's temp file).
     pub kind: &'static str,
     /// The parameters the file name carries, e.g. `n=64 m=32 ntess=32 ntrunc=1`.
     pub configuration: String,
@@ -37,10 +46,26 @@ pub struct Entry {
 /// The configuration of a cache file name, or `None` if the name is not one.
 #[must_use]
 pub fn parse_name(name: &str) -> Option<(&'static str, String)> {
-    if name.ends_with(".tmp")
-        && (name.starts_with("rot-") || name.starts_with("brdf-") || name.starts_with("nearfield-"))
-    {
-        return Some(("partial", "interrupted bake".into()));
+    // `.ENTRY.tmp-PID-N` (today's atomic writes) or `ENTRY.tmp` (before).
+    let partial = name
+        .strip_prefix('.')
+        .and_then(|n| n.rsplit_once(".tmp-"))
+        .filter(|(_, tail)| {
+            tail.split('-').count() == 2
+                && tail
+                    .split('-')
+                    .all(|t| !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit()))
+        })
+        .map(|(entry, _)| entry)
+        .or_else(|| name.strip_suffix(".tmp"));
+    if let Some(entry) = partial {
+        let (kind, configuration) = parse_name(entry)?;
+        return (kind != "partial").then(|| {
+            (
+                "partial",
+                format!("interrupted bake: {kind} {configuration}"),
+            )
+        });
     }
     let stem = name.strip_suffix(".bin")?;
     let fields: Vec<&str> = stem.split('-').collect();
@@ -87,6 +112,19 @@ pub fn parse_name(name: &str) -> Option<(&'static str, String)> {
                 num(v, "v")?
             ),
         )),
+        [t @ ("brdf" | "vis" | "vistex"), m, second, hash] if hash.len() == 16 => {
+            let m: u32 = num(m, "m")?.parse().ok().filter(|&m| m <= 4)?;
+            let second = num(second, "")?;
+            let n = 20 * 4u32.pow(m);
+            Some((
+                "triple",
+                match *t {
+                    "brdf" => format!("BRDF table n={n} views={second}"),
+                    "vis" => format!("visibility n={n} level {second}"),
+                    _ => format!("visibility texture n={n} level {second}"),
+                },
+            ))
+        }
         _ => None,
     }
 }
@@ -183,13 +221,14 @@ pub fn run(c: CacheCommand) -> Result<()> {
     }
 }
 
-/// `--cache`, or the wavelet and nearfield folders.
+/// `--cache`, or the wavelet, nearfield and triple folders.
 fn folders(cache: Option<PathBuf>) -> Vec<PathBuf> {
     match cache {
         Some(d) => vec![d],
         None => vec![
             relight_wavelet::default_cache_dir(),
             relight_nearfield::cache::default_cache_dir(),
+            relight_triple::cache::default_cache_dir(),
         ],
     }
 }
@@ -277,9 +316,32 @@ mod tests {
             ))
         );
         assert_eq!(
-            parse_name("rot-n64-m32-t32-q1-v1-0123.bin.tmp").map(|p| p.0),
-            Some("partial")
+            parse_name("rot-n64-m32-t32-q1-v1-0123456789abcdef.bin.tmp"),
+            Some((
+                "partial",
+                "interrupted bake: rotation n=64 m=32 ntess=32 ntrunc=1 format v1".into()
+            ))
         );
+        // Today's temp names (`relight_assets::write_atomic_with`).
+        assert_eq!(
+            parse_name(".vis-m1-2-0123456789abcdef.bin.tmp-4242-7"),
+            Some((
+                "partial",
+                "interrupted bake: triple visibility n=80 level 2".into()
+            ))
+        );
+        assert_eq!(parse_name(".notes.txt.tmp-1-2"), None);
+        assert_eq!(parse_name(".vis-m1-2-0123456789abcdef.bin.tmp-x-7"), None);
+        // The triple-product method's bakes.
+        assert_eq!(
+            parse_name("brdf-m1-16-0f6713bc29c21342.bin"),
+            Some(("triple", "BRDF table n=80 views=16".into()))
+        );
+        assert_eq!(
+            parse_name("vistex-m2-4-0123456789abcdef.bin").map(|p| p.1),
+            Some("visibility texture n=320 level 4".into())
+        );
+        assert_eq!(parse_name("vis-m9-4-0123456789abcdef.bin"), None);
         assert_eq!(
             parse_name("nearfield-n32-f4000-o2-s1-v1-0123456789abcdef.bin"),
             Some((

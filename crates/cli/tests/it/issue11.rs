@@ -129,6 +129,28 @@ fn r11_cache_lists_and_clears_entries() {
     assert!(dir.join("notes.txt").exists(), "other files are left alone");
     let out = relight(&["cache", "list", "--cache", d]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("(no entries)"));
+
+    // The triple method's bakes, and the temp file of a write killed
+    // mid-way (`.NAME.tmp-PID-N`, hidden), are entries too.
+    let vis = "vis-m1-2-0123456789abcdef.bin";
+    let partial = ".brdf-m2-32-fedcba9876543210.bin.tmp-4242-0";
+    std::fs::write(dir.join(vis), vec![0u8; 1_000_000]).unwrap();
+    std::fs::write(dir.join(partial), vec![0u8; 300_000]).unwrap();
+    let out = relight(&["cache", "list", "--cache", d]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    for want in [
+        "triple",
+        "visibility n=80 level 2",
+        "partial",
+        "interrupted bake: triple BRDF table n=320 views=32",
+        "2 entries, 1.3 MB",
+    ] {
+        assert!(text.contains(want), "`{want}` missing from:\n{text}");
+    }
+    let out = relight(&["cache", "clear", "--cache", d]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("deleted 2 of 2 entries (1.3 MB)"));
+    assert!(!dir.join(vis).exists() && !dir.join(partial).exists());
+    assert!(dir.join("notes.txt").exists());
 }
 
 #[test]
