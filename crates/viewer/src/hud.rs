@@ -359,7 +359,7 @@ pub fn layout(info: &HudInfo, width: usize, height: usize) -> Vec<Rect> {
     if let Some(lines) = message_lines(info, width, s) {
         rects.push(centred(&lines, width, height, s));
     }
-    let help = info.help_lines();
+    let help = fitted(info.help_lines(), width, s);
     let hr = crate::text::panel_rect(0, 0, s, &help, m);
     rects.push(Rect {
         x: m,
@@ -406,7 +406,22 @@ pub fn draw_hud(canvas: &mut Canvas, info: &HudInfo) {
         canvas.panel(rects[1].x, rects[1].y, s, &lines, m);
     }
     let help = rects[rects.len() - 1];
-    canvas.panel(help.x, help.y, s, &info.help_lines(), m);
+    canvas.panel(help.x, help.y, s, &fitted(info.help_lines(), w, s), m);
+}
+
+/// `lines` wrapped at spaces to fit a panel on a `width`-pixel frame at
+/// glyph scale `s` (the key help of nine methods is wider than a 960-pixel
+/// window); each piece keeps its line's colour.
+fn fitted(lines: Vec<Line>, width: usize, s: usize) -> Vec<Line> {
+    let chars = width.saturating_sub(4 * margin(s)) / (crate::text::GLYPH * s);
+    lines
+        .into_iter()
+        .flat_map(|l| {
+            wrap(&l.text, chars)
+                .into_iter()
+                .map(move |t| Line::new(t.trim_end(), l.color))
+        })
+        .collect()
 }
 
 /// What a method's preparation has reached: the phase and its counts.
@@ -592,6 +607,20 @@ mod tests {
             assert!(help.contains(k), "{help}");
         }
         assert!(help.contains("n: normal filter"), "{help}");
+        // On the default 960 × 540 window every panel fits: the key help
+        // (142 characters, 1136 pixels) is wrapped, not cut.
+        for (w, h) in [(960, 540), (640, 360)] {
+            for r in layout(&info, w, h) {
+                assert!(r.x + r.w <= w && r.y + r.h <= h, "{r:?} outside {w}×{h}");
+            }
+        }
+        let wrapped: String = fitted(info.help_lines(), 960, 1)
+            .iter()
+            .map(|l| l.text.clone() + " ")
+            .collect();
+        for k in ["9 ltc", "q: quit", "n: normal filter"] {
+            assert!(wrapped.contains(k), "{wrapped}");
+        }
         // n cycles the normal filter of ndf and of sh's filtering mode.
         v.select(0);
         assert!(!v.cycle_normal_filter());
