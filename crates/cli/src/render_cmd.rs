@@ -8,7 +8,7 @@ use crate::method_args::{kind_of, options_for};
 use crate::output::{output_paths, warn_all, write_outputs};
 use crate::progress::Bar;
 use crate::scene_args::build_scene;
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Result, anyhow, bail, ensure};
 use relight_methods::{MethodKind, MethodOptions};
 use relight_render::Scene;
 use relight_render::method::{
@@ -176,9 +176,14 @@ fn view_methods(flags: &MethodFlags) -> Result<Vec<MethodOptions>> {
 pub fn view(a: ViewArgs, bar: &Bar) -> Result<()> {
     let built = build_scene(&a.scene, Some(&relight_scene::default_scene))?;
     let (w, h) = (built.scene.camera.width, built.scene.camera.height);
+    let aa = a.aa.unwrap_or(relight_viewer::state::DEFAULT_STILL_AA);
+    ensure!(
+        (1..=relight_render::method::MAX_AA).contains(&aa),
+        "--aa {aa}: must be 1…8 samples per pixel side"
+    );
     let opts = relight_viewer::ViewerOptions {
         methods: view_methods(&a.options)?,
-        aa: a.aa.unwrap_or(relight_viewer::state::DEFAULT_STILL_AA),
+        aa,
         approximate: a.approximate,
     };
     let mut viewer = relight_viewer::Viewer::new(built.scene, kind_of(a.method), opts)?;

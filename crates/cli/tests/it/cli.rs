@@ -407,7 +407,12 @@ fn view_without_a_display_is_a_one_line_error() {
         .expect("run relight");
     assert_clean_error(&out, "needs DISPLAY or WAYLAND_DISPLAY");
     let out = relight(&["-q", "view", "--aa", "0"]);
-    assert_clean_error(&out, "aa = 0");
+    assert_clean_error(&out, "--aa 0: must be 1…8 samples per pixel side");
+    let out = relight(&["-q", "view", "--method", "radiance-cache"]);
+    assert_clean_error(
+        &out,
+        "method radiance-cache is not among the viewer's methods (wavelet, sh, fog, shexp, reference, ndf, nearfield, triple, ltc)",
+    );
 }
 
 #[test]
