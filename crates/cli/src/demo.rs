@@ -47,11 +47,7 @@ pub fn demo(a: DemoArgs, bar: &Bar) -> Result<()> {
         Some(s) => parse_size(s, "--size")?,
         None => DEMO_TILE,
     };
-    let aa = a.aa.unwrap_or(DEMO_AA);
-    ensure!(
-        (1..=relight_render::method::MAX_AA).contains(&aa),
-        "--aa {aa}: must be 1…8 samples per pixel side"
-    );
+    let aa = crate::render_cmd::checked_aa(a.aa.unwrap_or(DEMO_AA))?;
     let kinds: Vec<MethodKind> = if a.method.is_empty() {
         DEMO_METHODS.to_vec()
     } else {

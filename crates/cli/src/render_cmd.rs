@@ -99,13 +99,26 @@ pub fn render_with(
 }
 
 /// `--aa`, refused for the reference (it integrates each pixel itself).
+/// `--aa K` within 1…`MAX_AA` (render, view and demo).
+///
+/// # Errors
+/// K out of range, naming the flag.
+pub fn checked_aa(aa: usize) -> Result<usize> {
+    let max = relight_render::method::MAX_AA;
+    ensure!(
+        (1..=max).contains(&aa),
+        "--aa {aa}: must be 1…{max} samples per pixel side"
+    );
+    Ok(aa)
+}
+
 fn aa_for(kind: MethodKind, aa: Option<usize>, default: usize) -> Result<usize> {
     match (kind, aa) {
         (MethodKind::Reference, Some(_)) => bail!(
             "--aa does not apply to method reference (it integrates each pixel itself; use --spp)"
         ),
         (MethodKind::Reference, None) => Ok(1),
-        (_, Some(k)) => Ok(k),
+        (_, Some(k)) => checked_aa(k),
         (_, None) => Ok(default),
     }
 }
@@ -176,11 +189,7 @@ fn view_methods(flags: &MethodFlags) -> Result<Vec<MethodOptions>> {
 pub fn view(a: ViewArgs, bar: &Bar) -> Result<()> {
     let built = build_scene(&a.scene, Some(&relight_scene::default_scene))?;
     let (w, h) = (built.scene.camera.width, built.scene.camera.height);
-    let aa = a.aa.unwrap_or(relight_viewer::state::DEFAULT_STILL_AA);
-    ensure!(
-        (1..=relight_render::method::MAX_AA).contains(&aa),
-        "--aa {aa}: must be 1…8 samples per pixel side"
-    );
+    let aa = checked_aa(a.aa.unwrap_or(relight_viewer::state::DEFAULT_STILL_AA))?;
     let opts = relight_viewer::ViewerOptions {
         methods: view_methods(&a.options)?,
         aa,

@@ -204,6 +204,12 @@ fn bad_flags_give_one_line_errors() {
         ]),
         "--camera 0,1,0,0,1,0: the target must differ from the eye",
     );
+    assert_clean_error(
+        &relight(&[
+            "render", "--mesh", "sphere", "--method", "sh", "--aa", "9", "--out", o,
+        ]),
+        "--aa 9: must be 1…8 samples per pixel side",
+    );
     assert!(!out_path.exists(), "no output may be written on error");
     // A top-down `--camera` takes the vertical default up (it was refused
     // as "camera is invalid" by the method).
