@@ -359,7 +359,7 @@ fn light_rotation_and_aa_agree_with_the_reference_by_compare() {
     let out = relight(&[
         "-q", "render", "--mesh", "sphere", "--aa", "9", "--method", "sh",
     ]);
-    assert_clean_error(&out, "aa: must be 1…8");
+    assert_clean_error(&out, "--aa 9: must be 1…8");
     // Fog at T = β·radius = 1 changes the image; a negative β is a one-line error.
     let clear = rendered(&format!("{sphere} --method fog --aa 2"), "cmp-clear.png");
     let foggy = rendered(
