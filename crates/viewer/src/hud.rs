@@ -355,7 +355,8 @@ fn margin(scale: usize) -> usize {
 pub fn layout(info: &HudInfo, width: usize, height: usize) -> Vec<Rect> {
     let s = hud_scale(height);
     let m = margin(s);
-    let mut rects = vec![crate::text::panel_rect(m, m, s, &info.status_lines(), m)];
+    let status = fitted(info.status_lines(), width, s);
+    let mut rects = vec![crate::text::panel_rect(m, m, s, &status, m)];
     if let Some(lines) = message_lines(info, width, s) {
         rects.push(centred(&lines, width, height, s));
     }
@@ -401,7 +402,13 @@ pub fn draw_hud(canvas: &mut Canvas, info: &HudInfo) {
     let s = hud_scale(h);
     let m = margin(s);
     let rects = layout(info, w, h);
-    canvas.panel(rects[0].x, rects[0].y, s, &info.status_lines(), m);
+    canvas.panel(
+        rects[0].x,
+        rects[0].y,
+        s,
+        &fitted(info.status_lines(), w, s),
+        m,
+    );
     if let Some(lines) = message_lines(info, w, s) {
         canvas.panel(rects[1].x, rects[1].y, s, &lines, m);
     }
@@ -411,7 +418,8 @@ pub fn draw_hud(canvas: &mut Canvas, info: &HudInfo) {
 
 /// `lines` wrapped at spaces to fit a panel on a `width`-pixel frame at
 /// glyph scale `s` (the key help of nine methods is wider than a 960-pixel
-/// window); each piece keeps its line's colour.
+/// window, a method's settings can be wider than a small one); each piece
+/// keeps its line's colour.
 fn fitted(lines: Vec<Line>, width: usize, s: usize) -> Vec<Line> {
     let chars = width.saturating_sub(4 * margin(s)) / (crate::text::GLYPH * s);
     lines
@@ -612,6 +620,18 @@ mod tests {
         for (w, h) in [(960, 540), (640, 360)] {
             for r in layout(&info, w, h) {
                 assert!(r.x + r.w <= w && r.y + r.h <= h, "{r:?} outside {w}×{h}");
+            }
+        }
+        // So does every default method's status (its settings line is
+        // 444 pixels wide for wavelet) in a window resized to 320 × 180.
+        for m in &ViewerOptions::default().methods {
+            let each = HudInfo {
+                method: m.kind(),
+                settings: settings(m, &f),
+                ..info.clone()
+            };
+            for r in layout(&each, 320, 180) {
+                assert!(r.x + r.w <= 320, "{}: {r:?}", m.kind());
             }
         }
         let wrapped: String = fitted(info.help_lines(), 960, 1)
