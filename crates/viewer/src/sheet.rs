@@ -122,7 +122,21 @@ pub fn compose(cells: &[Cell], tile_width: usize, tile_height: usize) -> Sheet {
         let mut c = Canvas::new(&mut words, width, height);
         // Header lines stop at their own cell's edge.
         let fit = |scale: usize, text: &str| clip(text, (tile_width - 2 * pad) / (GLYPH * scale));
-        c.text(x0 + pad, y0 + pad, 2 * s, WHITE, &fit(2 * s, &cell.title));
+        // The title large when it fits, else at the details' size (a
+        // 160-pixel tile holds 9 large glyphs: `sh  13.1 ms/frame` is 17).
+        let chars = |scale: usize| (tile_width - 2 * pad) / (GLYPH * scale);
+        let title_scale = if cell.title.chars().count() <= chars(2 * s) {
+            2 * s
+        } else {
+            s
+        };
+        c.text(
+            x0 + pad,
+            y0 + pad,
+            title_scale,
+            WHITE,
+            &fit(title_scale, &cell.title),
+        );
         let mut y = y0 + pad + line_height(2 * s);
         for l in cell.details.iter().take(DETAIL_LINES) {
             c.text(x0 + pad, y, s, l.color, &fit(s, &l.text));
@@ -281,6 +295,31 @@ mod tests {
         assert_eq!((drawn(WHITE), drawn(GREEN)), (0, 0));
         assert_eq!(clip("abcdef", 4), "abc…");
         assert_eq!(clip("abc", 4), "abc");
+    }
+
+    /// A title too long for large glyphs (17 characters on a 160-pixel
+    /// tile, which holds 9) is drawn whole at the details' size instead of
+    /// cut to `sh  13.1…`.
+    #[test]
+    fn a_long_title_on_a_small_tile_is_drawn_small_and_whole() {
+        let (tw, th) = (160, 40);
+        let cells = vec![Cell {
+            title: "sh  13.1 ms/frame".into(),
+            details: vec![],
+            image: Ok(flat(tw, th, 0.5)),
+        }];
+        let s = compose(&cells, tw, th);
+        let white: Vec<(usize, usize)> = (0..header_height(tw))
+            .flat_map(|y| (0..tw).map(move |x| (x, y)))
+            .filter(|&(x, y)| s.words[y * s.width + x] == WHITE)
+            .collect();
+        let (x_max, y_min, y_max) = white.iter().fold((0, usize::MAX, 0), |(a, b, c), &(x, y)| {
+            (a.max(x), b.min(y), c.max(y))
+        });
+        // The 17th glyph (`e`, 8 pixels from x = 4 + 16 · 8) is drawn, one
+        // glyph high.
+        assert!(x_max >= 4 + 16 * GLYPH, "last white column {x_max}");
+        assert!(y_max - y_min < GLYPH, "rows {y_min}…{y_max}");
     }
 
     #[test]
