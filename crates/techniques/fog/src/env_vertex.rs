@@ -162,13 +162,15 @@ impl EnvLighting {
 
     /// What an empty sample in world direction `d` (unit) shows:
     /// direct · env(d) + max(0, the filtered part at d), as the per-pixel
-    /// path's background.
+    /// path's background; with `weights`, `weights[0] · env(d) +
+    /// weights[1] · max(0, the filtered part at d)`.
     #[must_use]
-    pub fn background(&self, env: &EnvMap, d: Vec3) -> Vec3 {
+    pub fn background(&self, env: &EnvMap, d: Vec3, weights: Option<[f32; 2]>) -> Vec3 {
+        let [direct, glow] = weights.unwrap_or([self.direct, 1.0]);
         let seen = env.eval(self.env_from_world * d);
         match &self.filtered {
-            None => self.direct * seen,
-            Some(sh) => self.direct * seen + self.filtered_at(sh, d),
+            None => direct * seen,
+            Some(sh) => direct * seen + glow * self.filtered_at(sh, d),
         }
     }
 
@@ -178,19 +180,26 @@ impl EnvLighting {
     /// one-at-a-time lookup), the filtered part eight directions at a time
     /// by [`relight_sh::fast::shade_rgb_batch`] (AVX2 lanes across
     /// directions, up to its order; the same sums up to rounding), one by
-    /// one above it.
+    /// one above it. With `weights`, direction i shows
+    /// `weights[i][0] · env(d) + weights[i][1] · max(0, filtered(d))`
+    /// instead (a fog ball's chord, [`crate::view_segment::ChordGlow`]).
     ///
     /// # Panics
-    /// `out` shorter than `dirs`.
+    /// `out` or `weights` shorter than `dirs`.
     pub fn add_background(
         &self,
         env: &EnvMap,
         dirs: &[Vec3],
+        weights: Option<&[[f32; 2]]>,
         scratch: &mut BackgroundScratch,
         out: &mut [Vec3],
     ) {
         assert!(out.len() >= dirs.len(), "add_background: output too short");
         let n = dirs.len();
+        assert!(
+            weights.is_none_or(|w| w.len() >= n),
+            "add_background: weights too short"
+        );
         let BackgroundScratch { seen, dirs3, sh } = scratch;
         seen.resize(n, Vec3::ZERO);
         env.eval_many(self.env_from_world, dirs, seen);
@@ -201,12 +210,14 @@ impl EnvLighting {
             relight_sh::fast::shade_rgb_batch(self.order, [&f[0], &f[1], &f[2]], dirs3, sh).is_ok()
         });
         for (i, o) in out[..n].iter_mut().enumerate() {
-            *o += self.direct * seen[i]
-                + match (&self.filtered, batched) {
-                    (None, _) => Vec3::ZERO,
-                    (Some(_), true) => Vec3::from_array(sh[i]).max(Vec3::ZERO),
-                    (Some(f), false) => self.filtered_at(f, dirs[i]),
-                };
+            let [direct, glow] = weights.map_or([self.direct, 1.0], |w| w[i]);
+            *o += direct * seen[i]
+                + glow
+                    * match (&self.filtered, batched) {
+                        (None, _) => Vec3::ZERO,
+                        (Some(_), true) => Vec3::from_array(sh[i]).max(Vec3::ZERO),
+                        (Some(f), false) => self.filtered_at(f, dirs[i]),
+                    };
         }
     }
 

@@ -44,11 +44,12 @@ mod simd;
 pub mod special;
 pub mod table;
 pub mod verify;
+pub mod view_segment;
 pub mod work;
 
 pub use bench::{BenchRow, bench_fog, bench_fog_scene};
 pub use env_vertex::EnvShading;
-pub use method::{FogOptions, FogRelighter};
+pub use method::{EnvGlow, FogOptions, FogRelighter};
 pub use model::{FogMaterial, FogModel, Phase, PointLight};
 use relight_render::Numbered;
 pub use render::{
@@ -90,10 +91,15 @@ pub enum FogError {
         object: usize,
     },
     #[error(
-        "the eye at {eye} lies outside the fog ball of radius {radius}; the analytic model needs \
-         the eye inside the medium"
+        "the eye at {eye} is {depth} mean free paths (β × distance) outside the fog ball of radius \
+         {radius}; beyond {} the model's terms underflow f32: move the eye closer",
+        crate::view_segment::MAX_EYE_DEPTH
     )]
-    EyeOutsideBall { eye: glam::Vec3, radius: f32 },
+    EyeFarOutsideBall {
+        eye: glam::Vec3,
+        radius: f32,
+        depth: f32,
+    },
     #[error("{what} = {value} is invalid: distances must be finite and > 0")]
     Distance { what: &'static str, value: f64 },
     #[error(

@@ -7,16 +7,23 @@
 //!    ch. 3; [`crate::render`]): every covered pixel is L = e^{−T_vp} L_p + L_a
 //!    (eq. 3.29) with each object's BRDF fitted to the paper's Lambert + Phong
 //!    surface ([`FogMaterial::fit`]); an empty pixel gets the airlight along
-//!    its ray to the fog ball's edge (eq. 3.16 over the finite segment).
-//! 2. **The environment** by its PSF-convolved foggy version (§3.6.4,
-//!    eqs. 3.35–3.37): SH shading ([`relight_shlight::LitScene`]) of the
-//!    lighting L′_lm = (e^{−T} + a·√(4π/(2l+1)) PSF_l) L_lm at T = β·R
-//!    ([`relight_render::Medium::env_thickness`]; a the albedo scales the
-//!    single-scattered part), so an empty pixel shows e^{−T} L(d) + (PSF ⊛ L)(d).
-//!    The surface's radiance then crosses the view segment of length D:
-//!    L = e^{−βD} L_s + (1 − e^{−βD}) a e^{−T} L̄ with L̄ = (1/4π)∫L dω, the
-//!    environment's attenuated light scattered once into the view ray under
-//!    the same assumption (every point lit as the ball's centre).
+//!    its ray's span in the fog ball (eq. 3.16 over the finite segment). The
+//!    eye may be outside the ball: the model then runs from each ray's entry
+//!    ([`crate::view_segment`], exact).
+//! 2. **The environment** as the thesis' foggy lighting (§3.6.4,
+//!    eqs. 3.35–3.37) with the ball's own scattering kernel: SH shading
+//!    ([`relight_shlight::LitScene`]) of the lighting L′_lm = (e^{−T} + a·w_l)
+//!    L_lm at T = β·R ([`relight_render::Medium::env_thickness`]; a the
+//!    albedo scales the single-scattered part), w_l the kernel's band weights
+//!    ([`EnvGlow::Ball`], [`crate::psf::ball_convolution_weights`]: the
+//!    directional environment entering the ball at its edge, exact at its
+//!    centre; [`EnvGlow::Thesis`] keeps the thesis' point-source PSF). An
+//!    empty pixel shows e^{−T_d} L(d) + g·a·(K ⊛ L)(d) for its ray's chord of
+//!    optical thickness T_d and glow weight g, and a surface's radiance
+//!    crosses its view segment in the ball as L = e^{−βD} L_s + s·a·L̄·G_c
+//!    with L̄ = (1/4π)∫L dω: the segment's share s of the scattering, taken
+//!    with g from [`crate::view_segment::ChordGlow`] (exact for a uniform
+//!    sky, with every surface lit as the ball's centre).
 //!    By default the surface part is shaded at the frame's visible vertices
 //!    and interpolated ([`crate::env_vertex`], [`EnvShading::PerVertex`]);
 //!    [`EnvShading::PerPixel`] shades every sample with `env_rotation`.
@@ -36,13 +43,15 @@
 //! [`Support::No`] and `check_scene` turns those into errors. The environment
 //! is rendered by the thesis' model of §3.6.4 and so is [`Support::Full`]: its
 //! approximations ([`ENVIRONMENT_APPROXIMATION`]) are the method's error, which
-//! `relight verify methods` measures against the reference. The
-//! camera and every point light must lie inside the fog ball (the analytic
-//! model assumes an unbounded medium between them); surfaces are assumed
-//! inside it too. BRDFs other than Lambert + Phong are fitted, not evaluated.
+//! `relight verify methods` measures against the reference. Every point
+//! light must lie inside the fog ball, and surfaces are assumed inside it
+//! too; the eye may be anywhere within 40 mean free paths of it
+//! ([`crate::view_segment::MAX_EYE_DEPTH`]). BRDFs other than Lambert +
+//! Phong are fitted, not evaluated.
 //!
 //! # Timings
-//! `set_lighting` — the PSF weights of eq. 3.35, light checks, and the
+//! `set_lighting` — the band weights of eq. 3.35, the chord table when the
+//! medium changed, light checks, and the
 //! filtered environment's SH rotated to the world frame (per vertex: one
 //! rotation of n² coefficients, [`EnvLighting`]; per pixel: into every
 //! vertex frame, [`relight_shlight::LitScene::light`], when the
@@ -60,6 +69,7 @@ use crate::render::{
     validate_lights,
 };
 use crate::table::{FogTables, Interp};
+use crate::view_segment;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use relight_geom::Mesh;
@@ -68,7 +78,7 @@ use relight_render::method::{
     coverage_of_raster, frame_paints_background,
 };
 use relight_render::raster::{NO_TRIANGLE, Rasterizer};
-use relight_render::{Camera, Image, Numbered, Progress, Scene};
+use relight_render::{Camera, Image, Medium, Numbered, Progress, Scene};
 use relight_shlight::{Background, LightingFilter, LitScene, ShRenderer, ShRotationMethod};
 use relight_sphere::EnvMap;
 use std::sync::Arc;
@@ -79,10 +89,11 @@ pub const NAME: &str = "fog";
 
 /// How the environment part approximates (the text of its
 /// [`Support::Approximate`]).
-pub const ENVIRONMENT_APPROXIMATION: &str = "in a medium the environment lights every point as it \
-     would the fog ball's centre (sources at distance R, T = β·R, single-scattering PSF of \
-     sun-thesis eqs. 3.35–3.37, band-limited to the SH order) and its light scattered into the \
-     view ray is that of the centre too; no shadows or multiple scattering";
+pub const ENVIRONMENT_APPROXIMATION: &str = "in a medium the environment lights every surface as \
+     it would the fog ball's centre (T = β·R, sun-thesis eqs. 3.35–3.37 with the ball's \
+     single-scattering kernel, band-limited to the SH order), and the light a view ray scatters \
+     has the centre's directions, scaled to its chord as a uniform sky's; no shadows or \
+     multiple scattering";
 
 /// Every default of the fog method (the one place they live).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -100,9 +111,9 @@ pub struct FogOptions {
     /// Per-pixel SH rotation of the environment part (matters only on
     /// curved, tangent-framed meshes; no normal maps are applied).
     pub env_rotation: ShRotationMethod,
-    /// PSF in the environment part: the empirical factorisation T e^{−T}
-    /// NPSF (eq. 3.32, what the thesis uses) or the exact PSF_T (eq. 3.30).
-    pub factorized_psf: bool,
+    /// The environment's single-scattered glow: the ball's exact kernel
+    /// (the default) or the thesis' point-source PSF.
+    pub env_glow: EnvGlow,
     /// Reject point lights inside closed meshes (brute force per lighting
     /// change, O(lights × triangles)).
     pub check_lights_inside: bool,
@@ -120,11 +131,25 @@ impl Default for FogOptions {
             interp: Interp::Bilinear,
             env_order: 6,
             env_rotation: ShRotationMethod::Exact,
-            factorized_psf: true,
+            env_glow: EnvGlow::Ball,
             check_lights_inside: true,
             env_shading: EnvShading::PerVertex,
         }
     }
+}
+
+/// The kernel that scatters the environment into the view (and into the
+/// light a surface receives) in the environment part.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EnvGlow {
+    /// Single scattering of the directional environment in the scene's
+    /// fog ball, exact at its centre
+    /// ([`crate::psf::ball_convolution_weights`]).
+    Ball,
+    /// The thesis' PSF (eqs. 3.30–3.35): point sources at distance R in an
+    /// unbounded medium; `factorized`: the empirical T e^{−T} NPSF of
+    /// eq. 3.32 (what the thesis uses), else the exact PSF_T of eq. 3.30.
+    Thesis { factorized: bool },
 }
 
 /// The medium as the method reads it: β (0 without one), albedo, radius.
@@ -178,6 +203,17 @@ impl MediumParams {
     fn env_thickness(&self) -> f32 {
         self.radius.map_or(0.0, |r| self.beta * r)
     }
+
+    /// The fog ball, where there is a medium (β > 0).
+    fn ball(&self) -> Option<Medium> {
+        self.radius
+            .filter(|_| self.beta > 0.0)
+            .map(|radius| Medium {
+                beta: self.beta,
+                albedo: self.albedo,
+                radius,
+            })
+    }
 }
 
 /// The lighting of the last [`Relighter::set_lighting`].
@@ -189,6 +225,9 @@ struct Lighting {
     env_mean: Vec3,
     /// (T, albedo, filter) of the environment part, cached.
     filter: (f32, f32, LightingFilter),
+    /// The empty pixels' weights along their chords through the ball
+    /// (`None`: no ball or β = 0), cached with the medium.
+    chords: Option<view_segment::ChordGlow>,
 }
 
 /// The fog method (see the module docs).
@@ -288,7 +327,8 @@ impl FogRelighter {
 
     /// The per-band multipliers of the environment part at optical
     /// thickness `t` and albedo `albedo` (eqs. 3.35–3.37): direct e^{−T},
-    /// bands a·√(4π/(2l+1)) PSF_l.
+    /// bands a·w_l, w_l the [`EnvGlow`] kernel's (the thesis' √(4π/(2l+1))
+    /// PSF_l, or the ball's).
     #[must_use]
     pub fn environment_filter(&self, t: f32, albedo: f32) -> LightingFilter {
         if t <= 0.0 {
@@ -297,11 +337,13 @@ impl FogRelighter {
                 bands: Vec::new(),
             };
         }
-        let w = crate::psf::convolution_weights(
-            f64::from(t),
-            self.options.env_order,
-            self.options.factorized_psf,
-        );
+        let (t64, order) = (f64::from(t), self.options.env_order);
+        let w = match self.options.env_glow {
+            EnvGlow::Ball => crate::psf::ball_convolution_weights(t64, order),
+            EnvGlow::Thesis { factorized } => {
+                crate::psf::convolution_weights(t64, order, factorized)
+            }
+        };
         LightingFilter {
             direct: (-t).exp(),
             bands: w.iter().map(|&x| albedo * x as f32).collect(),
@@ -447,27 +489,35 @@ impl FogRelighter {
             }
         }
         progress.check()?;
-        let ambient = if self.opengl() {
-            Vec3::ZERO
-        } else {
-            lighting.env_mean * (m.albedo * (-m.env_thickness()).exp())
+        // What the view segments scatter into the eye, per unit of a
+        // uniform sky's share (`ChordGlow::segment`): a L̄ G_c.
+        let scatter = match &lighting.chords {
+            Some(c) if !self.opengl() => lighting.env_mean * (m.albedo * c.centre()),
+            _ => Vec3::ZERO,
         };
         let r = &self.rasterizer;
         let g = r.gbuffer();
         let eye = big.eye;
         let w = big.width;
-        // The view segment: e^{−βD} L_s + (1 − e^{−βD}) a e^{−T} L̄.
+        // The view segment to the surface point `p` in the ball
+        // (`ChordGlow::segment`): [e^{−βD}, its share of scattering].
+        let segment_weights = |p: Vec3| {
+            let t = (p - eye).length();
+            match &lighting.chords {
+                Some(c) if t > 0.0 => c.segment(eye, (p - eye) / t, t),
+                _ => [1.0, 0.0],
+            }
+        };
+        // The view segment: e^{−βD} L_s + s a L̄ G_c.
         // `corners`: the triangle's vertex positions.
         let segment_at = |corners: &[Vec3; 3], b: [f32; 2], e: Vec3| {
-            if m.beta <= 0.0 {
-                return e;
-            }
             let p = corners[0] * (1.0 - b[0] - b[1]) + corners[1] * b[0] + corners[2] * b[1];
-            // The crate's polynomial e^x (≈ 1e-7 relative, as the
-            // point-light kernels' e^{−T_vp}) instead of libm's call.
-            let f = crate::fast::exp(-m.beta * (p - eye).length());
-            e * f + ambient * (1.0 - f)
+            let [f, share] = segment_weights(p);
+            e * f + scatter * share
         };
+        // An empty sample's environment weights along its chord through
+        // the ball (`None`: no medium, the lighting's own).
+        let chord = |d: Vec3| lighting.chords.as_ref().map(|c| c.weights(eye, d));
         let segment = |d: usize, tri: usize, b: [f32; 2], e: Vec3| {
             let mesh = &scene.objects[d].mesh;
             let t = mesh.indices[tri];
@@ -487,7 +537,6 @@ impl FogRelighter {
             }
             let vframe = &*vframe;
             let rays = big.ray_frame();
-            let beta = m.beta;
             // `render_frame` paints every pixel no object touches: then only
             // the empty samples of partly covered pixels need the
             // environment here (none at one sample per pixel).
@@ -535,20 +584,23 @@ impl FogRelighter {
                                 let lam = Vec3::new(1.0 - b[0] - b[1], b[0], b[1]);
                                 let e = c[0] * lam.x + c[1] * lam.y + c[2] * lam.z;
                                 let q = p[0] * lam.x + p[1] * lam.y + p[2] * lam.z;
-                                s.push(x, e, (q - eye).length());
+                                s.push(x, e, segment_weights(q));
                             }
                             None if !opengl && (!painted || partly_covered(x, y)) => {
-                                s.push_empty(x, rays.dir(x as f32 + 0.5, y as f32 + 0.5));
+                                let d = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
+                                s.push_empty(x, d, chord(d));
                             }
                             None => {}
                         }
                     }
-                    s.add_segments(beta, ambient, row);
+                    s.add_segments(scatter, row);
                     s.add_background(light, &scene.env, row);
                 },
             );
         } else if self.environment_image(scene, &big, progress)? {
             let env = &self.env_image;
+            let rays = big.ray_frame();
+            let env_from_world = scene.world_from_env.transpose();
             let r = &self.rasterizer;
             let g = r.gbuffer();
             image
@@ -562,7 +614,17 @@ impl FogRelighter {
                         let id = g.triangle[i];
                         *px += match (id != NO_TRIANGLE).then(|| r.locate(id)).flatten() {
                             Some((d, tri)) => segment(d, tri, g.barycentrics[i], *e),
-                            None => *e,
+                            None => match chord(rays.dir(x as f32 + 0.5, y as f32 + 0.5)) {
+                                // The renderer drew the centre's e^{−T} L(d) +
+                                // glow(d); the chord's weights rescale the two.
+                                Some([direct, glow]) if !opengl => {
+                                    let d = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
+                                    let seen = scene.env.eval(env_from_world * d);
+                                    let centre = lighting.filter.2.direct * seen;
+                                    direct * seen + glow * (*e - centre)
+                                }
+                                _ => *e,
+                            },
                         };
                     }
                 });
@@ -572,22 +634,21 @@ impl FogRelighter {
 }
 
 /// One image row of the per-vertex environment pass, gathered before it
-/// is shaded: the covered pixels' columns, surface radiance L_s and
-/// distance D from the eye, so that the transmittances e^{−βD} are computed
-/// in one loop over the row (which vectorises, instead of a dependent
-/// polynomial chain per pixel between the scattered triangle lookups); the
-/// empty pixels' columns and view directions, so that their background is
-/// shaded in batches ([`EnvLighting::add_background`]).
+/// is shaded: the covered pixels' columns, surface radiance L_s and view
+/// segment weights; the empty pixels' columns and view directions, so that
+/// their background is shaded in batches ([`EnvLighting::add_background`]).
 #[derive(Default)]
 struct SegmentRow {
     x: Vec<u32>,
     radiance: Vec<Vec3>,
-    /// D, then e^{−βD} in place.
-    dist: Vec<f32>,
-    /// The empty pixels: columns, view directions, and the background's
+    /// [e^{−βD}, the segment's share of scattering] (`ChordGlow::segment`).
+    segment: Vec<[f32; 2]>,
+    /// The empty pixels: columns, view directions, their chords' weights
+    /// (`view_segment::ChordGlow`), and the background's
     /// filtered part and sums.
     empty_x: Vec<u32>,
     empty_dir: Vec<Vec3>,
+    empty_weights: Vec<[f32; 2]>,
     empty_scratch: BackgroundScratch,
     empty_sum: Vec<Vec3>,
 }
@@ -596,38 +657,33 @@ impl SegmentRow {
     fn clear(&mut self) {
         self.x.clear();
         self.radiance.clear();
-        self.dist.clear();
+        self.segment.clear();
         self.empty_x.clear();
         self.empty_dir.clear();
+        self.empty_weights.clear();
     }
 
-    fn push(&mut self, x: usize, radiance: Vec3, dist: f32) {
+    fn push(&mut self, x: usize, radiance: Vec3, segment: [f32; 2]) {
         self.x.push(x as u32);
         self.radiance.push(radiance);
-        self.dist.push(dist);
+        self.segment.push(segment);
     }
 
-    fn push_empty(&mut self, x: usize, dir: Vec3) {
+    /// An empty pixel; `weights`: its chord's (`None`: no medium, the
+    /// lighting's own).
+    fn push_empty(&mut self, x: usize, dir: Vec3, weights: Option<[f32; 2]>) {
         self.empty_x.push(x as u32);
         self.empty_dir.push(dir);
+        if let Some(w) = weights {
+            self.empty_weights.push(w);
+        }
     }
 
-    /// Adds e^{−βD} L_s + (1 − e^{−βD}) `ambient` (the view segment of
-    /// §3.6.4) to each gathered pixel of `row`; L_s alone where β ≤ 0.
-    fn add_segments(&mut self, beta: f32, ambient: Vec3, row: &mut [Vec3]) {
-        if beta <= 0.0 {
-            for (&x, &e) in self.x.iter().zip(&self.radiance) {
-                row[x as usize] += e;
-            }
-            return;
-        }
-        for d in &mut self.dist {
-            // The crate's polynomial e^x (≈ 1e-7 relative, as the
-            // point-light kernels' e^{−T_vp}) instead of libm's call.
-            *d = crate::fast::exp(-beta * *d);
-        }
-        for ((&x, &e), &f) in self.x.iter().zip(&self.radiance).zip(&self.dist) {
-            row[x as usize] += e * f + ambient * (1.0 - f);
+    /// Adds e^{−βD} L_s + s `scatter` (the view segment of §3.6.4 in the
+    /// ball, `ChordGlow::segment`) to each gathered pixel of `row`.
+    fn add_segments(&mut self, scatter: Vec3, row: &mut [Vec3]) {
+        for ((&x, &e), &[f, share]) in self.x.iter().zip(&self.radiance).zip(&self.segment) {
+            row[x as usize] += e * f + scatter * share;
         }
     }
 
@@ -636,9 +692,12 @@ impl SegmentRow {
     fn add_background(&mut self, light: &EnvLighting, env: &EnvMap, row: &mut [Vec3]) {
         self.empty_sum.clear();
         self.empty_sum.resize(self.empty_x.len(), Vec3::ZERO);
+        let weights =
+            (self.empty_weights.len() == self.empty_dir.len()).then_some(&self.empty_weights[..]);
         light.add_background(
             env,
             &self.empty_dir,
+            weights,
             &mut self.empty_scratch,
             &mut self.empty_sum,
         );
@@ -739,17 +798,6 @@ impl Relighter for FogRelighter {
         }
         if let Some(r) = medium.radius {
             let outside = |p: Vec3| p.length() >= r;
-            if outside(scene.camera.eye) {
-                return Err(MethodError::InvalidOption {
-                    method: NAME,
-                    option: "camera.eye",
-                    message: FogError::EyeOutsideBall {
-                        eye: scene.camera.eye,
-                        radius: r,
-                    }
-                    .to_string(),
-                });
-            }
             if let Some((i, l)) = lights.iter().enumerate().find(|(_, l)| outside(l.position)) {
                 return Err(MethodError::InvalidOption {
                     method: NAME,
@@ -806,11 +854,16 @@ impl Relighter for FogRelighter {
                 env.light(&self.sh, scene, progress).map_err(failed)?;
             }
         }
+        let chords = match &self.lighting {
+            Some(l) if l.medium == medium => l.chords.clone(),
+            _ => medium.ball().map(|b| view_segment::ChordGlow::new(&b)),
+        };
         self.lighting = Some(Lighting {
             medium,
             lights,
             env_mean,
             filter,
+            chords,
         });
         Ok(start.elapsed().as_secs_f64() * 1e3)
     }
@@ -877,7 +930,6 @@ impl Relighter for FogRelighter {
     /// redoes the same work less the raster and the vertex transfers' turn,
     /// so `lighting_fma` is the view change's count as an upper bound.
     fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
-        let _ = request;
         if self.opengl() || self.options.env_shading != EnvShading::PerVertex {
             return None;
         }
@@ -892,8 +944,36 @@ impl Relighter for FogRelighter {
         let fogged = !frame_paints_background(scene);
         let env = self.vertex.as_ref().zip(self.env_lighting.as_ref());
         let env_order = env.map_or(0, |((shader, _), _)| shader.order());
+        // With the eye outside the ball every covered sample (surfaces lie
+        // inside it) and every empty one whose ray enters it is shaded once
+        // more from its entry.
+        let camera = request.camera;
+        let entries = match lighting.medium.ball() {
+            Some(b) if !lighting.lights.is_empty() && camera.eye.length() >= b.radius => {
+                let (w, k) = (g.width, request.aa);
+                let mut big = camera;
+                big.width *= k;
+                big.height *= k;
+                let rays = big.ray_frame();
+                let entering = g
+                    .triangle
+                    .iter()
+                    .enumerate()
+                    .filter(|&(i, &t)| {
+                        t == NO_TRIANGLE && {
+                            let d = rays.dir((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+                            b.ball_span(camera.eye, d)
+                                .is_some_and(|(t_in, _)| t_in > 0.0)
+                        }
+                    })
+                    .count();
+                covered + entering
+            }
+            _ => 0,
+        };
         let counts = crate::work::FrameCounts {
             covered,
+            entries,
             edge: if lighting.medium.radius.is_some() && !lighting.lights.is_empty() {
                 empty
             } else {

@@ -14,11 +14,12 @@ use crate::FogError;
 use crate::model::{FogMaterial, FogModel, Phase, PointLight, PreparedLight, opengl_fog_pixel};
 use crate::shade::{MaterialConst, PixelBatch, shade_background, shade_surface_run};
 use crate::table::{FogTables, Interp};
+use crate::view_segment;
 use glam::Vec3;
 use rayon::prelude::*;
 use relight_geom::Mesh;
 use relight_render::raster::{Background, DrawCall, NO_TRIANGLE, RasterOptions, Rasterizer};
-use relight_render::{Camera, Image};
+use relight_render::{Camera, Image, Medium};
 
 /// Which fog to render.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -314,7 +315,8 @@ pub fn rasterize_objects(
     Ok(())
 }
 
-/// The checks of [`render_fog_into`] (lights, β, the fog ball around the eye).
+/// The checks of [`render_fog_into`] (lights, β, the fog ball and the eye's
+/// distance from it).
 fn check_frame(
     objects: &[FogObject],
     camera: &Camera,
@@ -329,11 +331,8 @@ fn check_frame(
                 value: f64::from(r),
             });
         }
-        if camera.eye.length() >= r {
-            return Err(FogError::EyeOutsideBall {
-                eye: camera.eye,
-                radius: r,
-            });
+        if !lights.is_empty() {
+            view_segment::check_eye(camera.eye, settings.beta, r)?;
         }
     }
     Ok(())
@@ -474,6 +473,45 @@ struct RowScratch {
     bg_x: Vec<u32>,
     bg_d: [Vec<f32>; 3],
     bg_c: [Vec<f32>; 3],
+    /// With the eye outside the fog ball: the batch index of each sample
+    /// whose medium starts at t_in > 0 and that t_in, for the model from
+    /// the ball's edge ([`crate::view_segment`]).
+    entry: Vec<(u32, f32)>,
+    /// Batch indices of empty samples whose ray misses the ball.
+    missed: Vec<u32>,
+}
+
+/// The model from the ball's edge ([`crate::view_segment`]): each sample
+/// `(i, t_in)` of `s.entry`, shaded from the real eye as M(t), becomes
+/// e^{β t_in} (M(t) − A(t_in)), A(t_in) the airlight to a black surface at
+/// the ray's entry into the ball (one more batch run, appended after the
+/// samples and left in the batch).
+fn from_ball_edge(
+    model: &FogModel,
+    lights: &[PreparedLight],
+    black: &MaterialConst,
+    eye: Vec3,
+    s: &mut RowScratch,
+) {
+    if s.entry.is_empty() {
+        return;
+    }
+    let b = &mut s.batch;
+    let start = b.len();
+    for &(i, t_in) in &s.entry {
+        let i = i as usize;
+        let d = Vec3::new(b.dx[i], b.dy[i], b.dz[i]);
+        b.push_point(eye + t_in * d, -d);
+    }
+    b.prepare(eye, model.beta, start);
+    let end = b.len();
+    shade_surface_run(model, lights, black, b, start..end);
+    for (k, &(i, t_in)) in s.entry.iter().enumerate() {
+        let i = i as usize;
+        let scale = (model.beta * t_in).exp();
+        let l = ((b.radiance(i) - b.radiance(start + k)) * scale).max(Vec3::ZERO);
+        (b.r[i], b.g[i], b.b[i]) = (l.x, l.y, l.z);
+    }
 }
 
 /// Pass 2 of the analytic renderer over the rasterizer's visibility
@@ -527,6 +565,13 @@ fn shade_gbuffer(
     };
     let eye = camera.eye;
     let beta = model.beta;
+    let medium = ball.map(|radius| Medium {
+        beta,
+        albedo: 1.0,
+        radius,
+    });
+    // The medium starts at the eye unless the eye is outside the ball.
+    let outside = medium.filter(|m| eye.length() >= m.radius);
     out.pixels
         .par_chunks_mut(w)
         .zip(g.triangle.par_chunks(w))
@@ -603,26 +648,52 @@ fn shade_gbuffer(
                 shade_surface_run(model, lights, &mats[o as usize], &mut s.batch, start..end);
                 start = end;
             }
+            if let Some(medium) = outside {
+                // The eye outside the ball: where each covered sample's
+                // medium starts.
+                s.entry.clear();
+                for i in 0..n {
+                    let d = Vec3::new(s.batch.dx[i], s.batch.dy[i], s.batch.dz[i]);
+                    let t_in = view_segment::medium_start(&medium, eye, d, s.batch.d_vp[i]);
+                    if t_in > 0.0 {
+                        s.entry.push((i as u32, t_in));
+                    }
+                }
+                from_ball_edge(model, lights, &black, eye, s);
+            }
             for (i, &x) in s.xs.iter().enumerate() {
                 row[x as usize] = s.batch.radiance(i);
             }
             let [dx, dy, dz] = &s.bg_d;
-            if let Some(radius) = ball {
-                // The ray leaves the ball (eye inside) at t = −b + √(b² − c):
-                // the airlight to that point is the surface model's airlight
-                // term to a black surface there, so the batch's (AVX2) loop
-                // computes it.
-                let c = eye.length_squared() - radius * radius;
+            if let Some(medium) = medium {
+                // The airlight over the ray's span [t_in, t_out] in the
+                // ball: the surface model's airlight term to a black surface
+                // at t_out, so the batch's (AVX2) loop computes it; with the
+                // eye outside, from the ball's edge ([`from_ball_edge`]).
+                s.entry.clear();
+                s.missed.clear();
                 let start = s.batch.len();
                 for i in 0..s.bg_x.len() {
                     let d = Vec3::new(dx[i], dy[i], dz[i]);
-                    let b = eye.dot(d);
-                    let t = -b + (b * b - c).max(0.0).sqrt();
-                    s.batch.push_point(eye + t * d, -d);
+                    let j = (start + i) as u32;
+                    let (t_in, t_out) = medium.ball_span(eye, d).unwrap_or_else(|| {
+                        s.missed.push(j);
+                        (0.0, 0.0)
+                    });
+                    s.batch.push_point(eye + t_out * d, -d);
+                    if t_in > 0.0 {
+                        s.entry.push((j, t_in));
+                    }
                 }
                 s.batch.prepare(eye, beta, start);
                 let end = s.batch.len();
                 shade_surface_run(model, lights, &black, &mut s.batch, start..end);
+                from_ball_edge(model, lights, &black, eye, s);
+                for &j in &s.missed {
+                    // No medium on the ray: no airlight.
+                    let j = j as usize;
+                    (s.batch.r[j], s.batch.g[j], s.batch.b[j]) = (0.0, 0.0, 0.0);
+                }
                 for (i, &x) in s.bg_x.iter().enumerate() {
                     row[x as usize] = s.batch.radiance(start + i);
                 }

@@ -19,28 +19,32 @@
 //!
 //! ≈ 393 per eight lanes: [`SURFACE_EVAL_OPS`] per lane. A sample of the
 //! fog ball's edge behind an empty pixel runs the first four parts only
-//! ([`EDGE_EVAL_OPS`]); the pixels where the two tails cancel add the
-//! 6-point segment quadrature (≈ 250 per eight lanes), which depends on
-//! the view and is not counted.
+//! ([`EDGE_EVAL_OPS`]), and so does each sample's entry into the ball
+//! when the eye is outside it ([`crate::view_segment`]); the pixels where
+//! the two tails cancel add the 6-point segment quadrature (≈ 250 per
+//! eight lanes), which depends on the view and is not counted.
 //!
 //! # The environment part ([`crate::env_vertex`])
 //! Per visible vertex side: the transfer lookup and window (2 N² per
 //! channel), the ZYZ rotation ([`relight_sh::rotation::ZyzRotation`]: three
 //! Z rotations of 2 n² + 4 n and two fixed X matrices of `x_nonzeros` each)
 //! and three dot products (3 N²), N² = n². Per covered sample: the
-//! interpolated radiance and position (18), the distance (5) and e^{−βD}
-//! with its blend (≈ 27): [`ENV_SAMPLE_OPS`]. Per shaded empty sample: the
-//! lat-long lookup (≈ 40) and, in a medium, the filtered SH part (the basis,
-//! ≈ 2 N², and three dot products).
+//! interpolated radiance and position (18), the distance and direction (9),
+//! the chord (≈ 22), two bilinear reads of the chord table (24), e^{−βD}
+//! (12) and the blend (9): [`ENV_SAMPLE_OPS`]. Per shaded empty sample: the
+//! lat-long lookup (≈ 40) and, in a medium, the chord's weights (≈ 46) and
+//! the filtered SH part (the basis, ≈ 2 N², and three dot products).
 
 /// Lane operations of one (covered sample, light) evaluation (module docs).
 pub const SURFACE_EVAL_OPS: f64 = 49.0;
 /// Lane operations of one (ball-edge sample, light) airlight evaluation.
 pub const EDGE_EVAL_OPS: f64 = 29.0;
 /// Lane operations of the environment pass per covered sample.
-pub const ENV_SAMPLE_OPS: f64 = 50.0;
+pub const ENV_SAMPLE_OPS: f64 = 94.0;
 /// Lane operations of a lat-long environment lookup.
 const ENV_LOOKUP_OPS: f64 = 40.0;
+/// Lane operations of an empty sample's chord weights in a medium.
+const CHORD_OPS: f64 = 46.0;
 
 /// What one frame shades, for [`frame_ops`].
 #[derive(Clone, Copy, Debug, Default)]
@@ -50,6 +54,9 @@ pub struct FrameCounts {
     /// Empty samples the point-light pass shades (the ball's edge; 0
     /// without a medium).
     pub edge: usize,
+    /// Samples whose medium starts at the ball's entry (the eye outside
+    /// it): one more airlight evaluation each.
+    pub entries: usize,
     /// Empty samples the environment pass shades.
     pub background: usize,
     /// Point lights.
@@ -68,7 +75,8 @@ pub struct FrameCounts {
 #[must_use]
 pub fn frame_ops(c: &FrameCounts) -> f64 {
     let l = c.lights as f64;
-    let lights = c.covered as f64 * l * SURFACE_EVAL_OPS + c.edge as f64 * l * EDGE_EVAL_OPS;
+    let lights =
+        c.covered as f64 * l * SURFACE_EVAL_OPS + (c.edge + c.entries) as f64 * l * EDGE_EVAL_OPS;
     if c.env_order == 0 {
         return lights;
     }
@@ -78,7 +86,7 @@ pub fn frame_ops(c: &FrameCounts) -> f64 {
     let side = 2.0 * nn + rotation + 3.0 * nn;
     let background = ENV_LOOKUP_OPS
         + if c.filtered_background {
-            2.0 * nn + 3.0 * nn
+            CHORD_OPS + 2.0 * nn + 3.0 * nn
         } else {
             0.0
         };
@@ -99,6 +107,7 @@ mod tests {
         let base = FrameCounts {
             covered: 1000,
             edge: 100,
+            entries: 30,
             background: 200,
             lights: 2,
             vertex_sides: 50,
@@ -106,7 +115,7 @@ mod tests {
             x_nonzeros: 100,
             filtered_background: true,
         };
-        let lights = 1000.0 * 2.0 * SURFACE_EVAL_OPS + 100.0 * 2.0 * EDGE_EVAL_OPS;
+        let lights = 1000.0 * 2.0 * SURFACE_EVAL_OPS + 130.0 * 2.0 * EDGE_EVAL_OPS;
         let twice = FrameCounts { lights: 4, ..base };
         assert!((frame_ops(&twice) - frame_ops(&base) - lights).abs() < 1e-6);
         let no_env = FrameCounts {
@@ -115,7 +124,7 @@ mod tests {
         };
         assert!((frame_ops(&no_env) - lights).abs() < 1e-6);
         let side = 2.0 * 36.0 + 3.0 * (72.0 + 24.0) + 200.0 + 3.0 * 36.0;
-        let env = 50.0 * side + 1000.0 * ENV_SAMPLE_OPS + 200.0 * (40.0 + 5.0 * 36.0);
+        let env = 50.0 * side + 1000.0 * ENV_SAMPLE_OPS + 200.0 * (40.0 + 46.0 + 5.0 * 36.0);
         assert!((frame_ops(&base) - lights - env).abs() < 1e-6);
     }
 }

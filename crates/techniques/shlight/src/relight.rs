@@ -211,7 +211,9 @@ pub struct ShRenderer {
 /// `bands` get 0. With `direct` = e^{−T_sv} and `bands` the PSF's
 /// √(4π/(2l+1)) PSF_l (`relight_fog::psf::convolution_weights`) this is the
 /// foggy environment of sun-thesis-2008 eq. 3.35–3.37: attenuated lighting
-/// plus its convolution with the single-scattering point-spread function.
+/// plus its convolution with the single-scattering point-spread function
+/// (the fog method passes the fog ball's own kernel,
+/// `relight_fog::psf::ball_convolution_weights`, the same way).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LightingFilter {
     /// Weight of the unfiltered lighting (direct transmission), ≥ 0.

@@ -182,7 +182,8 @@ fn batched_transfers_match_one_at_a_time() {
 /// the filtered part of eight directions at
 /// a time) adds what `EnvLighting::background` gives each direction alone:
 /// orders 3 and 6 (batched) and 8 (one by one), a count that is not a
-/// multiple of eight, with and without a filter, a turned environment.
+/// multiple of eight, with and without a filter, a turned environment,
+/// with the centre's weights and with a chord's per direction.
 #[test]
 fn batched_background_matches_one_at_a_time() {
     let sky = EnvMap::from_fn(
@@ -221,16 +222,23 @@ fn batched_background_matches_one_at_a_time() {
                     .normalize()
                 })
                 .collect();
-            let mut out = vec![Vec3::splat(0.25); dirs.len()];
-            let mut scratch = BackgroundScratch::default();
-            lighting.add_background(&sky, &dirs, &mut scratch, &mut out);
-            for (d, got) in dirs.iter().zip(&out) {
-                let want = lighting.background(&sky, *d) + Vec3::splat(0.25);
-                assert!(
-                    (*got - want).abs().max_element() <= 1e-5 * want.abs().max_element().max(1.0),
-                    "order {order}, filter {}: {got} vs {want}",
-                    f.is_some()
-                );
+            let chords: Vec<[f32; 2]> = (0..dirs.len())
+                .map(|j| [0.2 + 0.03 * j as f32, 1.5 - 0.04 * j as f32])
+                .collect();
+            for weights in [None, Some(&chords[..])] {
+                let mut out = vec![Vec3::splat(0.25); dirs.len()];
+                let mut scratch = BackgroundScratch::default();
+                lighting.add_background(&sky, &dirs, weights, &mut scratch, &mut out);
+                for (j, (d, got)) in dirs.iter().zip(&out).enumerate() {
+                    let w = weights.map(|w| w[j]);
+                    let want = lighting.background(&sky, *d, w) + Vec3::splat(0.25);
+                    assert!(
+                        (*got - want).abs().max_element()
+                            <= 1e-5 * want.abs().max_element().max(1.0),
+                        "order {order}, filter {}, weights {w:?}: {got} vs {want}",
+                        f.is_some()
+                    );
+                }
             }
         }
     }

@@ -205,15 +205,39 @@ fn a_frame_without_a_medium_shades_only_the_empty_samples_it_shows() {
 
 /// The frame's work count (`Relighter::frame_work`, `relight_fog::work`)
 /// follows what the frame shaded: one light fewer removes exactly one
-/// light's evaluations of every covered sample and every ball-edge sample.
+/// light's evaluations of every covered sample and every ball-edge sample,
+/// and with the eye outside the ball, of every entry into it too (every
+/// covered sample and every empty one whose ray meets the ball).
 #[test]
 fn frame_work_counts_the_light_evaluations() {
+    for eye_outside in [false, true] {
+        light_evaluations_counted(eye_outside);
+    }
+}
+
+fn light_evaluations_counted(eye_outside: bool) {
     use relight_fog::work::{EDGE_EVAL_OPS, SURFACE_EVAL_OPS};
     let mut works = Vec::new();
     let mut covered = 0;
+    let radius = if eye_outside { 4.0 } else { 12.0 };
+    let mut entering = 0;
     for lights in [2usize, 1] {
-        let mut s = scene(sky(1.0), fog(0.08, 0.7, 12.0));
+        let mut s = scene(sky(1.0), fog(0.08, 0.7, radius));
         s.point_lights.truncate(lights);
+        if eye_outside {
+            s.camera.vfov_deg = 70.0;
+            let rays = s.camera.ray_frame();
+            entering = (0..40 * 24)
+                .filter(|&i| {
+                    let d = rays.dir((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
+                    s.medium
+                        .unwrap()
+                        .ball_span(s.camera.eye, d)
+                        .is_some_and(|(t_in, _)| t_in > 0.0)
+                })
+                .count();
+            assert!(entering < 40 * 24, "some rays miss the ball");
+        }
         let mut m = FogRelighter::new(FogOptions::default()).unwrap();
         m.prepare(&s, &NoProgress).unwrap();
         let request = FrameRequest::new(s.camera);
@@ -229,7 +253,10 @@ fn frame_work_counts_the_light_evaluations() {
         works.push(m.frame_work(&s, &request).expect("counted").view_fma);
     }
     let empty = 40 * 24 - covered;
-    let one_light = covered as f64 * SURFACE_EVAL_OPS + empty as f64 * EDGE_EVAL_OPS;
+    // Entering rays: the covered samples' (each meets the ball first) and
+    // the empty ones'.
+    let entries = if eye_outside { entering } else { 0 };
+    let one_light = covered as f64 * SURFACE_EVAL_OPS + (empty + entries) as f64 * EDGE_EVAL_OPS;
     assert!(covered > 100 && empty > 10, "{covered} covered");
     assert!(
         (works[0] - works[1] - one_light).abs() < 1e-6 * works[0],
@@ -303,9 +330,11 @@ fn kept_environment_mean_follows_a_new_environment() {
 }
 
 /// A uniform sky L in fog, a Lambert sphere of albedo ρ alone: the sky seen
-/// through the fog is L (e^{−T} + a w₀) (w₀ the PSF's band-0 weight), and a
+/// through the fog along a chord of thickness T_d is L (e^{−T_d} + a w₀ g)
+/// (w₀ the ball kernel's band-0 weight, g the chord's glow weight), and a
 /// sphere pixel at view distance D is e^{−βD} ρ L (e^{−T} + a w₀) +
-/// (1 − e^{−βD}) a e^{−T} L (eqs. 3.35–3.37, then the view segment).
+/// s a L G_c (eqs. 3.35–3.37 with the ball's kernel, then the view segment
+/// with its share s of scattering).
 #[test]
 fn uniform_sky_in_fog_matches_the_closed_form() {
     let (beta, albedo, radius, rho, l) = (0.1f32, 0.8f32, 10.0f32, 0.7f32, 2.0f32);
@@ -325,19 +354,34 @@ fn uniform_sky_in_fog_matches_the_closed_form() {
     let mut m = FogRelighter::new(FogOptions::default()).unwrap();
     let img = render(&mut m, &s, 1);
     let t = f64::from(beta * radius);
-    let w0 = relight_fog::psf::convolution_weights(t, 1, true)[0] as f32;
+    let w0 = relight_fog::psf::ball_convolution_weights(t, 1)[0] as f32;
     let lit = l * ((-t as f32).exp() + albedo * w0);
+    let (o, d) = s.camera.ray(0.5, 0.5);
+    let chords = relight_fog::view_segment::ChordGlow::new(&s.medium.unwrap());
+    let [direct, glow] = chords.weights(o, d);
+    let (_, t_out) = s.medium.unwrap().ball_span(o, d).unwrap();
+    assert!((direct - (-beta * t_out).exp()).abs() < 1e-6);
+    let sky = l * (direct + albedo * w0 * glow);
     let sky_px = img.pixels[0].x;
     assert!(
-        (sky_px - lit).abs() < 1e-3 * lit,
-        "foggy sky {sky_px} vs L(e^-T + a w0) = {lit}"
+        (sky_px - sky).abs() < 1e-3 * sky,
+        "foggy sky {sky_px} vs L(e^-T_d + a w0 g) = {sky}"
     );
-    // Centre pixel: the sphere's front at distance 3.
+    // Centre pixel: the sphere's front at distance 3, its view segment's
+    // share s of a uniform sky's scattering (`ChordGlow::segment`, exact
+    // for one; close to the centre's (1 − e^{−βD}) e^{−T} / G_c there).
     let f = (-beta * 3.0f32).exp();
-    let want = f * rho * lit + (1.0 - f) * albedo * (-t as f32).exp() * l;
+    let [seg_f, share] = chords.segment(cam.eye, Vec3::NEG_Z, 3.0);
+    assert!((seg_f - f).abs() < 1e-6);
+    let centres = (1.0 - f) * (-t as f32).exp() / chords.centre();
+    assert!(
+        (share - centres).abs() < 0.05 * centres,
+        "{share} vs {centres}"
+    );
+    let want = f * rho * lit + share * albedo * l * chords.centre();
     let got = img.pixels[10 * 21 + 10].x;
     assert!(
-        (got - want).abs() < 1e-2 * want,
+        (got - want).abs() < 1e-3 * want,
         "sphere centre {got} vs closed form {want}"
     );
 }
@@ -372,6 +416,98 @@ fn empty_pixels_integrate_the_airlight_to_the_ball_edge() {
             ((got - want) / want).abs() < 0.01,
             "pixel ({x}, {y}): {got} vs eq. 3.5 to the ball edge {want}"
         );
+    }
+}
+
+/// From an eye outside the fog ball the medium starts at each ray's entry
+/// (`relight_fog::view_segment`): an empty pixel is eq. 3.5 integrated
+/// from the entry point to the exit, an independent check of the
+/// renderer's e^{β t_in} (M − A(t_in)); a ray that misses the ball is black.
+#[test]
+fn from_outside_the_ball_empty_pixels_integrate_from_the_entry() {
+    let (beta, albedo, radius) = (0.15f32, 0.6f32, 6.0f32);
+    let mut s = scene(black(), fog(beta, albedo, radius));
+    s.objects.truncate(1);
+    s.point_lights.truncate(1);
+    s.camera.eye = Vec3::new(0.0, 2.5, 10.0);
+    s.camera.vfov_deg = 60.0;
+    let mut m = FogRelighter::new(FogOptions::default()).unwrap();
+    let img = render(&mut m, &s, 1);
+    let light = s.point_lights[0];
+    let medium = s.medium.unwrap();
+    let (mut through, mut missed) = (0, 0);
+    for y in (0..24).step_by(3) {
+        for x in (0..40).step_by(3) {
+            let (o, d) = s.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+            let got = f64::from(img.pixels[y * 40 + x].x);
+            let Some((t_in, t_out)) = medium.ball_span(o, d) else {
+                assert_eq!(got, 0.0, "pixel ({x}, {y}) misses the ball");
+                missed += 1;
+                continue;
+            };
+            // The floor's pixels are not empty.
+            if d.y < 0.0 && -(o.y / d.y) < t_out {
+                continue;
+            }
+            assert!(t_in > 0.0, "the eye is outside");
+            let p = o + t_in * d;
+            let to = light.position - p;
+            let gamma = f64::from((to.normalize().dot(d)).clamp(-1.0, 1.0)).acos();
+            let want = f64::from(albedo)
+                * airlight_eq35(
+                    f64::from(beta),
+                    f64::from(light.intensity.x),
+                    f64::from(to.length()),
+                    f64::from(t_out - t_in),
+                    gamma,
+                );
+            assert!(
+                ((got - want) / want).abs() < 0.01,
+                "pixel ({x}, {y}): {got} vs eq. 3.5 from the entry {want}"
+            );
+            through += 1;
+        }
+    }
+    assert!(
+        through > 20 && missed > 5,
+        "{through} through, {missed} missed"
+    );
+}
+
+/// A camera moved along its central ray from outside the ball to just
+/// inside it sees the same central pixel: the model from the ball's edge
+/// equals the model from an eye there, on an object (the sphere) and on an
+/// empty ray across the ball, with an environment (the chord's direct and
+/// scattered parts, the view segment from the entry) and without.
+#[test]
+fn an_eye_outside_the_ball_sees_what_an_eye_at_its_edge_sees() {
+    let (beta, albedo, radius) = (0.15f32, 0.7f32, 6.0f32);
+    for env in [black(), sky(1.0)] {
+        for target in [Vec3::new(0.0, 0.5, 0.0), Vec3::new(0.3, 4.0, 0.0)] {
+            let mut s = scene(env.clone(), fog(beta, albedo, radius));
+            let far = Vec3::new(1.0, 2.0, 15.0);
+            s.camera = Camera {
+                eye: far,
+                target,
+                width: 41,
+                height: 25,
+                ..s.camera
+            };
+            let centre = 12 * 41 + 20;
+            let mut m = FogRelighter::new(FogOptions::default()).unwrap();
+            let outside = render(&mut m, &s, 1).pixels[centre];
+            let d = (target - far).normalize();
+            let (t_in, _) = s.medium.unwrap().ball_span(far, d).unwrap();
+            s.camera.eye = far + (t_in + 1e-3) * d;
+            assert!(s.camera.eye.length() < radius);
+            let inside = render(&mut m, &s, 1).pixels[centre];
+            let e = (outside - inside).abs().max_element() / inside.max_element();
+            assert!(
+                e < 2e-3,
+                "target {target}, sky {}: outside {outside} vs at the edge {inside}",
+                env.texels[0].x > 0.0
+            );
+        }
     }
 }
 
@@ -470,7 +606,19 @@ fn bad_media_and_lights_outside_the_ball_are_errors() {
     let mut m = FogRelighter::new(FogOptions::default()).unwrap();
     let small = scene(black(), fog(0.05, 1.0, 2.5));
     let e = m.prepare(&small, &NoProgress).unwrap_err().to_string();
-    assert!(e.contains("fog ball"), "{e}");
+    assert!(e.contains("point light 1") && e.contains("fog ball"), "{e}");
+    // An eye 40 mean free paths out: the model's terms would leave f32.
+    let mut distant = scene(black(), fog(0.5, 1.0, 4.0));
+    distant.camera.eye = Vec3::new(0.0, 1.0, 90.0);
+    m.prepare(&distant, &NoProgress).unwrap();
+    let e = m
+        .render(&distant, &FrameRequest::new(distant.camera), &NoProgress)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("mean free paths") && e.contains("fog ball"),
+        "{e}"
+    );
     for (medium, what) in [
         (fog(-1.0, 1.0, 10.0), "medium.beta"),
         (fog(0.1, 1.5, 10.0), "medium.albedo"),
