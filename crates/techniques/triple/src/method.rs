@@ -528,22 +528,6 @@ fn bake_texel_visibility(
     Ok(out)
 }
 
-/// The model's condition (module docs of [`crate::medium`]): the eye inside
-/// the fog ball, as the fog method requires.
-fn check_medium(m: &relight_render::Medium, eye: Vec3) -> Result<(), MethodError> {
-    if eye.length() >= m.radius {
-        return Err(invalid(
-            "camera.eye",
-            format!(
-                "the eye at {eye} lies outside the fog ball of radius {}; the medium model needs \
-                 the eye inside it",
-                m.radius
-            ),
-        ));
-    }
-    Ok(())
-}
-
 fn is_rotation(m: Mat3) -> bool {
     let e = (m.transpose() * m - Mat3::IDENTITY).to_cols_array();
     m.is_finite() && e.iter().all(|x| x.abs() < 1e-4) && (m.determinant() - 1.0).abs() < 1e-4
@@ -1030,9 +1014,6 @@ impl Relighter for TripleMethod {
         }
         progress.check()?;
         let medium = scene.medium.filter(|m| m.beta > 0.0);
-        if let Some(m) = medium {
-            check_medium(&m, scene.camera.eye)?;
-        }
         let h = env_hash(&scene.env)
             ^ medium.map_or(0, |m| {
                 hash_parts(&[bytemuck::cast_slice(&[m.beta, m.albedo, m.radius])])
@@ -1120,7 +1101,14 @@ impl Relighter for TripleMethod {
             Background::Color(Vec3::ZERO)
         };
         let segment = |c: Vec3, p: Vec3| match fog {
-            Some(f) => f.segment(c, (p - eye).length()),
+            Some(f) => {
+                let t = (p - eye).length();
+                if t > 0.0 {
+                    f.segment(c, eye, (p - eye) / t, t)
+                } else {
+                    c
+                }
+            }
             None => c,
         };
         let rot = self.lookup_rotation();
