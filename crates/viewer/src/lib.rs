@@ -326,22 +326,34 @@ mod tests {
         draws_as_before(&mut v);
     }
 
-    /// A view the method refuses (fog: the eye zoomed out of the fog ball)
-    /// is shown with its reason, not a closed window; zooming back in draws.
+    /// A view the method refuses (fog: the eye zoomed out to more than 40
+    /// mean free paths from the fog ball) is shown with its reason, not a
+    /// closed window; zooming back in draws. Just outside the ball it draws.
     #[test]
     fn a_view_the_method_refuses_is_shown_not_fatal() {
         let mut v = small_viewer(MethodKind::Fog, bench::BenchScene::Fog4Lights.build(48, 27));
         let home = v.frame(48, 27, true, &NoProgress).unwrap();
         assert!(home.message.is_none(), "{:?}", home.message);
         v.orbit.zoom(-30.0, 0.0);
+        assert!(v.orbit.eye().length() > 10.0, "outside the ball");
+        let outside = v.frame(48, 27, true, &NoProgress).unwrap();
+        assert!(
+            outside.message.is_none() && !outside.refused && mean(&outside) > 0.0,
+            "{:?}",
+            outside.message
+        );
+        v.orbit.zoom(-60.0, 0.0);
         let out = v.frame(48, 27, true, &NoProgress).unwrap();
         let msg = out.message.clone().expect("refused");
-        assert!(msg.contains("fog") && msg.contains("ball"), "{msg}");
+        assert!(
+            msg.contains("fog") && msg.contains("mean free paths"),
+            "{msg}"
+        );
         assert!(msg.contains("nothing is drawn at this view"), "{msg}");
         assert!(out.refused && mean(&out) == 0.0);
         // The window redraws while refining: an empty frame does not.
         assert!(!v.refining());
-        v.orbit.zoom(30.0, 0.0);
+        v.orbit.zoom(90.0, 0.0);
         let back = v.frame(48, 27, true, &NoProgress).unwrap();
         assert!(
             back.message.is_none() && !back.refused,

@@ -10,7 +10,7 @@
 //! |---|---|
 //! | right-drag (lighting rotation) | [`Relighter::set_lighting`] with the environment's `world_from_env` turned and the point lights moved about the orbit target; a change the method would bake again for ([`Relighter::lighting_rebakes`]: nearfield's tilted area light) waits for the release, the drag's frames keeping the last lighting with a note; at the release the window bakes it on its worker thread ([`Viewer::lighting_bake_due`], [`Viewer::apply_lighting`]); a lighting the method refuses (fog: a point light turned into an object) draws an empty frame that says why, and is not tried again until the lighting changes |
 //! | area-light edit (move in its plane, scale, texture; [`crate::light`]) | [`Relighter::set_lighting`] with the scene's area lights edited (`Tab` picks which one the edits go to), then turned by the lighting rotation — never a new `prepare` |
-//! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera; a view the method refuses (fog: the eye zoomed out of the fog ball) draws an empty frame that says why (`Frame::refused`) |
+//! | drag, zoom, resize (view change) | [`render_frame`] for the orbit camera; a view the method refuses (fog: the eye zoomed out to more than 40 mean free paths from the fog ball) draws an empty frame that says why (`Frame::refused`) |
 //! | still view | progressive antialiasing: each [`Viewer::frame`] adds one pass of one sample per pixel at the next sub-pixel offset of an `aa × aa` grid ([`Camera::with_pixel_offset`]) to a running mean, until `aa²` passes ([`Viewer::refining`]); Monte Carlo methods (the reference) instead add a pass of their own samples per frame |
 //!
 //! The mean of the `aa²` offset passes is the `aa × aa` box-filtered frame
@@ -837,8 +837,8 @@ impl Viewer {
         let out = match render_frame(method.as_mut(), scene, &request, progress) {
             Ok(out) => out,
             Err(MethodError::Cancelled) => return Err(MethodError::Cancelled.into()),
-            // A view the method refuses (fog: the eye zoomed out of the fog
-            // ball) is shown, not fatal, like a refused lighting.
+            // A view the method refuses (fog: the eye zoomed far out of the
+            // fog ball) is shown, not fatal, like a refused lighting.
             Err(e) => {
                 self.refused_at = Some(key);
                 let why = format!(
