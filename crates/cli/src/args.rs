@@ -369,6 +369,12 @@ pub struct MethodFlags {
     /// nearfield, wavelet with --ao) [default: on].
     #[arg(long, value_name = "on|off")]
     pub refine_coarse: Option<String>,
+    /// How the environment scatters in the fog ball (fog): `ball` (the
+    /// ball's own single-scattering kernel, exact at its centre), `thesis`
+    /// (sun-thesis-2008 eq. 3.30's point-source PSF) or `thesis-factorized`
+    /// (its T e^{−T} NPSF, eq. 3.32) [default: ball].
+    #[arg(long, value_name = "ball|thesis|thesis-factorized")]
+    pub env_glow: Option<String>,
 }
 
 /// Media transport of the reference renderer.

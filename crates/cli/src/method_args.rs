@@ -27,7 +27,7 @@ pub fn kind_of(m: Method) -> MethodKind {
 }
 
 /// Which methods each method flag applies to.
-pub const FLAG_METHODS: [(&str, &[MethodKind]); 32] = [
+pub const FLAG_METHODS: [(&str, &[MethodKind]); 33] = [
     ("--spp", &[MethodKind::Reference, MethodKind::RadianceCache]),
     (
         "--seed",
@@ -90,6 +90,7 @@ pub const FLAG_METHODS: [(&str, &[MethodKind]); 32] = [
             MethodKind::Wavelet,
         ],
     ),
+    ("--env-glow", &[MethodKind::Fog]),
 ];
 
 /// The flags of `f` that are set, by name.
@@ -127,6 +128,7 @@ pub fn given(f: &MethodFlags) -> Vec<&'static str> {
         f.target_terms.is_some(),
         f.face.is_some(),
         f.refine_coarse.is_some(),
+        f.env_glow.is_some(),
     ];
     FLAG_METHODS
         .iter()
@@ -183,7 +185,7 @@ pub fn clear_foreign(kind: MethodKind, f: &mut MethodFlags) {
         select => "--select", shading => "--shading", twists => "--twists",
         storage => "--storage",
         source_terms => "--source-terms", source_ranking => "--source-ranking", target_terms => "--target-terms", face => "--face",
-        refine_coarse => "--refine-coarse",
+        refine_coarse => "--refine-coarse", env_glow => "--env-glow",
     );
 }
 
@@ -348,6 +350,18 @@ pub fn options_for(kind: MethodKind, f: &MethodFlags) -> Result<MethodOptions> {
                         fog_color: glam::Vec3::splat(0.5),
                     },
                     other => bail!("--fog {other}: expected `analytic` or `opengl`"),
+                };
+            }
+            if let Some(glow) = &f.env_glow {
+                g.env_glow = match glow.as_str() {
+                    "ball" => relight_fog::EnvGlow::Ball,
+                    "thesis" => relight_fog::EnvGlow::Thesis { factorized: false },
+                    "thesis-factorized" => relight_fog::EnvGlow::Thesis { factorized: true },
+                    other => {
+                        bail!(
+                            "--env-glow {other}: expected `ball`, `thesis` or `thesis-factorized`"
+                        )
+                    }
                 };
             }
         }

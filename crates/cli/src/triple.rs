@@ -97,7 +97,7 @@ pub fn verify(a: &VerifyArgs, report: &Report, bar: &Bar) -> Result<()> {
         &[],
     )?;
     report.table(
-        "relight verify triple: media (sun-thesis §3.6.5, the PSF-convolved lighting)",
+        "relight verify triple: media (sun-thesis §3.6.5, the lighting convolved by the fog ball's kernel)",
         &medium_rows(env, a.quick, cache_dir(), bar)?,
         &[],
     )?;

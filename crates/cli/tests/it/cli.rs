@@ -141,6 +141,31 @@ fn bad_flags_give_one_line_errors() {
     let out_path = tmp("bad.png");
     let o = out_path.to_str().unwrap();
     assert_clean_error(
+        &relight(&[
+            "render",
+            "../../examples/foggy-lights.toml",
+            "--env-glow",
+            "maybe",
+            "--out",
+            o,
+        ]),
+        "--env-glow maybe: expected `ball`, `thesis` or `thesis-factorized`",
+    );
+    assert_clean_error(
+        &relight(&[
+            "render",
+            "--mesh",
+            "sphere",
+            "--method",
+            "sh",
+            "--env-glow",
+            "ball",
+            "--out",
+            o,
+        ]),
+        "--env-glow does not apply to method sh",
+    );
+    assert_clean_error(
         &relight(&["render", "--mesh", "sphere", "--spp", "0", "--out", o]),
         "spp",
     );

@@ -24,7 +24,12 @@
 //!    `relight_render::reference`, sampled along the same rays).
 //! 7. [`method`]: [`FogRelighter`], the method interface's `fog` — point
 //!    lights by the analytic model plus the environment by its
-//!    PSF-convolved foggy version (§3.6.4), for a whole scene.
+//!    foggy version (§3.6.4, with the fog ball's own kernel), for a whole scene.
+//! 8. [`view_segment`]: the scene's medium is a ball, not all of space — the
+//!    model from each view ray's entry into it (the eye may be outside), and
+//!    the chord table that scales the environment's glow and each view
+//!    segment's scattering ([`view_segment::ChordGlow`]); the ball's own
+//!    environment kernel is [`psf::ball_convolution_weights`].
 //!
 //! # Citation
 //! B. Sun, "Mathematical Models for Real-Time Rendering", PhD thesis,

@@ -250,6 +250,13 @@ pub struct FogRelighter {
     vertex: Option<(VertexShader, VertexFrame)>,
     env_lighting: Option<EnvLighting>,
     lighting: Option<Lighting>,
+    /// Per sample of the last per-vertex environment pass in a medium: a
+    /// covered sample's view segment weights, an empty one's chord weights
+    /// (`ChordGlow`), and the medium they were found for. They depend on the
+    /// view and the medium only, so a lighting change under a still camera
+    /// reads them.
+    view_weights: Vec<[f32; 2]>,
+    view_weights_for: Option<MediumParams>,
     rasterizer: Rasterizer,
     /// Which meshes are closed (their back faces culled from outside).
     closed: relight_render::cull::ClosedMeshes,
@@ -311,6 +318,8 @@ impl FogRelighter {
             vertex: None,
             env_lighting: None,
             lighting: None,
+            view_weights: Vec::new(),
+            view_weights_for: None,
             rasterizer: Rasterizer::new(),
             closed: relight_render::cull::ClosedMeshes::default(),
             rasterized: None,
@@ -501,13 +510,8 @@ impl FogRelighter {
         let w = big.width;
         // The view segment to the surface point `p` in the ball
         // (`ChordGlow::segment`): [e^{−βD}, its share of scattering].
-        let segment_weights = |p: Vec3| {
-            let t = (p - eye).length();
-            match &lighting.chords {
-                Some(c) if t > 0.0 => c.segment(eye, (p - eye) / t, t),
-                _ => [1.0, 0.0],
-            }
-        };
+        let chords = lighting.chords.as_ref().map(|c| c.view(eye));
+        let segment_weights = |p: Vec3| chords.map_or([1.0, 0.0], |c| c.segment_to(p - eye));
         // The view segment: e^{−βD} L_s + s a L̄ G_c.
         // `corners`: the triangle's vertex positions.
         let segment_at = |corners: &[Vec3; 3], b: [f32; 2], e: Vec3| {
@@ -517,7 +521,7 @@ impl FogRelighter {
         };
         // An empty sample's environment weights along its chord through
         // the ball (`None`: no medium, the lighting's own).
-        let chord = |d: Vec3| lighting.chords.as_ref().map(|c| c.weights(eye, d));
+        let chord = |d: Vec3| chords.map(|c| c.weights(d));
         let segment = |d: usize, tri: usize, b: [f32; 2], e: Vec3| {
             let mesh = &scene.objects[d].mesh;
             let t = mesh.indices[tri];
@@ -552,9 +556,30 @@ impl FogRelighter {
                     })
                 }
             };
-            image.pixels.par_chunks_mut(w).enumerate().for_each_init(
-                SegmentRow::default,
-                |s, (y, row)| {
+            // The view's weights: kept from the last frame when it had the
+            // same visibility buffer and medium, else found and kept.
+            let cached = lighting.chords.is_some();
+            let kept = cached
+                && reused
+                && self.view_weights_for == Some(m)
+                && self.view_weights.len() == g.triangle.len();
+            self.view_weights_for = None;
+            if cached && !kept {
+                self.view_weights.clear();
+                self.view_weights.resize(g.triangle.len(), [1.0, 0.0]);
+            }
+            let weights = &mut self.view_weights;
+            let mut weight_rows: Vec<&mut [[f32; 2]]> = if cached {
+                weights.chunks_mut(w).collect()
+            } else {
+                (0..image.height).map(|_| &mut [][..]).collect()
+            };
+            image
+                .pixels
+                .par_chunks_mut(w)
+                .zip(weight_rows.par_iter_mut())
+                .enumerate()
+                .for_each_init(SegmentRow::default, |s, (y, (row, wrow))| {
                     s.clear();
                     // Neighbouring pixels of one triangle share its lookup,
                     // corners, side and vertex colours (the same values as
@@ -583,20 +608,42 @@ impl FogRelighter {
                                 let b = g.barycentrics[i];
                                 let lam = Vec3::new(1.0 - b[0] - b[1], b[0], b[1]);
                                 let e = c[0] * lam.x + c[1] * lam.y + c[2] * lam.z;
-                                let q = p[0] * lam.x + p[1] * lam.y + p[2] * lam.z;
-                                s.push(x, e, segment_weights(q));
+                                if kept {
+                                    s.push(x, e, wrow[x]);
+                                } else {
+                                    // Weighed in a batch below.
+                                    let q = p[0] * lam.x + p[1] * lam.y + p[2] * lam.z;
+                                    s.push(x, e, [1.0, 0.0]);
+                                    if chords.is_some() {
+                                        s.push_to_eye(q - eye);
+                                    }
+                                }
                             }
                             None if !opengl && (!painted || partly_covered(x, y)) => {
                                 let d = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
-                                s.push_empty(x, d, chord(d));
+                                let weights = if kept {
+                                    Some(wrow[x])
+                                } else {
+                                    let v = chord(d);
+                                    if let Some(v) = v {
+                                        wrow[x] = v;
+                                    }
+                                    v
+                                };
+                                s.push_empty(x, d, weights);
                             }
                             None => {}
                         }
                     }
+                    if let (Some(c), false) = (&chords, kept) {
+                        s.weigh_segments(c, wrow);
+                    }
                     s.add_segments(scatter, row);
                     s.add_background(light, &scene.env, row);
-                },
-            );
+                });
+            if cached {
+                self.view_weights_for = Some(m);
+            }
         } else if self.environment_image(scene, &big, progress)? {
             let env = &self.env_image;
             let rays = big.ray_frame();
@@ -641,8 +688,11 @@ impl FogRelighter {
 struct SegmentRow {
     x: Vec<u32>,
     radiance: Vec<Vec3>,
-    /// [e^{−βD}, the segment's share of scattering] (`ChordGlow::segment`).
+    /// [e^{−βD}, the segment's share of scattering] (`ChordView::segments`).
     segment: Vec<[f32; 2]>,
+    /// The covered pixels' surface points from the eye, when their weights
+    /// are found in this row (structure of arrays for the batch).
+    to_eye: [Vec<f32>; 3],
     /// The empty pixels: columns, view directions, their chords' weights
     /// (`view_segment::ChordGlow`), and the background's
     /// filtered part and sums.
@@ -658,6 +708,9 @@ impl SegmentRow {
         self.x.clear();
         self.radiance.clear();
         self.segment.clear();
+        for v in &mut self.to_eye {
+            v.clear();
+        }
         self.empty_x.clear();
         self.empty_dir.clear();
         self.empty_weights.clear();
@@ -667,6 +720,26 @@ impl SegmentRow {
         self.x.push(x as u32);
         self.radiance.push(radiance);
         self.segment.push(segment);
+    }
+
+    /// The last pushed pixel's surface point, from the eye.
+    fn push_to_eye(&mut self, v: Vec3) {
+        for (c, x) in self.to_eye.iter_mut().zip(v.to_array()) {
+            c.push(x);
+        }
+    }
+
+    /// The view segment weights of every covered pixel of the row (each
+    /// with its [`Self::push_to_eye`]), kept in `cache` too where it holds
+    /// the row (a lighting change under a still camera reads them).
+    fn weigh_segments(&mut self, chords: &view_segment::ChordView, cache: &mut [[f32; 2]]) {
+        let [vx, vy, vz] = &self.to_eye;
+        chords.segments(vx, vy, vz, &mut self.segment);
+        if !cache.is_empty() {
+            for (&x, &w) in self.x.iter().zip(&self.segment) {
+                cache[x as usize] = w;
+            }
+        }
     }
 
     /// An empty pixel; `weights`: its chord's (`None`: no medium, the

@@ -45,7 +45,7 @@ unsafe fn exp2(y: __m256) -> __m256 {
 /// [`crate::fast::exp`], eight lanes.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn exp(x: __m256) -> __m256 {
+pub(crate) unsafe fn exp(x: __m256) -> __m256 {
     let y = _mm256_max_ps(
         _mm256_min_ps(_mm256_mul_ps(x, splat(LOG2_E)), splat(127.0)),
         splat(-126.0),

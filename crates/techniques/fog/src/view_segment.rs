@@ -188,67 +188,248 @@ impl ChordGlow {
         self.centre
     }
 
-    /// `[direct, glow]` for the view ray `eye + t·d` (world units, d unit):
-    /// `[1, 0]` for a ray that misses the ball (or no medium), `[e^{−T}, 1]`
-    /// from the centre.
+    /// The table seen from `eye` (world units): what every ray of a frame
+    /// shares, found once.
+    #[must_use]
+    pub fn view(&self, eye: Vec3) -> ChordView<'_> {
+        let x = eye * self.beta;
+        ChordView {
+            glow: self,
+            x,
+            xx: x.length_squared(),
+            column_scale: (CHORD_TABLE_SIZE - 1) as f32 / self.t.max(1e-30),
+        }
+    }
+
+    /// [`ChordView::weights`] of one ray.
     #[must_use]
     pub fn weights(&self, eye: Vec3, d: Vec3) -> [f32; 2] {
-        match self.chord(eye, d) {
-            Some((p, u0, h)) => [crate::fast::exp(-(h - u0)), self.glow(p, u0, h)],
+        self.view(eye).weights(d)
+    }
+
+    /// [`ChordView::segment_to`] of one surface point `eye + t_s·d`.
+    #[must_use]
+    pub fn segment(&self, eye: Vec3, d: Vec3, t_s: f32) -> [f32; 2] {
+        self.view(eye).segment_to(d * t_s)
+    }
+}
+
+/// A [`ChordGlow`] seen from one eye, in units β = 1.
+#[derive(Clone, Copy, Debug)]
+pub struct ChordView<'a> {
+    glow: &'a ChordGlow,
+    /// The eye, β·eye, and |β·eye|².
+    x: Vec3,
+    xx: f32,
+    /// Table columns per unit of p.
+    column_scale: f32,
+}
+
+/// The AVX2 + FMA copy of [`ChordView::segment_to`], eight samples per step
+/// (the same arithmetic; `segments_match_one_at_a_time` compares them).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    #![allow(unsafe_op_in_unsafe_fn)]
+    use super::{CHORD_TABLE_SIZE, ChordView};
+    use crate::simd::exp;
+    use std::arch::x86_64::*;
+
+    /// Samples `0..8k` of [`ChordView::segments`]; returns 8k.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 and FMA; the slices hold at least `out.len()`
+    /// samples; the table is built.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn segments(
+        c: &ChordView,
+        vx: &[f32],
+        vy: &[f32],
+        vz: &[f32],
+        out: &mut [[f32; 2]],
+    ) -> usize {
+        let done = out.len() / 8 * 8;
+        let table = &c.glow.table;
+        let n = CHORD_TABLE_SIZE as f32;
+        let s = _mm256_set1_ps;
+        let (x0, x1, x2) = (s(c.x.x), s(c.x.y), s(c.x.z));
+        let (xx, tt, beta) = (s(c.xx), s(c.glow.t * c.glow.t), s(c.glow.beta));
+        let (last, below, zero, one) = (s(n - 1.0), s(n - 2.0), s(0.0), s(1.0));
+        // Bilinear read of G / G_c at column (ix, ax) for coordinates u.
+        let at = |ixf: __m256, ax: __m256, u: __m256, h: __m256, scale: __m256| {
+            // max(x, 0) first: a NaN coordinate reads texel 0.
+            let fy = _mm256_min_ps(
+                _mm256_max_ps(_mm256_mul_ps(_mm256_add_ps(u, h), scale), zero),
+                last,
+            );
+            let iyf = _mm256_min_ps(_mm256_floor_ps(fy), below);
+            let ay = _mm256_sub_ps(fy, iyf);
+            let i = _mm256_cvttps_epi32(_mm256_fmadd_ps(iyf, s(n), ixf));
+            let g = |off: i32| {
+                _mm256_i32gather_ps::<4>(
+                    table.as_ptr(),
+                    _mm256_add_epi32(i, _mm256_set1_epi32(off)),
+                )
+            };
+            let (a, b) = (g(0), g(1));
+            let (cc, d) = (g(CHORD_TABLE_SIZE as i32), g(CHORD_TABLE_SIZE as i32 + 1));
+            let lo = _mm256_fmadd_ps(_mm256_sub_ps(b, a), ax, a);
+            let hi = _mm256_fmadd_ps(_mm256_sub_ps(d, cc), ax, cc);
+            _mm256_fmadd_ps(_mm256_sub_ps(hi, lo), ay, lo)
+        };
+        for k in (0..done).step_by(8) {
+            let (ax_, ay_, az_) = (
+                _mm256_loadu_ps(vx.as_ptr().add(k)),
+                _mm256_loadu_ps(vy.as_ptr().add(k)),
+                _mm256_loadu_ps(vz.as_ptr().add(k)),
+            );
+            let t2 = _mm256_fmadd_ps(ax_, ax_, _mm256_fmadd_ps(ay_, ay_, _mm256_mul_ps(az_, az_)));
+            let t = _mm256_sqrt_ps(t2);
+            let dot = _mm256_fmadd_ps(x0, ax_, _mm256_fmadd_ps(x1, ay_, _mm256_mul_ps(x2, az_)));
+            let u_eye = _mm256_div_ps(dot, t);
+            let p2 = _mm256_max_ps(_mm256_fnmadd_ps(u_eye, u_eye, xx), zero);
+            let h = _mm256_sqrt_ps(_mm256_sub_ps(tt, p2));
+            let u0 = _mm256_max_ps(u_eye, _mm256_sub_ps(zero, h));
+            let u_s = _mm256_fmadd_ps(beta, t, u_eye);
+            let ok = _mm256_and_ps(
+                _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(t, zero),
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(p2, tt),
+                ),
+                _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(u0, h),
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(u_s, u0),
+                ),
+            );
+            let u_s = _mm256_min_ps(u_s, h);
+            let f = exp(_mm256_sub_ps(u0, u_s));
+            let fx = _mm256_min_ps(
+                _mm256_max_ps(_mm256_mul_ps(_mm256_sqrt_ps(p2), s(c.column_scale)), zero),
+                last,
+            );
+            let ixf = _mm256_min_ps(_mm256_floor_ps(fx), below);
+            let ax = _mm256_sub_ps(fx, ixf);
+            let scale = _mm256_div_ps(last, _mm256_max_ps(_mm256_add_ps(h, h), s(1e-30)));
+            let g0 = at(ixf, ax, u0, h, scale);
+            let gs = at(ixf, ax, u_s, h, scale);
+            let share = _mm256_max_ps(_mm256_fnmadd_ps(f, gs, g0), zero);
+            let f = _mm256_blendv_ps(one, f, ok);
+            let share = _mm256_blendv_ps(zero, share, ok);
+            let mut fs = [0.0f32; 8];
+            let mut ss = [0.0f32; 8];
+            _mm256_storeu_ps(fs.as_mut_ptr(), f);
+            _mm256_storeu_ps(ss.as_mut_ptr(), share);
+            for j in 0..8 {
+                out[k + j] = [fs[j], ss[j]];
+            }
+        }
+        done
+    }
+}
+
+impl ChordView<'_> {
+    /// `[direct, glow]` for the view ray along `d` (unit): `[1, 0]` for a
+    /// ray that misses the ball (or no medium), `[e^{−T}, 1]` from the
+    /// centre.
+    #[must_use]
+    pub fn weights(&self, d: Vec3) -> [f32; 2] {
+        match self.chord(self.x.dot(d)) {
+            Some((p, u0, h)) => {
+                let at = self.glow_row(p, h);
+                [crate::fast::exp(-(h - u0)), at(u0)]
+            }
             None => [1.0, 0.0],
         }
     }
 
-    /// `[e^{−βD}, s]` for a surface at distance `t_s` along the view ray
-    /// `eye + t·d`, D its view segment in the medium: its radiance L_s
-    /// arrives as `e^{−βD} L_s + s · a L̄ G_c` (L̄ the environment's mean
-    /// radiance, a the albedo, G_c [`Self::centre`]), s = (G(p, u₀) −
-    /// e^{−βD} G(p, u_s)) / G_c the segment's share of a uniform sky's
-    /// single scattering (exact for one; type docs). `[1, 0]` where the
+    /// `[e^{−βD}, s]` for the surface point at `v` from the eye (world
+    /// units), D its view segment in the medium: its radiance L_s arrives
+    /// as `e^{−βD} L_s + s · a L̄ G_c` (L̄ the environment's mean radiance, a
+    /// the albedo, G_c [`ChordGlow::centre`]), s = (G(p, u₀) − e^{−βD}
+    /// G(p, u_s)) / G_c the segment's share of a uniform sky's single
+    /// scattering (exact for one; [`ChordGlow`]'s docs). `[1, 0]` where the
     /// segment has no medium.
     #[must_use]
-    pub fn segment(&self, eye: Vec3, d: Vec3, t_s: f32) -> [f32; 2] {
-        let Some((p, u0, h)) = self.chord(eye, d) else {
+    pub fn segment_to(&self, v: Vec3) -> [f32; 2] {
+        let t = v.length();
+        if t.is_nan() || t <= 0.0 {
+            return [1.0, 0.0];
+        }
+        let u_eye = self.x.dot(v) / t;
+        let Some((p, u0, h)) = self.chord(u_eye) else {
             return [1.0, 0.0];
         };
-        let u_s = (eye * self.beta).dot(d) + self.beta * t_s;
+        let u_s = u_eye + self.glow.beta * t;
         if u_s <= u0 {
             return [1.0, 0.0];
         }
         let u_s = u_s.min(h);
         let f = crate::fast::exp(-(u_s - u0));
-        let s = self.glow(p, u0, h) - f * self.glow(p, u_s, h);
-        [f, s.max(0.0)]
+        let at = self.glow_row(p, h);
+        [f, (at(u0) - f * at(u_s)).max(0.0)]
     }
 
-    /// The ray's line in units β = 1: its distance p from the centre, the
-    /// medium's start u₀ and the exit h along it; `None` without medium.
-    fn chord(&self, eye: Vec3, d: Vec3) -> Option<(f32, f32, f32)> {
-        if self.table.is_empty() {
+    /// [`Self::segment_to`] of every sample `(vx[i], vy[i], vz[i])` into
+    /// `out[i]` (`out.len()` samples): eight at a time where the CPU has
+    /// AVX2 and FMA (the same values up to rounding), one by one otherwise.
+    ///
+    /// # Panics
+    /// A slice of `vx`, `vy`, `vz` shorter than `out`.
+    pub fn segments(&self, vx: &[f32], vy: &[f32], vz: &[f32], out: &mut [[f32; 2]]) {
+        let n = out.len();
+        assert!(
+            vx.len() >= n && vy.len() >= n && vz.len() >= n,
+            "segments: short input"
+        );
+        let mut done = 0;
+        #[cfg(target_arch = "x86_64")]
+        if relight_isa::avx2() && !self.glow.table.is_empty() {
+            // SAFETY: AVX2 and FMA are present, the inputs hold n samples,
+            // and the table is built.
+            done = unsafe { avx2::segments(self, vx, vy, vz, out) };
+        }
+        for i in done..n {
+            out[i] = self.segment_to(Vec3::new(vx[i], vy[i], vz[i]));
+        }
+    }
+
+    /// The ray's line from its coordinate `u_eye` = x·d at the eye: its
+    /// distance p from the centre, the medium's start u₀ and the exit h
+    /// along it; `None` without medium. p² = |x|² − u_eye² (no vector
+    /// work per ray).
+    fn chord(&self, u_eye: f32) -> Option<(f32, f32, f32)> {
+        let t = self.glow.t;
+        if self.glow.table.is_empty() {
             return None;
         }
-        let x = eye * self.beta;
-        let u_eye = x.dot(d);
-        let p = (x - u_eye * d).length();
-        if p >= self.t {
+        let p2 = (self.xx - u_eye * u_eye).max(0.0);
+        if p2 >= t * t {
             return None;
         }
-        let h = (self.t * self.t - p * p).sqrt();
+        let h = (t * t - p2).sqrt();
         let u0 = u_eye.max(-h);
-        (u0 < h).then_some((p, u0, h))
+        (u0 < h).then_some((p2.sqrt(), u0, h))
     }
 
-    /// G(p, u) / G_c by bilinear lookup (u ∈ [−h, h]).
-    fn glow(&self, p: f32, u: f32, h: f32) -> f32 {
+    /// u ↦ G(p, u) / G_c on the chord of half-length `h` at distance `p`
+    /// by bilinear lookup (u ∈ [−h, h]); the column and its weight, and
+    /// the scale of u, are found once for the chord.
+    fn glow_row(&self, p: f32, h: f32) -> impl Fn(f32) -> f32 + '_ {
         let n = CHORD_TABLE_SIZE;
         let last = (n - 1) as f32;
-        let fx = (p / self.t * last).clamp(0.0, last);
-        let fy = ((u + h) / (2.0 * h).max(1e-30) * last).clamp(0.0, last);
-        let (ix, iy) = ((fx as usize).min(n - 2), (fy as usize).min(n - 2));
-        let (ax, ay) = (fx - ix as f32, fy - iy as f32);
-        let at = |i: usize, k: usize| self.table[k * n + i];
-        (at(ix, iy) * (1.0 - ax) + at(ix + 1, iy) * ax) * (1.0 - ay)
-            + (at(ix, iy + 1) * (1.0 - ax) + at(ix + 1, iy + 1) * ax) * ay
+        let fx = (p * self.column_scale).clamp(0.0, last);
+        let ix = (fx as usize).min(n - 2);
+        let ax = fx - ix as f32;
+        let scale = last / (2.0 * h).max(1e-30);
+        let table = &self.glow.table;
+        move |u: f32| {
+            let fy = ((u + h) * scale).clamp(0.0, last);
+            let iy = (fy as usize).min(n - 2);
+            let ay = fy - iy as f32;
+            let row = &table[iy * n + ix..iy * n + ix + n + 2];
+            let lo = row[0] + (row[1] - row[0]) * ax;
+            let hi = row[n] + (row[n + 1] - row[n]) * ax;
+            lo + (hi - lo) * ay
+        }
     }
 }
 
@@ -356,6 +537,57 @@ mod tests {
                 "eye {eye}, d {d}: segment {got} vs point by point {half}"
             );
             assert!((f - (-0.5 * t_d).exp()).abs() < 1e-5, "{f}");
+        }
+    }
+
+    /// The batch (AVX2 where present) gives each sample what
+    /// `segment_to` gives it alone: eyes inside and outside, surfaces
+    /// before, inside and past the ball, rays that miss it, the eye's own
+    /// point, and a count that is not a multiple of eight; to 5e-5 (FMA
+    /// rounding, which p² = |x|² − u² amplifies for an eye far out).
+    #[test]
+    fn segments_match_one_at_a_time() {
+        let chords = ChordGlow::new(&ball(0.15, 6.0));
+        for eye in [Vec3::new(0.5, 1.0, 2.0), Vec3::new(1.0, 2.0, 15.0)] {
+            let view = chords.view(eye);
+            let mut v = [Vec::new(), Vec::new(), Vec::new()];
+            for i in 0..203 {
+                let a = i as f32 * 0.61;
+                let spread = Vec3::new(
+                    a.sin() * (1.7 * a).cos(),
+                    a.cos(),
+                    a.sin() * (1.7 * a).sin(),
+                );
+                // From outside, rays about the ball's direction.
+                let d = if eye.length() > 6.0 {
+                    (0.5 * spread - eye.normalize()).normalize()
+                } else {
+                    spread
+                };
+                let t = if i == 7 { 0.0 } else { 0.2 + (i % 23) as f32 };
+                for (k, c) in v.iter_mut().enumerate() {
+                    c.push((d * t)[k]);
+                }
+            }
+            let mut out = vec![[0.0f32; 2]; 203];
+            view.segments(&v[0], &v[1], &v[2], &mut out);
+            let mut inside = 0;
+            for (i, got) in out.iter().enumerate() {
+                let want = view.segment_to(Vec3::new(v[0][i], v[1][i], v[2][i]));
+                inside += usize::from(want[1] > 0.0);
+                for k in 0..2 {
+                    assert!(
+                        (got[k] - want[k]).abs() <= 5e-5 * want[k].abs().max(1.0),
+                        "eye {eye}, sample {i}: batch {got:?} vs one {want:?}"
+                    );
+                }
+            }
+            // Inside, all but the eye's own point; outside, some miss.
+            let outside = eye.length() > 6.0;
+            assert!(
+                inside > 30 && (inside < 180) == outside,
+                "{inside} samples in the medium"
+            );
         }
     }
 

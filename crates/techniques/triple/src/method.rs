@@ -11,8 +11,10 @@
 //! same sum). Point and area lights are refused
 //! ([`MethodError::Unsupported`]). A homogeneous medium is rendered as
 //! sun-thesis-2008 §3.6.5 proposes: the same product fed with the
-//! PSF-convolved environment, then the view segment's attenuation and
-//! airlight per pixel ([`crate::medium`]).
+//! environment convolved by the fog ball's single-scattering kernel (the
+//! thesis' PSF, corrected for the ball), then the view segment's
+//! attenuation and airlight per pixel ([`crate::medium`]); the eye may be
+//! outside the ball.
 //!
 //! # Bump mapping (§3.3)
 //! With a normal map, each pixel's frame is built from its bumped normal
