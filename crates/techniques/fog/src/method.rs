@@ -499,7 +499,7 @@ impl FogRelighter {
         }
         progress.check()?;
         // What the view segments scatter into the eye, per unit of a
-        // uniform sky's share (`ChordGlow::segment`): a L̄ G_c.
+        // uniform sky's share (`ChordView::segment_to`): a L̄ G_c.
         let scatter = match &lighting.chords {
             Some(c) if !self.opengl() => lighting.env_mean * (m.albedo * c.centre()),
             _ => Vec3::ZERO,
@@ -509,7 +509,7 @@ impl FogRelighter {
         let eye = big.eye;
         let w = big.width;
         // The view segment to the surface point `p` in the ball
-        // (`ChordGlow::segment`): [e^{−βD}, its share of scattering].
+        // (`ChordView::segment_to`): [e^{−βD}, its share of scattering].
         let chords = lighting.chords.as_ref().map(|c| c.view(eye));
         let segment_weights = |p: Vec3| chords.map_or([1.0, 0.0], |c| c.segment_to(p - eye));
         // The view segment: e^{−βD} L_s + s a L̄ G_c.
@@ -753,7 +753,7 @@ impl SegmentRow {
     }
 
     /// Adds e^{−βD} L_s + s `scatter` (the view segment of §3.6.4 in the
-    /// ball, `ChordGlow::segment`) to each gathered pixel of `row`.
+    /// ball, `ChordView::segments`) to each gathered pixel of `row`.
     fn add_segments(&mut self, scatter: Vec3, row: &mut [Vec3]) {
         for ((&x, &e), &[f, share]) in self.x.iter().zip(&self.radiance).zip(&self.segment) {
             row[x as usize] += e * f + scatter * share;
