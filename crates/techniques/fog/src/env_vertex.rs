@@ -29,6 +29,7 @@
 //! Two-sided like the per-pixel path: a vertex of a triangle seen from the
 //! back shades with −n.
 
+use crate::ball_light::BallIrradiance;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use relight_render::Scene;
@@ -571,6 +572,10 @@ pub struct VertexFrame {
     colours: Vec<Vec3>,
     /// Whether `sides` and `transfers` hold a [`VertexFrame::shade`].
     shaded: bool,
+    /// Per side: where it sits in the fog ball, as
+    /// [`BallIrradiance::coordinates`] (its colour is scaled by the factor
+    /// there, when a medium gives one).
+    ball_at: Vec<[f32; 2]>,
 }
 
 impl std::fmt::Debug for VertexFrame {
@@ -615,6 +620,7 @@ impl VertexFrame {
             stride: 0,
             colours: Vec::new(),
             shaded: false,
+            ball_at: Vec::new(),
         }
     }
 
@@ -631,7 +637,8 @@ impl VertexFrame {
 
     /// Shades every vertex side of the triangles visible in `raster`
     /// (rasterized from `scene`'s meshes, draw i = object i, seen from
-    /// `eye`) with `shader` under `light`.
+    /// `eye`) with `shader` under `light`, each scaled by its place in the
+    /// fog ball where `ball` is given ([`BallIrradiance::factor`]).
     pub fn shade(
         &mut self,
         scene: &Scene,
@@ -639,6 +646,7 @@ impl VertexFrame {
         eye: Vec3,
         shader: &VertexShader,
         light: &EnvLighting,
+        ball: Option<&BallIrradiance>,
     ) {
         let g = raster.gbuffer();
         let w = g.width.max(1);
@@ -695,33 +703,43 @@ impl VertexFrame {
         let objects = &scene.objects;
         let k = shader.order * shader.order;
         self.colours.resize(self.sides.len(), Vec3::ZERO);
+        self.ball_at.resize(self.sides.len(), [0.0; 2]);
         self.sides
             .par_chunks(TRANSFER_RUN)
             .zip(self.transfers.par_chunks_mut(TRANSFER_RUN * stride))
             .zip(self.colours.par_chunks_mut(TRANSFER_RUN))
+            .zip(self.ball_at.par_chunks_mut(TRANSFER_RUN))
             .for_each_init(
                 || (TransferRun::new(), Vec::with_capacity(TRANSFER_RUN)),
-                |(run, items), ((sides, t), colours)| {
+                |(run, items), (((sides, t), colours), ball_at)| {
                     items.clear();
-                    items.extend(sides.iter().map(|&(d, v, back)| {
-                        let (d, v) = (d as usize, v as usize);
-                        let mesh = &objects[d].mesh;
-                        let p = mesh.positions[v];
-                        let n = mesh.normals.get(v).copied().unwrap_or(Vec3::Z);
-                        let n = n.normalize_or(Vec3::Z);
-                        let wo = (eye - p).normalize_or(n);
-                        (d, if back { -n } else { n }, wo)
-                    }));
+                    items.extend(sides.iter().zip(ball_at.iter_mut()).map(
+                        |(&(d, v, back), at)| {
+                            let (d, v) = (d as usize, v as usize);
+                            let mesh = &objects[d].mesh;
+                            let p = mesh.positions[v];
+                            let n = mesh.normals.get(v).copied().unwrap_or(Vec3::Z);
+                            let n = n.normalize_or(Vec3::Z);
+                            let wo = (eye - p).normalize_or(n);
+                            let n = if back { -n } else { n };
+                            *at = BallIrradiance::coordinates(p, n);
+                            (d, n, wo)
+                        },
+                    ));
                     shader.transfer_run(items, run, t, stride);
-                    for ((&(d, _, _), t), c) in
-                        items.iter().zip(t.chunks_exact(stride)).zip(colours)
+                    for (((&(d, _, _), t), c), at) in items
+                        .iter()
+                        .zip(t.chunks_exact(stride))
+                        .zip(colours)
+                        .zip(ball_at.iter())
                     {
                         let ch = if shader.transfers[d].table.mono_colour().is_some() {
                             1
                         } else {
                             3
                         };
-                        *c = shader.apply(d, light, &t[..ch * k]);
+                        let f = ball.map_or(1.0, |b| b.factor_at(*at));
+                        *c = shader.apply(d, light, &t[..ch * k]) * f;
                     }
                 },
             );
@@ -743,24 +761,31 @@ impl VertexFrame {
     }
 
     /// The colours of the vertex sides the last [`VertexFrame::shade`]
-    /// shaded, under new lighting `light`, from their kept transfers: what
-    /// `shade` of the same frame (raster, eye, shader) would give, bit for
-    /// bit, at the cost of the dot products alone.
-    pub fn relight(&mut self, shader: &VertexShader, light: &EnvLighting) {
+    /// shaded, under new lighting `light` (and fog ball factors `ball`),
+    /// from their kept transfers: what `shade` of the same frame (raster,
+    /// eye, shader) would give, bit for bit, at the cost of the dot
+    /// products alone.
+    pub fn relight(
+        &mut self,
+        shader: &VertexShader,
+        light: &EnvLighting,
+        ball: Option<&BallIrradiance>,
+    ) {
         let stride = self.stride.max(1);
         let k = shader.order * shader.order;
         self.sides
             .par_iter()
             .zip(self.transfers.par_chunks(stride))
+            .zip(self.ball_at.par_iter())
             .with_min_len(256)
-            .map(|(&(d, _, _), t)| {
+            .map(|((&(d, _, _), t), at)| {
                 let d = d as usize;
                 let ch = if shader.transfers[d].table.mono_colour().is_some() {
                     1
                 } else {
                     3
                 };
-                shader.apply(d, light, &t[..ch * k])
+                shader.apply(d, light, &t[..ch * k]) * ball.map_or(1.0, |b| b.factor_at(*at))
             })
             .collect_into_vec(&mut self.colours);
         self.scatter();

@@ -29,13 +29,15 @@
 //!    model from each view ray's entry into it (the eye may be outside), and
 //!    the chord table that scales the environment's glow and each view
 //!    segment's scattering ([`view_segment::ChordGlow`]); the ball's own
-//!    environment kernel is [`psf::ball_convolution_weights`].
+//!    environment kernel is [`psf::ball_convolution_weights`], and
+//!    [`ball_light`] scales a surface's light for its place in the ball.
 //!
 //! # Citation
 //! B. Sun, "Mathematical Models for Real-Time Rendering", PhD thesis,
 //! Columbia University 2008, chapter 3 (equation numbers in the docs refer
 //! to it).
 
+pub mod ball_light;
 pub mod bench;
 pub mod env_vertex;
 pub mod fast;

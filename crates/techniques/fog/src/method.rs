@@ -23,7 +23,10 @@
 //!    crosses its view segment in the ball as L = e^{−βD} L_s + s·a·L̄·G_c
 //!    with L̄ = (1/4π)∫L dω: the segment's share s of the scattering, taken
 //!    with g from [`crate::view_segment::ChordGlow`] (exact for a uniform
-//!    sky, with every surface lit as the ball's centre).
+//!    sky). Each surface is shaded with the centre's lighting, scaled by
+//!    its factor for its place in the ball
+//!    ([`crate::ball_light::BallIrradiance`], exact for a Lambertian
+//!    surface under a uniform sky).
 //!    By default the surface part is shaded at the frame's visible vertices
 //!    and interpolated ([`crate::env_vertex`], [`EnvShading::PerVertex`]);
 //!    [`EnvShading::PerPixel`] shades every sample with `env_rotation`.
@@ -60,6 +63,7 @@
 //! shading and the per-pixel passes — is the view change.
 
 use crate::FogError;
+use crate::ball_light::BallIrradiance;
 use crate::env_vertex::{
     BackgroundScratch, EnvLighting, EnvShading, VertexFrame, VertexShader, faces_eye,
 };
@@ -89,11 +93,11 @@ pub const NAME: &str = "fog";
 
 /// How the environment part approximates (the text of its
 /// [`Support::Approximate`]).
-pub const ENVIRONMENT_APPROXIMATION: &str = "in a medium the environment lights every surface as \
-     it would the fog ball's centre (T = β·R, sun-thesis eqs. 3.35–3.37 with the ball's \
-     single-scattering kernel, band-limited to the SH order), and the light a view ray scatters \
-     has the centre's directions, scaled to its chord as a uniform sky's; no shadows or \
-     multiple scattering";
+pub const ENVIRONMENT_APPROXIMATION: &str = "in a medium the environment lights every surface \
+     with the directions of the fog ball's centre (T = β·R, sun-thesis eqs. 3.35–3.37 with the \
+     ball's single-scattering kernel, band-limited to the SH order), scaled to the surface's place \
+     as a uniform sky's irradiance, and the light a view ray scatters has the centre's \
+     directions, scaled to its chord as a uniform sky's; no shadows or multiple scattering";
 
 /// Every default of the fog method (the one place they live).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -225,9 +229,10 @@ struct Lighting {
     env_mean: Vec3,
     /// (T, albedo, filter) of the environment part, cached.
     filter: (f32, f32, LightingFilter),
-    /// The empty pixels' weights along their chords through the ball
-    /// (`None`: no ball or β = 0), cached with the medium.
-    chords: Option<view_segment::ChordGlow>,
+    /// The empty pixels' weights along their chords through the ball, and
+    /// the surfaces' factors for their place in it (`None`: no ball or
+    /// β = 0), cached with the medium.
+    chords: Option<(view_segment::ChordGlow, BallIrradiance)>,
 }
 
 /// The fog method (see the module docs).
@@ -501,8 +506,13 @@ impl FogRelighter {
         // What the view segments scatter into the eye, per unit of a
         // uniform sky's share (`ChordView::segment_to`): a L̄ G_c.
         let scatter = match &lighting.chords {
-            Some(c) if !self.opengl() => lighting.env_mean * (m.albedo * c.centre()),
+            Some((c, _)) if !self.opengl() => lighting.env_mean * (m.albedo * c.centre()),
             _ => Vec3::ZERO,
+        };
+        // Surfaces lit for their place in the ball (not in the OpenGL mode).
+        let factors = match &lighting.chords {
+            Some((_, f)) if !self.opengl() => Some(f),
+            _ => None,
         };
         let r = &self.rasterizer;
         let g = r.gbuffer();
@@ -510,12 +520,32 @@ impl FogRelighter {
         let w = big.width;
         // The view segment to the surface point `p` in the ball
         // (`ChordView::segment_to`): [e^{−βD}, its share of scattering].
-        let chords = lighting.chords.as_ref().map(|c| c.view(eye));
+        let chords = lighting.chords.as_ref().map(|(c, _)| c.view(eye));
         let segment_weights = |p: Vec3| chords.map_or([1.0, 0.0], |c| c.segment_to(p - eye));
         // The view segment: e^{−βD} L_s + s a L̄ G_c.
         // `corners`: the triangle's vertex positions.
-        let segment_at = |corners: &[Vec3; 3], b: [f32; 2], e: Vec3| {
-            let p = corners[0] * (1.0 - b[0] - b[1]) + corners[1] * b[0] + corners[2] * b[1];
+        // The per-pixel path: `e` at barycentrics `b` of a triangle with
+        // `corners` and vertex `normals` (where the mesh has them), lit for
+        // its place in the ball, then across its view segment.
+        let segment_at = |corners: &[Vec3; 3], normals: Option<[Vec3; 3]>, b: [f32; 2], e: Vec3| {
+            let l = [1.0 - b[0] - b[1], b[0], b[1]];
+            let p = corners[0] * l[0] + corners[1] * l[1] + corners[2] * l[2];
+            let e = match factors {
+                Some(f) => {
+                    let n = normals
+                        .map_or(Vec3::ZERO, |n| n[0] * l[0] + n[1] * l[1] + n[2] * l[2])
+                        .try_normalize()
+                        .unwrap_or_else(|| {
+                            (corners[1] - corners[0])
+                                .cross(corners[2] - corners[0])
+                                .normalize_or_zero()
+                        });
+                    // The side the eye sees.
+                    let n = if n.dot(eye - p) < 0.0 { -n } else { n };
+                    e * f.factor(p, n)
+                }
+                None => e,
+            };
             let [f, share] = segment_weights(p);
             e * f + scatter * share
         };
@@ -525,7 +555,9 @@ impl FogRelighter {
         let segment = |d: usize, tri: usize, b: [f32; 2], e: Vec3| {
             let mesh = &scene.objects[d].mesh;
             let t = mesh.indices[tri];
-            segment_at(&t.map(|v| mesh.positions[v as usize]), b, e)
+            let normals = (mesh.normals.len() == mesh.positions.len())
+                .then(|| t.map(|v| mesh.normals[v as usize]));
+            segment_at(&t.map(|v| mesh.positions[v as usize]), normals, b, e)
         };
         // 2. The environment.
         let opengl = self.opengl();
@@ -535,9 +567,9 @@ impl FogRelighter {
                 // A lighting change under a still camera: the same vertex
                 // sides and transfers, only the dot products with the new
                 // lighting (bit for bit what `shade` gives).
-                vframe.relight(shader, light);
+                vframe.relight(shader, light, factors);
             } else {
-                vframe.shade(scene, r, eye, shader, light);
+                vframe.shade(scene, r, eye, shader, light, factors);
             }
             let vframe = &*vframe;
             let rays = big.ray_frame();
@@ -558,7 +590,7 @@ impl FogRelighter {
             };
             // The view's weights: kept from the last frame when it had the
             // same visibility buffer and medium, else found and kept.
-            let cached = lighting.chords.is_some();
+            let cached = chords.is_some();
             let kept = cached
                 && reused
                 && self.view_weights_for == Some(m)
@@ -929,7 +961,11 @@ impl Relighter for FogRelighter {
         }
         let chords = match &self.lighting {
             Some(l) if l.medium == medium => l.chords.clone(),
-            _ => medium.ball().map(|b| view_segment::ChordGlow::new(&b)),
+            _ => medium.ball().map(|b| {
+                let chords = view_segment::ChordGlow::new(&b);
+                let factors = BallIrradiance::new(&b, &chords);
+                (chords, factors)
+            }),
         };
         self.lighting = Some(Lighting {
             medium,

@@ -23,7 +23,9 @@
 //!
 //! D the segment's length, s its share of a uniform sky's scattering
 //! against G_c, the centre's view to the edge (s·G_c = (1 − e^{−βD}) e^{−T}
-//! if every point were lit as the centre). A pixel that sees no object
+//! if every point were lit as the centre), and L_s scaled by the surface's
+//! factor for its place in the ball (the fog crate's `BallIrradiance`:
+//! exact for a Lambertian surface under a uniform sky). A pixel that sees no object
 //! shows the environment through its ray's chord, of optical thickness
 //! T_d = β·(t_out − t_in) (not T: the eye is not at the centre, and may be
 //! outside the ball),
@@ -54,10 +56,12 @@
 //!
 //! Not modelled (the fog method's limits, measured by `verify triple`
 //! against the reference): light shafts (the medium's own shadowing of the
-//! in-scattered light), multiple scattering, and surfaces away from the
-//! ball's centre (each is lit as the centre is).
+//! in-scattered light), multiple scattering, and the directions of a
+//! surface's light away from the ball's centre (each has the centre's,
+//! scaled in amount to its place).
 
 use glam::Vec3;
+use relight_fog::ball_light::BallIrradiance;
 use relight_fog::view_segment::ChordGlow;
 use relight_render::Medium;
 use relight_sh::ShError;
@@ -85,6 +89,10 @@ pub struct FoggyLighting {
     pub medium: Medium,
     /// The empty pixels' and view segments' weights along their chords.
     pub chords: ChordGlow,
+    /// The surfaces' factors for their place in the ball (the fog crate's
+    /// `BallIrradiance`: a uniform sky's irradiance there against the
+    /// centre's).
+    pub factors: BallIrradiance,
     /// The most negative scattered value clamped, relative to the largest
     /// scattered value (0 when nothing was clamped).
     pub clamped: f32,
@@ -99,6 +107,7 @@ impl FoggyLighting {
         let t = medium.env_thickness();
         let direct = (-t).exp();
         let chords = ChordGlow::new(medium);
+        let factors = BallIrradiance::new(medium, &chords);
         let mean = env.integral() / (4.0 * std::f32::consts::PI);
         let airlight = mean * (medium.albedo * chords.centre());
         let mut sh = project_env(env, PSF_ORDER, Window::None)?;
@@ -132,6 +141,7 @@ impl FoggyLighting {
             airlight,
             medium: *medium,
             chords,
+            factors,
             clamped: if peak > 0.0 { -low / peak } else { 0.0 },
         })
     }
@@ -162,11 +172,15 @@ impl FoggyLighting {
         env.eval(d_env) * direct + self.scattered.eval(d_env) * glow
     }
 
-    /// Surface radiance `surface` at `t_s` along the view ray from `eye`
-    /// in direction `d` (unit), across its segment in the ball.
+    /// Surface radiance `surface` (shaded as lit from the ball's centre) at
+    /// `t_s` along the view ray from `eye` in direction `d` (unit), with
+    /// unit normal `n` (either side): scaled for its place in the ball
+    /// ([`BallIrradiance::factor`]), then across its segment in the ball.
     #[must_use]
-    pub fn segment(&self, surface: Vec3, eye: Vec3, d: Vec3, t_s: f32) -> Vec3 {
+    pub fn segment(&self, surface: Vec3, n: Vec3, eye: Vec3, d: Vec3, t_s: f32) -> Vec3 {
+        let p = eye + d * t_s;
+        let n = if n.dot(d) > 0.0 { -n } else { n };
         let [f, share] = self.chords.segment(eye, d, t_s);
-        surface * f + self.airlight * share
+        surface * (self.factors.factor(p, n) * f) + self.airlight * share
     }
 }

@@ -1102,11 +1102,12 @@ impl Relighter for TripleMethod {
         } else {
             Background::Color(Vec3::ZERO)
         };
-        let segment = |c: Vec3, p: Vec3| match fog {
+        // Surface radiance `c` at `p` with normal `n` through the medium.
+        let segment = |c: Vec3, p: Vec3, n: Vec3| match fog {
             Some(f) => {
                 let t = (p - eye).length();
                 if t > 0.0 {
-                    f.segment(c, eye, (p - eye) / t, t)
+                    f.segment(c, n, eye, (p - eye) / t, t)
                 } else {
                     c
                 }
@@ -1148,7 +1149,7 @@ impl Relighter for TripleMethod {
                                     // normal facing away from the viewer
                                     // shades black.
                                     if b.dot(frag.to_eye) <= 0.0 {
-                                        return segment(Vec3::ZERO, frag.position);
+                                        return segment(Vec3::ZERO, frag.position, n);
                                     }
                                     n = b;
                                 }
@@ -1164,6 +1165,7 @@ impl Relighter for TripleMethod {
                                     uv,
                                 ),
                                 frag.position,
+                                n,
                             )
                         },
                         background,
@@ -1215,7 +1217,7 @@ impl Relighter for TripleMethod {
                                     }
                                     None => c,
                                 };
-                                return segment(c, frag.position);
+                                return segment(c, frag.position, frag.normal);
                             }
                             let mut lt = [crate::lighting::Tap::default(); 6];
                             let mut bt = [crate::lighting::Tap::default(); 4];
@@ -1244,7 +1246,7 @@ impl Relighter for TripleMethod {
                                 }
                                 _ => shade(&f.brdf),
                             };
-                            segment(c, frag.position)
+                            segment(c, frag.position, frag.normal)
                         },
                         background,
                         &mut self.frame,
@@ -1281,6 +1283,7 @@ impl Relighter for TripleMethod {
                                 segment(
                                     shade_blended(table, rot, p, n, to_eye, vis, || p.mesh.uvs[v]),
                                     p.mesh.positions[v],
+                                    n,
                                 )
                             })
                             .collect()

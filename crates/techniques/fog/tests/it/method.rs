@@ -332,9 +332,10 @@ fn kept_environment_mean_follows_a_new_environment() {
 /// A uniform sky L in fog, a Lambert sphere of albedo ρ alone: the sky seen
 /// through the fog along a chord of thickness T_d is L (e^{−T_d} + a w₀ g)
 /// (w₀ the ball kernel's band-0 weight, g the chord's glow weight), and a
-/// sphere pixel at view distance D is e^{−βD} ρ L (e^{−T} + a w₀) +
-/// s a L G_c (eqs. 3.35–3.37 with the ball's kernel, then the view segment
-/// with its share s of scattering).
+/// sphere pixel at view distance D is e^{−βD} k ρ L (e^{−T} + a w₀) +
+/// s a L G_c (eqs. 3.35–3.37 with the ball's kernel, k the point's factor
+/// for its place in the ball, then the view segment with its share s of
+/// scattering).
 #[test]
 fn uniform_sky_in_fog_matches_the_closed_form() {
     let (beta, albedo, radius, rho, l) = (0.1f32, 0.8f32, 10.0f32, 0.7f32, 2.0f32);
@@ -378,7 +379,12 @@ fn uniform_sky_in_fog_matches_the_closed_form() {
         (share - centres).abs() < 0.05 * centres,
         "{share} vs {centres}"
     );
-    let want = f * rho * lit + share * albedo * l * chords.centre();
+    // The front point (0, 0, 1) facing the eye: lit for its place in the
+    // ball (`BallIrradiance`, a few % above the centre's light).
+    let k = relight_fog::ball_light::BallIrradiance::new(&s.medium.unwrap(), &chords)
+        .factor(Vec3::Z, Vec3::Z);
+    assert!(k > 1.0 && k < 1.1, "{k}");
+    let want = f * rho * lit * k + share * albedo * l * chords.centre();
     let got = img.pixels[10 * 21 + 10].x;
     assert!(
         (got - want).abs() < 1e-3 * want,

@@ -65,10 +65,15 @@ fn a_constant_sky_in_fog_is_attenuated_plus_the_balls_scattering() {
     // A view segment of length 0 shows the surface; one from the centre to
     // the edge attenuates it by e^{−T} and adds the centre's whole glow.
     let s = Vec3::new(0.5, 1.0, 2.0);
-    assert_eq!(fog.segment(s, Vec3::ZERO, Vec3::Y, 0.0), s);
-    let edge = fog.segment(s, Vec3::ZERO, Vec3::Y, MEDIUM.radius);
+    // (At the centre the surface's factor for its place in the ball is 1;
+    // at the edge, facing the eye, it is the factor table's.)
+    let centre = fog.segment(s, Vec3::Y, Vec3::ZERO, Vec3::Y, 0.0);
+    assert!((centre - s).abs().max_element() < 1e-5, "{centre}");
+    let edge = fog.segment(s, Vec3::NEG_Y, Vec3::ZERO, Vec3::Y, MEDIUM.radius);
     let air = (glow * f64::from(MEDIUM.albedo)) as f32;
-    let want = s * (-t as f32).exp() + Vec3::splat(air);
+    let k = fog.factors.factor(Vec3::Y * MEDIUM.radius, Vec3::NEG_Y);
+    assert!((k - 1.0).abs() < 0.05, "{k}");
+    let want = s * ((-t as f32).exp() * k) + Vec3::splat(air);
     assert!(
         (edge - want).abs().max_element() < 1e-3 * air,
         "{edge} vs {want}"
