@@ -162,8 +162,9 @@ fn the_method_in_fog_attenuates_objects_and_draws_the_foggy_sky() {
             assert!(p.x > fog.airlight.x && p.x < sky_value, "sky pixel {p}");
         } else if *c >= 1.0 {
             objects += 1;
-            // e^{−βD} L′ + (1 − e^{−βD}) airlight: between the two (the
-            // unshadowed white Lambert shades L′ to the furnace's 2e-3).
+            // e^{−βD} k L′ + s·airlight: between the two (the unshadowed
+            // white Lambert shades L′ to the furnace's 2e-3, and k, the
+            // surface's factor for its place near the centre, is near 1).
             assert!(
                 p.x >= fog.airlight.x - 2e-3 && p.x <= sky_value + 2e-3,
                 "{p}"
@@ -174,5 +175,45 @@ fn the_method_in_fog_attenuates_objects_and_draws_the_foggy_sky() {
     assert!(
         objects > 200 && changed * 2 > objects,
         "{changed} of {objects}"
+    );
+}
+
+/// From outside the fog ball (the eye at 1.5 R, which the method once
+/// refused) it draws: every sky pixel is the per-ray formula, the probe
+/// itself where the ray misses the ball, and the objects are seen through
+/// the medium from the ray's entry.
+#[test]
+fn the_method_draws_the_fog_ball_from_outside() {
+    let env = sky(|_| Vec3::ONE);
+    let mut sc = scene(env.clone(), Some(MEDIUM));
+    let back = (sc.camera.eye - sc.camera.target).normalize();
+    sc.camera.eye = back * (1.5 * MEDIUM.radius);
+    sc.camera.target = Vec3::ZERO;
+    sc.camera.vfov_deg = 110.0;
+    let out = render(&sc, "outside");
+    let fog = FoggyLighting::new(&env, &MEDIUM).unwrap();
+    let rays = sc.camera.ray_frame();
+    let cov = out.coverage.as_ref().unwrap();
+    let (mut missed, mut through, mut objects) = (0, 0, 0);
+    for (i, (p, c)) in out.image.pixels.iter().zip(&cov.coverage).enumerate() {
+        if *c <= 0.0 {
+            let (x, y) = (i % sc.camera.width, i / sc.camera.width);
+            let d = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
+            let want = fog.background(&env, sc.camera.eye, d, d).x;
+            assert!((p.x - want).abs() < 1e-4, "sky pixel {p} vs {want}");
+            if MEDIUM.ball_span(sc.camera.eye, d).is_none() {
+                assert!((p.x - 1.0).abs() < 1e-6, "a ray past the ball: {p}");
+                missed += 1;
+            } else {
+                through += 1;
+            }
+        } else if *c >= 1.0 {
+            objects += 1;
+            assert!(p.is_finite() && p.x > 0.0, "{p}");
+        }
+    }
+    assert!(
+        missed > 20 && through > 20 && objects > 10,
+        "{missed} missed, {through} through, {objects} objects"
     );
 }
