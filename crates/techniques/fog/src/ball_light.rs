@@ -149,14 +149,7 @@ mod tests {
         };
         let chords = ChordGlow::new(&medium);
         let factors = BallIrradiance::new(&medium, &chords);
-        let dirs: Vec<Vec3> = (0..600)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f32 + 0.5) / 600.0;
-                let r = (1.0 - z * z).sqrt();
-                let a = std::f32::consts::PI * (1.0 + 5f32.sqrt()) * (i as f32 + 0.5);
-                Vec3::new(r * a.cos(), r * a.sin(), z)
-            })
-            .collect();
+        let dirs = crate::view_segment::fibonacci_sphere(600);
         let edge = |x: Vec3, w: Vec3| {
             let b = x.dot(w);
             -b + (b * b - (x.length_squared() - 100.0)).max(0.0).sqrt()

@@ -433,6 +433,20 @@ impl ChordView<'_> {
     }
 }
 
+/// `n` directions spread evenly over the sphere (a Fibonacci lattice): the
+/// tests' quadrature of integrals taken point by point.
+#[cfg(test)]
+pub(crate) fn fibonacci_sphere(n: usize) -> Vec<Vec3> {
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let r = (1.0 - z * z).sqrt();
+            let a = std::f32::consts::PI * (1.0 + 5f32.sqrt()) * (i as f32 + 0.5);
+            Vec3::new(r * a.cos(), r * a.sin(), z)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -472,14 +486,7 @@ mod tests {
         let m = ball(beta, radius);
         let chords = ChordGlow::new(&m);
         let w0 = crate::psf::ball_convolution_weights(f64::from(beta * radius), 1)[0];
-        let dirs: Vec<Vec3> = (0..4000)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f32 + 0.5) / 4000.0;
-                let r = (1.0 - z * z).sqrt();
-                let a = std::f32::consts::PI * (1.0 + 5f32.sqrt()) * (i as f32 + 0.5);
-                Vec3::new(r * a.cos(), r * a.sin(), z)
-            })
-            .collect();
+        let dirs = fibonacci_sphere(4000);
         let inscatter = |x: Vec3| {
             let c = x.length_squared() - radius * radius;
             dirs.iter()
