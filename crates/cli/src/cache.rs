@@ -26,7 +26,8 @@
 //! before that): kind `partial`, listed and cleared with the rest.
 
 use crate::args::CacheCommand;
-use anyhow::{Context, Result};
+use crate::output::io_reason;
+use anyhow::Result;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
@@ -137,11 +138,11 @@ pub fn entries(dir: &Path) -> Result<Vec<Entry>> {
     let read = match std::fs::read_dir(dir) {
         Ok(r) => r,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(e) => return Err(e).with_context(|| format!("reading cache folder {}", dir.display())),
+        Err(e) => return Err(unreadable(dir, &e)),
     };
     let mut out = Vec::new();
     for item in read {
-        let item = item.with_context(|| format!("reading cache folder {}", dir.display()))?;
+        let item = item.map_err(|e| unreadable(dir, &e))?;
         let name = item.file_name().to_string_lossy().into_owned();
         let Some((kind, configuration)) = parse_name(&name) else {
             continue;
@@ -157,6 +158,11 @@ pub fn entries(dir: &Path) -> Result<Vec<Entry>> {
     }
     out.sort_by(|a, b| a.path.cmp(&b.path));
     Ok(out)
+}
+
+/// The one-line error for a cache folder that exists but cannot be read.
+fn unreadable(dir: &Path, e: &std::io::Error) -> anyhow::Error {
+    anyhow::anyhow!("reading cache folder {}: {}", dir.display(), io_reason(e))
 }
 
 /// `YYYY-MM-DD HH:MM` UTC of `t` (Hinnant's days-to-civil algorithm).
@@ -275,7 +281,9 @@ fn clear(dir: &Path, pattern: Option<&str>) -> Result<()> {
     let doomed = matching(&all, pattern);
     let mut freed = 0;
     for e in &doomed {
-        std::fs::remove_file(&e.path).with_context(|| format!("deleting {}", e.path.display()))?;
+        std::fs::remove_file(&e.path).map_err(|err| {
+            anyhow::anyhow!("deleting {}: {}", e.path.display(), io_reason(&err))
+        })?;
         freed += e.bytes;
     }
     println!(

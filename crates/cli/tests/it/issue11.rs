@@ -151,6 +151,19 @@ fn r11_cache_lists_and_clears_entries() {
     assert!(String::from_utf8_lossy(&out.stdout).contains("deleted 2 of 2 entries (1.3 MB)"));
     assert!(!dir.join(vis).exists() && !dir.join(partial).exists());
     assert!(dir.join("notes.txt").exists());
+
+    // A cache path through a file: one line, the reason in words.
+    let through = dir.join("notes.txt").join("cache");
+    let out = relight(&["cache", "list", "--cache", through.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("reading cache folder")
+            && err.contains("a part of the path is a file")
+            && !err.contains("os error")
+            && err.trim().lines().count() == 1,
+        "{err}"
+    );
 }
 
 #[test]
