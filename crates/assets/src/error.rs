@@ -8,17 +8,18 @@ use std::path::{Path, PathBuf};
 pub enum AssetError {
     #[error("{}: file not found", path.display())]
     Missing { path: PathBuf },
-    #[error("{}: cannot read: {source}", path.display())]
+    /// `error` is told in words in the message ([`io_reason`]) and kept
+    /// out of the source chain, so that a chained report names it once.
+    #[error("{}: cannot read: {}", path.display(), io_reason(error))]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
-    #[error("{}: cannot write: {source}", path.display())]
+    /// As `Io`, for writes.
+    #[error("{}: cannot write: {}", path.display(), io_reason(error))]
     Write {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("{}: truncated file: {detail}", path.display())]
     Truncated { path: PathBuf, detail: String },
@@ -42,6 +43,30 @@ pub enum AssetError {
     EmptyMesh { path: PathBuf, detail: String },
 }
 
+/// Why a file-system call failed, in words rather than the OS's
+/// "(os error N)" text: the one wording of IO failures in relight's
+/// messages (asset reads and writes, bake caches, output folders).
+#[must_use]
+pub fn io_reason(e: &std::io::Error) -> String {
+    use std::io::ErrorKind as K;
+    match e.kind() {
+        K::NotADirectory => "a part of the path is a file, not a folder".into(),
+        K::NotFound => "a folder on the path does not exist".into(),
+        K::PermissionDenied => "permission denied".into(),
+        K::ReadOnlyFilesystem => "the file system is read-only".into(),
+        K::StorageFull => "no space left on the device".into(),
+        K::AlreadyExists => "a file of that name is in the way".into(),
+        K::IsADirectory => "it is a folder, not a file".into(),
+        _ => {
+            let text = e.to_string();
+            match text.find(" (os error") {
+                Some(i) => text[..i].to_string(),
+                None => text,
+            }
+        }
+    }
+}
+
 impl AssetError {
     pub(crate) fn from_io(path: &Path, e: std::io::Error) -> Self {
         match e.kind() {
@@ -54,7 +79,7 @@ impl AssetError {
             },
             _ => Self::Io {
                 path: path.to_path_buf(),
-                source: e,
+                error: e,
             },
         }
     }

@@ -589,9 +589,9 @@ pub fn encode_exr_with(
 /// An `exr` encoder failure as the error naming `path`.
 pub(crate) fn exr_write_error(path: &Path, e: exr::error::Error) -> AssetError {
     match e {
-        exr::error::Error::Io(source) => AssetError::Write {
+        exr::error::Error::Io(error) => AssetError::Write {
             path: path.to_path_buf(),
-            source,
+            error,
         },
         other => AssetError::corrupt(path, format!("OpenEXR encoding failed: {other}")),
     }
@@ -665,9 +665,9 @@ pub fn write_atomic_with(
     path: &Path,
     write: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
 ) -> Result<(), AssetError> {
-    let werr = |source| AssetError::Write {
+    let werr = |error| AssetError::Write {
         path: path.to_path_buf(),
-        source,
+        error,
     };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -675,7 +675,7 @@ pub fn write_atomic_with(
     };
     let name = path.file_name().ok_or_else(|| AssetError::Write {
         path: path.to_path_buf(),
-        source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "path has no file name"),
+        error: std::io::Error::new(std::io::ErrorKind::InvalidInput, "path has no file name"),
     })?;
     let tmp = dir.join(format!(
         ".{}.tmp-{}-{}",

@@ -36,7 +36,7 @@ pub use envmap::{
     EnvLayout, encode_env_map, env_map_from_image, grid_size, load_env_map, load_env_map_as,
     load_env_map_faces, write_env_map,
 };
-pub use error::{AssetError, LoadReport};
+pub use error::{AssetError, LoadReport, io_reason};
 pub use image_io::{
     ColorEncoding, ImageFormat, RgbImage, ToneMap, ToneOperator, decode_image, encode_exr,
     encode_hdr, encode_png, linear_to_srgb, read_image, read_image_with, write_atomic,

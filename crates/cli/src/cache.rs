@@ -26,8 +26,8 @@
 //! before that): kind `partial`, listed and cleared with the rest.
 
 use crate::args::CacheCommand;
-use crate::output::io_reason;
 use anyhow::Result;
+use relight_assets::io_reason;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
@@ -281,9 +281,8 @@ fn clear(dir: &Path, pattern: Option<&str>) -> Result<()> {
     let doomed = matching(&all, pattern);
     let mut freed = 0;
     for e in &doomed {
-        std::fs::remove_file(&e.path).map_err(|err| {
-            anyhow::anyhow!("deleting {}: {}", e.path.display(), io_reason(&err))
-        })?;
+        std::fs::remove_file(&e.path)
+            .map_err(|err| anyhow::anyhow!("deleting {}: {}", e.path.display(), io_reason(&err)))?;
         freed += e.bytes;
     }
     println!(

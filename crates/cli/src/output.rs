@@ -3,7 +3,7 @@
 //! render (`relight_assets::render_exr`).
 
 use anyhow::{Result, bail, ensure};
-use relight_assets::{MaskChannels, ToneMap, write_exr, write_png, write_render_exr};
+use relight_assets::{MaskChannels, ToneMap, io_reason, write_exr, write_png, write_render_exr};
 use relight_render::{Coverage, Image};
 use std::path::{Path, PathBuf};
 
@@ -117,28 +117,6 @@ pub fn check_out_dir(dir: &Path, flag: &str) -> Result<()> {
             io_reason(&e)
         )
     })
-}
-
-/// Why a file-system call failed, in words rather than the OS's
-/// "(os error N)" text.
-#[must_use]
-pub fn io_reason(e: &std::io::Error) -> String {
-    use std::io::ErrorKind as K;
-    match e.kind() {
-        K::NotADirectory => "a part of the path is a file, not a folder".into(),
-        K::NotFound => "a part of the path does not exist and cannot be made".into(),
-        K::PermissionDenied => "permission denied".into(),
-        K::ReadOnlyFilesystem => "the file system is read-only".into(),
-        K::StorageFull => "no space left on the device".into(),
-        K::AlreadyExists => "a file of that name is in the way".into(),
-        _ => {
-            let text = e.to_string();
-            match text.find(" (os error") {
-                Some(i) => text[..i].to_string(),
-                None => text,
-            }
-        }
-    }
 }
 
 /// Writes `image` as a tone-mapped PNG and a linear EXR (see

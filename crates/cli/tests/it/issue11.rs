@@ -76,6 +76,22 @@ fn r11_output_paths_are_checked_before_work_starts() {
             );
         }
     }
+    // The same through $RELIGHT_CACHE (no flag to name): the method's own
+    // error names the folder, in words.
+    for method in ["wavelet", "triple"] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_relight"))
+            .args(["-q", "render", "--method", method, "--mesh", "sphere"])
+            .args(["--size", "16x8", "--out"])
+            .arg(tmp("env-cache.png"))
+            .env("RELIGHT_CACHE", &under)
+            .output()
+            .unwrap();
+        let err = assert_one_line_error(
+            &out,
+            &[under.to_str().unwrap(), "a part of the path is a file"],
+        );
+        assert!(!err.contains("os error"), "{method}: {err}");
+    }
 }
 
 #[test]

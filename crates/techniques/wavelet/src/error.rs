@@ -16,12 +16,13 @@ pub enum WaveletError {
         why: String,
     },
     /// Reading or writing a file failed.
-    #[error("{path}: {source}")]
+    #[error("{}: {}", path.display(), relight_assets::io_reason(error))]
     Io {
         /// The file.
         path: PathBuf,
-        /// The OS error.
-        source: std::io::Error,
+        /// The OS error, told in words in the message and kept out of the
+        /// source chain (a chained report names it once).
+        error: std::io::Error,
     },
     /// The file is not a relight wavelet bake of the expected kind.
     #[error(
@@ -89,8 +90,8 @@ pub(crate) fn bad(
 }
 
 pub(crate) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> WaveletError + '_ {
-    move |source| WaveletError::Io {
+    move |error| WaveletError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     }
 }

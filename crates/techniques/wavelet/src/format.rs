@@ -87,10 +87,10 @@ pub fn write_file(
         Ok(())
     })
     .map_err(|e| match e {
-        relight_assets::AssetError::Write { path, source } => WaveletError::Io { path, source },
+        relight_assets::AssetError::Write { path, error } => WaveletError::Io { path, error },
         other => WaveletError::Io {
             path: path.to_path_buf(),
-            source: std::io::Error::other(other.to_string()),
+            error: std::io::Error::other(other.to_string()),
         },
     })?;
     Ok(())
