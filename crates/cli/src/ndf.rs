@@ -366,7 +366,8 @@ mod tests {
         let path = dir.join("verify-ndf-screen-sphere-blinn64.png");
         let (img, _) =
             relight_assets::read_image_with(&path, relight_assets::ColorEncoding::Srgb).unwrap();
-        let header = relight_viewer::sheet::header_height(400);
+        let header =
+            relight_viewer::sheet::header_height(400, relight_viewer::sheet::MIN_DETAIL_LINES);
         assert_eq!((img.width, img.height), (800, 2 * (header + 200)));
         // The bright texel, enlarged 20× (the first tile's pixels 60..80 ×
         // 0..20), tone mapped like the viewer (1.0 → about 0.8).

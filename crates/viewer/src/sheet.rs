@@ -3,7 +3,10 @@
 //! writes as `demo.png`.
 //!
 //! Layout: tiles of one size in rows of [`SHEET_COLUMNS`], each cell a header
-//! strip of [`header_height`] pixels over its image. The sheet is kept twice:
+//! strip of [`header_height`] pixels over its image. Detail lines wider than
+//! a cell wrap at its edge; the headers of one sheet are as tall as the
+//! longest one needs (at least [`MIN_DETAIL_LINES`], at most
+//! [`MAX_DETAIL_LINES`] rows under the title). The sheet is kept twice:
 //! as display words (tone-mapped like the viewer's frames, labels drawn in)
 //! for the PNG, and as linear radiance at the same places (headers and
 //! refused tiles black, no text) for the EXR, so a pixel of either file
@@ -16,8 +19,13 @@ use relight_render::Image;
 /// Tiles per row.
 pub const SHEET_COLUMNS: usize = 2;
 
-/// Header text lines under the title line.
-pub const DETAIL_LINES: usize = 3;
+/// Header text rows under the title line, at least (a sheet's headers keep
+/// this height when every cell's details fit in it).
+pub const MIN_DETAIL_LINES: usize = 3;
+
+/// Header text rows under the title line, at most: wrapped details beyond
+/// them are cut, the last row ending in `…`.
+pub const MAX_DETAIL_LINES: usize = 6;
 
 /// Background of the headers and of refused tiles.
 const HEADER: u32 = 0x18_18_1c;
@@ -27,7 +35,8 @@ const HEADER: u32 = 0x18_18_1c;
 pub struct Cell {
     /// Drawn large: the method's name and its time.
     pub title: String,
-    /// Up to [`DETAIL_LINES`] lines under it (more are dropped).
+    /// Lines under it, each wrapped at the cell's edge (up to
+    /// [`MAX_DETAIL_LINES`] rows in all).
     pub details: Vec<Line>,
     /// The image, or why there is none (shown across the tile in red).
     pub image: Result<Image, String>,
@@ -39,12 +48,33 @@ pub fn text_scale(tile_width: usize) -> usize {
     (tile_width / 480).max(1)
 }
 
-/// Height of a cell's header for tiles `tile_width` wide.
+/// Height of a cell's header for tiles `tile_width` wide with
+/// `detail_lines` rows under the title.
 #[must_use]
-pub fn header_height(tile_width: usize) -> usize {
+pub fn header_height(tile_width: usize, detail_lines: usize) -> usize {
     let s = text_scale(tile_width);
     let pad = 4 * s;
-    2 * pad + line_height(2 * s) + DETAIL_LINES * line_height(s)
+    2 * pad + line_height(2 * s) + detail_lines * line_height(s)
+}
+
+/// The rows of `details` wrapped to `chars` characters: at most `max`
+/// rows, the last one ending in `…` when more were cut.
+fn detail_rows(details: &[Line], chars: usize, max: usize) -> Vec<Line> {
+    let mut rows: Vec<Line> = details
+        .iter()
+        .flat_map(|l| {
+            wrap(&l.text, chars)
+                .into_iter()
+                .map(|t| Line::new(t, l.color))
+        })
+        .collect();
+    if rows.len() > max {
+        rows.truncate(max);
+        if let Some(last) = rows.last_mut() {
+            last.text = clip(&format!("{} …", last.text), chars);
+        }
+    }
+    rows
 }
 
 /// A composed sheet.
@@ -57,6 +87,9 @@ pub struct Sheet {
     pub linear: Image,
     /// Where each cell's image lies.
     pub tiles: Vec<Rect>,
+    /// Height of every cell's header, pixels ([`header_height`] of the rows
+    /// the longest cell needed).
+    pub header_height: usize,
 }
 
 /// `text` cut to `chars` characters, its last one `…` when cut.
@@ -77,16 +110,27 @@ fn clip(text: &str, chars: usize) -> String {
 pub fn compose(cells: &[Cell], tile_width: usize, tile_height: usize) -> Sheet {
     let cols = SHEET_COLUMNS.min(cells.len()).max(1);
     let rows = cells.len().div_ceil(cols).max(1);
-    let hh = header_height(tile_width);
+    let s = text_scale(tile_width);
+    let pad = 4 * s;
+    let chars = |scale: usize| (tile_width - 2 * pad) / (GLYPH * scale);
+    let details: Vec<Vec<Line>> = cells
+        .iter()
+        .map(|c| detail_rows(&c.details, chars(s), MAX_DETAIL_LINES))
+        .collect();
+    let detail_lines = details
+        .iter()
+        .map(Vec::len)
+        .max()
+        .unwrap_or(0)
+        .max(MIN_DETAIL_LINES);
+    let hh = header_height(tile_width, detail_lines);
     let (cw, ch) = (tile_width, hh + tile_height);
     let (width, height) = (cols * cw, rows * ch);
     let mut words = vec![HEADER; width * height];
     let mut linear = Image::new(width, height);
     let mut tiles = Vec::new();
-    let s = text_scale(tile_width);
-    let pad = 4 * s;
     let mut tile_words = vec![0u32; tile_width * tile_height];
-    for (i, cell) in cells.iter().enumerate() {
+    for (i, (cell, details)) in cells.iter().zip(&details).enumerate() {
         let (x0, y0) = ((i % cols) * cw, (i / cols) * ch);
         let tile = Rect {
             x: x0,
@@ -120,11 +164,10 @@ pub fn compose(cells: &[Cell], tile_width: usize, tile_height: usize) -> Sheet {
             }
         }
         let mut c = Canvas::new(&mut words, width, height);
-        // Header lines stop at their own cell's edge.
-        let fit = |scale: usize, text: &str| clip(text, (tile_width - 2 * pad) / (GLYPH * scale));
+        // The title stops at its own cell's edge.
+        let fit = |scale: usize, text: &str| clip(text, chars(scale));
         // The title large when it fits, else at the details' size (a
         // 160-pixel tile holds 9 large glyphs: `sh  13.1 ms/frame` is 17).
-        let chars = |scale: usize| (tile_width - 2 * pad) / (GLYPH * scale);
         let title_scale = if cell.title.chars().count() <= chars(2 * s) {
             2 * s
         } else {
@@ -138,8 +181,8 @@ pub fn compose(cells: &[Cell], tile_width: usize, tile_height: usize) -> Sheet {
             &fit(title_scale, &cell.title),
         );
         let mut y = y0 + pad + line_height(2 * s);
-        for l in cell.details.iter().take(DETAIL_LINES) {
-            c.text(x0 + pad, y, s, l.color, &fit(s, &l.text));
+        for l in details {
+            c.text(x0 + pad, y, s, l.color, &l.text);
             y += line_height(s);
         }
         // A one-pixel rule between headers (the images stay untouched).
@@ -170,6 +213,7 @@ pub fn compose(cells: &[Cell], tile_width: usize, tile_height: usize) -> Sheet {
         words,
         linear,
         tiles,
+        header_height: hh,
     }
 }
 
@@ -224,7 +268,8 @@ mod tests {
             },
         ];
         let s = compose(&cells, tw, th);
-        let hh = header_height(tw);
+        let hh = header_height(tw, MIN_DETAIL_LINES);
+        assert_eq!(s.header_height, hh);
         assert_eq!((s.width, s.height), (2 * tw, 2 * (hh + th)));
         assert_eq!(
             s.tiles[2],
@@ -285,7 +330,8 @@ mod tests {
             },
         ];
         let s = compose(&cells, tw, th);
-        let hh = header_height(tw);
+        let hh = s.header_height;
+        assert_eq!(hh, header_height(tw, MAX_DETAIL_LINES));
         let drawn = |c: u32| {
             (0..hh)
                 .flat_map(|y| (tw..2 * tw).map(move |x| (x, y)))
@@ -295,6 +341,50 @@ mod tests {
         assert_eq!((drawn(WHITE), drawn(GREEN)), (0, 0));
         assert_eq!(clip("abcdef", 4), "abc…");
         assert_eq!(clip("abc", 4), "abc");
+    }
+
+    /// Details wider than the cell wrap at word breaks, and the sheet's
+    /// headers grow to hold the longest cell's rows (up to
+    /// [`MAX_DETAIL_LINES`], the last row then ending in `…`).
+    #[test]
+    fn details_wrap_at_the_cells_edge_and_the_headers_grow() {
+        // A 200-pixel tile holds (200 − 8) / 8 = 24 glyphs a row.
+        let note = Line::new("unshadowed: sh cannot render visibility (shadows)", GREEN);
+        let rows = detail_rows(std::slice::from_ref(&note), 24, MAX_DETAIL_LINES);
+        let text: Vec<&str> = rows.iter().map(|l| l.text.as_str()).collect();
+        assert_eq!(
+            text,
+            ["unshadowed: sh cannot", "render visibility", "(shadows)"]
+        );
+        assert!(rows.iter().all(|l| l.color == GREEN));
+        let many = vec![note; 4];
+        let rows = detail_rows(&many, 24, MAX_DETAIL_LINES);
+        assert_eq!(rows.len(), MAX_DETAIL_LINES);
+        assert_eq!(rows[5].text, "(shadows) …");
+
+        let (tw, th) = (200, 40);
+        let cell = |details: Vec<Line>| Cell {
+            title: "sh".into(),
+            details,
+            image: Ok(flat(tw, th, 0.5)),
+        };
+        let short = compose(&[cell(vec![Line::new("ok", GREEN)])], tw, th);
+        assert_eq!(short.header_height, header_height(tw, MIN_DETAIL_LINES));
+        let long = vec![
+            Line::new("error 40.2 % rel. RMS vs reference", GREEN),
+            Line::new("relight 0.9 ms · bake/load 1.2 s", GREY),
+            Line::new("unshadowed: sh cannot render visibility (shadows)", WHITE),
+        ];
+        let s = compose(&[cell(vec![]), cell(long)], tw, th);
+        // 2 + 2 + 3 rows.
+        assert_eq!(s.header_height, header_height(tw, 7.min(MAX_DETAIL_LINES)));
+        assert_eq!(s.height, s.header_height + th);
+        // The rows' text stays inside the second cell.
+        let drawn_right = (0..s.header_height)
+            .flat_map(|y| (tw..2 * tw).map(move |x| (x, y)))
+            .filter(|&(x, y)| s.words[y * s.width + x] == GREEN)
+            .count();
+        assert!(drawn_right > 30);
     }
 
     /// A title too long for large glyphs (17 characters on a 160-pixel
@@ -309,7 +399,7 @@ mod tests {
             image: Ok(flat(tw, th, 0.5)),
         }];
         let s = compose(&cells, tw, th);
-        let white: Vec<(usize, usize)> = (0..header_height(tw))
+        let white: Vec<(usize, usize)> = (0..s.header_height)
             .flat_map(|y| (0..tw).map(move |x| (x, y)))
             .filter(|&(x, y)| s.words[y * s.width + x] == WHITE)
             .collect();

@@ -25,8 +25,9 @@
 //! `8·scale` pixels square, and glyphs sit edge to edge: the font keeps its
 //! own one-pixel spacing). Basic Latin, Latin-1 (`×`, `²`, `·`, `°`) and
 //! Greek (`σ`, `α`) are drawn as themselves; a few typographic characters
-//! map to the nearest ASCII (`—`/`–` → `-`, `…` → `.`, `≤` → `<`, `≥` →
-//! `>`, `≈` → `~`, `→` → `>`), anything else to `?`. One `char` is always
+//! map to the nearest ASCII (`—`/`–` → `-`, `≤` → `<`, `≥` → `>`, `≈` →
+//! `~`, `→` → `>`), `…` (the mark of a cut label) is drawn here as three of
+//! the font's 2×2 dots, anything else is `?`. One `char` is always
 //! one cell, so widths are `8·scale·chars`.
 
 use font8x8::legacy::{BASIC_LEGACY, GREEK_LEGACY, LATIN_LEGACY};
@@ -34,12 +35,16 @@ use font8x8::legacy::{BASIC_LEGACY, GREEK_LEGACY, LATIN_LEGACY};
 /// Side of a glyph cell at scale 1, pixels.
 pub const GLYPH: usize = 8;
 
+/// `…`: three 2×2 dots on the rows of the font's `.` (one cell, so a cut
+/// label keeps its width).
+const ELLIPSIS: [u8; 8] = [0, 0, 0, 0, 0, 0xdb, 0xdb, 0];
+
 /// The 8×8 bitmap of `c` (see the module docs for the mapping).
 #[must_use]
 pub fn glyph(c: char) -> [u8; 8] {
     let c = match c {
+        '…' => return ELLIPSIS,
         '—' | '–' | '−' => '-',
-        '…' => '.',
         '≤' => '<',
         '≥' | '→' => '>',
         '≈' => '~',
@@ -295,6 +300,12 @@ mod tests {
         assert_ne!(glyph('×'), glyph('?'));
         assert_ne!(glyph('σ'), glyph('?'));
         assert_eq!(glyph('\u{4e00}'), glyph('?'));
+        // `…`: three dots on the rows of `.`'s dot.
+        let (dot, ellipsis) = (glyph('.'), glyph('…'));
+        for (d, e) in dot.iter().zip(ellipsis) {
+            assert_eq!(*d != 0, e != 0);
+            assert_eq!(e.count_ones(), if e == 0 { 0 } else { 6 });
+        }
         // 'L': the foot runs to the right, so bit 0 is the leftmost pixel.
         let l = glyph('L');
         assert!(l[6] & 1 != 0 && l[6] & 0x40 != 0 && l[1] & 0x40 == 0);

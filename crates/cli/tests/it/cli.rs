@@ -66,7 +66,9 @@ fn demo_writes_a_labelled_composite_and_an_exr_per_method() {
     );
     let (sheet, _) =
         relight_assets::read_image(&png.with_extension("exr")).expect("demo.exr readable");
-    let header = relight_viewer::sheet::header_height(96);
+    // A 96-pixel tile holds 11 glyphs a row: the details wrap to the most
+    // rows a header takes.
+    let header = relight_viewer::sheet::header_height(96, relight_viewer::sheet::MAX_DETAIL_LINES);
     // Five tiles, two columns.
     assert_eq!((sheet.width, sheet.height), (2 * 96, 3 * (header + 54)));
     for method in ["reference", "wavelet", "sh", "fog", "shexp"] {
