@@ -429,6 +429,65 @@ fn wavelet_render_bakes_into_its_cache_and_applies_ambient_occlusion() {
     assert!(d > 0.01 && d < 0.6, "AO vs none: {d}");
 }
 
+/// A cached bake whose bytes changed (a flipped bit) fails its checksum: the
+/// wavelet and triple methods re-bake it, say so in one warning naming the
+/// file and the reason, and the next run reads the replacement silently.
+#[test]
+fn a_corrupt_cached_bake_is_rebaked_with_a_warning() {
+    let cache = tmp("corrupt-bakes");
+    let _ = std::fs::remove_dir_all(&cache);
+    let png = tmp("corrupt-bakes.png");
+    let runs: [(&str, &[&str]); 2] = [
+        ("wavelet", &["--n", "16", "--ntess", "4", "--terms", "64"]),
+        ("triple", &["--terms", "80"]),
+    ];
+    for (method, flags) in runs {
+        let render = || {
+            let out = Command::new(env!("CARGO_BIN_EXE_relight"))
+                .args(["-q", "render", "--mesh", "sphere", "--size", "16x12"])
+                .args(["--method", method])
+                .args(flags)
+                .arg("--out")
+                .arg(&png)
+                .env("RELIGHT_CACHE", &cache)
+                .output()
+                .expect("run relight");
+            let err = String::from_utf8_lossy(&out.stderr).into_owned();
+            assert!(out.status.success(), "{method}: {err}");
+            err
+        };
+        let err = render();
+        assert!(!err.contains("unusable"), "{method}, cold: {err}");
+        let entries: Vec<PathBuf> = std::fs::read_dir(cache.join(method))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "bin"))
+            .collect();
+        assert!(!entries.is_empty(), "{method}: nothing cached");
+        for e in &entries {
+            let mut bytes = std::fs::read(e).unwrap();
+            let at = bytes.len() / 2;
+            bytes[at] ^= 1;
+            std::fs::write(e, &bytes).unwrap();
+        }
+        let err = render();
+        for e in &entries {
+            let line = err
+                .lines()
+                .find(|l| l.contains(e.to_str().unwrap()))
+                .unwrap_or_else(|| panic!("{method}: no warning for {}: {err}", e.display()));
+            assert!(
+                line.starts_with("relight: warning: method ")
+                    && line.contains("checksum")
+                    && line.ends_with("re-baked and replaced"),
+                "{line}"
+            );
+        }
+        let err = render();
+        assert!(!err.contains("unusable"), "{method}, replaced: {err}");
+    }
+}
+
 #[test]
 fn view_without_a_display_is_a_one_line_error() {
     let out = Command::new(env!("CARGO_BIN_EXE_relight"))

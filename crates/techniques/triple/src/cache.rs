@@ -11,10 +11,11 @@
 //! The key hash (FNV-1a 64) is over the BRDF's `Debug` description, or over
 //! every mesh of the scene (positions, normals, indices) and the object
 //! index for visibility. A file with other parameters, another version or a
-//! bad checksum is re-baked and replaced.
+//! bad checksum is re-baked and replaced, with a warning
+//! ([`relight_wavelet::CacheUse`]).
 
-use relight_wavelet::WaveletError;
 use relight_wavelet::format::{fnv1a64, read_file, write_file};
+use relight_wavelet::{CacheUse, WaveletError};
 use std::path::{Path, PathBuf};
 
 /// Version of this crate's bake rules (the 8th parameter); bump when a bake
@@ -56,7 +57,8 @@ pub fn file_name(kind: &str, p: &[u32; 8]) -> String {
 }
 
 /// Loads the f32 values of a bake with exactly `p`, or computes, stores and
-/// returns them. A bad or stale file is replaced.
+/// returns them. A bad or stale file is replaced, and the [`CacheUse`] says
+/// why.
 ///
 /// # Errors
 /// Cancellation from `compute`, or an unwritable cache.
@@ -66,23 +68,34 @@ pub fn bake_or_load<E>(
     magic: [u8; 8],
     p: [u32; 8],
     compute: impl FnOnce() -> Result<Vec<f32>, E>,
-) -> Result<(Vec<f32>, bool), E>
+) -> Result<(Vec<f32>, CacheUse), E>
 where
     E: From<WaveletError>,
 {
     let path = dir.join(file_name(kind, &p));
-    if path.exists()
-        && let Ok(f) = read_file(&path, magic, kind)
-        && f.header.params == p
-        && f.header.payload_bytes as usize == (p[6] as usize * 4).div_ceil(8) * 8
-    {
-        let bytes = &f.payload()[..p[6] as usize * 4];
-        return Ok((bytemuck::pod_collect_to_vec(bytes), true));
+    let mut used = CacheUse::Baked;
+    if path.exists() {
+        let payload = (p[6] as usize * 4).div_ceil(8) * 8;
+        match read_file(&path, magic, kind) {
+            Ok(f) if f.header.params == p && f.header.payload_bytes as usize == payload => {
+                let bytes = &f.payload()[..p[6] as usize * 4];
+                return Ok((bytemuck::pod_collect_to_vec(bytes), CacheUse::Loaded));
+            }
+            // The name hashes the parameters: only a collision or a file
+            // written by hand gets here.
+            Ok(_) => {
+                used = CacheUse::Replaced {
+                    path: path.clone(),
+                    why: "its parameters are not the ones its name stands for".into(),
+                }
+            }
+            Err(e) => used = CacheUse::replaced(&path, &e),
+        }
     }
     let values = compute()?;
     debug_assert_eq!(values.len(), p[6] as usize);
     write_file(&path, magic, p, &[bytemuck::cast_slice(&values)])?;
-    Ok((values, false))
+    Ok((values, used))
 }
 
 /// FNV-1a over several byte slices.

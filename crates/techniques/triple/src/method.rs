@@ -68,7 +68,7 @@ use relight_render::method::{
 use relight_render::raster::Background;
 use relight_render::{Image, Numbered, Progress, Scene, SceneBvh};
 use relight_sphere::{EnvMap, Frame};
-use relight_wavelet::WaveletError;
+use relight_wavelet::{CacheUse, WaveletError};
 use serde::Serialize;
 use std::borrow::Cow;
 use std::path::PathBuf;
@@ -455,23 +455,29 @@ impl TripleMethod {
         }
         let grid = self.grid.as_ref().expect("just built");
         let m = self.m;
-        let (data, loaded) = bake_or_load(&o.cache_dir, "brdf", BRDF_MAGIC, p, || {
+        let (data, used) = bake_or_load(&o.cache_dir, "brdf", BRDF_MAGIC, p, || {
             Ok::<_, WaveletError>(BrdfTable::bake(brdf, grid, m, views, weighting).into_values())
         })
         .map_err(fail)?;
-        if loaded {
-            self.loads += 1;
-        } else {
-            self.bakes += 1;
-        }
         let t = Arc::new(BrdfTable {
             m,
             views,
             stride: cells,
             data: Planes::scaled(data, cells, o.storage.brdf_u8()),
         });
+        self.count(&used);
         self.brdfs.push((key, t.clone()));
         Ok(t)
+    }
+
+    /// Counts a load or a bake; a replaced cache file is also a warning.
+    fn count(&mut self, used: &CacheUse) {
+        if used.loaded() {
+            self.loads += 1;
+        } else {
+            self.bakes += 1;
+        }
+        self.warnings.extend(used.warning(TRIPLE_METHOD_NAME));
     }
 
     /// Rebakes one material's BRDF table (a material edit): drops the
@@ -943,7 +949,7 @@ impl Relighter for TripleMethod {
                 let key =
                     hash_parts(&[bytemuck::cast_slice(&scene_key), &(i as u64).to_le_bytes()]);
                 let (m, vl) = (self.m, self.options.vis_level);
-                let (values, loaded) = match &texels {
+                let (values, used) = match &texels {
                     None => {
                         let len = o.mesh.positions.len() * stride;
                         let p = cache::params(m as u32, vl as u32, 0, 0, key, len);
@@ -966,11 +972,7 @@ impl Relighter for TripleMethod {
                     }
                 }
                 .map_err(fail)?;
-                if loaded {
-                    self.loads += 1;
-                } else {
-                    self.bakes += 1;
-                }
+                self.count(&used);
                 Some(Arc::new(Planes::scaled(
                     values,
                     stride,

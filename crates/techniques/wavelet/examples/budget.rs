@@ -214,7 +214,7 @@ fn main() {
     let mut rp = RotationParams::new(n, ntess, ntrunc);
     rp.m = arg("M", &rp.m.to_string()).parse().unwrap();
     let cache = std::path::PathBuf::from("/tmp/wavcache/wavelet");
-    let rot = bake_or_load_rotation(&rp, &cache, &NoProgress).unwrap();
+    let (rot, _) = bake_or_load_rotation(&rp, &cache, &NoProgress).unwrap();
     let bakes: Vec<Arc<BrdfBake>> = scene
         .objects
         .iter()
@@ -227,6 +227,7 @@ fn main() {
                 &NoProgress,
             )
             .unwrap()
+            .0
         })
         .collect();
     let mut r = WaveletRenderer::new(rot.clone(), terms).unwrap();

@@ -71,6 +71,27 @@ pub enum WaveletError {
     Cancelled,
 }
 
+impl WaveletError {
+    /// What is wrong, without the file's name or the advice on fixing it:
+    /// the reason in the warning that an unusable cache file was re-baked
+    /// and replaced ([`crate::study::CacheUse`]).
+    #[must_use]
+    pub fn problem(&self) -> String {
+        match self {
+            Self::Io { error, .. } => relight_assets::io_reason(error),
+            Self::Foreign { kind, .. } => format!("not a relight {kind} bake file (bad magic)"),
+            Self::Version {
+                found, expected, ..
+            } => format!("bake format version {found}, this relight reads version {expected}"),
+            Self::Corrupt { why, .. } => format!("corrupted or truncated: {why}"),
+            Self::ParamMismatch {
+                found, requested, ..
+            } => format!("baked with {found}, not {requested}"),
+            Self::BadParam { .. } | Self::Cancelled => self.to_string(),
+        }
+    }
+}
+
 impl From<relight_render::Cancelled> for WaveletError {
     fn from(_: relight_render::Cancelled) -> Self {
         Self::Cancelled

@@ -62,8 +62,8 @@ pub use method::{AO_APPROXIMATION, WAVELET_METHOD_NAME, WaveletMethod, WaveletOp
 pub use render::{LightingStats, NormalInterp, VertexColors, WaveletRenderer};
 pub use rotation::{RotationMatrices, RotationParams, bake_rotation};
 pub use study::{
-    BenchOptions, BenchRow, bake_or_load_brdf, bake_or_load_rotation, bake_or_load_scene_brdfs,
-    bench_wavelet, default_cache_dir,
+    BenchOptions, BenchRow, CacheUse, bake_or_load_brdf, bake_or_load_rotation,
+    bake_or_load_scene_brdfs, bench_wavelet, default_cache_dir,
 };
 pub use verify::{
     CompareRow, Densify, VerifyOptions, VerifyRow, verify_wavelet, verify_wavelet_with_sh,

@@ -155,6 +155,9 @@ pub struct WaveletMethod {
     loads: usize,
     /// What the last `prepare` renders differently ([`Relighter::warnings`]).
     warnings: Vec<String>,
+    /// Cache files this `prepare` found unusable and replaced
+    /// ([`crate::CacheUse::warning`]); they lead `warnings`.
+    cache_warnings: Vec<String>,
 }
 
 impl std::fmt::Debug for WaveletMethod {
@@ -233,6 +236,7 @@ impl WaveletMethod {
             pending_lighting_ms: 0.0,
             loads: 0,
             warnings: Vec::new(),
+            cache_warnings: Vec::new(),
         })
     }
 
@@ -276,7 +280,7 @@ impl WaveletMethod {
         if let Some(b) = self.bakes.iter().find(|b| b.params == params) {
             return Ok(b.clone());
         }
-        let mut b = bake_or_load_brdf(
+        let (mut b, used) = bake_or_load_brdf(
             &params,
             object.brdf.as_ref(),
             &self.options.cache_dir,
@@ -284,6 +288,8 @@ impl WaveletMethod {
         )
         .map_err(fail)?;
         self.loads += 1;
+        self.cache_warnings
+            .extend(used.warning(WAVELET_METHOD_NAME));
         // A loaded bake knows its key only as a hash; keep the full key so
         // that the in-memory lookup above matches it next time.
         if b.params != params {
@@ -328,11 +334,14 @@ impl Relighter for WaveletMethod {
         // A feature it cannot render at all is never silently dropped; the
         // caller's `check_scene` decides whether approximations are allowed.
         check_scene(self, scene, true)?;
+        self.cache_warnings.clear();
         let params = self.options.rotation_params();
         if self.rotation.is_none() {
-            let rot =
+            let (rot, used) =
                 bake_or_load_rotation(&params, &self.options.cache_dir, progress).map_err(fail)?;
             self.loads += 1;
+            self.cache_warnings
+                .extend(used.warning(WAVELET_METHOD_NAME));
             let mut r = WaveletRenderer::new(rot.clone(), self.options.terms)
                 .map_err(|e| invalid("terms", e))?;
             r.normal_interp = self.options.normal_interp;
@@ -395,23 +404,25 @@ impl Relighter for WaveletMethod {
         self.meshes = meshes;
         self.object_bakes = object_bakes;
         self.colors.clear();
-        self.warnings = refined
-            .iter()
-            .map(|r| {
-                format!(
-                    "method wavelet: ambient occlusion is per vertex, and {}",
-                    r.describe()
-                )
-            })
-            .chain(still.iter().map(|c| {
-                format!(
-                    "method wavelet: ambient occlusion is per vertex, and {}: the shadows \
+        self.warnings = std::mem::take(&mut self.cache_warnings);
+        self.warnings.extend(
+            refined
+                .iter()
+                .map(|r| {
+                    format!(
+                        "method wavelet: ambient occlusion is per vertex, and {}",
+                        r.describe()
+                    )
+                })
+                .chain(still.iter().map(|c| {
+                    format!(
+                        "method wavelet: ambient occlusion is per vertex, and {}: the shadows \
                      between them are lost; give it a finer mesh (`builtin = \"ground-grid\"` \
                      for a floor)",
-                    c.describe()
-                )
-            }))
-            .collect();
+                        c.describe()
+                    )
+                })),
+        );
         self.set_lighting(scene, progress)?;
         Ok(())
     }

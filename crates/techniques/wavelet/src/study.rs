@@ -37,9 +37,59 @@ pub fn default_cache_dir() -> PathBuf {
     PathBuf::from("relight-cache/wavelet")
 }
 
+/// Where a bake came from in `bake_or_load_*` (and the triple method's
+/// tables): so that a re-bake which replaced an unusable cache file is said
+/// ([`CacheUse::warning`]) rather than silent.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum CacheUse {
+    /// Read from a valid cache file.
+    Loaded,
+    /// Baked: there was no cache file.
+    Baked,
+    /// Baked, and the cache file at `path`, unusable because of `why`
+    /// (corrupted, truncated, another format version, …), replaced.
+    Replaced {
+        /// The cache file.
+        path: PathBuf,
+        /// What was wrong with it ([`WaveletError::problem`]).
+        why: String,
+    },
+}
+
+impl CacheUse {
+    /// A file at `path` that exists but could not be used because of `e`.
+    #[must_use]
+    pub fn replaced(path: &Path, e: &WaveletError) -> Self {
+        Self::Replaced {
+            path: path.to_path_buf(),
+            why: e.problem(),
+        }
+    }
+
+    /// True when the bake was read from the cache.
+    #[must_use]
+    pub fn loaded(&self) -> bool {
+        *self == Self::Loaded
+    }
+
+    /// The one-line warning of a replaced file, naming `method`; `None`
+    /// when the cache was read or there was no file.
+    #[must_use]
+    pub fn warning(&self, method: &str) -> Option<String> {
+        match self {
+            Self::Replaced { path, why } => Some(format!(
+                "method {method}: cached bake {} was unusable ({why}); re-baked and replaced",
+                path.display()
+            )),
+            Self::Loaded | Self::Baked => None,
+        }
+    }
+}
+
 /// Loads the rotation matrices for `params` from `cache_dir` (file name keyed
 /// by every parameter and the format version), or bakes and stores them.
-/// A stale or corrupted cache file is re-baked and replaced.
+/// A stale or corrupted cache file is re-baked and replaced, and the
+/// [`CacheUse`] says so.
 ///
 /// # Errors
 /// Bad parameters, cancellation, or an unwritable cache directory.
@@ -47,18 +97,20 @@ pub fn bake_or_load_rotation(
     params: &RotationParams,
     cache_dir: &Path,
     progress: &dyn Progress,
-) -> Result<Arc<RotationMatrices>, WaveletError> {
+) -> Result<(Arc<RotationMatrices>, CacheUse), WaveletError> {
     params.validate()?;
     let path = cache_dir.join(params.cache_file_name());
-    if path.exists()
-        && let Ok(m) = RotationMatrices::load_expect(&path, params)
-    {
-        return Ok(Arc::new(m));
+    let mut used = CacheUse::Baked;
+    if path.exists() {
+        match RotationMatrices::load_expect(&path, params) {
+            Ok(m) => return Ok((Arc::new(m), CacheUse::Loaded)),
+            Err(e) => used = CacheUse::replaced(&path, &e),
+        }
     }
     let m = bake_rotation(params, progress)?;
     std::fs::create_dir_all(cache_dir).map_err(io(cache_dir))?;
     m.save(&path)?;
-    Ok(Arc::new(m))
+    Ok((Arc::new(m), used))
 }
 
 /// [`bake_or_load_rotation`] for BRDF slices (`params.key` names the BRDF).
@@ -70,23 +122,27 @@ pub fn bake_or_load_brdf(
     brdf: &dyn Brdf,
     cache_dir: &Path,
     progress: &dyn Progress,
-) -> Result<Arc<BrdfBake>, WaveletError> {
+) -> Result<(Arc<BrdfBake>, CacheUse), WaveletError> {
     params.validate()?;
     let path = cache_dir.join(params.cache_file_name());
-    if path.exists()
-        && let Ok(b) = BrdfBake::load_expect(&path, params)
-    {
-        return Ok(Arc::new(b));
+    let mut used = CacheUse::Baked;
+    if path.exists() {
+        match BrdfBake::load_expect(&path, params) {
+            Ok(b) => return Ok((Arc::new(b), CacheUse::Loaded)),
+            Err(e) => used = CacheUse::replaced(&path, &e),
+        }
     }
     let b = bake_brdf(params, brdf, progress)?;
     std::fs::create_dir_all(cache_dir).map_err(io(cache_dir))?;
     b.save(&path)?;
-    Ok(Arc::new(b))
+    Ok((Arc::new(b), used))
 }
 
 /// [`bake_or_load_brdf`] for every object of `scene`, each keyed by its
 /// model's `Debug` description: slices on the `m × m` target grid for
-/// `views × views` view directions, `terms` kept (capped at m²).
+/// `views × views` view directions, `terms` kept (capped at m²). For tests
+/// and studies: where each came from is not reported (the method reports it,
+/// [`crate::WaveletMethod`]).
 ///
 /// # Errors
 /// As [`bake_or_load_brdf`].
@@ -104,7 +160,7 @@ pub fn bake_or_load_scene_brdfs(
         .map(|o| {
             let key = o.brdf.label();
             let p = BrdfBakeParams::new(&key, m, views, terms.min(m * m));
-            bake_or_load_brdf(&p, o.brdf.as_ref(), cache_dir, progress)
+            bake_or_load_brdf(&p, o.brdf.as_ref(), cache_dir, progress).map(|(b, _)| b)
         })
         .collect()
 }

@@ -346,7 +346,7 @@ fn rot_for(
     progress: &dyn Progress,
 ) -> Result<Arc<RotationMatrices>, WaveletError> {
     match cache {
-        Some(d) => bake_or_load_rotation(p, d, progress),
+        Some(d) => bake_or_load_rotation(p, d, progress).map(|(r, _)| r),
         None => Ok(Arc::new(bake_rotation(p, progress)?)),
     }
 }
@@ -358,7 +358,7 @@ fn brdf_for(
     progress: &dyn Progress,
 ) -> Result<Arc<BrdfBake>, WaveletError> {
     match cache {
-        Some(d) => bake_or_load_brdf(p, brdf, d, progress),
+        Some(d) => bake_or_load_brdf(p, brdf, d, progress).map(|(b, _)| b),
         None => Ok(Arc::new(bake_brdf(p, brdf, progress)?)),
     }
 }

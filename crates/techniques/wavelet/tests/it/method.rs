@@ -135,7 +135,7 @@ fn rel_rms(a: &Image, b: &Image, keep: impl Fn(usize) -> bool) -> f64 {
 /// the `aa`× supersampled camera, box filter.
 fn direct(scene: &Scene, o: &WaveletOptions, aa: usize) -> Image {
     let params = o.rotation_params();
-    let rot = bake_or_load_rotation(&params, &o.cache_dir, &NoProgress).unwrap();
+    let (rot, _) = bake_or_load_rotation(&params, &o.cache_dir, &NoProgress).unwrap();
     let bakes = bake_or_load_scene_brdfs(
         scene,
         params.m,
@@ -203,6 +203,7 @@ fn render_frame_matches_the_direct_renderer_with_and_without_ao() {
             method.data_bytes()
                 > bake_or_load_rotation(&p, &dir, &NoProgress)
                     .unwrap()
+                    .0
                     .size_bytes()
         );
     }
