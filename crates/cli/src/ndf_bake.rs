@@ -28,6 +28,7 @@ use glam::{Vec3, Vec4};
 use relight_ndf::export::{EngineChain, EngineLevel, LevelError, level_errors};
 use relight_ndf::{NdfBrdf, VmfBakeOptions, VmfPyramid};
 use relight_render::NormalMap;
+use relight_wavelet::CacheUse;
 use std::path::{Path, PathBuf};
 
 /// `relight ndf …`.
@@ -87,26 +88,41 @@ fn cache_key(map: &NormalMap, opts: &VmfBakeOptions) -> u64 {
     h
 }
 
-/// The vMF pyramid of `map`, from `cache` when present (a file that does not
-/// parse is re-baked and replaced).
-fn vmf_cached(map: &NormalMap, opts: &VmfBakeOptions, cache: &Path) -> Result<(VmfPyramid, bool)> {
+/// The vMF pyramid of `map`, from `cache` when present; a file that does not
+/// parse (bad checksum, version or sizes) is re-baked and replaced, and the
+/// [`CacheUse`] says so.
+fn vmf_cached(
+    map: &NormalMap,
+    opts: &VmfBakeOptions,
+    cache: &Path,
+) -> Result<(VmfPyramid, CacheUse)> {
     let path = cache.join(format!(
         "vmf-j{}-{:016x}.bin",
         opts.lobes,
         cache_key(map, opts)
     ));
-    if let Ok(bytes) = std::fs::read(&path)
-        && let Some(p) = VmfPyramid::from_bytes(&bytes)
-        && p.lobes == opts.lobes
-        && p.levels[0].width == map.width
-        && p.levels[0].height == map.height
-    {
-        return Ok((p, true));
+    let mut used = CacheUse::Baked;
+    if let Ok(bytes) = std::fs::read(&path) {
+        match VmfPyramid::from_bytes(&bytes) {
+            Some(p)
+                if p.lobes == opts.lobes
+                    && p.levels[0].width == map.width
+                    && p.levels[0].height == map.height =>
+            {
+                return Ok((p, CacheUse::Loaded));
+            }
+            _ => {
+                used = CacheUse::Replaced {
+                    path: path.clone(),
+                    why: "a bad checksum, format or size".into(),
+                }
+            }
+        }
     }
     let p = VmfPyramid::build(map.width, map.height, &map.texels, opts);
     crate::output::check_out_dir(cache, "--cache")?;
     relight_assets::write_atomic(&path, &p.to_bytes())?;
-    Ok((p, false))
+    Ok((p, used))
 }
 
 fn u16_of(v: f32) -> u16 {
@@ -355,7 +371,9 @@ fn bake(a: &NdfBakeArgs) -> Result<()> {
                 ..VmfBakeOptions::default()
             };
             let dir = a.cache.clone().unwrap_or_else(default_cache_dir);
-            let (p, hit) = vmf_cached(&map, &opts, &dir)?;
+            let (p, used) = vmf_cached(&map, &opts, &dir)?;
+            crate::output::warn_all(&Vec::from_iter(used.warning("ndf bake")));
+            let hit = used.loaded();
             eprintln!(
                 "relight: vMF fit, J = {j}: {} ({:.2} s)",
                 if hit {
@@ -466,9 +484,9 @@ mod tests {
             lobes: 2,
             ..VmfBakeOptions::default()
         };
-        let (a, hit_a) = vmf_cached(&map, &opts, &dir.join("cache")).unwrap();
-        let (b, hit_b) = vmf_cached(&map, &opts, &dir.join("cache")).unwrap();
-        assert!(!hit_a && hit_b);
+        let (a, used_a) = vmf_cached(&map, &opts, &dir.join("cache")).unwrap();
+        let (b, used_b) = vmf_cached(&map, &opts, &dir.join("cache")).unwrap();
+        assert_eq!((used_a, used_b), (CacheUse::Baked, CacheUse::Loaded));
         assert_eq!(a, b);
         // A flipped bit in a lobe, or a truncated file, fails the CRC: the
         // cache re-bakes and replaces it.
@@ -483,8 +501,14 @@ mod tests {
         for bad in [flipped, good[..good.len() - 1].to_vec()] {
             assert!(VmfPyramid::from_bytes(&bad).is_none());
             std::fs::write(&file, &bad).unwrap();
-            let (c, hit) = vmf_cached(&map, &opts, &dir.join("cache")).unwrap();
-            assert!(!hit);
+            let (c, used) = vmf_cached(&map, &opts, &dir.join("cache")).unwrap();
+            let warning = used
+                .warning("ndf bake")
+                .expect("a replaced file is warned about");
+            assert!(
+                warning.contains(file.to_str().unwrap()) && warning.contains("re-baked"),
+                "{warning}"
+            );
             assert_eq!(c, a);
             assert_eq!(std::fs::read(&file).unwrap(), good);
         }

@@ -477,7 +477,8 @@ impl TripleMethod {
         } else {
             self.bakes += 1;
         }
-        self.warnings.extend(used.warning(TRIPLE_METHOD_NAME));
+        self.warnings
+            .extend(used.warning(&format!("method {TRIPLE_METHOD_NAME}")));
     }
 
     /// Rebakes one material's BRDF table (a material edit): drops the

@@ -289,7 +289,7 @@ impl WaveletMethod {
         .map_err(fail)?;
         self.loads += 1;
         self.cache_warnings
-            .extend(used.warning(WAVELET_METHOD_NAME));
+            .extend(used.warning(&format!("method {WAVELET_METHOD_NAME}")));
         // A loaded bake knows its key only as a hash; keep the full key so
         // that the in-memory lookup above matches it next time.
         if b.params != params {
@@ -341,7 +341,7 @@ impl Relighter for WaveletMethod {
                 bake_or_load_rotation(&params, &self.options.cache_dir, progress).map_err(fail)?;
             self.loads += 1;
             self.cache_warnings
-                .extend(used.warning(WAVELET_METHOD_NAME));
+                .extend(used.warning(&format!("method {WAVELET_METHOD_NAME}")));
             let mut r = WaveletRenderer::new(rot.clone(), self.options.terms)
                 .map_err(|e| invalid("terms", e))?;
             r.normal_interp = self.options.normal_interp;

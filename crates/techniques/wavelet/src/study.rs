@@ -72,13 +72,14 @@ impl CacheUse {
         *self == Self::Loaded
     }
 
-    /// The one-line warning of a replaced file, naming `method`; `None`
-    /// when the cache was read or there was no file.
+    /// The one-line warning of a replaced file, led by `owner` (`method
+    /// wavelet`, `ndf bake`); `None` when the cache was read or there was
+    /// no file.
     #[must_use]
-    pub fn warning(&self, method: &str) -> Option<String> {
+    pub fn warning(&self, owner: &str) -> Option<String> {
         match self {
             Self::Replaced { path, why } => Some(format!(
-                "method {method}: cached bake {} was unusable ({why}); re-baked and replaced",
+                "{owner}: cached bake {} was unusable ({why}); re-baked and replaced",
                 path.display()
             )),
             Self::Loaded | Self::Baked => None,
