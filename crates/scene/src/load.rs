@@ -27,7 +27,7 @@ use glam::{Affine3A, Quat, Vec3};
 use relight_brdf::{Brdf, BrdfSpec};
 use relight_geom::Mesh;
 use relight_render::{Animation, BrdfBlend, Camera, Keyframe, Object, Scene};
-use relight_sphere::{EnvMap, Param};
+use relight_sphere::EnvMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -48,13 +48,7 @@ pub fn load_environment(spec: &str) -> Result<(EnvMap, Vec<String>), SceneError>
 fn builtin_environment(name: &str) -> Option<EnvMap> {
     match name {
         "studio" => Some(studio_environment(STUDIO_HEIGHT)),
-        "black" => {
-            let param = Param::LatLong {
-                width: 2,
-                height: 1,
-            };
-            EnvMap::try_new(param, vec![Vec3::ZERO; param.len()])
-        }
+        "black" => Some(EnvMap::black()),
         _ => None,
     }
 }

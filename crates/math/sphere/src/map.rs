@@ -53,6 +53,21 @@ impl EnvMap {
         (param.validate().is_ok() && texels.len() == param.len()).then_some(Self { param, texels })
     }
 
+    /// The all-zero map (a scene lit by its lights alone; the scene files'
+    /// `builtin = "black"`): an 8 × 4 lat-long grid, as small as every
+    /// method's resampling takes.
+    #[must_use]
+    pub fn black() -> Self {
+        let param = Param::LatLong {
+            width: 8,
+            height: 4,
+        };
+        Self {
+            param,
+            texels: vec![Vec3::ZERO; param.len()],
+        }
+    }
+
     /// The map with every texel `f(direction)`.
     #[must_use]
     pub fn from_fn(param: Param, f: impl Fn(Vec3) -> Vec3 + Sync) -> Self {

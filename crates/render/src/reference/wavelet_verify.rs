@@ -14,7 +14,7 @@ use crate::verify_row::{VerifyRow, row};
 use crate::{AreaLight, Camera, EnvLight, NoProgress, Object, Scene, SceneBvh};
 use glam::{Mat3, Vec2, Vec3};
 use relight_brdf::{Brdf, Ggx};
-use relight_sphere::{EnvMap, Frame, Param};
+use relight_sphere::{EnvMap, Frame};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -46,13 +46,7 @@ pub fn glossy_scene(width: usize, height: usize) -> Scene {
         )),
         glossy_brdf(),
     )];
-    let env = EnvMap::from_fn(
-        Param::LatLong {
-            width: 8,
-            height: 4,
-        },
-        |_| Vec3::ZERO,
-    );
+    let env = EnvMap::black();
     let camera = Camera {
         eye: Vec3::new(0.0, 1.3, 2.0),
         target: Vec3::new(0.0, 0.55, 0.0),

@@ -66,7 +66,7 @@ use relight_render::reference::{MediumMode, ReferenceOptions, with_ray_sampler};
 use relight_render::sampling::Rng;
 use relight_render::{Camera, Medium, Object, Scene};
 use relight_sh::quadrature::gauss_legendre;
-use relight_sphere::{EnvMap, Param};
+use relight_sphere::EnvMap;
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -382,13 +382,7 @@ pub fn glow_error(tables: &FogTables, g: &GlowSetup) -> GlowError {
         .iter()
         .map(|m| Object::new(m.clone(), Arc::new(black)))
         .collect();
-    let sky = EnvMap::from_fn(
-        Param::LatLong {
-            width: 8,
-            height: 4,
-        },
-        |_| Vec3::ZERO,
-    );
+    let sky = EnvMap::black();
     let mut scene = Scene::new(objects, sky, camera);
     scene.visibility = true;
     scene.point_lights.push(relight_render::PointLight::new(

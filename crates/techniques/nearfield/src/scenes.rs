@@ -8,7 +8,7 @@ use relight_brdf::Lambert;
 use relight_geom::shapes::{plane, uv_sphere_at};
 use relight_render::texture::Texture;
 use relight_render::{AreaLight, Camera, LightField, Object, Scene};
-use relight_sphere::{EnvMap, Param};
+use relight_sphere::EnvMap;
 use std::sync::Arc;
 
 /// The verify light's texture at `size²` texels: warm and cool halves, a
@@ -58,13 +58,7 @@ pub fn floor_and_sphere(
         ),
         Object::new(Arc::new(plane(4.0, floor)), lambert(0.7)),
     ];
-    let env = EnvMap::from_fn(
-        Param::LatLong {
-            width: 8,
-            height: 4,
-        },
-        |_| Vec3::ZERO,
-    );
+    let env = EnvMap::black();
     let camera = Camera {
         eye: Vec3::new(0.0, 2.0, 3.4),
         target: Vec3::new(0.0, 0.3, 0.0),

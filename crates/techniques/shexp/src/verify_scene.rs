@@ -442,13 +442,7 @@ fn area_light_rows(
     floor_n: usize,
     opts: ShExpOptions,
 ) -> Result<Vec<VerifyRow>, relight_render::method::MethodError> {
-    let black = EnvMap::from_fn(
-        Param::LatLong {
-            width: 8,
-            height: 4,
-        },
-        |_| Vec3::ZERO,
-    );
+    let black = EnvMap::black();
     let mut scene = floor_scene(floor_spheres(), black, floor_n);
     scene.area_lights.push(ceiling_light());
     let refine0 = ShExpOptions {

@@ -211,3 +211,12 @@ fn verify_and_bench_report_sane_rows() {
             .all(|b| b.ns_per_op.is_finite() && b.ns_per_op >= 0.0)
     );
 }
+
+#[test]
+fn the_black_map_is_valid_and_zero_everywhere() {
+    let b = EnvMap::black();
+    assert!(b.param.validate().is_ok());
+    assert_eq!(b.texels.len(), b.param.len());
+    assert_eq!(b.integral(), Vec3::ZERO);
+    assert_eq!(b.eval(Vec3::new(0.3, -0.8, 0.5).normalize()), Vec3::ZERO);
+}

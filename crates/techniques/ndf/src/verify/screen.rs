@@ -396,13 +396,7 @@ fn lit_scene(
     mesh.tangents = mesh.compute_tangents();
     let mut object = Object::new(Arc::new(mesh), material(brdf));
     object.normal_map = Some(Arc::new(map.clone()));
-    let env = relight_sphere::EnvMap::from_fn(
-        relight_sphere::Param::LatLong {
-            width: 8,
-            height: 4,
-        },
-        |_| Vec3::ZERO,
-    );
+    let env = relight_sphere::EnvMap::black();
     let mut scene = Scene::new(vec![object], env, camera);
     scene.point_lights.push(light);
     scene

@@ -6,18 +6,8 @@ use relight_render::method::{FrameRequest, Relighter};
 use relight_render::{Animation, Image, Keyframe, NoProgress, Scene};
 use relight_shexp::verify_scene::{ceiling_light, floor_scene, floor_spheres, sky};
 use relight_shexp::{ShExpMethod, ShExpOptions};
-use relight_sphere::{EnvMap, Param};
+use relight_sphere::EnvMap;
 use std::sync::Arc;
-
-fn black() -> EnvMap {
-    EnvMap::from_fn(
-        Param::LatLong {
-            width: 8,
-            height: 4,
-        },
-        |_| Vec3::ZERO,
-    )
-}
 
 fn colors(scene: &Scene, opts: ShExpOptions) -> Vec<Vec<Vec3>> {
     let mut m = ShExpMethod::new(opts).unwrap();
@@ -54,7 +44,7 @@ const FAST: ShExpOptions = ShExpOptions {
 /// per frame): both compute `F · g` by the same quadrature.
 #[test]
 fn static_and_dynamic_receivers_see_the_same_area_light() {
-    let mut scene = floor_scene(floor_spheres(), black(), 12);
+    let mut scene = floor_scene(floor_spheres(), EnvMap::black(), 12);
     scene.area_lights.push(ceiling_light());
     let fixed = colors(&scene, FAST);
     let still = Animation::try_new(vec![Keyframe {
@@ -75,7 +65,7 @@ fn static_and_dynamic_receivers_see_the_same_area_light() {
 /// the first colours again; a light below the floor leaves it black.
 #[test]
 fn moving_the_area_light_relights_static_receivers() {
-    let mut scene = floor_scene(floor_spheres(), black(), 10);
+    let mut scene = floor_scene(floor_spheres(), EnvMap::black(), 10);
     scene.area_lights.push(ceiling_light());
     let mut m = ShExpMethod::new(FAST).unwrap();
     m.prepare(&scene, &NoProgress).unwrap();
