@@ -54,8 +54,8 @@ impl EnvMap {
     }
 
     /// The all-zero map (a scene lit by its lights alone; the scene files'
-    /// `builtin = "black"`): an 8 × 4 lat-long grid, as small as every
-    /// method's resampling takes.
+    /// `builtin = "black"`), on an 8 × 4 lat-long grid (any size holds zero
+    /// exactly; this one is the verify scenes' since they began).
     #[must_use]
     pub fn black() -> Self {
         let param = Param::LatLong {

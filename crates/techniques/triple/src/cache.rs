@@ -86,7 +86,8 @@ where
             Ok(_) => {
                 used = CacheUse::Replaced {
                     path: path.clone(),
-                    why: "its parameters are not the ones its name stands for".into(),
+                    why: "its header's parameters or size are not the ones its name stands for"
+                        .into(),
                 }
             }
             Err(e) => used = CacheUse::replaced(&path, &e),
