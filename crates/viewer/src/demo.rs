@@ -331,10 +331,27 @@ fn shorten(note: &str) -> String {
         );
     // shexp's "object i: its BRDF is not Lambertian; shaded as diffuse with
     // albedo (r, g, b)": the albedo does not fit a tile's line.
-    match note.split_once(": its BRDF is not Lambertian; shaded as diffuse") {
-        Some((object, _)) => format!("{object}: not Lambertian, shaded as diffuse"),
-        None => note,
+    if let Some((object, _)) = note.split_once(": its BRDF is not Lambertian; shaded as diffuse") {
+        return format!("{object}: not Lambertian, shaded as diffuse");
     }
+    // sh's "object i: order n cannot represent this BRDF's lobe (…); the W
+    // window changes it by x % — raise --order …": three lines of a tile.
+    lobe_gist(&note).unwrap_or(note)
+}
+
+/// The gist of sh's lobe warning (`relight_shlight::ShMethod::lobe_warnings`):
+/// `object i: lobe too sharp for order n; W window: x %` (the lobe's
+/// relative change), which fits a 480-pixel tile's line; `None` for any
+/// other note.
+fn lobe_gist(note: &str) -> Option<String> {
+    let (object, rest) = note.split_once(": order ")?;
+    let (order, rest) = rest.split_once(" cannot represent this BRDF's lobe")?;
+    let (_, rest) = rest.split_once("; the ")?;
+    let (window, rest) = rest.split_once(" window changes it by ")?;
+    let (change, _) = rest.split_once(" %")?;
+    Some(format!(
+        "{object}: lobe too sharp for order {order}; {window} window: {change} %"
+    ))
 }
 
 /// The labelled sheet of `tiles` at `width × height` each.
@@ -430,6 +447,22 @@ mod tests {
         assert!(cell.title.starts_with("sh") && cell.title.contains("ms/frame"));
         assert!(cell.details.iter().any(|l| l.text.contains("unshadowed")));
         assert!(cell.details[0].text.contains("% rel. RMS"));
+    }
+
+    /// sh's lobe warning is shortened to one tile line; other notes pass.
+    #[test]
+    fn the_lobe_warning_fits_a_tile_line() {
+        let long = "object 1: order 6 cannot represent this BRDF's lobe (it rings to 14 % of its \
+                    peak below zero); the dering window changes it by 52 % — raise --order or use \
+                    the wavelet method for sharp highlights";
+        assert_eq!(
+            shorten(long),
+            "object 1: lobe too sharp for order 6; dering window: 52 %"
+        );
+        assert_eq!(
+            shorten("object 2: something else"),
+            "object 2: something else"
+        );
     }
 
     #[test]
