@@ -74,6 +74,7 @@ use relight_render::method::{
 };
 use relight_render::raster::Background;
 use relight_render::{AreaLight, Image, Numbered, Progress, Scene, SceneBvh};
+use relight_wavelet::CacheUse;
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -719,9 +720,17 @@ impl NearfieldMethod {
             if let Some(p) = path.as_deref().filter(|p| p.exists()) {
                 match crate::cache::load(p, &key, face) {
                     Ok(t) => cached = Some(t),
-                    Err(e) => self.warnings.push(format!(
-                        "method nearfield: cached transport unusable ({e}); re-baked"
-                    )),
+                    Err(e) => {
+                        let used = match &e {
+                            CacheError::File(w) => CacheUse::replaced(p, w),
+                            CacheError::Mismatch { why, .. } => CacheUse::Replaced {
+                                path: p.to_path_buf(),
+                                why: why.clone(),
+                            },
+                        };
+                        self.warnings
+                            .extend(used.warning(&format!("method {NEARFIELD_METHOD_NAME}")));
+                    }
                 }
             }
             let mut kept: Vec<Option<Transport>> = match old_planes
