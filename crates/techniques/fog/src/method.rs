@@ -693,17 +693,20 @@ impl FogRelighter {
                         let id = g.triangle[i];
                         *px += match (id != NO_TRIANGLE).then(|| r.locate(id)).flatten() {
                             Some((d, tri)) => segment(d, tri, g.barycentrics[i], *e),
-                            None => match chord(rays.dir(x as f32 + 0.5, y as f32 + 0.5)) {
-                                // The renderer drew the centre's e^{−T} L(d) +
-                                // glow(d); the chord's weights rescale the two.
-                                Some([direct, glow]) if !opengl => {
-                                    let d = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
-                                    let seen = scene.env.eval(env_from_world * d);
-                                    let centre = lighting.filter.2.direct * seen;
-                                    direct * seen + glow * (*e - centre)
+                            None if opengl => *e,
+                            None => {
+                                let d = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
+                                match chord(d) {
+                                    // The renderer drew the centre's e^{−T} L(d) +
+                                    // glow(d); the chord's weights rescale the two.
+                                    Some([direct, glow]) => {
+                                        let seen = scene.env.eval(env_from_world * d);
+                                        let centre = lighting.filter.2.direct * seen;
+                                        direct * seen + glow * (*e - centre)
+                                    }
+                                    _ => *e,
                                 }
-                                _ => *e,
-                            },
+                            }
                         };
                     }
                 });
