@@ -1,6 +1,7 @@
 //! `relight bench frames`: the viewer's frame path per method and size
-//! (`relight_viewer::bench`), printed as a table with the issue-11 targets
-//! and plotted per interaction step.
+//! (`relight_viewer::bench`), printed as a table with each case's target
+//! (issue 11's, and the later methods' own issues') and plotted per
+//! interaction step.
 
 use crate::args::BenchArgs;
 use crate::plot::PlotSpec;

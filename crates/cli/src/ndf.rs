@@ -262,7 +262,7 @@ fn write_screen_sheet(
 pub fn bench(a: &BenchArgs, report: &Report, _bar: &Bar) -> Result<()> {
     let map = match maps()?.into_iter().next() {
         Some((_, m)) => m,
-        None => relight_render::NormalMap::bumps(512, 8, 0.8),
+        None => relight_ndf::bench::procedural_map(relight_ndf::bench::TARGET_SIZE),
     };
     let map = if a.quick {
         let c = 128.min(map.width).min(map.height);

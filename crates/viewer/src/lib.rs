@@ -499,6 +499,63 @@ mod tests {
         }
     }
 
+    /// The later methods' cases (issue 11: "Later methods … add their rows
+    /// under their own issues' targets") on their quick scenes: a row each,
+    /// drawn (no refusal), every timing finite, no target at these sizes;
+    /// the full cases carry their own issue's target at its size.
+    #[test]
+    fn later_methods_have_rows_under_their_own_targets() {
+        let small = small_options();
+        let of = |k: MethodKind| {
+            small
+                .methods
+                .iter()
+                .find(|m| m.kind() == k)
+                .cloned()
+                .unwrap_or_else(|| MethodOptions::default_for(k))
+        };
+        let opts = bench::FrameBenchOptions {
+            cases: bench::later_cases(true, of),
+            steps: 1,
+            stills: 1,
+            monte_carlo_steps: 1,
+            aa: 2,
+        };
+        let rows = bench::bench_frames(&opts, &NoProgress).unwrap();
+        let names: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
+        assert_eq!(names, ["ndf", "ndf", "triple", "nearfield", "shexp"]);
+        for r in &rows {
+            assert!(r.note.is_none(), "{} {}: {:?}", r.method, r.case, r.note);
+            for v in [
+                r.view_change_ms,
+                r.light_change_ms,
+                r.first_still_ms,
+                r.refined_ms,
+            ] {
+                let v = v.unwrap_or(f64::NAN);
+                assert!(v.is_finite() && v >= 0.0, "{} {}: {v}", r.method, r.case);
+            }
+            assert_eq!((r.target, r.pass), (None, None), "{}", r.method);
+        }
+        let full = bench::later_cases(false, MethodOptions::default_for);
+        let want = [
+            ("ndf", 512, 512, 1e3 / 60.0, "issue 14"),
+            ("ndf", 512, 512, 1e3 / 25.0, "issue 14"),
+            ("triple", 1024, 768, 1e3 / 12.0, "issue 12"),
+            ("triple", 512, 384, 1e3 / 40.0, "issue 12"),
+            ("nearfield", 1200, 900, 1e3 / 38.71, "issue 13"),
+            ("shexp", 960, 540, 1e3 / 30.0, "issue 15"),
+        ];
+        assert_eq!(full.len(), want.len());
+        for (c, (name, w, h, ms, source)) in full.iter().zip(want) {
+            assert_eq!(c.options.kind().name(), name);
+            assert_eq!((c.width, c.height), (w, h), "{name}");
+            let t = c.target_ms.unwrap_or(f64::NAN);
+            assert!((t - ms).abs() < 1e-9, "{name}: target {t} ms, want {ms}");
+            assert!(c.source.starts_with(source), "{name}: {}", c.source);
+        }
+    }
+
     #[test]
     fn display_words_are_tone_mapped_srgb() {
         let mut img = relight_render::Image::new(3, 1);

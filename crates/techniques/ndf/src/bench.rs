@@ -13,7 +13,7 @@ use crate::effective::NdfBrdf;
 use crate::method::{Baked, NdfFilter, NdfMethod, NdfOptions, VmfTaps};
 use crate::{ShNdfPyramid, VmfPyramid};
 use relight_render::method::{FrameRequest, MethodError, Relighter, render_frame};
-use relight_render::{NoProgress, NormalMap};
+use relight_render::{NoProgress, NormalMap, Scene};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -44,6 +44,42 @@ pub const TARGET_SOURCE: &str = "issue 14";
 
 /// The side (map for bakes, image for frames) issue 14's targets are set at.
 pub const TARGET_SIZE: usize = 512;
+
+/// Issue 14's frame-rate floor for SH Lambert under the environment, fps.
+pub const SH_LAMBERT_FPS: f64 = 60.0;
+
+/// Issue 14's frame-rate floor for vMF J = 6 with one light, fps.
+pub const VMF_ONE_LIGHT_FPS: f64 = 25.0;
+
+/// The glossy BRDF the vMF frame rows shade with (Blinn–Phong, s = 64).
+pub const FRAME_BLINN: NdfBrdf = NdfBrdf::Blinn { s: 64.0 };
+
+/// The procedural normal map the bench uses where no real map is given:
+/// `side`² texels of bumps ([`NormalMap::bumps`], 8 per side, slope 0.8).
+#[must_use]
+pub fn procedural_map(side: usize) -> NormalMap {
+    NormalMap::bumps(side, 8, 0.8)
+}
+
+/// The frames' scene: the horizon plane ([`crate::verify::horizon_plane_scene`],
+/// `map` tiled 16 times) at `image × image`, shaded with `brdf`; `sky`
+/// replaces its point light by a sky (`0.5 + 0.5·max(0, y)`, the
+/// environment-lit case), otherwise the point light alone lights it.
+#[must_use]
+pub fn frame_scene(map: &NormalMap, brdf: NdfBrdf, sky: bool, image: usize) -> Scene {
+    let mut scene = crate::verify::horizon_plane_scene(map, brdf, image, 16.0);
+    if sky {
+        scene.point_lights.clear();
+        scene.env = relight_sphere::EnvMap::from_fn(
+            relight_sphere::Param::LatLong {
+                width: 64,
+                height: 32,
+            },
+            |d| glam::Vec3::splat(0.5 + 0.5 * d.y.max(0.0)),
+        );
+    }
+    scene
+}
 
 impl NdfBenchRow {
     /// Sets `target` (ms, `None` for a report row), `pass` and `source`
@@ -150,7 +186,7 @@ pub fn bench_ndf(
             .judged(target),
         );
     }
-    let blinn = NdfBrdf::Blinn { s: 64.0 };
+    let blinn = FRAME_BLINN;
     for (filter, vmf_taps, probe_masks, brdf, env, target) in [
         (
             NdfFilter::Sh,
@@ -158,7 +194,7 @@ pub fn bench_ndf(
             false,
             NdfBrdf::Lambert,
             true,
-            Some((1e3 / 60.0, "SH Lambert ≥ 60 fps at 512²")),
+            Some((1e3 / SH_LAMBERT_FPS, "SH Lambert ≥ 60 fps at 512²")),
         ),
         // The sh filter's quality mode: the view mask per footprint probe.
         (
@@ -175,7 +211,10 @@ pub fn bench_ndf(
             false,
             blinn,
             false,
-            Some((1e3 / 25.0, "vMF J=6, one light ≥ 25 fps at 512²")),
+            Some((
+                1e3 / VMF_ONE_LIGHT_FPS,
+                "vMF J=6, one light ≥ 25 fps at 512²",
+            )),
         ),
         // The quality mode: what keeping every tap's lobes costs.
         (NdfFilter::Vmf, VmfTaps::Mixture, false, blinn, false, None),
@@ -189,17 +228,7 @@ pub fn bench_ndf(
         ),
         (NdfFilter::Lean, VmfTaps::Merge, false, blinn, false, None),
     ] {
-        let mut scene = crate::verify::horizon_plane_scene(map, brdf, image, 16.0);
-        if env {
-            scene.point_lights.clear();
-            scene.env = relight_sphere::EnvMap::from_fn(
-                relight_sphere::Param::LatLong {
-                    width: 64,
-                    height: 32,
-                },
-                |d| glam::Vec3::splat(0.5 + 0.5 * d.y.max(0.0)),
-            );
-        }
+        let scene = frame_scene(map, brdf, env, image);
         let mut m = NdfMethod::new(NdfOptions {
             filter,
             brdf,

@@ -252,6 +252,37 @@ fn thesis_like_scene(floor_side: usize, dynamic: usize, dyn_side: usize, statics
     s
 }
 
+/// Issue 15's rate for the battle-like scene, Hz (thesis: 22.4 Hz).
+pub const BATTLE_HZ: f64 = 30.0;
+
+/// Leaf spheres per blocker of the battle-like scene (8 blockers: 240).
+pub const BATTLE_SPHERES: usize = 30;
+
+/// Receiver vertices per cluster of the battle-like scene (≈ 120 clusters).
+pub const BATTLE_CLUSTER_VERTICES: usize = 410;
+
+/// The battle-like scene: a 41 K-vertex static floor and 24 K dynamic
+/// vertices in four moving tori, four static tori, every torus a blocker
+/// (§5.2.4's battle: ~65 K receivers). `shrink` divides each mesh's side
+/// (1 for the issue's size).
+#[must_use]
+pub fn battle_like_scene(shrink: usize) -> Scene {
+    let s = shrink.max(1);
+    thesis_like_scene(203 / s, 4, 110 / s, 4)
+}
+
+/// The method's options for the battle-like scene: [`BATTLE_SPHERES`],
+/// [`BATTLE_CLUSTER_VERTICES`] and a 3 × 3-ray static bake.
+#[must_use]
+pub fn battle_like_options() -> ShExpOptions {
+    ShExpOptions {
+        spheres: BATTLE_SPHERES,
+        cluster_vertices: BATTLE_CLUSTER_VERTICES,
+        bake_strata: 3,
+        ..ShExpOptions::default()
+    }
+}
+
 /// Frames per second of the per-vertex shadow work on a thesis-like scene.
 ///
 /// # Errors
@@ -364,10 +395,15 @@ impl CullingCheck {
 /// # Errors
 /// As the method.
 pub fn culling_checks() -> Result<Vec<CullingCheck>, relight_render::method::MethodError> {
-    let battle = thesis_like_scene(203 / 4, 4, 110 / 4, 4);
+    let battle = battle_like_scene(4);
     let dino = thesis_like_scene(274 / 4, 8, 106 / 4, 0);
     Ok(vec![
-        culling_check("battle-like", &battle, 30, 410 / 16)?,
+        culling_check(
+            "battle-like",
+            &battle,
+            BATTLE_SPHERES,
+            BATTLE_CLUSTER_VERTICES / 16,
+        )?,
         culling_check("dino-like", &dino, 62, 390 / 16)?,
     ])
 }
@@ -436,15 +472,14 @@ pub fn bench_shexp(quick: bool) -> Result<BenchShExp, relight_render::method::Me
     let mut scenes = Vec::new();
     // Frames 0.37 s apart, averaged (the thesis averages over its clips).
     let (frames, s) = if quick { (2, 4) } else { (8, 1) };
-    // Battle-like: 41 K static floor + 24 K dynamic, 8 blockers × 30 = 240 spheres.
-    let battle = thesis_like_scene(203 / s, 4, 110 / s, 4);
+    let battle = battle_like_scene(s);
     scenes.push(bench_scene(
         "battle-like",
         &battle,
-        30,
-        410,
+        BATTLE_SPHERES,
+        BATTLE_CLUSTER_VERTICES,
         frames,
-        30.0,
+        BATTLE_HZ,
         22.4,
     )?);
     // Dino-like: 75 K floor + 45 K dynamic in 8 movers, 8 × 62 ≈ 500 spheres.

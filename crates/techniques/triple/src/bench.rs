@@ -29,7 +29,7 @@ use glam::{Mat3, Vec3};
 use relight_brdf::BrdfSpec;
 use relight_geom::Mesh;
 use relight_render::method::{FrameRequest, MethodError, Relighter, render_frame};
-use relight_render::{Object, Progress};
+use relight_render::{Object, Progress, Scene};
 use relight_sphere::EnvMap;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -139,7 +139,10 @@ impl BenchOptions {
     }
 }
 
-fn target_fps(w: usize, terms: usize) -> Option<f64> {
+/// Issue 12's frame-rate floor (fps) at image width `w` and `terms`
+/// coefficients, where the issue sets one (1024 or 512 wide, n = 80 or 320).
+#[must_use]
+pub fn target_fps(w: usize, terms: usize) -> Option<f64> {
     match (w, terms) {
         (1024, 80) => Some(12.0),
         (1024, 320) => Some(3.0),
@@ -160,13 +163,11 @@ pub fn bench_triple(
     progress: &dyn Progress,
 ) -> Result<BenchTables, MethodError> {
     let lambert = "lambert:0.8".parse::<BrdfSpec>().expect("valid").build();
-    let phong = "phong:16".parse::<BrdfSpec>().expect("valid").build();
     let mut frames = Vec::new();
     let mut timings = Vec::new();
     for mesh in meshes {
         let (w0, h0) = opts.sizes[0];
-        let mut scene = floor_scene(env.clone(), lambert.clone(), w0, h0);
-        scene.objects[0] = Object::new(mesh.clone(), phong.clone());
+        let scene = table3_scene(env.clone(), mesh.clone(), w0, h0);
         for (&terms, storage, texture, shading) in opts.terms.iter().flat_map(|t| {
             [
                 (t, Storage::F32, 0, Shading::Pixel),
@@ -365,6 +366,18 @@ fn storage_rows(
         }
     }
     rows
+}
+
+/// Table 3's scene: `mesh` (Phong 16; placed with [`place_on_floor`]) on
+/// the verify scene's Lambert floor ([`floor_scene`], albedo 0.8) under
+/// `env`, shadows on, seen by a `width × height` camera.
+#[must_use]
+pub fn table3_scene(env: EnvMap, mesh: Arc<Mesh>, width: usize, height: usize) -> Scene {
+    let lambert = "lambert:0.8".parse::<BrdfSpec>().expect("valid").build();
+    let phong = "phong:16".parse::<BrdfSpec>().expect("valid").build();
+    let mut scene = floor_scene(env, lambert, width, height);
+    scene.objects[0] = Object::new(mesh, phong);
+    scene
 }
 
 /// Scales and moves `m` to stand on the floor (height 2, centred).
