@@ -653,6 +653,17 @@ pub fn fill_background(scene: &Scene, camera: &Camera, coverage: &Coverage, imag
         return;
     }
     let env_from_world = scene.world_from_env.transpose();
+    // A black environment's lookups are exactly zero: skip them, and with
+    // no area light in the scene every empty pixel is zero.
+    let black = scene.env.is_black();
+    if black && scene.area_lights.is_empty() {
+        for (p, &c) in image.pixels.iter_mut().zip(&coverage.coverage) {
+            if empty_coverage(c) {
+                *p = Vec3::ZERO;
+            }
+        }
+        return;
+    }
     /// A band's buffers: which corners of a row of corners are needed,
     /// their x, directions and radiance, and two rows of corner values by x.
     #[derive(Default)]
@@ -689,9 +700,11 @@ pub fn fill_background(scene: &Scene, camera: &Camera, coverage: &Coverage, imag
             .extend(s.xs.iter().map(|&x| rays.dir(x as f32, yy as f32)));
         s.radiance.clear();
         s.radiance.resize(s.dirs.len(), Vec3::ZERO);
-        scene
-            .env
-            .eval_many(env_from_world, &s.dirs, &mut s.radiance);
+        if !black {
+            scene
+                .env
+                .eval_many(env_from_world, &s.dirs, &mut s.radiance);
+        }
         let line = if top { &mut s.top } else { &mut s.bottom };
         line.resize(w + 1, Vec3::ZERO);
         for ((&x, &d), &l) in s.xs.iter().zip(&s.dirs).zip(&s.radiance) {
@@ -954,32 +967,45 @@ mod tests {
                 .collect(),
             object_id: vec![0; w * h],
         };
-        let marker = Vec3::new(-1.0, -2.0, -3.0);
-        let mut image = Image::new(w, h);
-        image.pixels.fill(marker);
-        fill_background(&scene, &camera, &coverage, &mut image);
-        let rays = camera.ray_frame();
-        let mut lit = 0;
-        for y in 0..h {
-            for x in 0..w {
-                let (i, got) = (y * w + x, image.pixels[y * w + x]);
-                if coverage.coverage[i] > 0.0 {
-                    assert_eq!(got, marker, "covered pixel ({x}, {y}) written");
-                    continue;
+        let check = |scene: &Scene| {
+            let marker = Vec3::new(-1.0, -2.0, -3.0);
+            let mut image = Image::new(w, h);
+            image.pixels.fill(marker);
+            fill_background(scene, &camera, &coverage, &mut image);
+            let rays = camera.ray_frame();
+            let mut lit = 0;
+            for y in 0..h {
+                for x in 0..w {
+                    let (i, got) = (y * w + x, image.pixels[y * w + x]);
+                    if coverage.coverage[i] > 0.0 {
+                        assert_eq!(got, marker, "covered pixel ({x}, {y}) written");
+                        continue;
+                    }
+                    let want = background_pixel(scene, &rays, x, y);
+                    assert_eq!(
+                        got.to_array().map(f32::to_bits),
+                        want.to_array().map(f32::to_bits),
+                        "pixel ({x}, {y})"
+                    );
+                    lit += usize::from(
+                        area_lights_seen(scene, rays.origin(), rays.dir(x as f32, y as f32))
+                            != Vec3::ZERO,
+                    );
                 }
-                let want = background_pixel(&scene, &rays, x, y);
-                assert_eq!(
-                    got.to_array().map(f32::to_bits),
-                    want.to_array().map(f32::to_bits),
-                    "pixel ({x}, {y})"
-                );
-                lit += usize::from(
-                    area_lights_seen(&scene, rays.origin(), rays.dir(x as f32, y as f32))
-                        != Vec3::ZERO,
-                );
             }
-        }
-        assert!(lit > 0, "the area light is in view");
+            assert_eq!(
+                lit > 0,
+                !scene.area_lights.is_empty(),
+                "the area light in view"
+            );
+        };
+        check(&scene);
+        // A black environment skips its lookups (`EnvMap::is_black`), with
+        // the area light and without it: the same bits.
+        scene.env = EnvMap::black();
+        check(&scene);
+        scene.area_lights.clear();
+        check(&scene);
     }
 
     /// [`CoverageCache`] gives [`coverage_of_raster`]'s coverage: again for

@@ -68,6 +68,17 @@ impl EnvMap {
         }
     }
 
+    /// Whether every texel is `+0.0` in every channel ([`EnvMap::black`], a
+    /// scene lit by its lights alone). Every lookup of such a map returns
+    /// exactly `+0.0` (bilinear weights are non-negative), so a caller may
+    /// skip its lookups bit for bit. Stops at the first other texel.
+    #[must_use]
+    pub fn is_black(&self) -> bool {
+        self.texels
+            .iter()
+            .all(|t| t.to_array().iter().all(|v| v.to_bits() == 0))
+    }
+
     /// The map with every texel `f(direction)`.
     #[must_use]
     pub fn from_fn(param: Param, f: impl Fn(Vec3) -> Vec3 + Sync) -> Self {

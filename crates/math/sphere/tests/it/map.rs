@@ -220,3 +220,24 @@ fn the_black_map_is_valid_and_zero_everywhere() {
     assert_eq!(b.integral(), Vec3::ZERO);
     assert_eq!(b.eval(Vec3::new(0.3, -0.8, 0.5).normalize()), Vec3::ZERO);
 }
+
+/// `is_black` holds for `+0.0` texels only: one non-zero channel, or a
+/// `-0.0`, anywhere makes it false; every lookup of a black map is `+0.0`.
+#[test]
+fn is_black_means_every_texel_is_positive_zero() {
+    let b = EnvMap::black();
+    assert!(b.is_black());
+    for i in [0, 13, b.texels.len() - 1] {
+        for v in [Vec3::new(0.0, 1e-30, 0.0), Vec3::new(-0.0, 0.0, 0.0)] {
+            let mut m = b.clone();
+            m.texels[i] = v;
+            assert!(!m.is_black(), "texel {i} = {v:?}");
+        }
+    }
+    for k in 0..50 {
+        let t = k as f32 * 0.77;
+        let d = Vec3::new(t.sin(), (1.3 * t).cos(), 0.4 * t.cos()).normalize();
+        let got = b.eval(d);
+        assert_eq!(got.to_array().map(f32::to_bits), [0; 3], "{d:?}");
+    }
+}
