@@ -51,7 +51,7 @@ use crate::basis::triangles;
 use crate::storage::{Planes, Storage};
 use glam::{Mat3, Quat, Vec3};
 use rayon::prelude::*;
-use relight_sphere::icosahedral::Icosahedral;
+use relight_sphere::icosahedral::{IcoLocator, Icosahedral};
 use relight_sphere::{EnvMap, Frame, Param};
 
 /// Icosahedral level of the table normals (642 vertices).
@@ -151,8 +151,11 @@ pub struct LightTable {
     /// Entries `(k, τ)` at `(k · twists + τ) · 3 · stride`: R, G, B planes
     /// ([`crate::storage`]: f32, or f16 when compact).
     pub data: Planes,
-    normals: Vec<Vec3>,
+    /// [`frame_of`] each table normal (the twist angles are read in it).
+    frames: Vec<Frame>,
     ico: Icosahedral,
+    /// `ico`'s locator at [`NORMAL_LEVEL`] (every lookup locates a normal).
+    locator: IcoLocator,
 }
 
 /// One weighted table entry (its offset into [`LightTable::data`]).
@@ -232,7 +235,8 @@ impl LightTable {
             padded,
             built_for: space_from_env,
             data: Planes::F32(data),
-            normals,
+            frames: normals.iter().map(|&n| frame_of(n)).collect(),
+            locator: ico.locator(NORMAL_LEVEL).expect("NORMAL_LEVEL is built"),
             ico,
         }
     }
@@ -255,7 +259,7 @@ impl LightTable {
     /// The six weighted entries of frame `g` (in the table's space).
     #[must_use]
     pub fn lookup(&self, g: &Frame) -> [Tap; 6] {
-        let tri = self.ico.locate(g.z.as_dvec3(), NORMAL_LEVEL);
+        let tri = self.locator.locate(g.z.as_dvec3());
         let w = self.ico.barycentric(NORMAL_LEVEL, tri, g.z.as_dvec3());
         let verts = self.ico.triangles(NORMAL_LEVEL)[tri];
         let mut taps = [Tap::default(); 6];
@@ -271,7 +275,7 @@ impl LightTable {
                 };
                 continue;
             }
-            let f = frame_of(self.normals[k]);
+            let f = &self.frames[k];
             let tau = g.x.dot(f.y).atan2(g.x.dot(f.x));
             let u =
                 tau.rem_euclid(std::f32::consts::TAU) / std::f32::consts::TAU * self.twists as f32;

@@ -129,6 +129,8 @@ fn locate_finds_containing_triangle() {
     let h = hierarchy();
     let mut rng = Rng(5);
     let mut path = [0usize; 8];
+    let locators: Vec<_> = (0..=7).map(|l| h.locator(l).unwrap()).collect();
+    assert_eq!(locators[3].level(), 3);
     for _ in 0..20_000 {
         let d = rng.sphere();
         h.locate_path(d, 7, &mut path);
@@ -144,6 +146,9 @@ fn locate_finds_containing_triangle() {
             }
         }
         assert_eq!(h.locate(d * 2.5, 7), path[7], "non-normalised direction");
+        for (l, loc) in locators.iter().enumerate() {
+            assert_eq!(loc.locate(d * 2.5), path[l], "locator, level {l}");
+        }
     }
 }
 
@@ -162,9 +167,12 @@ fn locate_is_robust_on_vertices_and_edges() {
         probes.push(e);
         probes.push((e + a.cross(b) * 1e-17).normalize());
     }
+    // The tabulated locator answers as `locate` on the same hard probes.
+    let locators = [0, 3, 7].map(|l| h.locator(l).unwrap());
     for d in probes {
-        for l in [0, 3, 7] {
+        for (l, loc) in [0, 3, 7].into_iter().zip(&locators) {
             let i = h.locate(d, l);
+            assert_eq!(loc.locate(d), i, "locator, level {l}, {d}");
             let w = h.barycentric(l, i, d);
             assert!(
                 w.min_element() >= -1e-12,
@@ -183,6 +191,7 @@ fn errors_for_levels_too_deep() {
     );
     let h = Icosahedral::new(2).unwrap();
     assert!(h.try_locate(DVec3::Z, 3).is_err());
+    assert!(h.locator(3).is_err());
     assert!(h.try_triangles(3).is_err());
     assert_eq!(h.try_locate(DVec3::Z, 2).unwrap(), h.locate(DVec3::Z, 2));
     let msg = h.try_locate(DVec3::Z, 5).unwrap_err().to_string();
