@@ -114,8 +114,8 @@ pub struct Icosahedral {
     vertices: Vec<DVec3>,
     /// `levels[l]` holds the `20·4^l` triangles of level `l` (CCW vertex indices).
     levels: Vec<Vec<[u32; 3]>>,
-    /// Unit inward edge normals `(a×b, b×c, c×a)/|·|` of the 20 level-0 faces.
-    base_edge_normals: Vec<[DVec3; 3]>,
+    /// The 20 level-0 faces, for the first step of a descent.
+    base: BaseFaces,
 }
 
 impl Icosahedral {
@@ -161,21 +161,23 @@ impl Icosahedral {
             }
             levels.push(children);
         }
-        let base_edge_normals = levels[0]
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|v| vertices[v as usize]);
-                [
-                    a.cross(b).normalize(),
-                    b.cross(c).normalize(),
-                    c.cross(a).normalize(),
-                ]
-            })
-            .collect();
+        let mut base = BaseFaces {
+            edge_normals: [[DVec3::ZERO; 3]; 20],
+            centres: [DVec3::ZERO; 20],
+        };
+        for (i, t) in levels[0].iter().enumerate() {
+            let [a, b, c] = t.map(|v| vertices[v as usize]);
+            base.edge_normals[i] = [
+                a.cross(b).normalize(),
+                b.cross(c).normalize(),
+                c.cross(a).normalize(),
+            ];
+            base.centres[i] = (a + b + c).normalize();
+        }
         Ok(Self {
             vertices,
             levels,
-            base_edge_normals,
+            base,
         })
     }
 
@@ -334,7 +336,7 @@ impl Icosahedral {
             self.max_level()
         );
         let d = d.normalize();
-        let mut i = base_face(d, &self.base_edge_normals);
+        let mut i = self.base.face_of(d);
         path[0] = i;
         for (l, slot) in path.iter_mut().enumerate().take(level + 1).skip(1) {
             i = 4 * i + child_beyond(d, &self.centre_edge_normals(l, i));
@@ -369,24 +371,49 @@ impl Icosahedral {
             })
             .collect();
         Ok(IcoLocator {
-            base_edge_normals: self.base_edge_normals.clone(),
+            base: self.base,
             centre,
         })
     }
 }
 
-/// The level-0 face of `d` (unit): the one with the largest smallest edge
-/// margin (`normals`: each face's unit inward edge normals).
-#[inline]
-fn base_face(d: DVec3, normals: &[[DVec3; 3]]) -> usize {
-    let mut best = (f64::NEG_INFINITY, 0);
-    for (i, n) in normals.iter().enumerate() {
-        let m = d.dot(n[0]).min(d.dot(n[1])).min(d.dot(n[2]));
-        if m > best.0 {
-            best = (m, i);
+/// The 20 level-0 faces: unit inward edge normals `(a×b, b×c, c×a)/|·|` and
+/// unit centres `(a+b+c)/|·|`.
+#[derive(Clone, Copy, Debug)]
+struct BaseFaces {
+    edge_normals: [[DVec3; 3]; 20],
+    centres: [DVec3; 20],
+}
+
+/// How far (in `d·centre`) a face's centre may lie below the nearest one
+/// and still be tested by the edge rule: far above rounding (~10⁻¹⁶), far
+/// below any gap between a face and one it does not touch.
+const BASE_CENTRE_BAND: f64 = 1e-9;
+
+impl BaseFaces {
+    /// The face of `d` (unit): the one with the largest smallest edge
+    /// margin, the lowest index on a tie (an edge or a vertex). Only faces
+    /// whose centre is within [`BASE_CENTRE_BAND`] of the nearest centre
+    /// are tested: a face's spherical triangle is its centre's Voronoi cell
+    /// (the plane of an edge mirrors the two faces on it, so it bisects
+    /// their centres), so the face holding `d`, and every face that ties
+    /// with it, has a centre that near; the rest have a negative margin.
+    #[inline]
+    fn face_of(&self, d: DVec3) -> usize {
+        let dots = self.centres.map(|c| d.dot(c));
+        let nearest = dots.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let mut best = (f64::NEG_INFINITY, 0);
+        for (i, n) in self.edge_normals.iter().enumerate() {
+            if dots[i] < nearest - BASE_CENTRE_BAND {
+                continue;
+            }
+            let m = d.dot(n[0]).min(d.dot(n[1])).min(d.dot(n[2]));
+            if m > best.0 {
+                best = (m, i);
+            }
         }
+        best.1
     }
-    best.1
 }
 
 /// Which child of a triangle `d` (unit) lies in, from the centre child's
@@ -412,7 +439,7 @@ fn child_beyond(d: DVec3, centre: &[DVec3; 3]) -> usize {
 /// products and square roots per level, for lookups per pixel.
 #[derive(Clone, Debug)]
 pub struct IcoLocator {
-    base_edge_normals: Vec<[DVec3; 3]>,
+    base: BaseFaces,
     /// `centre[l − 1][i]`: the centre-child edge normals of triangle `i` of
     /// level `l − 1`, for the descent to level `l`.
     centre: Vec<Vec<[DVec3; 3]>>,
@@ -430,7 +457,7 @@ impl IcoLocator {
     #[must_use]
     pub fn locate(&self, d: DVec3) -> usize {
         let d = d.normalize();
-        let mut i = base_face(d, &self.base_edge_normals);
+        let mut i = self.base.face_of(d);
         for level in &self.centre {
             i = 4 * i + child_beyond(d, &level[i]);
         }
@@ -465,4 +492,63 @@ fn icosahedron() -> (Vec<DVec3>, Vec<[u32; 3]>) {
     }
     debug_assert_eq!(faces.len(), 20);
     (v.into_iter().map(DVec3::normalize).collect(), faces)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The full rule: the largest smallest edge margin over all 20 faces.
+    fn face_by_all_margins(b: &BaseFaces, d: DVec3) -> usize {
+        let mut best = (f64::NEG_INFINITY, 0);
+        for (i, n) in b.edge_normals.iter().enumerate() {
+            let m = d.dot(n[0]).min(d.dot(n[1])).min(d.dot(n[2]));
+            if m > best.0 {
+                best = (m, i);
+            }
+        }
+        best.1
+    }
+
+    /// Testing only the faces near the nearest centre gives the full rule's
+    /// face everywhere: random directions, every vertex of level 6 (where
+    /// five or six faces meet), points on level-6 edges and a hair off them,
+    /// and the axes (which lie on base edges).
+    #[test]
+    fn the_centre_band_gives_the_full_rule() {
+        let h = Icosahedral::new(6).unwrap();
+        let mut probes: Vec<DVec3> = h.vertices().to_vec();
+        probes.extend([
+            DVec3::X,
+            DVec3::Y,
+            DVec3::Z,
+            -DVec3::X,
+            -DVec3::Y,
+            -DVec3::Z,
+        ]);
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..20_000 {
+            let z = 2.0 * next() - 1.0;
+            let phi = std::f64::consts::TAU * next();
+            let r = (1.0 - z * z).sqrt();
+            probes.push(DVec3::new(r * phi.cos(), r * phi.sin(), z));
+        }
+        for t in h.triangles(6).iter().step_by(7) {
+            let [a, b, _] = t.map(|v| h.vertices()[v as usize]);
+            let e = (a + b).normalize();
+            probes.push(e);
+            probes.push((e + a.cross(b) * 1e-15).normalize());
+            probes.push((e - a.cross(b) * 1e-15).normalize());
+        }
+        for d in probes {
+            let d = d.normalize();
+            assert_eq!(h.base.face_of(d), face_by_all_margins(&h.base, d), "{d}");
+        }
+    }
 }
