@@ -350,45 +350,57 @@ pub fn later_cases(
             judged: Judged::ViewChange,
         });
     }
-    // Issue 12, Table 3: n = 80, per-vertex visibility, at both sizes.
+    // Issue 12, Table 3: n = 80, per-vertex visibility, at both sizes, in
+    // both per-pixel forms (the default lookup from each pixel's frame, and
+    // the interpolated functions the bench's targets are met with).
     let terms = 80;
-    let triple = match options_of(MethodKind::Triple) {
-        MethodOptions::Triple(mut o) => {
-            o.terms = terms;
-            o.vis_level = o.vis_level.max(relight_triple::method::level_of(terms));
-            if quick {
-                o.vis_level = relight_triple::method::level_of(terms);
-            }
-            MethodOptions::Triple(o)
-        }
-        other => other,
-    };
     let (vertices, sizes): (usize, &[(usize, usize)]) = if quick {
         (2_000, &[(128, 96)])
     } else {
         (25_000, &[(1024, 768), (512, 384)])
     };
-    for &(width, height) in sizes {
-        let (target_ms, source) =
-            relight_triple::bench::target_fps(width, terms).map_or((None, String::new()), |fps| {
-                target(
-                    fps,
-                    format!("issue 12: n = {terms} at {width}×{height} ≥ {fps} fps"),
-                )
+    for shading in [
+        relight_triple::Shading::Pixel,
+        relight_triple::Shading::Interpolated,
+    ] {
+        let triple = match options_of(MethodKind::Triple) {
+            MethodOptions::Triple(mut o) => {
+                o.terms = terms;
+                o.shading = shading;
+                o.vis_level = if quick {
+                    relight_triple::method::level_of(terms)
+                } else {
+                    o.vis_level.max(relight_triple::method::level_of(terms))
+                };
+                MethodOptions::Triple(o)
+            }
+            other => other,
+        };
+        for &(width, height) in sizes {
+            let (target_ms, source) = relight_triple::bench::target_fps(width, terms).map_or(
+                (None, String::new()),
+                |fps| {
+                    target(
+                        fps,
+                        format!("issue 12: n = {terms} at {width}×{height} ≥ {fps} fps"),
+                    )
+                },
+            );
+            cases.push(FrameCase {
+                label: format!(
+                    "Table 3: {:.1} K-vertex sphere + floor, n = {terms}, per-vertex visibility, {}",
+                    vertices as f64 * 1e-3,
+                    shading.name()
+                ),
+                options: triple.clone(),
+                scene: BenchScene::TripleSphere { vertices },
+                width,
+                height,
+                target_ms,
+                source,
+                judged: Judged::Both,
             });
-        cases.push(FrameCase {
-            label: format!(
-                "Table 3: {:.1} K-vertex sphere + floor, n = {terms}, per-vertex visibility",
-                vertices as f64 * 1e-3
-            ),
-            options: triple.clone(),
-            scene: BenchScene::TripleSphere { vertices },
-            width,
-            height,
-            target_ms,
-            source,
-            judged: Judged::Both,
-        });
+        }
     }
     // Issue 13, Fig. 4.11: the fertility-sized scene at the default 1 %/20 %.
     let nf = relight_nearfield::bench::BenchOptions::new(quick, MACHINE_GFMA);

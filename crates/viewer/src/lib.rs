@@ -523,7 +523,10 @@ mod tests {
         };
         let rows = bench::bench_frames(&opts, &NoProgress).unwrap();
         let names: Vec<&str> = rows.iter().map(|r| r.method.as_str()).collect();
-        assert_eq!(names, ["ndf", "ndf", "triple", "nearfield", "shexp"]);
+        assert_eq!(
+            names,
+            ["ndf", "ndf", "triple", "triple", "nearfield", "shexp"]
+        );
         for r in &rows {
             assert!(r.note.is_none(), "{} {}: {:?}", r.method, r.case, r.note);
             for v in [
@@ -541,6 +544,8 @@ mod tests {
         let want = [
             ("ndf", 512, 512, 1e3 / 60.0, "issue 14"),
             ("ndf", 512, 512, 1e3 / 25.0, "issue 14"),
+            ("triple", 1024, 768, 1e3 / 12.0, "issue 12"),
+            ("triple", 512, 384, 1e3 / 40.0, "issue 12"),
             ("triple", 1024, 768, 1e3 / 12.0, "issue 12"),
             ("triple", 512, 384, 1e3 / 40.0, "issue 12"),
             ("nearfield", 1200, 900, 1e3 / 38.71, "issue 13"),
