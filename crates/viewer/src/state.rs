@@ -1100,13 +1100,23 @@ pub fn free_shot_stem(dir: &std::path::Path, last: usize) -> (usize, std::path::
     }
 }
 
+/// The mean of `passes` accumulated passes, rows in parallel (written once:
+/// no zeroed image first).
 fn mean_image(width: usize, height: usize, sum: &[Vec3], passes: usize) -> Image {
+    use rayon::prelude::*;
     let inv = 1.0 / passes.max(1) as f32;
-    let mut img = Image::new(width, height);
-    for (p, s) in img.pixels.iter_mut().zip(sum) {
-        *p = *s * inv;
+    let n = width * height;
+    let mut pixels = Vec::with_capacity(n);
+    sum.par_iter()
+        .take(n)
+        .map(|s| *s * inv)
+        .collect_into_vec(&mut pixels);
+    pixels.resize(n, Vec3::ZERO);
+    Image {
+        width,
+        height,
+        pixels,
     }
-    img
 }
 
 /// sRGB bytes of display-referred [0, 1] in 4096 steps, built once per
