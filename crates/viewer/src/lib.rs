@@ -97,6 +97,15 @@ mod tests {
         }
     }
 
+    /// A method's options from [`small_options`], else its defaults.
+    fn small_method(k: MethodKind) -> MethodOptions {
+        small_options()
+            .methods
+            .into_iter()
+            .find(|m| m.kind() == k)
+            .unwrap_or_else(|| MethodOptions::default_for(k))
+    }
+
     /// The default scene with a point light and a thin medium, so that every
     /// method has something to draw (fog renders point lights and the
     /// foggy environment; sh and wavelet refuse the medium).
@@ -427,16 +436,7 @@ mod tests {
     /// them (not at this size), refinement of aa² passes.
     #[test]
     fn bench_frames_rows_have_the_issue_columns() {
-        let small = small_options();
-        let of = |k: MethodKind| {
-            small
-                .methods
-                .iter()
-                .find(|m| m.kind() == k)
-                .cloned()
-                .unwrap()
-        };
-        let mut opts = bench::FrameBenchOptions::with_sizes(&[(24, 14)], 1, 1, 1, of);
+        let mut opts = bench::FrameBenchOptions::with_sizes(&[(24, 14)], 1, 1, 1, small_method);
         // One case per method and scene (the SH variants differ by options only).
         opts.cases.retain(|c| {
             c.options.kind() != MethodKind::Sh || c.scene == bench::BenchScene::Default
@@ -505,17 +505,8 @@ mod tests {
     /// the full cases carry their own issue's target at its size.
     #[test]
     fn later_methods_have_rows_under_their_own_targets() {
-        let small = small_options();
-        let of = |k: MethodKind| {
-            small
-                .methods
-                .iter()
-                .find(|m| m.kind() == k)
-                .cloned()
-                .unwrap_or_else(|| MethodOptions::default_for(k))
-        };
         let opts = bench::FrameBenchOptions {
-            cases: bench::later_cases(true, of),
+            cases: bench::later_cases(true, small_method),
             steps: 1,
             stills: 1,
             monte_carlo_steps: 1,
