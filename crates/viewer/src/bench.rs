@@ -387,10 +387,11 @@ pub fn later_cases(
                 },
             );
             cases.push(FrameCase {
+                // The distinguishing words first: plot legends cut long labels.
                 label: format!(
-                    "Table 3: {:.1} K-vertex sphere + floor, n = {terms}, per-vertex visibility, {}",
-                    vertices as f64 * 1e-3,
-                    shading.name()
+                    "Table 3, {}: {:.1} K-vertex sphere + floor, n = {terms}, per-vertex visibility",
+                    shading.name(),
+                    vertices as f64 * 1e-3
                 ),
                 options: triple.clone(),
                 scene: BenchScene::TripleSphere { vertices },
@@ -415,7 +416,7 @@ pub fn later_cases(
     );
     cases.push(FrameCase {
         label: format!(
-            "Fig. 4.11: floor {floor}² + sphere {segments}{}, 1 %/20 %, shadows",
+            "Fig. 4.11, 1 %/20 %: floor {floor}² + sphere {segments}{}, shadows",
             if quick {
                 String::new()
             } else {
