@@ -71,12 +71,19 @@ impl EnvMap {
     /// Whether every texel is `+0.0` in every channel ([`EnvMap::black`], a
     /// scene lit by its lights alone). Every lookup of such a map returns
     /// exactly `+0.0` (bilinear weights are non-negative), so a caller may
-    /// skip its lookups bit for bit. Stops at the first other texel.
+    /// skip its lookups bit for bit. Per frame, so cheap for a real map: the
+    /// last and middle texels (the nadir and the horizon of a lat-long map,
+    /// where a map with a black sky is lit) are read first, and the scan
+    /// stops at the first other texel.
     #[must_use]
     pub fn is_black(&self) -> bool {
-        self.texels
+        let zero = |t: &Vec3| t.to_array().iter().all(|v| v.to_bits() == 0);
+        let n = self.texels.len();
+        [n.saturating_sub(1), n / 2]
             .iter()
-            .all(|t| t.to_array().iter().all(|v| v.to_bits() == 0))
+            .filter_map(|&i| self.texels.get(i))
+            .all(zero)
+            && self.texels.iter().all(zero)
     }
 
     /// The map with every texel `f(direction)`.
