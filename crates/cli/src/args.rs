@@ -624,7 +624,7 @@ pub enum FogCommand {
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Suite {
-    /// The viewer's frame path per method at 960×540 and 1280×720.
+    /// The viewer's frame path per method at 960×540 and 1280×720, and the later methods' rows on their own issues' scenes.
     Frames,
     /// The tiled rasterizer: G-buffer, Gouraud and per-pixel passes.
     Raster,
