@@ -106,6 +106,8 @@ mod tests {
             passes: 0,
             work_fma: None,
             machine_fraction: None,
+            light_work_fma: None,
+            light_machine_fraction: None,
             note: note.map(str::to_string),
             target: None,
             pass: None,

@@ -495,12 +495,26 @@ pub trait Relighter: Send {
 
 /// The f32 fused multiply-adds (an add or multiply alone counts as one) of
 /// one frame, by the method's own count of its inner loops.
+///
+/// A view change costs `view_fma`; a lighting change costs
+/// [`FrameWork::lighting_change_fma`], `set_lighting`'s own work and then
+/// the frame `render` draws after it (an upper bound where that frame
+/// reuses work of the view's, as the fog's vertex transfers).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct FrameWork {
     /// A view change: everything [`Relighter::render`] computes.
     pub view_fma: f64,
-    /// A lighting change: [`Relighter::set_lighting`].
+    /// What [`Relighter::set_lighting`] itself computes (0 where a new
+    /// lighting only changes what `render` reads).
     pub lighting_fma: f64,
+}
+
+impl FrameWork {
+    /// A lighting change: `set_lighting`, then the frame after it.
+    #[must_use]
+    pub fn lighting_change_fma(&self) -> f64 {
+        self.lighting_fma + self.view_fma
+    }
 }
 
 /// Checks that `method` renders every feature of `scene`: `Ok(warnings)`

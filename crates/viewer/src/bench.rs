@@ -24,7 +24,8 @@
 //! names the issue and its wording. `work_fma` is the method's own count of fused multiply-adds
 //! per view-change frame ([`relight_render::method::Relighter::frame_work`]),
 //! and `machine_fraction` what share of the machine's f32 FMA rate
-//! ([`MACHINE_GFMA`]) the view-change time reaches.
+//! ([`MACHINE_GFMA`]) the view-change time reaches; `light_work_fma` and
+//! `light_machine_fraction` are the same for a lighting-change frame.
 
 use crate::state::{Viewer, ViewerError, ViewerOptions, to_display};
 use relight_methods::{MethodKind, MethodOptions};
@@ -502,6 +503,11 @@ pub struct FrameBenchRow {
     pub work_fma: Option<f64>,
     /// `work_fma` ÷ (view_change_ms × [`MACHINE_GFMA`]).
     pub machine_fraction: Option<f64>,
+    /// The same count for a lighting-change frame
+    /// ([`relight_render::method::FrameWork::lighting_change_fma`]).
+    pub light_work_fma: Option<f64>,
+    /// `light_work_fma` ÷ (light_change_ms × [`MACHINE_GFMA`]).
+    pub light_machine_fraction: Option<f64>,
     /// Why the method drew nothing, when it refused the scene.
     pub note: Option<String>,
     /// Target of `view_change_ms` and `light_change_ms`, ms.
@@ -576,6 +582,8 @@ pub fn bench_case(
         passes: 0,
         work_fma: None,
         machine_fraction: None,
+        light_work_fma: None,
+        light_machine_fraction: None,
         note: None,
         target: case.target_ms,
         pass: None,
@@ -610,6 +618,7 @@ pub fn bench_case(
         v.light_yaw_deg += 5.0;
         light.push(timed_frame(&mut v, w, h, true, &mut words)?);
     }
+    row.light_work_fma = v.frame_work(w, h).map(|f| f.lighting_change_fma());
     let stills = if monte_carlo {
         opts.stills.min(opts.monte_carlo_steps)
     } else {
@@ -636,10 +645,11 @@ pub fn bench_case(
     row.first_still_ms = median(first_still);
     row.refined_ms = median(refined);
     row.passes = passes;
-    row.machine_fraction = row
-        .work_fma
-        .zip(row.view_change_ms)
-        .map(|(fma, ms)| fma / (ms * MACHINE_GFMA * 1e6));
+    let fraction = |fma: Option<f64>, ms: Option<f64>| {
+        fma.zip(ms).map(|(fma, ms)| fma / (ms * MACHINE_GFMA * 1e6))
+    };
+    row.machine_fraction = fraction(row.work_fma, row.view_change_ms);
+    row.light_machine_fraction = fraction(row.light_work_fma, row.light_change_ms);
     if let Some(target) = case.target_ms {
         let view = row.view_change_ms.unwrap_or(f64::INFINITY);
         let worst = match case.judged {

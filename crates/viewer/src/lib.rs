@@ -531,6 +531,19 @@ mod tests {
             }
             assert_eq!((r.target, r.pass), (None, None), "{}", r.method);
         }
+        // The methods that count their work do so for both columns; a
+        // near-field light change propagates, on top of the view's resolve.
+        for r in rows
+            .iter()
+            .filter(|r| matches!(r.method.as_str(), "triple" | "nearfield"))
+        {
+            let (v, l) = (r.work_fma.unwrap_or(0.0), r.light_work_fma.unwrap_or(0.0));
+            assert!(v > 0.0 && l > 0.0, "{} {}: {v} / {l}", r.method, r.case);
+            let f = r.light_machine_fraction.unwrap_or(f64::NAN);
+            assert!(f.is_finite() && f > 0.0, "{}: {f}", r.method);
+        }
+        let near = rows.iter().find(|r| r.method == "nearfield").unwrap();
+        assert!(near.light_work_fma > near.work_fma, "{near:?}");
         let full = bench::later_cases(false, MethodOptions::default_for);
         let want = [
             ("ndf", 512, 512, 1e3 / 60.0, "issue 14"),

@@ -94,6 +94,11 @@ const HALF_PIXEL: i64 = 1 << (SUBPIXEL_BITS - 1);
 const GUARD_PX: f32 = 16384.0;
 /// Largest supported image side (pixels).
 pub const MAX_IMAGE_SIDE: usize = 16384;
+
+/// Multiply-adds of one covered sample of [`Rasterizer::shade_gouraud`]:
+/// three vertex colours weighted by the barycentrics, per RGB channel (what
+/// a method's [`crate::method::FrameWork`] counts for its Gouraud resolve).
+pub const GOURAUD_FMA_PER_SAMPLE: f64 = 9.0;
 /// Bin entries with this bit set index the chunk's clipped-triangle list.
 const CLIPPED_FLAG: u32 = 1 << 31;
 /// Triangles per binning chunk.

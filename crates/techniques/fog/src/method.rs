@@ -1038,9 +1038,11 @@ impl Relighter for FogRelighter {
     /// The last frame's lane operations ([`crate::work`]) from its
     /// visibility buffer: the point-light evaluations, the visible vertex
     /// sides, the environment pass. `None` in the per-pixel environment and
-    /// OpenGL-fog modes (not counted) and before a frame. A lighting change
-    /// redoes the same work less the raster and the vertex transfers' turn,
-    /// so `lighting_fma` is the view change's count as an upper bound.
+    /// OpenGL-fog modes (not counted) and before a frame. `set_lighting`
+    /// only filters and turns the environment's SH vector (a few hundred
+    /// operations: `lighting_fma` 0); the frame after it redoes this work
+    /// less the raster and the vertex transfers' turn, so the view change's
+    /// count bounds it.
     fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
         if self.opengl() || self.options.env_shading != EnvShading::PerVertex {
             return None;
@@ -1102,7 +1104,7 @@ impl Relighter for FogRelighter {
         let ops = crate::work::frame_ops(&counts);
         Some(FrameWork {
             view_fma: ops,
-            lighting_fma: ops,
+            lighting_fma: 0.0,
         })
     }
 }

@@ -1226,9 +1226,17 @@ impl Relighter for NearfieldMethod {
         w
     }
 
+    /// A view change draws the per-vertex colours by Gouraud interpolation
+    /// (the last frame's covered samples); `set_lighting` propagates every
+    /// light to every vertex ([`Self::propagate_fma`]). `None` before a
+    /// frame.
     fn frame_work(&self, _scene: &Scene, _request: &FrameRequest) -> Option<FrameWork> {
+        let samples = self.view.raster().gbuffer().covered_pixels();
+        if samples == 0 && self.view.rasterizations() == 0 {
+            return None;
+        }
         Some(FrameWork {
-            view_fma: 0.0,
+            view_fma: samples as f64 * relight_render::raster::GOURAUD_FMA_PER_SAMPLE,
             lighting_fma: self.propagate_fma(),
         })
     }

@@ -289,6 +289,13 @@ impl LitScene {
         &self.raster
     }
 
+    /// The vertices the last frame lit into their frames (step 2 of
+    /// [`crate::relight`], lazy: the stale ones it showed).
+    #[must_use]
+    pub fn last_relit(&self) -> usize {
+        self.lit.last_relit
+    }
+
     /// The BRDF tables, one per object (shared where objects share a BRDF).
     #[must_use]
     pub fn tables(&self) -> &[Arc<BrdfShTable>] {

@@ -345,9 +345,12 @@ impl Relighter for ShMethod {
 
     /// The last frame's covered samples at `crate::shade`'s count per
     /// sample (by object: its rotation, normal map and channels), read from
-    /// the last raster (the view of `request` once it was rendered); the
-    /// lighting change as the vertices of the whole scene lit by ZYZ, an upper
-    /// bound (a lighting change lights only the vertices frames see).
+    /// the last raster (the view of `request` once it was rendered), plus
+    /// the vertices that frame lit by ZYZ (step 2 is lazy: a frame lights
+    /// the vertices it shows whose lighting is stale — all of them after a
+    /// lighting change, the newly seen ones after a view change).
+    /// `set_lighting` itself only rotates the projected lighting once
+    /// (`lighting_fma` 0: a few thousand operations).
     fn frame_work(&self, scene: &Scene, request: &FrameRequest) -> Option<FrameWork> {
         let _ = request;
         let state = self.state.as_ref()?;
@@ -363,7 +366,7 @@ impl Relighter for ShMethod {
                 *c += 1;
             }
         }
-        let view_fma = samples
+        let view_fma: f64 = samples
             .iter()
             .enumerate()
             .map(|(d, &n)| {
@@ -383,21 +386,10 @@ impl Relighter for ShMethod {
                     )
             })
             .sum();
-        let vertices: usize = scene
-            .objects
-            .iter()
-            .map(|o| {
-                let m = &o.mesh;
-                if m.tangents.len() == m.positions.len() && !m.positions.is_empty() {
-                    m.positions.len()
-                } else {
-                    3 * m.indices.len()
-                }
-            })
-            .sum();
+        let relit = state.last_relit() as f64 * crate::relight::vertex_fma(order, x_nnz);
         Some(FrameWork {
-            view_fma,
-            lighting_fma: vertices as f64 * crate::relight::vertex_fma(order, x_nnz),
+            view_fma: view_fma + relit,
+            lighting_fma: 0.0,
         })
     }
 

@@ -517,7 +517,8 @@ impl Relighter for WaveletMethod {
         let p = rot.params();
         let pixels =
             (request.camera.width * request.camera.height * request.aa * request.aa) as f64;
-        let view = self.colors.terms_last as f64 * 3.0 + pixels * 9.0;
+        let view = self.colors.terms_last as f64 * 3.0
+            + pixels * relight_render::raster::GOURAUD_FMA_PER_SAMPLE;
         let lighting = rot.nnz() as f64 * self.options.terms as f64 / p.source_len() as f64 * 3.0;
         Some(relight_render::method::FrameWork {
             view_fma: view,

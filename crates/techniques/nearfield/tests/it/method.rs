@@ -510,3 +510,31 @@ fn a_one_quad_floor_is_shaded_refined_and_named_in_a_warning() {
     );
     assert_eq!(fine.shaded_meshes()[1].positions.len(), 81);
 }
+
+/// The work count (`Relighter::frame_work`): none before a frame; a view
+/// change is the Gouraud resolve of the samples the frame covers, and
+/// `set_lighting` the propagation of every vertex.
+#[test]
+fn frame_work_counts_the_resolve_and_the_propagation() {
+    let s = small(false);
+    let mut m = NearfieldMethod::new(NearfieldOptions::default()).unwrap();
+    m.prepare(&s, &NoProgress).unwrap();
+    let request = FrameRequest::new(s.camera);
+    assert!(m.frame_work(&s, &request).is_none(), "no frame yet");
+    let r = render_frame(&mut m, &s, &request, &NoProgress).unwrap();
+    let covered = r
+        .coverage
+        .expect("coverage")
+        .coverage
+        .iter()
+        .filter(|&&c| c > 0.0)
+        .count();
+    assert!(covered > 100, "{covered} covered pixels");
+    let w = m.frame_work(&s, &request).expect("counted");
+    assert_eq!(
+        w.view_fma,
+        covered as f64 * relight_render::raster::GOURAUD_FMA_PER_SAMPLE
+    );
+    assert_eq!(w.lighting_fma, m.propagate_fma());
+    assert!(w.lighting_fma > 0.0);
+}

@@ -392,3 +392,48 @@ fn bad_options_and_requests_are_typed_errors() {
         .unwrap_err();
     assert!(err.to_string().contains("object 2:"), "{err}");
 }
+
+/// The work count (`Relighter::frame_work`) follows what the frames do: a
+/// lighting change lights only the vertices the next frame shows (step 2
+/// is lazy), so a sphere behind the camera adds nothing to it, and a still
+/// frame after it lights none; `set_lighting` counts nothing of its own.
+#[test]
+fn frame_work_counts_the_vertices_a_lighting_change_lights() {
+    let lighting_change_work = |scene: &Scene| {
+        let mut rotated = scene.clone();
+        rotated.world_from_env = Mat3::from_rotation_y(0.7);
+        let mut method = prepared(scene);
+        let request = FrameRequest::new(scene.camera);
+        // The first frame lights what it shows; the second nothing.
+        frame(&mut method, scene, 1);
+        frame(&mut method, scene, 1);
+        let still = method.frame_work(scene, &request).expect("counted");
+        method.set_lighting(&rotated, &NoProgress).unwrap();
+        frame(&mut method, &rotated, 1);
+        let changed = method.frame_work(&rotated, &request).expect("counted");
+        frame(&mut method, &rotated, 1);
+        let again = method.frame_work(&rotated, &request).expect("counted");
+        assert_eq!(still.lighting_fma, 0.0);
+        assert_eq!(changed.lighting_fma, 0.0);
+        assert_eq!(
+            again.view_fma, still.view_fma,
+            "a still frame lights no vertex"
+        );
+        assert_eq!(changed.lighting_change_fma(), changed.view_fma);
+        changed.view_fma - still.view_fma
+    };
+    let nm = Arc::new(NormalMap::bumps(64, 4, 0.5));
+    let scene = two_sphere_scene(&nm);
+    let seen = lighting_change_work(&scene);
+    assert!(seen > 0.0, "the lit vertices are counted: {seen}");
+    let mut behind = scene.clone();
+    behind.objects.push(Object::new(
+        sphere(Vec3::new(0.0, 0.4, 6.0), 0.6),
+        Arc::new(Lambert::new(Vec3::splat(0.5)).unwrap()),
+    ));
+    assert_eq!(
+        lighting_change_work(&behind),
+        seen,
+        "vertices no frame shows are not lit"
+    );
+}
