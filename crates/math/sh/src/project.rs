@@ -297,6 +297,47 @@ pub fn project_samples(
     Ok(out)
 }
 
+/// The unwindowed projection ([`project_env`]) of the last environment map
+/// asked for, kept by the map's fingerprint ([`EnvMap::fingerprint`]) and
+/// the order: a method that keeps one projects a map once, and a lighting
+/// change that only turns the map (`world_from_env`, applied in the SH
+/// domain) or moves its lights reads the kept coefficients.
+#[derive(Clone, Debug, Default)]
+pub struct EnvProjection {
+    kept: Option<(u64, ShRgb)>,
+}
+
+impl EnvProjection {
+    /// The projection of `map` at `order` bands (in the map's own frame),
+    /// and whether it was computed by this call (`false`: kept from the
+    /// last, for the same texels and order).
+    ///
+    /// # Errors
+    /// As [`project_env`] (the cache then holds nothing).
+    pub fn project(&mut self, map: &EnvMap, order: usize) -> Result<(&ShRgb, bool), ShError> {
+        let fingerprint = map.fingerprint();
+        let fresh = !matches!(&self.kept, Some((f, sh)) if *f == fingerprint && sh.order == order);
+        if fresh {
+            self.kept = None;
+            self.kept = Some((fingerprint, project_env(map, order, Window::None)?));
+        }
+        let (_, sh) = self.kept.as_ref().expect("kept above");
+        Ok((sh, fresh))
+    }
+
+    /// The fingerprint of the map last projected (`None` before any).
+    #[must_use]
+    pub fn fingerprint(&self) -> Option<u64> {
+        self.kept.as_ref().map(|(f, _)| *f)
+    }
+
+    /// The last projection (`None` before any).
+    #[must_use]
+    pub fn last(&self) -> Option<&ShRgb> {
+        self.kept.as_ref().map(|(_, sh)| sh)
+    }
+}
+
 /// Projects an environment map in any parameterization (exact texel solid
 /// angles), with the lat-long fast path where it applies, then applies `window`.
 ///
@@ -1169,6 +1210,30 @@ mod tests {
             0.5 + 0.25 * d.y * d.z,
             0.2 + lobe,
         )
+    }
+
+    /// The cache projects a map once per texels and order, and gives what
+    /// `project_env` gives.
+    #[test]
+    fn env_projection_keeps_the_last_map() {
+        let param = Param::LatLong {
+            width: 32,
+            height: 16,
+        };
+        let map = EnvMap::from_fn(param, radiance);
+        let mut cache = EnvProjection::default();
+        assert_eq!(cache.fingerprint(), None);
+        let (sh, fresh) = cache.project(&map, 4).unwrap();
+        assert!(fresh);
+        assert_eq!(*sh, project_env(&map, 4, Window::None).unwrap());
+        assert!(!cache.project(&map.clone(), 4).unwrap().1, "same texels");
+        assert_eq!(cache.fingerprint(), Some(map.fingerprint()));
+        assert!(cache.project(&map, 3).unwrap().1, "another order");
+        let mut brighter = map.clone();
+        brighter.texels[5] *= 2.0;
+        let (sh, fresh) = cache.project(&brighter, 3).unwrap();
+        assert!(fresh, "another texel");
+        assert_eq!(*sh, project_env(&brighter, 3, Window::None).unwrap());
     }
 
     #[test]

@@ -49,7 +49,7 @@ use relight_render::method::{
 };
 use relight_render::raster::{CullMode, DrawCall, RasterOptions, Rasterizer};
 use relight_render::{Image, NormalMap, Numbered, Progress, Scene};
-use relight_sh::project::{Window, project_env};
+use relight_sh::project::EnvProjection;
 use relight_sh::rotation::{Rot3, ShRotation};
 use relight_sphere::Frame;
 use std::collections::HashMap;
@@ -318,6 +318,12 @@ pub struct NdfMethod {
     /// The environment's SH to [`LAMBERT_TAIL_ORDER`] bands per channel, in
     /// the environment's frame, prepared: the Lambert tail's lighting.
     env_tail: LambertTail,
+    /// The environment's projection, kept by its texels: a lighting change
+    /// that turns it (`world_from_env`) projects nothing again.
+    env_projection: EnvProjection,
+    /// The fingerprint of the map `env_tail` was prepared from (`None`:
+    /// none, the default tail of a scene without environment).
+    env_tail_for: Option<u64>,
     /// `world_from_env` inverted (a rotation).
     env_from_world: Mat3,
     /// Blinn–Phong's normalization for [`NdfOptions::brdf`] (0 for other
@@ -420,6 +426,8 @@ impl NdfMethod {
             masks_in_lanes: true,
             simd: true,
             env_tail: LambertTail::default(),
+            env_projection: EnvProjection::default(),
+            env_tail_for: None,
             env_from_world: Mat3::IDENTITY,
             blinn_norm: match options.brdf {
                 NdfBrdf::Blinn { s } => relight_brdf::phong::blinn_phong_normalization(s),
@@ -1491,19 +1499,30 @@ impl Relighter for NdfMethod {
                 "the scene changed since prepare; call prepare again".into(),
             ));
         }
-        let env = if scene.has_environment() {
-            Some(
-                project_env(&scene.env, LAMBERT_TAIL_ORDER, Window::None)
-                    .map_err(|e| MethodError::failed(NDF_METHOD_NAME, NdfError::from(e)))?,
+        // The projection and the tail are in the environment's frame: a
+        // turn of the map (`world_from_env`) reuses both.
+        let has_env = scene.has_environment();
+        if has_env {
+            self.env_projection
+                .project(&scene.env, LAMBERT_TAIL_ORDER)
+                .map_err(|e| MethodError::failed(NDF_METHOD_NAME, NdfError::from(e)))?;
+        }
+        let (env, tail_for) = if has_env {
+            (
+                self.env_projection.last(),
+                self.env_projection.fingerprint(),
             )
         } else {
-            None
+            (None, None)
         };
         self.env_from_world = scene.world_from_env.transpose();
-        self.env_tail = match &env {
-            Some(e) => LambertTail::new([0, 1, 2].map(|c| &e.channels[c][..])),
-            None => LambertTail::default(),
-        };
+        if tail_for != self.env_tail_for {
+            self.env_tail = match env {
+                Some(e) => LambertTail::new([0, 1, 2].map(|c| &e.channels[c][..])),
+                None => LambertTail::default(),
+            };
+            self.env_tail_for = tail_for;
+        }
         for o in &mut self.objects {
             progress.check()?;
             let Some(env) = &env else {

@@ -211,6 +211,9 @@ pub struct ShExpMethod {
     /// per-vertex tangent-plane test), and its vertices.
     last_pairs: (u64, u64),
     pending_lighting_ms: f64,
+    /// The environment's projection, kept by its texels: a lighting change
+    /// that turns it (`world_from_env`) projects nothing again.
+    env_projection: relight_sh::project::EnvProjection,
 }
 
 impl std::fmt::Debug for ShExpMethod {
@@ -304,6 +307,7 @@ impl ShExpMethod {
             raster: Rasterizer::new(),
             histogram: SquaringHistogram::new(),
             last_pairs: (0, 0),
+            env_projection: relight_sh::project::EnvProjection::default(),
             pending_lighting_ms: 0.0,
         })
     }
@@ -593,11 +597,16 @@ impl ShExpMethod {
     /// a few degrees apart: a sun a texel or two wide fell on a node or
     /// between nodes, and the embedded demo scene's sun came out about twice
     /// as bright as the reference's, relative RMS 1.08 over its objects.)
-    fn project_light(&self, scene: &Scene) -> Result<[Vec<f64>; 3], MethodError> {
+    /// The projection is kept ([`relight_sh::project::EnvProjection`]) while
+    /// the map's texels stay the same.
+    fn project_light(&mut self, scene: &Scene) -> Result<[Vec<f64>; 3], MethodError> {
         let n = self.options.order;
-        let mut sh =
-            relight_sh::project::project_env(&scene.env, n, relight_sh::project::Window::None)
-                .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?;
+        let mut sh = self
+            .env_projection
+            .project(&scene.env, n)
+            .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?
+            .0
+            .clone();
         if scene.world_from_env != Mat3::IDENTITY {
             let r = relight_sh::rotation::Rot3::try_from_mat3(scene.world_from_env)
                 .map_err(|e| MethodError::failed(SHEXP_METHOD_NAME, e))?;

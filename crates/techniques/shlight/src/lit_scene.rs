@@ -23,9 +23,8 @@ use glam::Mat3;
 use relight_geom::Mesh;
 use relight_render::raster::Rasterizer;
 use relight_render::{Camera, Image, Progress, Scene};
-use relight_sh::project::{ShRgb, Window, project_env};
+use relight_sh::project::{EnvProjection, ShRgb};
 use relight_sh::window::ChosenWindow;
-use relight_sphere::EnvMap;
 use std::sync::Arc;
 
 /// The camera-independent SH state of one scene (module docs), with the
@@ -34,8 +33,8 @@ pub struct LitScene {
     lit: Lit,
     /// The meshes built for (identity compared with a rendered scene's).
     meshes: Vec<Arc<Mesh>>,
-    /// Fingerprint of the projected environment and its projection (env frame).
-    env: (u64, ShRgb),
+    /// The projected environment (env frame), kept by its fingerprint.
+    env: EnvProjection,
     /// What the vertex lighting was last lit with: the environment's
     /// fingerprint, the lighting filter and rotation (`None`: unlit).
     lit_with: Option<LitWith>,
@@ -63,39 +62,6 @@ impl std::fmt::Debug for LitScene {
     }
 }
 
-/// A 64-bit fingerprint of the map's parameterization and every texel's bits
-/// (FNV-1a over 32-bit words, in six interleaved streams folded at the
-/// end, with the texel count: one stream was a chain of dependent
-/// multiplies, ≈ 0.6 ms per lighting change of the default scene): equal
-/// maps give equal fingerprints.
-fn env_fingerprint(env: &EnvMap) -> u64 {
-    const PRIME: u64 = 0x0000_0100_0000_01b3;
-    const BASIS: u64 = 0xcbf2_9ce4_8422_2325;
-    let fnv = |h: u64, w: u64| (h ^ w).wrapping_mul(PRIME);
-    let mut h = BASIS;
-    for b in format!("{:?}", env.param).bytes() {
-        h = fnv(h, u64::from(b));
-    }
-    // Two texels (six words) per step, one stream per word.
-    let mut lanes = [BASIS; 6];
-    let pairs = env.texels.chunks_exact(2);
-    let rest = pairs.remainder();
-    let word = |t: &glam::Vec3, k: usize| u64::from(t[k].to_bits());
-    for p in pairs {
-        for (k, l) in lanes.iter_mut().enumerate() {
-            *l = fnv(*l, word(&p[k / 3], k % 3));
-        }
-    }
-    for t in rest {
-        for (k, l) in lanes.iter_mut().take(3).enumerate() {
-            *l = fnv(*l, word(t, k));
-        }
-    }
-    lanes
-        .iter()
-        .fold(fnv(h, env.texels.len() as u64), |h, &l| fnv(h, l))
-}
-
 impl LitScene {
     /// The tables, vertex data and environment projection of `scene` at
     /// `renderer`'s order, unlit until [`LitScene::light`]; `needs_uvs(i)`
@@ -116,14 +82,11 @@ impl LitScene {
     ) -> Result<Self, ShLightError> {
         let order = renderer.order();
         let lit = renderer.build(scene, order, needs_uvs, progress)?;
-        let fp = env_fingerprint(&scene.env);
-        let (env, raster) = match previous {
-            Some(p) if p.env.0 == fp && p.env.1.order == order => (p.env, p.raster),
-            p => (
-                (fp, project_env(&scene.env, order, Window::None)?),
-                p.map_or_else(Rasterizer::new, |p| p.raster),
-            ),
-        };
+        let (mut env, raster) = previous.map_or_else(
+            || (EnvProjection::default(), Rasterizer::new()),
+            |p| (p.env, p.raster),
+        );
+        env.project(&scene.env, order)?;
         Ok(Self {
             lit,
             meshes: scene.objects.iter().map(|o| o.mesh.clone()).collect(),
@@ -161,9 +124,9 @@ impl LitScene {
         scene: &Scene,
         progress: &dyn Progress,
     ) -> Result<(), ShLightError> {
-        let fp = env_fingerprint(&scene.env);
+        self.env.project(&scene.env, self.lit.order_max)?;
         let with = LitWith {
-            env: fp,
+            env: self.env.fingerprint().expect("projected above"),
             filter: renderer.filter.clone(),
             world_from_env: renderer.lighting_rotation.as_ref().map(|r| r.0),
         };
@@ -171,13 +134,8 @@ impl LitScene {
             return Ok(());
         }
         self.lit_with = None;
-        if fp != self.env.0 {
-            self.env = (
-                fp,
-                project_env(&scene.env, self.lit.order_max, Window::None)?,
-            );
-        }
-        renderer.light(&mut self.lit, &self.env.1, progress)?;
+        let light = self.env.last().expect("projected above");
+        renderer.light(&mut self.lit, light, progress)?;
         self.lit_with = Some(with);
         Ok(())
     }
@@ -271,15 +229,11 @@ impl LitScene {
     /// # Errors
     /// The projection's.
     pub fn projection(&mut self, scene: &Scene) -> Result<&ShRgb, ShLightError> {
-        let fp = env_fingerprint(&scene.env);
-        if fp != self.env.0 {
-            self.env = (
-                fp,
-                project_env(&scene.env, self.lit.order_max, Window::None)?,
-            );
+        let (sh, fresh) = self.env.project(&scene.env, self.lit.order_max)?;
+        if fresh {
             self.lit_with = None;
         }
-        Ok(&self.env.1)
+        Ok(sh)
     }
 
     /// The rasterizer of the last [`LitScene::render_into`] (its visibility
@@ -306,42 +260,5 @@ impl LitScene {
     #[must_use]
     pub fn windows(&self) -> &[ChosenWindow] {
         &self.lit.windows
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::Vec3;
-    use relight_sphere::Param;
-
-    /// Equal maps give equal fingerprints; one texel's channel changed (in
-    /// each of the six streams and in an odd map's last texel), the size or
-    /// the parameterization changed, give another.
-    #[test]
-    fn env_fingerprint_follows_every_texel() {
-        let map = |w: usize| {
-            EnvMap::from_fn(
-                Param::LatLong {
-                    width: w,
-                    height: 3,
-                },
-                |d| Vec3::new(1.0 + d.x, 0.5 + d.y * d.y, 0.25 + d.z),
-            )
-        };
-        let base = map(7);
-        assert_eq!(env_fingerprint(&base), env_fingerprint(&map(7)));
-        let mut seen = vec![env_fingerprint(&base)];
-        for (t, c) in [(0, 0), (0, 2), (1, 1), (10, 0), (11, 2), (20, 1)] {
-            let mut m = base.clone();
-            m.texels[t][c] += 1e-3;
-            let f = env_fingerprint(&m);
-            assert!(!seen.contains(&f), "texel {t} channel {c}");
-            seen.push(f);
-        }
-        assert!(!seen.contains(&env_fingerprint(&map(8))));
-        let mut swapped = base.clone();
-        swapped.texels.swap(0, 1);
-        assert!(!seen.contains(&env_fingerprint(&swapped)));
     }
 }

@@ -241,3 +241,33 @@ fn is_black_means_every_texel_is_positive_zero() {
         assert_eq!(got.to_array().map(f32::to_bits), [0; 3], "{d:?}");
     }
 }
+
+/// Equal maps give equal fingerprints; one texel's channel changed (in
+/// each of the six streams and in an odd map's last texel), the size or
+/// the parameterization changed, give another.
+#[test]
+fn fingerprint_follows_every_texel() {
+    let map = |w: usize| {
+        EnvMap::from_fn(
+            Param::LatLong {
+                width: w,
+                height: 3,
+            },
+            |d| Vec3::new(1.0 + d.x, 0.5 + d.y * d.y, 0.25 + d.z),
+        )
+    };
+    let base = map(7);
+    assert_eq!(base.fingerprint(), map(7).fingerprint());
+    let mut seen = vec![base.fingerprint()];
+    for (t, c) in [(0, 0), (0, 2), (1, 1), (10, 0), (11, 2), (20, 1)] {
+        let mut m = base.clone();
+        m.texels[t][c] += 1e-3;
+        let f = m.fingerprint();
+        assert!(!seen.contains(&f), "texel {t} channel {c}");
+        seen.push(f);
+    }
+    assert!(!seen.contains(&map(8).fingerprint()));
+    let mut swapped = base.clone();
+    swapped.texels.swap(0, 1);
+    assert!(!seen.contains(&swapped.fingerprint()));
+}

@@ -266,3 +266,50 @@ fn pyramids_of_the_interpolated_field_follow_plain_normal_mapping_closer() {
     });
     assert!(bad.is_err_and(|e| e.to_string().contains("supersample")));
 }
+
+/// A lighting change renders what a method prepared for the new lighting
+/// renders, bit for bit: a turned map (its projection and Lambert tail
+/// kept, since both live in the map's frame), other texels (projected
+/// again), no environment, and the first map again (the tail follows the
+/// map each time).
+#[test]
+fn lighting_changes_render_as_a_fresh_prepare() {
+    let map = relight_ndf::bench::procedural_map(64);
+    let base = relight_ndf::bench::frame_scene(&map, NdfBrdf::Lambert, true, 48);
+    let mut turned = base.clone();
+    turned.world_from_env = glam::Mat3::from_rotation_y(0.8);
+    let mut other = turned.clone();
+    for (i, t) in other.env.texels.iter_mut().enumerate() {
+        *t *= Vec3::new(1.5, 1.0, 0.5 + (i % 7) as f32 * 0.1);
+    }
+    let mut dark = base.clone();
+    dark.env = relight_sphere::EnvMap::black();
+    let frame = |m: &mut NdfMethod, s: &Scene| {
+        render_frame(m, s, &FrameRequest::new(s.camera), &NoProgress)
+            .unwrap()
+            .image
+    };
+    let mut m = prepared(&base, NdfBrdf::Lambert, NdfFilter::Sh, VmfTaps::Merge);
+    let first = frame(&mut m, &base);
+    for (name, s) in [
+        ("turned", &turned),
+        ("other texels", &other),
+        ("no environment", &dark),
+        ("the first map", &base),
+    ] {
+        m.set_lighting(s, &NoProgress).unwrap();
+        let got = frame(&mut m, s);
+        let mut fresh = prepared(s, NdfBrdf::Lambert, NdfFilter::Sh, VmfTaps::Merge);
+        let differ = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).filter(|(x, y)| x != y).count();
+        let want = frame(&mut fresh, s);
+        assert_eq!(
+            differ(&got.pixels, &want.pixels),
+            0,
+            "{name}: pixels differ"
+        );
+        if name != "the first map" {
+            let changed = differ(&got.pixels, &first.pixels);
+            assert!(changed > 0, "{name}: the lighting must matter");
+        }
+    }
+}

@@ -227,3 +227,41 @@ fn self_shadow_turns_with_the_object() {
         "turned vs posed {e}, unshadowed vs posed {gap}"
     );
 }
+
+/// An environment change gives the colours of a method prepared for it,
+/// whether it turns the map (the kept projection, turned in the SH domain)
+/// or changes its texels (projected again).
+#[test]
+fn environment_changes_shade_as_a_fresh_prepare() {
+    let scene = floor_scene(floor_spheres(), sky(), 10);
+    let mut turned = scene.clone();
+    turned.world_from_env = glam::Mat3::from_rotation_y(0.9);
+    let mut other = turned.clone();
+    for (i, t) in other.env.texels.iter_mut().enumerate() {
+        *t *= Vec3::new(1.4, 1.0, 0.6 + (i % 5) as f32 * 0.1);
+    }
+    let mut m = ShExpMethod::new(FAST).unwrap();
+    m.prepare(&scene, &NoProgress).unwrap();
+    m.shade_vertices(&scene).unwrap();
+    let first = m.vertex_colors()[0].clone();
+    for (name, s) in [
+        ("turned", &turned),
+        ("other texels", &other),
+        ("first", &scene),
+    ] {
+        m.set_lighting(s, &NoProgress).unwrap();
+        m.shade_vertices(s).unwrap();
+        let got = m.vertex_colors().to_vec();
+        let want = colors(s, FAST);
+        let differ: usize = (got.iter().zip(&want))
+            .map(|(a, b)| a.iter().zip(b).filter(|(x, y)| x != y).count())
+            .sum();
+        assert_eq!(differ, 0, "{name}: vertex colours differ");
+        if name != "first" {
+            assert!(
+                rel_rms(&got[0], &first) > 1e-3,
+                "{name}: the lighting must matter"
+            );
+        }
+    }
+}
