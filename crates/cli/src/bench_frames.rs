@@ -11,11 +11,14 @@ use relight_methods::MethodKind;
 use relight_viewer::bench::{FrameBenchOptions, FrameBenchRow, MACHINE_GFMA, bench_frames};
 
 /// One plot per timed column: ms against image size, one line per method and case.
-const PLOTS: [PlotSpec<'static>; 4] = [
+const PLOTS: [PlotSpec<'static>; 6] = [
     spec("bench-frames-view", "view_change_ms"),
     spec("bench-frames-light", "light_change_ms"),
     spec("bench-frames-first-still", "first_still_ms"),
     spec("bench-frames-refined", "refined_ms"),
+    // How far from the machine's f32 rate each counted row is.
+    spec("bench-frames-view-fraction", "machine_fraction"),
+    spec("bench-frames-light-fraction", "light_machine_fraction"),
 ];
 
 const fn spec(name: &'static str, y: &'static str) -> PlotSpec<'static> {

@@ -302,6 +302,50 @@ fn verify_writes_json_and_an_svg_plot() {
     assert!(svg.contains(spec), "legend lacks {spec}");
 }
 
+/// `bench frames` reports both work counts of a method that counts them
+/// (JSON), and `--plot` draws the machine fractions beside the ms columns.
+#[test]
+fn bench_frames_counts_and_plots_the_lighting_changes_work() {
+    let dir = tmp("plots-frames");
+    let _ = std::fs::remove_dir_all(&dir);
+    let d = dir.to_str().unwrap();
+    let out = relight(&[
+        "-q",
+        "bench",
+        "frames",
+        "--quick",
+        "--method",
+        "nearfield",
+        "--json",
+        "--plot",
+        d,
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).expect("stdout is JSON");
+    let row = &rows.as_array().expect("rows")[0];
+    let (view, light) = (
+        row["work_fma"].as_f64().unwrap_or(0.0),
+        row["light_work_fma"].as_f64().unwrap_or(0.0),
+    );
+    assert!(view > 0.0 && light > view, "{row}");
+    assert!(
+        row["light_machine_fraction"]
+            .as_f64()
+            .is_some_and(|f| f > 0.0),
+        "{row}"
+    );
+    for (name, y) in [
+        ("bench-frames-view", "view_change_ms"),
+        ("bench-frames-light", "light_change_ms"),
+        ("bench-frames-view-fraction", "machine_fraction"),
+        ("bench-frames-light-fraction", "light_machine_fraction"),
+    ] {
+        let svg = std::fs::read_to_string(dir.join(format!("{name}.svg"))).expect("plot written");
+        assert!(svg.contains(y), "{name}: no {y} axis");
+    }
+}
+
 /// `--plot` draws Fig. 4.11's rates for `bench nearfield`, and a suite
 /// whose tables have no curves (`verify ltc`) says it wrote nothing
 /// instead of leaving the folder empty without a word.
