@@ -58,7 +58,8 @@ use crate::face::{FACE_CLIPPING_WARNING, LightFrame, face_clipping};
 use crate::light::{LightCoeffs, Ranking, SourceTerms, compress, count_of};
 use crate::light_field::{FieldScratch, FieldSource, shade_vertex_field};
 use crate::propagate::{
-    Kernel, Primitives, VertexMap, VertexScratch, prefetch, shade_fma, shade_rgb_fma, shade_vertex,
+    Kernel, Primitives, VertexMap, VertexScratch, prefetch, prefetches_mask, shade_fma,
+    shade_rgb_fma, shade_vertex,
 };
 use crate::rotate::InPlane;
 use crate::specular::{
@@ -1030,13 +1031,16 @@ impl NearfieldMethod {
                     .map_init(<(VertexScratch, FieldScratch)>::default, |(sc, fs), v| {
                         let mut b = Vec3::ZERO;
                         for (kernel, frame, plane, field) in &lit {
+                            // Few targets: the kernel asks for its mask's own
+                            // lines instead (`prefetches_mask`).
+                            let ahead = field.is_some() || !prefetches_mask(n, m);
                             let Some((s, o)) = frame.affine(frame.local(p.mesh.positions[v]), face)
                             else {
                                 continue;
                             };
                             let values = &plane.transports[oi].values;
                             let t = &values[v * per..(v + 1) * per];
-                            if let Some(next) = values.get((v + 1) * per..(v + 2) * per) {
+                            if ahead && let Some(next) = values.get((v + 1) * per..(v + 2) * per) {
                                 prefetch(next);
                             }
                             let vertex = VertexMap { s, o, transport: t };

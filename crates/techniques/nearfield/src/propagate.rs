@@ -667,6 +667,10 @@ fn shade_vertex_body(k: &Kernel, v: &VertexMap, sc: &mut VertexScratch) -> [f32;
         sc.x.acc_row(p, 0, &mut sc.a);
         sc.y.acc_row(p, 0, &mut sc.b);
         select_mask(&sc.a, &sc.b, m, &mut sc.mask);
+        if prefetches_mask(n, m) {
+            // Step 1 below runs while these lines arrive.
+            prefetch_mask(&sc.mask, transport, n);
+        }
         sc.dx.resize(n * n, 0.0);
         sc.dx_done = 0;
         sc.key = key;
@@ -848,9 +852,57 @@ fn fuse_dot<const C: usize>(
     out
 }
 
+/// Whether a kernel of `m` target terms on an order-`n` basis asks for
+/// the transport lines its own mask reads ([`prefetch_mask`], in
+/// [`shade_vertex`]) rather than for the next vertex's whole transport
+/// ([`prefetch`], the caller's): below one entry per 32 coefficients (two
+/// per 64-byte line of 16) the mask touches few of the lines, and reading
+/// them all cost more than it hid. Measured on `bench nearfield`'s 39 K
+/// scene, one thread (`docs/nearfield.md`, session 50): at 1 %/1 % (`m` =
+/// 10) the whole next transport 43.5 ms, nothing 42.2, the mask's lines
+/// 37.2 (31 without the measuring switches); at 1 %/20 % (`m` = 205) the
+/// whole next transport 54.1, nothing 59.8, the mask's lines 62.3.
+#[must_use]
+pub fn prefetches_mask(n: usize, m: usize) -> bool {
+    m * 32 < n * n
+}
+
+/// Asks for the transport values `mask` selects (every channel's; `transport`
+/// as [`fuse_dot`] reads it, `k2 · n + k1` per channel block of `n²`), so
+/// that the fuse's scattered reads find them in cache (x86-64: one
+/// prefetch per entry; elsewhere nothing). Step 1 runs between the two.
+/// Asking a whole vertex ahead instead (the next vertex's mask made before
+/// this one is shaded) measured the same: step 1 hides the latency.
+#[inline(always)]
+fn prefetch_mask(mask: &MaskCounts, transport: &[f32], n: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let nn = n * n;
+        for (i, &count) in mask.counts.iter().enumerate() {
+            let k1 = usize::from(mask.sa[i]);
+            let zero = mask.va[i] == 0.0;
+            for j in 0..usize::from(count) {
+                let k2 = if zero { j } else { usize::from(mask.sb[j]) };
+                for idx in (k2 * n + k1..transport.len()).step_by(nn.max(1)) {
+                    // SAFETY: `idx < transport.len()`: the address is inside
+                    // `transport`; a prefetch has no architectural effect.
+                    unsafe {
+                        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                            transport.as_ptr().add(idx).cast(),
+                        );
+                    }
+                }
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (mask, transport, n);
+}
+
 /// Asks for `data`'s cache lines ahead of use: the next vertex's
-/// transport, whose coefficients the mask reads scattered (x86-64: one
-/// prefetch per line; elsewhere nothing).
+/// transport, whose coefficients the mask reads scattered, where the mask
+/// reads most of its lines (not [`prefetches_mask`]; x86-64: one prefetch
+/// per line; elsewhere nothing).
 pub fn prefetch(data: &[f32]) {
     #[cfg(target_arch = "x86_64")]
     for p in (0..data.len()).step_by(16) {
