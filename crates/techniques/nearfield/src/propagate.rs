@@ -705,8 +705,11 @@ fn shade_vertex_body(k: &Kernel, v: &VertexMap, sc: &mut VertexScratch) -> [f32;
             }
         }
         sc.y.acc_row(p, usize::from(i2), &mut sc.row);
+        // Split borrows: with `sc.dyt[..]` indexed through `sc` the loop
+        // reloaded its pointer and length after every store.
+        let dyt = &mut sc.dyt[r..];
         for (k2, &d) in sc.row.iter().enumerate() {
-            sc.dyt[k2 * stride + r] = d;
+            dyt[k2 * stride] = d;
         }
     }
     if transport.len() == 3 * n * n {
@@ -878,18 +881,20 @@ fn prefetch_mask(mask: &MaskCounts, transport: &[f32], n: usize) {
     #[cfg(target_arch = "x86_64")]
     {
         let nn = n * n;
-        for (i, &count) in mask.counts.iter().enumerate() {
-            let k1 = usize::from(mask.sa[i]);
-            let zero = mask.va[i] == 0.0;
-            for j in 0..usize::from(count) {
-                let k2 = if zero { j } else { usize::from(mask.sb[j]) };
-                for idx in (k2 * n + k1..transport.len()).step_by(nn.max(1)) {
-                    // SAFETY: `idx < transport.len()`: the address is inside
-                    // `transport`; a prefetch has no architectural effect.
-                    unsafe {
-                        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                            transport.as_ptr().add(idx).cast(),
-                        );
+        for col in transport.chunks_exact(nn) {
+            for (i, &count) in mask.counts.iter().enumerate() {
+                let k1 = usize::from(mask.sa[i]);
+                let zero = mask.va[i] == 0.0;
+                for j in 0..usize::from(count) {
+                    let k2 = if zero { j } else { usize::from(mask.sb[j]) };
+                    if let Some(t) = col.get(k2 * n + k1) {
+                        // SAFETY: `t` is inside `transport`; a prefetch has
+                        // no architectural effect.
+                        unsafe {
+                            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                                std::ptr::from_ref(t).cast(),
+                            );
+                        }
                     }
                 }
             }
