@@ -126,11 +126,64 @@ impl CameraRays {
         let sy = 1.0 - 2.0 * (py * self.inv_height + self.offset.y);
         (self.fwd + self.right * sx + self.up * sy).normalize()
     }
+
+    /// The image point (pixels, as [`Self::dir`] takes them) that world
+    /// point `p` projects to, the inverse of [`Self::dir`]; `None` for a
+    /// point not in front of the eye (on or behind the plane through it
+    /// perpendicular to the view axis), which no image point sees.
+    #[must_use]
+    pub fn pixel_of(&self, p: Vec3) -> Option<Vec2> {
+        let v = p - self.eye;
+        let z = v.dot(self.fwd);
+        // NaN (a NaN point) fails too.
+        if z.is_nan() || z <= 0.0 {
+            return None;
+        }
+        // `v = z (fwd + right·sx + up·sy)` with `right ⟂ up ⟂ fwd`.
+        let sx = v.dot(self.right) / (z * self.right.length_squared());
+        let sy = v.dot(self.up) / (z * self.up.length_squared());
+        Some(Vec2::new(
+            (0.5 * (sx + 1.0) - self.offset.x) / self.inv_width,
+            (0.5 * (1.0 - sy) - self.offset.y) / self.inv_height,
+        ))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`CameraRays::pixel_of`] inverts [`CameraRays::dir`], and sees
+    /// nothing behind the eye.
+    #[test]
+    fn pixel_of_inverts_dir() {
+        let c = Camera {
+            eye: Vec3::new(0.3, 1.0, 4.0),
+            target: Vec3::new(-0.2, 0.1, 0.0),
+            up: Vec3::Y,
+            vfov_deg: 50.0,
+            width: 320,
+            height: 200,
+            image_offset: Vec2::new(0.03, -0.05),
+        };
+        let rays = c.ray_frame();
+        for (px, py, t) in [
+            (0.0, 0.0, 1.0),
+            (160.5, 99.5, 3.0),
+            (319.0, 7.0, 0.2),
+            (-40.0, 250.0, 9.0),
+        ] {
+            let p = rays.origin() + rays.dir(px, py) * t;
+            let q = rays.pixel_of(p).expect("in front");
+            assert!(
+                (q - Vec2::new(px, py)).abs().max_element() < 1e-3,
+                "{q} vs ({px}, {py})"
+            );
+        }
+        let back = rays.origin() - rays.dir(160.0, 100.0);
+        assert_eq!(rays.pixel_of(back), None);
+        assert_eq!(rays.pixel_of(rays.origin()), None);
+    }
 
     /// A shifted camera sees at `(px, py)` what the plain one sees at
     /// `(px + dx, py + dy)`, both through its rays and its projection.
