@@ -383,10 +383,14 @@ impl Rendered {
         lighting_ms: f64,
         view_start: Instant,
     ) -> Self {
-        let image = if k == 1 {
-            samples.into_owned()
-        } else {
-            samples.box_downsample(k)
+        let image = match (k, samples) {
+            (1, std::borrow::Cow::Owned(image)) => image,
+            (1, std::borrow::Cow::Borrowed(image)) => Image {
+                width: image.width,
+                height: image.height,
+                pixels: par_copy(&image.pixels),
+            },
+            (_, samples) => samples.box_downsample(k),
         };
         Self {
             image,
@@ -863,6 +867,20 @@ pub fn rasterize_coverage(
     Ok(coverage_of_raster(&r, camera.width, camera.height, k))
 }
 
+/// A copy of `src` made by the pool's threads (blocks of 64 KB): a frame's
+/// image or coverage copied into a [`Rendered`] is 4–13 MB, which one
+/// thread copies at its own load/store rate.
+fn par_copy<T: Copy + Send + Sync>(src: &[T]) -> Vec<T> {
+    const BLOCK_BYTES: usize = 1 << 16;
+    let block = (BLOCK_BYTES / std::mem::size_of::<T>().max(1)).max(1);
+    let mut out = Vec::with_capacity(src.len());
+    src.par_iter()
+        .with_min_len(block)
+        .copied()
+        .collect_into_vec(&mut out);
+    out
+}
+
 /// The last [`coverage_of_raster`] a method computed, with the
 /// [`Rasterizer::generation`] and sizes it was computed for
 /// ([`Rendered::from_samples_cached`]).
@@ -879,7 +897,12 @@ impl CoverageCache {
     pub fn get(&mut self, r: &Rasterizer, width: usize, height: usize, k: usize) -> Coverage {
         let key = (r.generation(), width, height, k);
         match &self.last {
-            Some((held, c)) if *held == key && key.0 != 0 => c.clone(),
+            Some((held, c)) if *held == key && key.0 != 0 => Coverage {
+                width: c.width,
+                height: c.height,
+                coverage: par_copy(&c.coverage),
+                object_id: par_copy(&c.object_id),
+            },
             _ => {
                 let c = coverage_of_raster(r, width, height, k);
                 self.last = Some((key, c.clone()));
