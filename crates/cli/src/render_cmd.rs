@@ -159,7 +159,7 @@ pub fn render(a: RenderArgs, bar: &Bar) -> Result<()> {
     let options = options_for(kind, &flags)?;
     let aa = aa_for(kind, a.aa, 1)?;
     let out = render_with(&options, &built.scene, built.time, aa, a.approximate, bar)?;
-    let (png, exr) = write_outputs(&out.image, out.coverage.as_ref(), &a.out)?;
+    let (png, exr) = write_outputs(&out.image, out.coverage.as_deref(), &a.out)?;
     println!(
         "relight render: {}×{}, method {kind}, wrote {} and {} in {:.2} s",
         out.image.width,

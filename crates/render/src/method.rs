@@ -45,6 +45,7 @@ use crate::{Camera, Cancelled, Image, Progress, Scene};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// A feature of a scene that a method may or may not render.
@@ -330,8 +331,10 @@ pub struct Rendered {
     /// Linear RGB radiance per pixel.
     pub image: Image,
     /// Coverage and object ids, when the method knows them (else
-    /// [`render_frame`] rasterizes them).
-    pub coverage: Option<Coverage>,
+    /// [`render_frame`] rasterizes them); shared, so that a method that
+    /// keeps them for a still camera ([`CoverageCache`]) hands them out
+    /// without a copy.
+    pub coverage: Option<Arc<Coverage>>,
     pub timings: FrameTimings,
     /// Monte Carlo methods: samples per pixel so far and the image's
     /// relative standard error (mean per-pixel standard error ÷ mean
@@ -354,7 +357,7 @@ impl Rendered {
         view_start: Instant,
     ) -> Self {
         let (w, h) = (samples.width / k, samples.height / k);
-        let coverage = coverage_of_raster(raster, w, h, k);
+        let coverage = Arc::new(coverage_of_raster(raster, w, h, k));
         Self::from_samples_with(samples, coverage, k, lighting_ms, view_start)
     }
 
@@ -378,7 +381,7 @@ impl Rendered {
 
     fn from_samples_with(
         samples: std::borrow::Cow<'_, Image>,
-        coverage: Coverage,
+        coverage: Arc<Coverage>,
         k: usize,
         lighting_ms: f64,
         view_start: Instant,
@@ -881,30 +884,30 @@ fn par_copy<T: Copy + Send + Sync>(src: &[T]) -> Vec<T> {
     out
 }
 
+/// What a [`CoverageCache`] entry was reduced from:
+/// `(Rasterizer::generation, width, height, k)`.
+type CoverageKey = (u64, usize, usize, usize);
+
 /// The last [`coverage_of_raster`] a method computed, with the
 /// [`Rasterizer::generation`] and sizes it was computed for
 /// ([`Rendered::from_samples_cached`]).
 #[derive(Debug, Default)]
 pub struct CoverageCache {
     /// `(generation, width, height, k)` and the coverage.
-    last: Option<((u64, usize, usize, usize), Coverage)>,
+    last: Option<(CoverageKey, Arc<Coverage>)>,
 }
 
 impl CoverageCache {
     /// [`coverage_of_raster`], from the cache when `r` holds the same
     /// rasterization (generations are unique across the process, and 0 is
     /// never cached) at the same sizes.
-    pub fn get(&mut self, r: &Rasterizer, width: usize, height: usize, k: usize) -> Coverage {
+    pub fn get(&mut self, r: &Rasterizer, width: usize, height: usize, k: usize) -> Arc<Coverage> {
         let key = (r.generation(), width, height, k);
         match &self.last {
-            Some((held, c)) if *held == key && key.0 != 0 => Coverage {
-                width: c.width,
-                height: c.height,
-                coverage: par_copy(&c.coverage),
-                object_id: par_copy(&c.object_id),
-            },
+            // Shared, not copied: 8 bytes a pixel.
+            Some((held, c)) if *held == key && key.0 != 0 => c.clone(),
             _ => {
-                let c = coverage_of_raster(r, width, height, k);
+                let c = Arc::new(coverage_of_raster(r, width, height, k));
                 self.last = Some((key, c.clone()));
                 c
             }
@@ -1022,8 +1025,10 @@ pub fn render_frame(
     let t = Instant::now();
     let coverage = match out.coverage.take() {
         Some(c) => c,
-        None => rasterize_coverage(scene, &request.camera, COVERAGE_SUBSAMPLES)
-            .map_err(|e| MethodError::failed(method.name(), e))?,
+        None => Arc::new(
+            rasterize_coverage(scene, &request.camera, COVERAGE_SUBSAMPLES)
+                .map_err(|e| MethodError::failed(method.name(), e))?,
+        ),
     };
     if frame_paints_background(scene) {
         fill_background(scene, &request.camera, &coverage, &mut out.image);
@@ -1216,13 +1221,15 @@ mod tests {
         };
         draw(&mut r, Vec3::new(0.0, 0.0, 2.0));
         let first = cache.get(&r, 24, 16, 1);
-        assert_eq!(first, coverage_of_raster(&r, 24, 16, 1));
+        assert_eq!(*first, coverage_of_raster(&r, 24, 16, 1));
         assert!(first.coverage.iter().any(|&c| c > 0.0));
-        assert_eq!(cache.get(&r, 24, 16, 1), first, "same rasterization");
-        assert_eq!(cache.get(&r, 12, 8, 2), coverage_of_raster(&r, 12, 8, 2));
+        let again = cache.get(&r, 24, 16, 1);
+        assert_eq!(again, first, "same rasterization");
+        assert!(Arc::ptr_eq(&again, &first), "shared, not copied");
+        assert_eq!(*cache.get(&r, 12, 8, 2), coverage_of_raster(&r, 12, 8, 2));
         draw(&mut r, Vec3::new(0.8, 0.3, 1.5));
         let moved = cache.get(&r, 24, 16, 1);
-        assert_eq!(moved, coverage_of_raster(&r, 24, 16, 1));
+        assert_eq!(*moved, coverage_of_raster(&r, 24, 16, 1));
         assert_ne!(moved, first, "a new rasterization is reduced again");
     }
 }

@@ -37,7 +37,7 @@ use std::time::Instant;
 pub struct ReferenceRenderer {
     /// Its settings (every default in [`ReferenceOptions::default`]).
     pub options: ReferenceOptions,
-    running: Option<(FrameKey, Accumulator, Coverage)>,
+    running: Option<(FrameKey, Accumulator, Arc<Coverage>)>,
     /// The last BVH and the meshes it was built over, held so that no other
     /// mesh can take their addresses: reused while a scene's objects are
     /// the same `Arc`s (every pass of a still view, every lighting change).
@@ -196,8 +196,10 @@ impl Relighter for ReferenceRenderer {
             Some((k, a, c)) if request.progressive && k == key => (a, c),
             _ => (
                 Accumulator::new(camera.width, camera.height),
-                rasterize_coverage(scene, &camera, COVERAGE_SUBSAMPLES)
-                    .map_err(|e| MethodError::failed(self.name(), e))?,
+                Arc::new(
+                    rasterize_coverage(scene, &camera, COVERAGE_SUBSAMPLES)
+                        .map_err(|e| MethodError::failed(self.name(), e))?,
+                ),
             ),
         };
         let until = if request.progressive {

@@ -463,7 +463,7 @@ fn relighter_is_progressive_and_reports_noise() {
         // The coverage the judge masks with, rasterized once per frame key.
         let coverage = r
             .coverage
-            .as_ref()
+            .as_deref()
             .expect("the reference carries its coverage");
         assert_eq!(
             coverage,

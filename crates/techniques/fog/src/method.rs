@@ -1016,7 +1016,7 @@ impl Relighter for FogRelighter {
         timings.view_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(Rendered {
             image,
-            coverage: Some(coverage),
+            coverage: Some(Arc::new(coverage)),
             timings,
             noise: None,
         })

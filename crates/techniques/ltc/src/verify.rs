@@ -410,7 +410,7 @@ fn image_rows(
         let a = ltc
             .render(&scene, &request, progress)
             .map_err(|e| e.to_string())?;
-        let mask = interior_mask(a.coverage.as_ref().ok_or("no coverage")?);
+        let mask = interior_mask(a.coverage.as_deref().ok_or("no coverage")?);
         let err = |img: &Image| img.relative_rms_error(&reference.image, Some(&mask));
         let mut nf =
             NearfieldMethod::new(NearfieldOptions::default()).map_err(|e| e.to_string())?;

@@ -106,7 +106,7 @@ impl Filtered {
         progress: &dyn Progress,
     ) -> Result<(), MethodError> {
         let own = self.method.render(&self.sub, request, progress)?;
-        let (Some(all), Some(sub)) = (frame.coverage.as_ref(), own.coverage.as_ref()) else {
+        let (Some(all), Some(sub)) = (frame.coverage.as_deref(), own.coverage.as_deref()) else {
             return Ok(());
         };
         for (p, px) in frame.image.pixels.iter_mut().enumerate() {

@@ -334,7 +334,7 @@ fn per_vertex_frame_is_close_to_the_per_pixel_frame() {
         let r = m
             .render(&s, &FrameRequest::new(s.camera), &NoProgress)
             .unwrap();
-        (r.image, r.coverage.unwrap().coverage)
+        (r.image, r.coverage.unwrap().coverage.clone())
     };
     let (vertex, cov) = frame(EnvShading::PerVertex);
     let (pixel, _) = frame(EnvShading::PerPixel);

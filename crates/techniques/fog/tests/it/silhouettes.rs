@@ -25,7 +25,7 @@ fn no_isolated_bright_pixels_at_fog_silhouettes() {
     m.prepare(&s, &NoProgress).unwrap();
     let request = FrameRequest::new(s.camera).with_aa(2);
     let out = render_frame(&mut m, &s, &request, &NoProgress).unwrap();
-    let cov = out.coverage.unwrap().coverage;
+    let cov = out.coverage.unwrap().coverage.clone();
     let img = &out.image;
     let w = img.width;
     let lum = |x: usize, y: usize| img.pixels[y * w + x].element_sum();

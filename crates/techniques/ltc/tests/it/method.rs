@@ -85,7 +85,7 @@ fn untextured_unshadowed_image_matches_the_reference() {
             &NoProgress,
         )
         .unwrap();
-    let mask = r.coverage.as_ref().unwrap().object_mask();
+    let mask = r.coverage.as_deref().unwrap().object_mask();
     let e = r.image.relative_rms_error(&reference.image, Some(&mask));
     // The noise of the reference plus the LTC fit's error on the glossy
     // sphere (a few %, docs/ltc.md) and silhouette antialiasing.

@@ -215,7 +215,7 @@ pub fn screen(
             let plain = render(NdfFilter::None, 8)?;
             let mask = plain
                 .coverage
-                .as_ref()
+                .as_deref()
                 .map(relight_render::method::Coverage::object_mask)
                 .unwrap_or_else(|| vec![true; size * size]);
             let sigma = reference.rms_relative_std_error_over(&mask);

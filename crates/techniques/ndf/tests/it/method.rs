@@ -49,7 +49,7 @@ fn constant_map_every_filter_matches_plain_normal_mapping() {
         let scene = horizon_plane_scene(&map, brdf, 48, 2.0);
         let render = |filter| render_with(&scene, brdf, filter);
         let truth = render(NdfFilter::None);
-        let mask = truth.coverage.as_ref().unwrap().object_mask();
+        let mask = truth.coverage.as_deref().unwrap().object_mask();
         assert!(truth.image.pixels.iter().any(|p| p.x > 0.0));
         for filter in NdfFilter::ALL {
             if filter == NdfFilter::Sh && brdf != NdfBrdf::Lambert {
@@ -87,7 +87,7 @@ fn the_taps_mixture_is_nearer_the_reference_than_their_merge() {
     let scene = ScreenScene::HorizonPlane.lit(&map, brdf, 96, ScreenLight::Point);
     let reference = reference_256(&scene);
     let merge = render_taps(&scene, brdf, NdfFilter::Vmf, VmfTaps::Merge);
-    let mask = merge.coverage.as_ref().unwrap().object_mask();
+    let mask = merge.coverage.as_deref().unwrap().object_mask();
     let sigma = reference.rms_relative_std_error_over(&mask);
     let e = |r: &Rendered| r.image.relative_rms_error(&reference.image, Some(&mask));
     let mixture = render_taps(&scene, brdf, NdfFilter::Vmf, VmfTaps::Mixture);
@@ -116,7 +116,7 @@ fn lean_on_a_flat_map_renders_the_base_glossy_lobe() {
     let scene = horizon_plane_scene(&map, brdf, 48, 2.0);
     let render = |filter| render_with(&scene, brdf, filter);
     let truth = render(NdfFilter::None);
-    let mask = truth.coverage.as_ref().unwrap().object_mask();
+    let mask = truth.coverage.as_deref().unwrap().object_mask();
     let e = render(NdfFilter::Lean)
         .image
         .relative_rms_error(&truth.image, Some(&mask));
@@ -132,7 +132,7 @@ fn constant_map_on_the_sphere_every_filter_matches_plain_normal_mapping() {
     let brdf = NdfBrdf::Lambert;
     let scene = sphere_scene(&map, brdf, 48);
     let truth = render_with(&scene, brdf, NdfFilter::None);
-    let mask = truth.coverage.as_ref().unwrap().object_mask();
+    let mask = truth.coverage.as_deref().unwrap().object_mask();
     assert!(mask.iter().filter(|&&m| m).count() > 48 * 48 / 3);
     for filter in [NdfFilter::Sh, NdfFilter::Vmf, NdfFilter::Toksvig] {
         let e = render_with(&scene, brdf, filter)
@@ -169,7 +169,7 @@ fn plain_normal_mapping_agrees_with_the_reference_renderer() {
                 &NoProgress,
             )
             .unwrap();
-            let mask = plain.coverage.as_ref().unwrap().object_mask();
+            let mask = plain.coverage.as_deref().unwrap().object_mask();
             let e = plain
                 .image
                 .relative_rms_error(&reference.image, Some(&mask));
@@ -247,7 +247,7 @@ fn pyramids_of_the_interpolated_field_follow_plain_normal_mapping_closer() {
             render_frame(&mut m, &scene, &req, &NoProgress).unwrap()
         };
         let truth = render(NdfFilter::None, 1, 8);
-        let mask = truth.coverage.as_ref().unwrap().object_mask();
+        let mask = truth.coverage.as_deref().unwrap().object_mask();
         let e = |s| {
             render(filter, s, 1)
                 .image

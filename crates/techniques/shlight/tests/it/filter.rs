@@ -92,7 +92,7 @@ fn filters_shade_lambertian_normal_maps_as_the_ndf_method() {
         let want = ndf
             .render(&alone, &FrameRequest::new(s.camera), &NoProgress)
             .unwrap();
-        let cov = f.coverage.as_ref().unwrap();
+        let cov = f.coverage.as_deref().unwrap();
         let (mut filtered, mut changed) = (0, 0);
         for p in 0..f.image.pixels.len() {
             if cov.coverage[p] < 1.0 {

@@ -115,7 +115,7 @@ fn render_frame_matches_the_direct_renderer_with_per_object_normal_maps() {
     let aa = 2;
     let mut method = prepared(&scene);
     let got = frame(&mut method, &scene, aa);
-    let cov = got.coverage.as_ref().unwrap();
+    let cov = got.coverage.as_deref().unwrap();
     // The direct call applies one normal map to every object: with the map
     // it is right for object 1, without it for object 2.
     let direct = |map: Option<&NormalMap>| {
@@ -193,7 +193,7 @@ fn set_lighting_rotates_the_lighting_exactly_in_the_sh_domain() {
         .unwrap()
         .render(&scene, None, &NoProgress)
         .unwrap();
-    let cov = got.coverage.as_ref().unwrap();
+    let cov = got.coverage.as_deref().unwrap();
     let obj = |i: usize| cov.coverage[i] > 0.0;
     assert!(max_rel_diff(&got.image, &fresh.image, obj) <= 1e-5);
     assert!(max_rel_diff(&got.image, &direct.image, obj) <= 1e-5);

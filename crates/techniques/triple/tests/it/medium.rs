@@ -141,7 +141,7 @@ fn the_method_in_fog_attenuates_objects_and_draws_the_foggy_sky() {
     let sky_value = fog.background(&env, Vec3::ZERO, Vec3::Y, Vec3::Y).x;
     let camera = scene(env.clone(), None).camera;
     let rays = camera.ray_frame();
-    let cov = foggy.coverage.as_ref().unwrap();
+    let cov = foggy.coverage.as_deref().unwrap();
     let (mut objects, mut changed) = (0, 0);
     for (i, ((p, c), q)) in foggy
         .image
@@ -193,7 +193,7 @@ fn the_method_draws_the_fog_ball_from_outside() {
     let out = render(&sc, "outside");
     let fog = FoggyLighting::new(&env, &MEDIUM).unwrap();
     let rays = sc.camera.ray_frame();
-    let cov = out.coverage.as_ref().unwrap();
+    let cov = out.coverage.as_deref().unwrap();
     let (mut missed, mut through, mut objects) = (0, 0, 0);
     for (i, (p, c)) in out.image.pixels.iter().zip(&cov.coverage).enumerate() {
         if *c <= 0.0 {

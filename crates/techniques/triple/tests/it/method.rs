@@ -79,7 +79,7 @@ fn furnace_white_lambert_under_unit_sky_is_one() {
         .unwrap();
         m.prepare(&sc, &NoProgress).unwrap();
         let r = render_frame(&mut m, &sc, &FrameRequest::new(sc.camera), &NoProgress).unwrap();
-        let mask = r.coverage.as_ref().unwrap().object_mask();
+        let mask = r.coverage.as_deref().unwrap().object_mask();
         let mut n = 0;
         for (p, &inside) in r.image.pixels.iter().zip(&mask) {
             if inside {
@@ -416,7 +416,7 @@ fn a_visibility_texture_shadows_a_two_triangle_floor() {
     );
     // The sphere's visibility (the floor below it) read from its charts is
     // the per-vertex image's, up to where each samples it.
-    let ids = packed.coverage.as_ref().unwrap();
+    let ids = packed.coverage.as_deref().unwrap();
     let (mut num, mut den, mut n) = (0.0f64, 0.0f64, 0);
     for (i, (p, q)) in packed
         .image

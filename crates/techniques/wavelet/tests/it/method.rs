@@ -178,7 +178,7 @@ fn render_frame_matches_the_direct_renderer_with_and_without_ao() {
         let aa = 2;
         let got = frame(&mut method, &s, aa);
         let want = direct(&s, &o, aa);
-        let cov = got.coverage.as_ref().unwrap();
+        let cov = got.coverage.as_deref().unwrap();
         let seen = |i: usize| cov.coverage[i] > 0.0;
         let n = (0..W * H).filter(|&i| seen(i)).count();
         assert!(n > 800, "objects seen: {n} pixels");
@@ -236,7 +236,7 @@ fn set_lighting_with_world_from_env_matches_a_rotated_map() {
     let got = frame(&mut method, &rotated, 1);
     assert!((got.timings.lighting_ms - ms).abs() < 1e-9);
     assert_eq!(frame(&mut method, &rotated, 1).timings.lighting_ms, 0.0);
-    let cov = got.coverage.as_ref().unwrap();
+    let cov = got.coverage.as_deref().unwrap();
     let full = |i: usize| cov.coverage[i] >= 1.0;
     // Exactly what preparing with the rotation gives.
     let mut fresh = WaveletMethod::new(o.clone()).unwrap();
@@ -473,7 +473,7 @@ fn ao_on_a_one_quad_floor_is_shaded_refined() {
     g.prepare(&grid, &NoProgress).unwrap();
     assert!(g.warnings().is_empty(), "{:?}", g.warnings());
     let b = frame(&mut g, &grid, 1);
-    let floor = |r: &Rendered, i: usize| r.coverage.as_ref().unwrap().object_id[i] == 2;
+    let floor = |r: &Rendered, i: usize| r.coverage.as_deref().unwrap().object_id[i] == 2;
     assert!((0..W * H).filter(|&i| floor(&b, i)).count() > 200);
     let rel_rms = |x: &Image, y: &Image| {
         let (mut num, mut den) = (0.0f64, 0.0f64);
