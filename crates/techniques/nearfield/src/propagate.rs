@@ -219,7 +219,10 @@ pub fn acc_row(p: &Primitives, s: f64, o: f64, i: usize, out: &mut [f32]) {
 /// `a`'s factor there is zero).
 #[derive(Clone, Debug, Default)]
 pub struct MaskCounts {
-    /// `a`'s indices `k1`, magnitude down, index up; `va` their `|a|`.
+    /// `a`'s indices `k1`, magnitude down, index up; `va` their `|a|`. Past
+    /// the non-zeros (`nonzero`) only where a row there keeps entries (all
+    /// of the mask, or ties: [`order_zeros`]); rows past them keep none
+    /// otherwise, and their slots hold an earlier vertex's order.
     sa: Vec<u8>,
     va: Vec<f32>,
     /// The same for `b` (`k2`).
@@ -297,11 +300,15 @@ fn sort_magnitudes(x: &[f32], order: &mut Vec<u8>, vals: &mut Vec<f32>) -> (usiz
         order[slot] = i as u8;
         vals[slot] = x[i].abs();
     }
-    let all = if x.len() == 64 {
-        u64::MAX
-    } else {
-        (1u64 << x.len()) - 1
-    };
+    (nz, nonzero)
+}
+
+/// The zero entries of a [`sort_magnitudes`] order after its `nz` non-zero
+/// ones, in index order (`nonzero`: its bits; `n` entries in all). Only the
+/// ties' walk reads past the non-zeros ([`ties_in_coarse_order`]: its rows
+/// of zero `a` and its zero `b`s), so the other masks skip this.
+fn order_zeros(n: usize, nz: usize, nonzero: u64, order: &mut [u8], vals: &mut [f32]) {
+    let all = if n == 64 { u64::MAX } else { (1u64 << n) - 1 };
     let mut zeros = !nonzero & all;
     let mut slot = nz;
     while zeros != 0 {
@@ -310,7 +317,6 @@ fn sort_magnitudes(x: &[f32], order: &mut Vec<u8>, vals: &mut Vec<f32>) -> (usiz
         zeros &= zeros - 1;
         slot += 1;
     }
-    (nz, nonzero)
 }
 
 /// Entries with `va[i] · vb[j] ≥ v` per row into `rows` (`vb` sorted
@@ -361,6 +367,8 @@ pub fn select_mask(a: &[f32], b: &[f32], m: usize, mask: &mut MaskCounts) {
     mask.counts.clear();
     mask.counts.resize(n, 0);
     if m >= n * n {
+        order_zeros(n, za, nonzero_a, &mut mask.sa, &mut mask.va);
+        order_zeros(n, zb, nonzero_b, &mut mask.sb, &mut mask.vb);
         mask.counts.fill(n as u8);
         return;
     }
@@ -478,6 +486,10 @@ fn ties_in_coarse_order(a: &[f32], b: &[f32], tau: f32, mut need: usize, mask: &
         return;
     }
     let n = a.len();
+    let [nonzero_a, nonzero_b] = mask.nonzero;
+    let (za, zb) = (nonzero_a.count_ones(), nonzero_b.count_ones());
+    order_zeros(n, za as usize, nonzero_a, &mut mask.sa, &mut mask.va);
+    order_zeros(n, zb as usize, nonzero_b, &mut mask.sb, &mut mask.vb);
     mask.ra.clear();
     mask.ra.resize(n, 0);
     for (row, &k1) in mask.sa.iter().enumerate() {
