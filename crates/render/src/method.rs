@@ -732,7 +732,6 @@ pub fn fill_background(scene: &Scene, camera: &Camera, coverage: &Coverage, imag
     // A black environment's lookups are exactly zero: skip them, and with
     // no area light in the scene every empty pixel is zero.
     let black = scene.env.is_black();
-    let lights_box = area_lights_corner_box(scene, &rays);
     if black && scene.area_lights.is_empty() {
         for (p, &c) in image.pixels.iter_mut().zip(&coverage.coverage) {
             if empty_coverage(c) {
@@ -741,6 +740,7 @@ pub fn fill_background(scene: &Scene, camera: &Camera, coverage: &Coverage, imag
         }
         return;
     }
+    let lights_box = area_lights_corner_box(scene, &rays);
     /// A band's buffers: which corners of a row of corners are needed,
     /// their x, directions and radiance, and two rows of corner values by x.
     #[derive(Default)]

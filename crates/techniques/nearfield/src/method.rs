@@ -1015,6 +1015,9 @@ impl NearfieldMethod {
                 ))
             })
             .collect();
+        // Few targets: the kernel asks for its mask's own lines instead of
+        // the next vertex's whole transport (`prefetches_mask`).
+        let whole_ahead = !prefetches_mask(n, m);
         self.colors = self
             .objects
             .iter()
@@ -1031,9 +1034,7 @@ impl NearfieldMethod {
                     .map_init(<(VertexScratch, FieldScratch)>::default, |(sc, fs), v| {
                         let mut b = Vec3::ZERO;
                         for (kernel, frame, plane, field) in &lit {
-                            // Few targets: the kernel asks for its mask's own
-                            // lines instead (`prefetches_mask`).
-                            let ahead = field.is_some() || !prefetches_mask(n, m);
+                            let ahead = field.is_some() || whole_ahead;
                             let Some((s, o)) = frame.affine(frame.local(p.mesh.positions[v]), face)
                             else {
                                 continue;
