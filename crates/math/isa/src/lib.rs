@@ -10,9 +10,14 @@
 //! on a machine that has them. Every path computes the same results within
 //! its kernel's tested tolerance; only speed changes.
 //!
+//! [`pages`] holds the other machine-level choice those kernels share: the
+//! page size of the large tables they stream through.
+//!
 //! Invariant: a level is reported only where the CPU has every feature the
 //! kernels of that level are compiled with, so `avx2()` (or `avx512()`)
 //! being true is what makes calling such a kernel sound.
+
+pub mod pages;
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU8, Ordering};

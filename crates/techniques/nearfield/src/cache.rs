@@ -44,6 +44,7 @@ use crate::face::LightFrame;
 use crate::specular::{ObjectKind, probe};
 use crate::transport::Transport;
 use glam::Vec3;
+use relight_isa::pages::vec_on_huge_pages;
 use relight_render::Scene;
 use relight_wavelet::WaveletError;
 use relight_wavelet::format::{fnv1a64, read_file, write_file};
@@ -297,7 +298,10 @@ pub fn load(path: &Path, key: &BakeKey, face: f64) -> Result<Vec<Transport>, Cac
     let mut at = 0;
     for (&v, &channels) in key.vertices.iter().zip(&key.channels) {
         let len = v * channels * n * n * 4;
-        let values: Vec<f32> = bytemuck::pod_collect_to_vec(&payload[at..at + len]);
+        // On huge pages, as a bake's (`bake_transport`); the payload may
+        // sit at any byte offset, so it is copied as bytes.
+        let mut values = vec_on_huge_pages(len / 4, 0.0f32);
+        bytemuck::cast_slice_mut::<f32, u8>(&mut values).copy_from_slice(&payload[at..at + len]);
         at += len;
         out.push(Transport {
             n,

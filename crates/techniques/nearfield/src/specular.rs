@@ -66,6 +66,7 @@ use glam::{DVec3, Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 use relight_affine::standard::forward_2d;
 use relight_brdf::Brdf;
+use relight_isa::pages::vec_on_huge_pages;
 use relight_render::reference::surface::above_horizon;
 use relight_render::{Cancelled, Progress, SceneBvh};
 use relight_sphere::Frame;
@@ -460,7 +461,8 @@ pub fn bake_specular(
     let nn = n * n;
     let channels = if brdf.tint.is_some() { 1 } else { 3 };
     let per = channels * nn;
-    let mut values = vec![0.0f32; mesh.positions.len() * per];
+    // On huge pages, as `bake_transport`'s.
+    let mut values = vec_on_huge_pages(mesh.positions.len() * per, 0.0f32);
     const CHUNK: usize = 256;
     for (ci, chunk) in values.chunks_mut(CHUNK * per).enumerate() {
         progress.check()?;

@@ -42,6 +42,7 @@ use crate::face::LightFrame;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use relight_affine::standard::forward_2d;
+use relight_isa::pages::vec_on_huge_pages;
 use relight_render::bvh::offset_ray_origin;
 use relight_render::{Cancelled, Progress, SceneBvh};
 
@@ -372,7 +373,9 @@ pub fn bake_transport(
     progress: &dyn Progress,
 ) -> Result<Transport, Cancelled> {
     let nn = n * n;
-    let mut values = vec![0.0f32; positions.len() * nn];
+    // On huge pages: the propagation reads a few values from each
+    // vertex's block (`relight_isa::pages`).
+    let mut values = vec_on_huge_pages(positions.len() * nn, 0.0f32);
     const CHUNK: usize = 1024;
     for (ci, chunk) in values.chunks_mut(CHUNK * nn).enumerate() {
         progress.check()?;
