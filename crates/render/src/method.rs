@@ -45,6 +45,7 @@ use crate::{Camera, Cancelled, Image, Progress, Scene};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
+use std::mem::MaybeUninit;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -877,10 +878,21 @@ fn par_copy<T: Copy + Send + Sync>(src: &[T]) -> Vec<T> {
     const BLOCK_BYTES: usize = 1 << 16;
     let block = (BLOCK_BYTES / std::mem::size_of::<T>().max(1)).max(1);
     let mut out = Vec::with_capacity(src.len());
-    src.par_iter()
-        .with_min_len(block)
-        .copied()
-        .collect_into_vec(&mut out);
+    // Block by block with `memcpy`: an element-wise collect moved each
+    // 12-byte pixel as two scalar stores (a 1200 × 900 near-field frame on
+    // one thread, copy included: 4.3 → 4.0 ms).
+    out.spare_capacity_mut()[..src.len()]
+        .par_chunks_mut(block)
+        .zip(src.par_chunks(block))
+        .for_each(|(dst, s)| {
+            // SAFETY: `MaybeUninit<T>` has `T`'s layout, and every `T` is a
+            // valid, initialised `MaybeUninit<T>`.
+            let s: &[MaybeUninit<T>] =
+                unsafe { std::slice::from_raw_parts(s.as_ptr().cast(), s.len()) };
+            dst.copy_from_slice(s);
+        });
+    // SAFETY: the loop above initialised every element below `src.len()`.
+    unsafe { out.set_len(src.len()) };
     out
 }
 

@@ -610,6 +610,58 @@ fn avx2_strip_raster_matches_the_portable_copy() {
     );
 }
 
+/// `shade_gouraud` writes every pixel without clearing first: into a
+/// larger image full of NaN, and into an empty one, it gives what the
+/// per-pixel pass gives, the background colour's runs included.
+#[test]
+fn gouraud_overwrites_every_pixel_of_a_stale_or_empty_image() {
+    let (positions, triangles, _) = torus_grid(40, 16);
+    let colors: Vec<Vec3> = positions
+        .iter()
+        .map(|p| *p * 0.5 + Vec3::splat(0.5))
+        .collect();
+    let attrs: Vec<f32> = colors.iter().flat_map(|c| c.to_array()).collect();
+    let draws = [DrawCall::new(&positions, &triangles).with_attributes(3, &attrs)];
+    let cam = Camera {
+        eye: Vec3::new(0.0, 1.0, 2.5),
+        target: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 50.0,
+        width: 96,
+        height: 64,
+        image_offset: glam::Vec2::ZERO,
+    };
+    let sky = Background::Color(Vec3::new(0.25, 0.5, 0.75));
+    let mut r = Rasterizer::new();
+    r.rasterize(&cam, &draws, &options()).unwrap();
+    let mut per_pixel = Image::new(1, 1);
+    r.shade(
+        &draws,
+        |f| Vec3::from_slice(f.attributes),
+        sky,
+        &mut per_pixel,
+    )
+    .unwrap();
+    let mut stale = Image::new(200, 100);
+    stale.pixels.fill(Vec3::NAN);
+    let mut empty = Image::new(0, 0);
+    let covered = (0..96 * 64).filter(|&i| r.gbuffer().is_covered(i)).count();
+    assert!(
+        covered > 500 && covered < 96 * 64 - 500,
+        "{covered} covered"
+    );
+    for out in [&mut stale, &mut empty] {
+        r.shade_gouraud(&draws, &[&colors], sky, out).unwrap();
+        assert_eq!((out.width, out.height, out.pixels.len()), (96, 64, 96 * 64));
+        for (i, (a, b)) in out.pixels.iter().zip(&per_pixel.pixels).enumerate() {
+            assert!(
+                (*a - *b).abs().max_element() < 1e-5,
+                "pixel {i}: {a} vs {b}"
+            );
+        }
+    }
+}
+
 #[test]
 fn gouraud_and_per_pixel_agree_and_background_follows_the_view_ray() {
     let (positions, triangles, _) = torus_grid(40, 16);

@@ -230,7 +230,6 @@ pub struct NearfieldMethod {
     /// The visibility buffer, kept while the camera and meshes are (a
     /// lighting change shades it again).
     view: ObjectRaster,
-    frame: Image,
     pending_lighting_ms: f64,
     /// Times of the last lighting change: coefficients, propagation (ms).
     pub last_times: [f64; 2],
@@ -428,7 +427,6 @@ impl NearfieldMethod {
             warnings: Vec::new(),
             lighting_warnings: std::sync::OnceLock::new(),
             view: ObjectRaster::new(),
-            frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
             last_times: [0.0; 2],
             bakes: 0,
@@ -1197,17 +1195,15 @@ impl Relighter for NearfieldMethod {
             .draw_meshes(&meshes, request)
             .map_err(|e| invalid("raster", e))?;
         let refs: Vec<&[Vec3]> = self.colors.iter().map(|c| &c[..]).collect();
+        // Shaded straight into the frame handed out (no copy: the pass
+        // writes every pixel, so a new image costs no zero-fill).
+        let mut frame = Image::new(0, 0);
         self.view
             .raster()
-            .shade_gouraud(
-                &draws,
-                &refs,
-                Background::Color(Vec3::ZERO),
-                &mut self.frame,
-            )
+            .shade_gouraud(&draws, &refs, Background::Color(Vec3::ZERO), &mut frame)
             .map_err(|e| invalid("raster", e))?;
         Ok(self.view.rendered(
-            Cow::Borrowed(&self.frame),
+            Cow::Owned(frame),
             k,
             std::mem::take(&mut self.pending_lighting_ms),
             t0,
