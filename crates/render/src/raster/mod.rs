@@ -869,19 +869,10 @@ impl Rasterizer {
         let ctx = self.resolve_context();
         let g = &self.gbuffer;
         let (w, len) = (ctx.width, ctx.width * ctx.height);
-        // Every pixel is written below, so `out` is not cleared first: a
-        // fresh (or moved-out) image costs no zero-fill pass, which lets a
-        // method hand its frame to `Rendered` instead of copying it.
-        // (The G-buffer holds `len` pixels, `rasterize`: its rows cover them.)
-        assert!(g.triangle.len() == len && g.barycentrics.len() == len);
-        out.width = ctx.width;
-        out.height = ctx.height;
-        out.pixels.clear();
-        if len == 0 {
+        let Some(pixels) = uninit_image(out, g) else {
             return Ok(());
-        }
-        out.pixels.reserve(len);
-        out.pixels.spare_capacity_mut()[..len]
+        };
+        pixels
             .par_chunks_mut(w)
             .zip(g.triangle.par_chunks(w))
             .zip(g.barycentrics.par_chunks(w))
@@ -923,8 +914,8 @@ impl Rasterizer {
                     x += 1;
                 }
             });
-        // SAFETY: every row of `len` pixels was written in full above (a
-        // run of empty pixels up to its end, every covered pixel once).
+        // SAFETY: every row was written in full above (a run of empty pixels
+        // up to its end, every covered pixel once; `uninit_image`).
         unsafe { out.pixels.set_len(len) };
         Ok(())
     }
@@ -944,12 +935,14 @@ impl Rasterizer {
     {
         self.check_same_draws(draws)?;
         let ctx = self.resolve_context();
-        prepare_image(out, ctx.width, ctx.height);
         let g = &self.gbuffer;
         let max_stride = draws.iter().map(|d| d.attributes.stride).max().unwrap_or(0);
         let eye = ctx.camera.eye;
         let w = ctx.width;
-        out.pixels
+        let Some(pixels) = uninit_image(out, g) else {
+            return Ok(());
+        };
+        pixels
             .par_chunks_mut(w)
             .zip(g.triangle.par_chunks(w))
             .zip(g.barycentrics.par_chunks(w))
@@ -960,7 +953,7 @@ impl Rasterizer {
                     let mut cache = TriangleCache::new();
                     for (x, ((px, &id), &b)) in row.iter_mut().zip(ids).zip(bary).enumerate() {
                         if id == NO_TRIANGLE {
-                            *px = ctx.background(background, x, y);
+                            px.write(ctx.background(background, x, y));
                             continue;
                         }
                         let (d, t) = cache.locate(&self.triangle_offsets, id);
@@ -992,10 +985,12 @@ impl Rasterizer {
                             normal: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
                             to_eye: (eye - position).normalize_or_zero(),
                         };
-                        *px = shader(&frag);
+                        px.write(shader(&frag));
                     }
                 },
             );
+        // SAFETY: the loop wrote every pixel of every row (`uninit_image`).
+        unsafe { out.pixels.set_len(w * ctx.height) };
         Ok(())
     }
 
@@ -1067,10 +1062,23 @@ impl Rasterizer {
     }
 }
 
-fn prepare_image(out: &mut Image, width: usize, height: usize) {
-    out.width = width;
-    out.height = height;
-    out.pixels.resize(width * height, Vec3::ZERO);
+/// `out` sized as the G-buffer with its pixels cleared, and their
+/// uninitialised storage (`None` for an empty image): a pass that writes
+/// every pixel, row by row, then sets the length. Nothing is zero-filled, so
+/// a fresh (or moved-out) image costs no pass of its own, and a method can
+/// hand the image it shaded to [`crate::method::Rendered`] instead of a copy.
+fn uninit_image<'a>(out: &'a mut Image, g: &GBuffer) -> Option<&'a mut [MaybeUninit<Vec3>]> {
+    let len = g.width * g.height;
+    // The rows handed out are the G-buffer's, one pixel each.
+    assert!(g.triangle.len() == len && g.barycentrics.len() == len);
+    out.width = g.width;
+    out.height = g.height;
+    out.pixels.clear();
+    if len == 0 {
+        return None;
+    }
+    out.pixels.reserve(len);
+    Some(&mut out.pixels.spare_capacity_mut()[..len])
 }
 
 fn validate_camera(camera: &Camera) -> Result<(), RasterError> {

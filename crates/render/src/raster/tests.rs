@@ -610,11 +610,11 @@ fn avx2_strip_raster_matches_the_portable_copy() {
     );
 }
 
-/// `shade_gouraud` writes every pixel without clearing first: into a
-/// larger image full of NaN, and into an empty one, it gives what the
-/// per-pixel pass gives, the background colour's runs included.
+/// `shade` and `shade_gouraud` write every pixel without clearing first:
+/// into a larger image full of NaN, and into an empty one, they agree, the
+/// background colour's runs included.
 #[test]
-fn gouraud_overwrites_every_pixel_of_a_stale_or_empty_image() {
+fn shading_passes_overwrite_every_pixel_of_a_stale_or_empty_image() {
     let (positions, triangles, _) = torus_grid(40, 16);
     let colors: Vec<Vec3> = positions
         .iter()
@@ -634,7 +634,12 @@ fn gouraud_overwrites_every_pixel_of_a_stale_or_empty_image() {
     let sky = Background::Color(Vec3::new(0.25, 0.5, 0.75));
     let mut r = Rasterizer::new();
     r.rasterize(&cam, &draws, &options()).unwrap();
-    let mut per_pixel = Image::new(1, 1);
+    let stale = || {
+        let mut img = Image::new(200, 100);
+        img.pixels.fill(Vec3::NAN);
+        img
+    };
+    let mut per_pixel = stale();
     r.shade(
         &draws,
         |f| Vec3::from_slice(f.attributes),
@@ -642,8 +647,8 @@ fn gouraud_overwrites_every_pixel_of_a_stale_or_empty_image() {
         &mut per_pixel,
     )
     .unwrap();
-    let mut stale = Image::new(200, 100);
-    stale.pixels.fill(Vec3::NAN);
+    assert!(per_pixel.pixels.iter().all(|p| p.is_finite()));
+    let mut stale = stale();
     let mut empty = Image::new(0, 0);
     let covered = (0..96 * 64).filter(|&i| r.gbuffer().is_covered(i)).count();
     assert!(

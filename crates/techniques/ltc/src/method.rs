@@ -84,7 +84,6 @@ pub struct LtcMethod {
     /// The visibility buffer, kept while the camera and meshes are (a
     /// lighting change shades it again).
     view: ObjectRaster,
-    frame: Image,
     pending_lighting_ms: f64,
 }
 
@@ -117,7 +116,6 @@ impl LtcMethod {
             lights: Vec::new(),
             warnings: Vec::new(),
             view: ObjectRaster::new(),
-            frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
         })
     }
@@ -323,17 +321,15 @@ impl Relighter for LtcMethod {
                 lights, &o.lobes, specular, f.position, n, f.normal, f.to_eye,
             )
         };
+        // Shaded straight into the frame handed out (the pass writes every
+        // pixel of a new image: no zero-fill, no copy).
+        let mut frame = Image::new(0, 0);
         self.view
             .raster()
-            .shade(
-                &draws,
-                shader,
-                Background::Color(Vec3::ZERO),
-                &mut self.frame,
-            )
+            .shade(&draws, shader, Background::Color(Vec3::ZERO), &mut frame)
             .map_err(|e| invalid("raster", e))?;
         Ok(self.view.rendered(
-            Cow::Borrowed(&self.frame),
+            Cow::Owned(frame),
             k,
             std::mem::take(&mut self.pending_lighting_ms),
             t0,

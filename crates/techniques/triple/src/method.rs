@@ -228,7 +228,6 @@ pub struct TripleMethod {
     /// The visibility buffer, kept while the camera and meshes are (a
     /// lighting turn shades it again).
     view: ObjectRaster,
-    frame: Image,
     colors: Vec<Vec<Vec3>>,
     /// Per object, the vertices' functions of [`Shading::Interpolated`].
     vertex_fns: Vec<VertexFunctions>,
@@ -341,7 +340,6 @@ impl TripleMethod {
             table: None,
             world_from_env: Mat3::IDENTITY,
             view: ObjectRaster::new(),
-            frame: Image::new(0, 0),
             colors: Vec::new(),
             vertex_fns: Vec::new(),
             triangle_tables: TriangleTables::default(),
@@ -1114,6 +1112,9 @@ impl Relighter for TripleMethod {
         let rot = self.lookup_rotation();
         let objects = &self.objects;
         let stride = table.padded;
+        // Shaded straight into the frame handed out (each pass writes every
+        // pixel of a new image: no zero-fill, no copy).
+        let mut frame = Image::new(0, 0);
         match self.options.shading {
             Shading::Pixel => {
                 self.view
@@ -1166,7 +1167,7 @@ impl Relighter for TripleMethod {
                             )
                         },
                         background,
-                        &mut self.frame,
+                        &mut frame,
                     )
                     .map_err(|e| invalid("raster", e))?;
             }
@@ -1246,7 +1247,7 @@ impl Relighter for TripleMethod {
                             segment(c, frag.position, frag.normal)
                         },
                         background,
-                        &mut self.frame,
+                        &mut frame,
                     )
                     .map_err(|e| invalid("raster", e))?;
             }
@@ -1289,12 +1290,12 @@ impl Relighter for TripleMethod {
                 let refs: Vec<&[Vec3]> = self.colors.iter().map(|c| &c[..]).collect();
                 self.view
                     .raster()
-                    .shade_gouraud(&draws, &refs, background, &mut self.frame)
+                    .shade_gouraud(&draws, &refs, background, &mut frame)
                     .map_err(|e| invalid("raster", e))?;
             }
         }
         Ok(self.view.rendered(
-            Cow::Borrowed(&self.frame),
+            Cow::Owned(frame),
             k,
             std::mem::take(&mut self.pending_lighting_ms),
             t0,

@@ -147,8 +147,6 @@ pub struct WaveletMethod {
     coverage: CoverageCache,
     /// Step 2's vertex colours, kept for the same eye and lighting.
     colors: VertexColors,
-    /// The supersampled frame, kept between frames.
-    frame: Image,
     pending_lighting_ms: f64,
     /// Bakes and loads done by `prepare` so far (rotation + BRDF), for tests
     /// and the viewer's status line.
@@ -232,7 +230,6 @@ impl WaveletMethod {
             raster: Rasterizer::new(),
             coverage: CoverageCache::default(),
             colors: VertexColors::default(),
-            frame: Image::new(0, 0),
             pending_lighting_ms: 0.0,
             loads: 0,
             warnings: Vec::new(),
@@ -479,6 +476,9 @@ impl Relighter for WaveletMethod {
         // background (`render_frame`); supersampled ones need the
         // environment in their empty samples.
         let shaded: Vec<&Arc<Mesh>> = self.shaded.0.iter().collect();
+        // Shaded straight into the frame handed out (the pass writes every
+        // pixel of a new image: no zero-fill, no copy).
+        let mut frame = Image::new(0, 0);
         renderer
             .render_meshes_into(
                 &shaded,
@@ -489,11 +489,11 @@ impl Relighter for WaveletMethod {
                 &mut self.raster,
                 &mut self.colors,
                 k > 1,
-                &mut self.frame,
+                &mut frame,
             )
             .map_err(fail)?;
         Ok(Rendered::from_samples_cached(
-            Cow::Borrowed(&self.frame),
+            Cow::Owned(frame),
             &self.raster,
             k,
             &mut self.coverage,
