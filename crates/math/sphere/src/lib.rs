@@ -7,6 +7,7 @@
 //! | [`param`] | [`Param`]: lat-long, cube map, octahedral, hemi-octahedral grids | everything |
 //! | [`map`] | [`EnvMap`]: RGB texels on a `Param`; lookup, integral, resampling, rotation | assets, renderer, SH, wavelets |
 //! | [`icosahedral`] | [`Icosahedral`]: geodesic triangle hierarchy, levels 0–7 | spherical Haar wavelets |
+//! | [`ico_weights`] | [`ico_weights::IcoWeights`]: a direction's triangle and barycentric weights at one level, last triangle first | per-pixel lookups (triple product) |
 //! | [`frame`] | [`Frame`]: local shading frames | BRDFs, renderer |
 //! | [`verify`] | accuracy / timing rows for `relight verify` and `relight bench` | CLI |
 //!
@@ -53,6 +54,7 @@
 
 pub mod atan;
 pub mod frame;
+pub mod ico_weights;
 pub mod icosahedral;
 pub mod latlong_batch;
 pub mod map;

@@ -51,8 +51,12 @@ use crate::basis::triangles;
 use crate::storage::{Planes, Storage};
 use glam::{Mat3, Quat, Vec3};
 use rayon::prelude::*;
-use relight_sphere::icosahedral::{IcoLocator, Icosahedral};
+use relight_sphere::atan::atan2_f32;
+use relight_sphere::ico_weights::IcoWeights;
+use relight_sphere::icosahedral::Icosahedral;
 use relight_sphere::{EnvMap, Frame, Param};
+use std::cell::Cell;
+use std::f32::consts::TAU;
 
 /// Icosahedral level of the table normals (642 vertices).
 pub const NORMAL_LEVEL: usize = 3;
@@ -153,9 +157,18 @@ pub struct LightTable {
     pub data: Planes,
     /// [`frame_of`] each table normal (the twist angles are read in it).
     frames: Vec<Frame>,
-    ico: Icosahedral,
-    /// `ico`'s locator at [`NORMAL_LEVEL`] (every lookup locates a normal).
-    locator: IcoLocator,
+    /// The weighted locator at [`NORMAL_LEVEL`] (every lookup locates a
+    /// normal and weighs its triangle's corners).
+    weights: IcoWeights,
+    /// The triangles of [`NORMAL_LEVEL`]: corner = table normal index.
+    triangles: Vec<[u32; 3]>,
+}
+
+thread_local! {
+    /// The triangle of this thread's last [`LightTable::lookup`]: neighbouring
+    /// pixels' normals mostly share it ([`IcoWeights::locate`] tries it
+    /// first). Only a starting guess: the answer never depends on it.
+    static LAST_TRIANGLE: Cell<usize> = const { Cell::new(0) };
 }
 
 /// One weighted table entry (its offset into [`LightTable::data`]).
@@ -208,7 +221,7 @@ impl LightTable {
             .for_each(|(e, out)| {
                 let (k, t) = (e / twists, e % twists);
                 let f = frame_of(normals[k]);
-                let tau = std::f32::consts::TAU * t as f32 / twists as f32;
+                let tau = TAU * t as f32 / twists as f32;
                 let (s, c) = tau.sin_cos();
                 let x = f.x * c + f.y * s;
                 let fr = Frame {
@@ -236,8 +249,8 @@ impl LightTable {
             built_for: space_from_env,
             data: Planes::F32(data),
             frames: normals.iter().map(|&n| frame_of(n)).collect(),
-            locator: ico.locator(NORMAL_LEVEL).expect("NORMAL_LEVEL is built"),
-            ico,
+            weights: ico.weights(NORMAL_LEVEL).expect("NORMAL_LEVEL is built"),
+            triangles: ico.triangles(NORMAL_LEVEL).to_vec(),
         }
     }
 
@@ -259,9 +272,10 @@ impl LightTable {
     /// The six weighted entries of frame `g` (in the table's space).
     #[must_use]
     pub fn lookup(&self, g: &Frame) -> [Tap; 6] {
-        let tri = self.locator.locate(g.z.as_dvec3());
-        let w = self.ico.barycentric(NORMAL_LEVEL, tri, g.z.as_dvec3());
-        let verts = self.ico.triangles(NORMAL_LEVEL)[tri];
+        let mut hint = LAST_TRIANGLE.get();
+        let (tri, w) = self.weights.locate(g.z.as_dvec3(), &mut hint);
+        LAST_TRIANGLE.set(hint);
+        let verts = self.triangles[tri];
         let mut taps = [Tap::default(); 6];
         let entry = 3 * self.stride;
         for (v, (&k, wk)) in verts.iter().zip([w.x, w.y, w.z]).enumerate() {
@@ -276,11 +290,17 @@ impl LightTable {
                 continue;
             }
             let f = &self.frames[k];
-            let tau = g.x.dot(f.y).atan2(g.x.dot(f.x));
-            let u =
-                tau.rem_euclid(std::f32::consts::TAU) / std::f32::consts::TAU * self.twists as f32;
-            let b0 = (u.floor() as usize) % self.twists;
-            let b1 = (b0 + 1) % self.twists;
+            // The polynomial atan2 (≤ 4 × 10⁻⁷ rad): libm's was a fifth
+            // of a lookup.
+            let tau = atan2_f32(g.x.dot(f.y), g.x.dot(f.x));
+            // τ ∈ [−π, π] into [0, 2π) as `rem_euclid` would (one add, no
+            // `fmodf`), then the bins without integer divisions: `u` ∈
+            // [0, twists], `twists` only by rounding.
+            let tau = if tau < 0.0 { tau + TAU } else { tau };
+            let u = tau / TAU * self.twists as f32;
+            let wrap = |b: usize| if b >= self.twists { b - self.twists } else { b };
+            let b0 = wrap(u.floor() as usize);
+            let b1 = wrap(b0 + 1);
             let fr = u - u.floor();
             taps[2 * v] = Tap {
                 offset: ((base + b0) * entry) as u32,

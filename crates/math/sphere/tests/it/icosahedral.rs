@@ -183,6 +183,77 @@ fn locate_is_robust_on_vertices_and_edges() {
     }
 }
 
+/// The weighted locator answers `locate`'s triangle and `barycentric`'s
+/// weights whatever its hint (the last answer, as per pixel; a random
+/// triangle; one out of range), on random directions and the hard probes
+/// (vertices, points on and a hair off edges) — except on an edge, where a
+/// hint that also holds the direction may stand, with the same weights on
+/// the shared corners and 0 on the others.
+#[test]
+fn hinted_lookups_are_locates() {
+    let h = hierarchy();
+    let mut rng = Rng(23);
+    let mut probes: Vec<DVec3> = h.vertices().to_vec();
+    probes.extend([DVec3::X, DVec3::Y, DVec3::Z, DVec3::NEG_Y]);
+    for _ in 0..5_000 {
+        probes.push(rng.sphere());
+        let i = (rng.next_u64() % 1280) as usize;
+        let [a, b, _] = h.triangle(3, i);
+        let e = (a * 0.3 + b * 0.7).normalize();
+        probes.push(e);
+        probes.push((e + a.cross(b) * 1e-17).normalize());
+        // A walk of small steps, as along a row of pixels.
+        let s = rng.sphere();
+        probes.extend((0..8).map(|k| (s + a * (0.01 * f64::from(k))).normalize()));
+    }
+    let weight_of = |level: usize, i: usize, v: u32, w: DVec3| {
+        let t = h.triangles(level)[i];
+        t.into_iter()
+            .zip([w.x, w.y, w.z])
+            .find(|&(k, _)| k == v)
+            .map_or(0.0, |(_, x)| x)
+    };
+    for level in [0, 3, 5] {
+        let weights = h.weights(level).unwrap();
+        assert_eq!(weights.level(), level);
+        let count = Icosahedral::triangle_count(level) as u64;
+        let (mut last, mut hits, mut on_edges) = (0, 0, 0);
+        for &d in &probes {
+            let i = h.locate(d, level);
+            let want = h.barycentric(level, i, d);
+            let before = last;
+            let mut random = (rng.next_u64() % count) as usize;
+            let mut out = usize::MAX;
+            for hint in [&mut last, &mut random, &mut out] {
+                let (j, w) = weights.locate(d * 1.7, hint);
+                assert_eq!(*hint, j);
+                assert!((w.x + w.y + w.z - 1.0).abs() < 1e-12);
+                assert!(w.min_element() >= -1e-9, "{w}");
+                if j == i {
+                    assert!((w - want).abs().max_element() < 1e-12, "{w} vs {want}");
+                    continue;
+                }
+                // Another triangle: only where `d` is on their shared edge.
+                on_edges += 1;
+                assert!(want.min_element() < 1e-9, "level {level}, {d}: {j} for {i}");
+                for v in h.triangles(level)[i]
+                    .into_iter()
+                    .chain(h.triangles(level)[j])
+                {
+                    let (a, b) = (weight_of(level, i, v, want), weight_of(level, j, v, w));
+                    assert!((a - b).abs() < 1e-9, "corner {v}: {a} vs {b}");
+                }
+            }
+            hits += usize::from(before == i);
+        }
+        // The walks keep their triangle most steps (the hint pays), and
+        // some probes sat on edges.
+        assert!(hits * 4 > probes.len(), "level {level}: {hits} hits");
+        assert!(on_edges > 0, "level {level}");
+    }
+    assert!(h.weights(8).is_err());
+}
+
 #[test]
 fn errors_for_levels_too_deep() {
     assert_eq!(
