@@ -19,6 +19,7 @@ use crate::storage::Planes;
 use glam::Vec3;
 use rayon::prelude::*;
 use relight_brdf::Brdf;
+use relight_sphere::atan::atan2_f32;
 use std::f32::consts::{FRAC_PI_2, TAU};
 
 /// A baked BRDF table (module docs).
@@ -111,15 +112,26 @@ impl BrdfTable {
     pub fn lookup(&self, wo: Vec3) -> [Tap; 4] {
         let cols = 2 * self.views;
         let theta = wo.z.clamp(-1.0, 1.0).acos().min(FRAC_PI_2);
-        let phi = wo.y.atan2(wo.x).rem_euclid(TAU);
+        // As `LightTable::lookup`'s twist: the polynomial atan2, then φ
+        // into [0, 2π) and the columns wrapped without `fmodf` or integer
+        // divisions (this lookup runs per pixel).
+        let phi = atan2_f32(wo.y, wo.x);
+        let phi = if phi < 0.0 { phi + TAU } else { phi };
         let r = (theta / FRAC_PI_2 * self.views as f32 - 0.5).clamp(0.0, self.views as f32 - 1.0);
         let c = phi / TAU * cols as f32 - 0.5;
-        let (r0, fr) = (r.floor() as usize, r - r.floor());
+        // Floors by truncation (no `floorf` call on the baseline target):
+        // r ≥ 0; c ∈ [−½, cols − ½], so its floor is −1 below 0 and reaches
+        // `cols` only by rounding.
+        let r0 = r as usize;
+        let fr = r - r0 as f32;
         let r1 = (r0 + 1).min(self.views - 1);
-        let c0f = c.floor();
-        let fc = c - c0f;
-        let c0 = (c0f as isize).rem_euclid(cols as isize) as usize;
-        let c1 = (c0 + 1) % cols;
+        let (c0, fc) = if c < 0.0 {
+            (cols - 1, c + 1.0)
+        } else {
+            let c0 = c as usize;
+            (if c0 >= cols { c0 - cols } else { c0 }, c - c0 as f32)
+        };
+        let c1 = if c0 + 1 == cols { 0 } else { c0 + 1 };
         let entry = 3 * self.stride;
         let off = |r: usize, c: usize| ((r * cols + c) * entry) as u32;
         [

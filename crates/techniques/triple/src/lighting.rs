@@ -278,6 +278,7 @@ impl LightTable {
         let verts = self.triangles[tri];
         let mut taps = [Tap::default(); 6];
         let entry = 3 * self.stride;
+        let bins_per_radian = self.twists as f32 / TAU;
         for (v, (&k, wk)) in verts.iter().zip([w.x, w.y, w.z]).enumerate() {
             let k = k as usize;
             let wk = wk.max(0.0) as f32;
@@ -294,14 +295,16 @@ impl LightTable {
             // of a lookup.
             let tau = atan2_f32(g.x.dot(f.y), g.x.dot(f.x));
             // τ ∈ [−π, π] into [0, 2π) as `rem_euclid` would (one add, no
-            // `fmodf`), then the bins without integer divisions: `u` ∈
-            // [0, twists], `twists` only by rounding.
+            // `fmodf`), then the bins without divisions: `u` ∈ [0, twists],
+            // `twists` only by rounding.
             let tau = if tau < 0.0 { tau + TAU } else { tau };
-            let u = tau / TAU * self.twists as f32;
+            let u = tau * bins_per_radian;
+            // (`u` ≥ 0: truncation is the floor, without a `floorf` call on
+            // the baseline target.)
             let wrap = |b: usize| if b >= self.twists { b - self.twists } else { b };
-            let b0 = wrap(u.floor() as usize);
-            let b1 = wrap(b0 + 1);
-            let fr = u - u.floor();
+            let bin = u as usize;
+            let fr = u - bin as f32;
+            let (b0, b1) = (wrap(bin), wrap(wrap(bin) + 1));
             taps[2 * v] = Tap {
                 offset: ((base + b0) * entry) as u32,
                 weight: wk * (1.0 - fr),
