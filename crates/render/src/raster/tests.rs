@@ -610,18 +610,25 @@ fn avx2_strip_raster_matches_the_portable_copy() {
     );
 }
 
-/// `shade` and `shade_gouraud` write every pixel without clearing first:
-/// into a larger image full of NaN, and into an empty one, they agree, the
-/// background colour's runs included.
-#[test]
-fn shading_passes_overwrite_every_pixel_of_a_stale_or_empty_image() {
+/// A torus coloured by position (per-vertex colours, and the same as a
+/// 3-float attribute), seen from above at 96 × 64: the shading passes'
+/// comparisons.
+struct ColouredTorus {
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    colors: Vec<Vec3>,
+    attrs: Vec<f32>,
+    cam: Camera,
+}
+
+/// [`ColouredTorus`]'s data.
+fn coloured_torus() -> ColouredTorus {
     let (positions, triangles, _) = torus_grid(40, 16);
     let colors: Vec<Vec3> = positions
         .iter()
         .map(|p| *p * 0.5 + Vec3::splat(0.5))
         .collect();
     let attrs: Vec<f32> = colors.iter().flat_map(|c| c.to_array()).collect();
-    let draws = [DrawCall::new(&positions, &triangles).with_attributes(3, &attrs)];
     let cam = Camera {
         eye: Vec3::new(0.0, 1.0, 2.5),
         target: Vec3::ZERO,
@@ -631,6 +638,28 @@ fn shading_passes_overwrite_every_pixel_of_a_stale_or_empty_image() {
         height: 64,
         image_offset: glam::Vec2::ZERO,
     };
+    ColouredTorus {
+        positions,
+        triangles,
+        colors,
+        attrs,
+        cam,
+    }
+}
+
+/// `shade` and `shade_gouraud` write every pixel without clearing first:
+/// into a larger image full of NaN, and into an empty one, they agree, the
+/// background colour's runs included.
+#[test]
+fn shading_passes_overwrite_every_pixel_of_a_stale_or_empty_image() {
+    let ColouredTorus {
+        positions,
+        triangles,
+        colors,
+        attrs,
+        cam,
+    } = coloured_torus();
+    let draws = [DrawCall::new(&positions, &triangles).with_attributes(3, &attrs)];
     let sky = Background::Color(Vec3::new(0.25, 0.5, 0.75));
     let mut r = Rasterizer::new();
     r.rasterize(&cam, &draws, &options()).unwrap();
@@ -669,22 +698,14 @@ fn shading_passes_overwrite_every_pixel_of_a_stale_or_empty_image() {
 
 #[test]
 fn gouraud_and_per_pixel_agree_and_background_follows_the_view_ray() {
-    let (positions, triangles, _) = torus_grid(40, 16);
-    let colors: Vec<Vec3> = positions
-        .iter()
-        .map(|p| *p * 0.5 + Vec3::splat(0.5))
-        .collect();
-    let attrs: Vec<f32> = colors.iter().flat_map(|c| c.to_array()).collect();
+    let ColouredTorus {
+        positions,
+        triangles,
+        colors,
+        attrs,
+        cam,
+    } = coloured_torus();
     let draws = [DrawCall::new(&positions, &triangles).with_attributes(3, &attrs)];
-    let cam = Camera {
-        eye: Vec3::new(0.0, 1.0, 2.5),
-        target: Vec3::ZERO,
-        up: Vec3::Y,
-        vfov_deg: 50.0,
-        width: 96,
-        height: 64,
-        image_offset: glam::Vec2::ZERO,
-    };
     let env = |d: Vec3| d * 0.5 + Vec3::splat(0.5);
     let mut r = Rasterizer::new();
     let (mut a, mut b) = (Image::new(1, 1), Image::new(1, 1));
